@@ -1,0 +1,75 @@
+"""The `bywire` entry point: one sub-command per module in bywire.cli, loaded on demand."""
+
+from __future__ import annotations
+
+import argparse
+import importlib
+import sys
+from collections.abc import Callable, Sequence
+from typing import Protocol
+
+from bywire import __version__
+from bywire.errors import BywireError
+
+# name -> (module, one-line help). Modules are imported only when their command runs, so that
+# `bywire --help` stays fast and one broken optional dependency cannot take down every command.
+COMMANDS: dict[str, tuple[str, str]] = {
+    "demo": ("bywire.cli.demo", "run the codecs on simulated traffic and show what they do"),
+    "bittiming": ("bywire.cli.bittiming", "CAN bit timing: bxCAN CAN_BTR values and ip-link settings"),
+    "dbc": ("bywire.cli.dbc", "the CAN database: show messages and signals, generate C code"),
+}
+
+
+class CommandModule(Protocol):
+    """What a module in bywire.cli provides for its sub-command."""
+
+    def configure(self, parser: argparse.ArgumentParser) -> None: ...
+
+    def run(self, args: argparse.Namespace) -> int: ...
+
+
+def _load(name: str) -> CommandModule:
+    module: CommandModule = importlib.import_module(COMMANDS[name][0])  # type: ignore[assignment]
+    return module
+
+
+def build_parser(selected: str | None) -> argparse.ArgumentParser:
+    """The parser; only the selected sub-command's module is imported to add its options."""
+    parser = argparse.ArgumentParser(
+        prog="bywire",
+        description="Low-level drive-by-wire controller: CAN and FlySky IBUS in, actuators out.",
+    )
+    parser.add_argument("--version", action="version", version=f"bywire {__version__}")
+    sub = parser.add_subparsers(dest="command", metavar="COMMAND")
+    for name, (_module, help_text) in COMMANDS.items():
+        command_parser = sub.add_parser(name, help=help_text, description=help_text)
+        if name == selected:
+            _load(name).configure(command_parser)
+    return parser
+
+
+def _selected_command(argv: Sequence[str]) -> str | None:
+    return next((arg for arg in argv if arg in COMMANDS), None)
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """Run one sub-command; bywire's own errors become one line on stderr and exit status 2."""
+    arguments = list(sys.argv[1:] if argv is None else argv)
+    selected = _selected_command(arguments)
+    parser = build_parser(selected)
+    args = parser.parse_args(arguments)
+    if args.command is None:
+        parser.print_help()
+        return 2
+    runner: Callable[[argparse.Namespace], int] = _load(args.command).run
+    try:
+        return runner(args)
+    except BywireError as error:
+        print(f"bywire {args.command}: error: {error}", file=sys.stderr)
+        return 2
+    except KeyboardInterrupt:
+        return 130
+
+
+if __name__ == "__main__":
+    sys.exit(main())
