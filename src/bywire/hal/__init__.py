@@ -1,0 +1,1 @@
+"""Hardware abstraction: the ports (the seam) and their simulated and Linux backends."""

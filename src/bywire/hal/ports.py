@@ -1,0 +1,82 @@
+"""The hardware seam: every port the controller uses, identical on the robot and in the simulator.
+
+Everything above this module (control, runtime) sees only these protocols. Backends live in
+`bywire.hal.sim` (in-memory, virtual time) and `bywire.hal.linux` (python-can, pyserial, smbus2,
+sysfs, libgpiod). Reads never block: the runtime waits on the `Clock`, which wakes it when an input
+port has something to read or a deadline has come.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Protocol
+
+
+@dataclass(frozen=True, slots=True)
+class CanFrame:
+    """One classic CAN data frame with an 11-bit id, stamped with the clock's time on arrival."""
+
+    arbitration_id: int
+    data: bytes
+    timestamp_s: float = 0.0
+
+
+class CanPort(Protocol):
+    """A CAN controller: non-blocking send and receive of classic 11-bit frames."""
+
+    def send(self, frame: CanFrame) -> bool:
+        """Queue a frame; False when the controller cannot take it now (bus-off, queue full)."""
+        ...
+
+    def receive(self) -> list[CanFrame]:
+        """Every frame received since the last call, oldest first; never blocks."""
+        ...
+
+
+class ByteStream(Protocol):
+    """A serial line: the RC receiver's UART."""
+
+    def read_available(self) -> bytes:
+        """Every byte received since the last call (possibly none); never blocks."""
+        ...
+
+
+class I2cDevice(Protocol):
+    """One device on an I2C bus, written with raw transfers (the DAC6574)."""
+
+    def write(self, data: bytes) -> None:
+        """Write one transfer; raises HardwareError when the device does not acknowledge."""
+        ...
+
+
+class PwmChannel(Protocol):
+    """One PWM output with a fixed period (50 Hz for the servo, configured for the brake)."""
+
+    @property
+    def period_s(self) -> float:
+        """The PWM period in seconds."""
+        ...
+
+    def set_pulse(self, pulse_s: float) -> None:
+        """Set the high time of each period, in seconds (0 = always low)."""
+        ...
+
+
+class DigitalOut(Protocol):
+    """One digital output line."""
+
+    def set(self, level: bool) -> None:
+        """Drive the line high (True) or low (False)."""
+        ...
+
+
+class Clock(Protocol):
+    """Monotonic time, and the one place the runtime waits."""
+
+    def now(self) -> float:
+        """Seconds on a monotonic time line (virtual or real)."""
+        ...
+
+    def wait_until(self, deadline_s: float) -> None:
+        """Return at `deadline_s`, or earlier as soon as an input port has something to read."""
+        ...

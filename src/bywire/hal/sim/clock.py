@@ -1,0 +1,97 @@
+"""Clocks for the simulated robot: virtual time (as fast as possible, exact) and real time.
+
+Both carry the simulator's own timers (the RC transmitter's next frame, the vehicle model's next
+step, the simulated computer's next command). Simulated ports call `notify_input()` when they have
+bytes or frames for the controller, which makes `wait_until` return at that instant, just as a
+UART or CAN interrupt wakes the real controller.
+"""
+
+from __future__ import annotations
+
+import heapq
+import itertools
+import time
+from collections.abc import Callable
+
+Callback = Callable[[], None]
+
+
+class _TimerQueue:
+    """Timers in time order; equal times run in the order they were set, so runs reproduce."""
+
+    def __init__(self) -> None:
+        self._heap: list[tuple[float, int, Callback]] = []
+        self._sequence = itertools.count()
+
+    def push(self, when_s: float, callback: Callback) -> None:
+        heapq.heappush(self._heap, (when_s, next(self._sequence), callback))
+
+    def next_time(self) -> float | None:
+        return self._heap[0][0] if self._heap else None
+
+    def pop(self) -> tuple[float, Callback]:
+        when_s, _, callback = heapq.heappop(self._heap)
+        return when_s, callback
+
+
+class VirtualClock:
+    """Discrete-event time: waiting jumps straight to the next timer; nothing ever sleeps."""
+
+    def __init__(self, start_s: float = 0.0) -> None:
+        self._now_s = start_s
+        self._timers = _TimerQueue()
+        self._input_pending = False
+
+    def now(self) -> float:
+        return self._now_s
+
+    def call_at(self, when_s: float, callback: Callback) -> None:
+        """Run `callback` at `when_s` (at once on the next wait if that time has passed)."""
+        self._timers.push(when_s, callback)
+
+    def notify_input(self) -> None:
+        """An input port has data: the current or next `wait_until` returns now."""
+        self._input_pending = True
+
+    def wait_until(self, deadline_s: float) -> None:
+        while not self._input_pending:
+            next_s = self._timers.next_time()
+            if next_s is None or next_s > deadline_s:
+                self._now_s = max(self._now_s, deadline_s)
+                return
+            when_s, callback = self._timers.pop()
+            self._now_s = max(self._now_s, when_s)
+            callback()
+        self._input_pending = False
+
+    def advance(self, duration_s: float) -> None:
+        """Run every timer in the next `duration_s` (input wake-ups included); for tests."""
+        deadline_s = self.now() + duration_s
+        while self.now() < deadline_s:
+            self.wait_until(deadline_s)
+
+
+class RealtimeClock(VirtualClock):
+    """The same timers, paced by the wall clock: `bywire sim --realtime` and the benchmark."""
+
+    def __init__(self, start_s: float = 0.0) -> None:
+        super().__init__(start_s)
+        self._offset_s = time.monotonic() - start_s
+
+    def now(self) -> float:
+        return time.monotonic() - self._offset_s
+
+    def wait_until(self, deadline_s: float) -> None:
+        while not self._input_pending:
+            next_s = self._timers.next_time()
+            target_s = deadline_s if next_s is None else min(next_s, deadline_s)
+            self._sleep_until(target_s)
+            if next_s is None or next_s > deadline_s:
+                return
+            self._timers.pop()[1]()
+        self._input_pending = False
+
+    def _sleep_until(self, target_s: float) -> None:
+        remaining_s = target_s - self.now()
+        if remaining_s > 0:
+            time.sleep(remaining_s)

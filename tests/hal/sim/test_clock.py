@@ -1,0 +1,80 @@
+"""The simulator's clocks: timers in order, jumps without sleeping, input wakes the waiter."""
+
+from __future__ import annotations
+
+import time
+
+import pytest
+
+from bywire.hal.sim.clock import RealtimeClock, VirtualClock
+
+
+def test_wait_jumps_to_the_deadline_when_no_timer_is_due() -> None:
+    clock = VirtualClock()
+    clock.wait_until(3600.0)
+    assert clock.now() == 3600.0
+
+
+def test_timers_run_in_time_order_and_equal_times_in_setting_order() -> None:
+    clock = VirtualClock()
+    seen: list[tuple[str, float]] = []
+    clock.call_at(0.2, lambda: seen.append(("late", clock.now())))
+    clock.call_at(0.1, lambda: seen.append(("first", clock.now())))
+    clock.call_at(0.1, lambda: seen.append(("second", clock.now())))
+    clock.wait_until(1.0)
+    assert seen == [("first", 0.1), ("second", 0.1), ("late", 0.2)]
+    assert clock.now() == 1.0
+
+
+def test_input_from_a_timer_wakes_the_waiter_at_that_instant() -> None:
+    clock = VirtualClock()
+    clock.call_at(0.0123, clock.notify_input)
+    clock.call_at(0.5, lambda: None)
+    clock.wait_until(0.01)
+    assert clock.now() == 0.01
+    clock.wait_until(0.02)
+    assert clock.now() == 0.0123
+
+
+def test_input_that_arrived_before_the_wait_returns_at_once() -> None:
+    clock = VirtualClock(start_s=5.0)
+    clock.notify_input()
+    clock.wait_until(6.0)
+    assert clock.now() == 5.0
+    clock.wait_until(6.0)
+    assert clock.now() == 6.0
+
+
+def test_timers_set_from_timers_run_in_the_same_wait() -> None:
+    clock = VirtualClock()
+    ticks: list[float] = []
+
+    def tick() -> None:
+        ticks.append(clock.now())
+        clock.call_at(clock.now() + 0.25, tick)
+
+    clock.call_at(0.0, tick)
+    clock.advance(1.0)
+    assert ticks == [0.0, 0.25, 0.5, 0.75, 1.0]
+
+
+def test_virtual_time_never_sleeps(monkeypatch: pytest.MonkeyPatch) -> None:
+    def forbidden(_seconds: float) -> None:
+        raise AssertionError("the virtual clock slept")
+
+    monkeypatch.setattr(time, "sleep", forbidden)
+    clock = VirtualClock()
+    clock.call_at(1800.0, lambda: None)
+    clock.advance(3600.0)
+    assert clock.now() == 3600.0
+
+
+def test_realtime_clock_runs_timers_no_earlier_than_their_time() -> None:
+    clock = RealtimeClock()
+    fired_at: list[float] = []
+    due_s = clock.now() + 0.02
+    clock.call_at(due_s, lambda: fired_at.append(clock.now()))
+    clock.wait_until(due_s + 0.01)
+    assert len(fired_at) == 1
+    assert fired_at[0] >= due_s
+    assert clock.now() >= due_s + 0.01
