@@ -1,0 +1,73 @@
+"""Steering: normalised command to hobby-servo pulse, with rate limit and boosted set-point.
+
+The servo takes 50 Hz PWM with 1…2 ms pulses (thesis §3.1.1). The trial run (§5.1.2) found the
+servo sluggish and proposed a "boosted" set-point: add the error between set and current value to
+the set value, so the servo is driven harder while it lags. Without a steering encoder the current
+value is estimated from the servo's configured speed.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+
+@dataclass(frozen=True, slots=True)
+class SteeringConfig:
+    """Servo calibration and dynamics; validated by `bywire.config`."""
+
+    min_pulse_s: float = 0.0010
+    center_pulse_s: float = 0.0015
+    max_pulse_s: float = 0.0020
+    reverse: bool = False
+    rate_limit_norm_per_s: float = 4.0
+    boost_gain: float = 0.0
+    servo_speed_norm_per_s: float = 3.0
+
+
+@dataclass(frozen=True, slots=True)
+class SteeringState:
+    """Rate-limited set-point, estimated servo position, and when they were computed."""
+
+    setpoint_norm: float = 0.0
+    estimate_norm: float = 0.0
+    updated_at: float | None = None
+
+
+def clamp_norm(value: float, low: float = -1.0, high: float = 1.0) -> float:
+    """Clamp into [low, high]; NaN becomes 0 (centre), never a full deflection."""
+    return 0.0 if math.isnan(value) else min(max(value, low), high)
+
+
+def step_towards(current: float, target: float, max_step: float) -> float:
+    """Move `current` towards `target` by at most `max_step` (≥ 0)."""
+    return current + min(max(target - current, -max_step), max_step)
+
+
+def pulse_for_steering(steering_norm: float, config: SteeringConfig) -> float:
+    """−1 (full left) … 0 (centre) … 1 (full right) to a pulse width within min…max."""
+    norm = clamp_norm(-steering_norm if config.reverse else steering_norm)
+    if norm >= 0.0:
+        return config.center_pulse_s + norm * (config.max_pulse_s - config.center_pulse_s)
+    return config.center_pulse_s + norm * (config.center_pulse_s - config.min_pulse_s)
+
+
+def steering_step(
+    state: SteeringState,
+    target_norm: float,
+    now: float,
+    config: SteeringConfig,
+    measured_norm: float | None = None,
+) -> tuple[SteeringState, float]:
+    """One steering cycle: rate-limit the target, boost it, return the new state and pulse."""
+    elapsed_s = 0.0 if state.updated_at is None else max(now - state.updated_at, 0.0)
+    setpoint = step_towards(
+        state.setpoint_norm, clamp_norm(target_norm), config.rate_limit_norm_per_s * elapsed_s
+    )
+    estimate = step_towards(
+        state.estimate_norm, state.setpoint_norm, config.servo_speed_norm_per_s * elapsed_s
+    )
+    current = estimate if measured_norm is None else clamp_norm(measured_norm)
+    boosted = clamp_norm(setpoint + config.boost_gain * (setpoint - current))
+    new_state = SteeringState(setpoint_norm=setpoint, estimate_norm=estimate, updated_at=now)
+    return new_state, pulse_for_steering(boosted, config)
