@@ -1,0 +1,100 @@
+"""RC mapping: Table 3 defaults, calibration, deadband, reverse, implausible channels."""
+
+from __future__ import annotations
+
+import pytest
+from hypothesis import given
+from hypothesis import strategies as st
+
+from bywire.control.rc_mapping import (
+    AxisCalibration,
+    RcMapping,
+    SwitchCalibration,
+    axis_norm,
+    rc_request,
+    switch_position,
+)
+from bywire.model import ControlMode, Gear
+
+CENTRED = (1500,) * 14
+
+
+def frame(**channels: int) -> tuple[int, ...]:
+    """Table 3 frame with the named channels set (ch0…ch13)."""
+    values = list(CENTRED)
+    for name, raw in channels.items():
+        values[int(name.removeprefix("ch"))] = raw
+    return tuple(values)
+
+
+@pytest.mark.parametrize(
+    ("raw", "norm"),
+    [(1000, -1.0), (1250, -0.5), (1500, 0.0), (1505, 0.0), (1750, 0.5), (2000, 1.0), (2100, 1.0)],
+)
+def test_axis_normalisation_with_deadband(raw: int, norm: float) -> None:
+    assert axis_norm(raw, AxisCalibration(channel=0)) == pytest.approx(norm)
+
+
+def test_axis_calibration_and_reverse() -> None:
+    calibration = AxisCalibration(
+        channel=0, min_raw=1100, center_raw=1520, max_raw=1900, reverse=True
+    )
+    assert axis_norm(1900, calibration) == pytest.approx(-1.0)
+    assert axis_norm(1100, calibration) == pytest.approx(1.0)
+    assert axis_norm(1520, calibration) == 0.0
+
+
+@pytest.mark.parametrize(
+    ("raw", "position"), [(1000, 0), (1249, 0), (1500, 1), (1750, 1), (2000, 2)]
+)
+def test_switch_positions(raw: int, position: int) -> None:
+    assert switch_position(raw, SwitchCalibration(channel=6)) == position
+    assert switch_position(raw, SwitchCalibration(channel=6, reverse=True)) == 2 - position
+
+
+def test_table_3_defaults_map_sticks_and_switches() -> None:
+    request = rc_request(
+        frame(ch0=1750, ch1=1750, ch5=2000, ch6=2000, ch7=2000, ch8=1000), RcMapping()
+    )
+    assert request is not None
+    assert request.steering_norm == pytest.approx(0.5)
+    assert request.throttle_norm == pytest.approx(0.5)
+    assert request.brake_norm == 0.0
+    assert request.mode is ControlMode.CAN
+    assert request.gear is Gear.FORWARD
+    assert request.low_beam
+    assert not request.hazard
+
+
+def test_left_stick_below_centre_is_brake_and_never_throttle() -> None:
+    request = rc_request(frame(ch1=1000, ch6=1500, ch7=1000), RcMapping())
+    assert request is not None
+    assert (request.throttle_norm, request.brake_norm) == (0.0, pytest.approx(1.0))
+    assert request.mode is ControlMode.RC
+    assert request.gear is Gear.REVERSE
+
+
+def test_mode_switch_low_is_stop() -> None:
+    request = rc_request(frame(ch6=1000), RcMapping())
+    assert request is not None
+    assert request.mode is ControlMode.STOP
+
+
+@pytest.mark.parametrize("channel", [0, 1, 5, 6, 7, 8])
+@pytest.mark.parametrize("raw", [0, 799, 2201, 0xFFFF, 0x85DC])
+def test_an_implausible_used_channel_rejects_the_whole_frame(channel: int, raw: int) -> None:
+    assert rc_request(frame(**{f"ch{channel}": raw}), RcMapping()) is None
+
+
+def test_unused_channels_do_not_matter() -> None:
+    assert rc_request(frame(ch13=0xFFFF), RcMapping()) is not None
+
+
+@given(st.tuples(*[st.integers(0, 0xFFFF)] * 14))
+def test_any_frame_maps_into_command_ranges_or_is_rejected(channels: tuple[int, ...]) -> None:
+    request = rc_request(channels, RcMapping())
+    if request is not None:
+        assert -1.0 <= request.steering_norm <= 1.0
+        assert 0.0 <= request.throttle_norm <= 1.0
+        assert 0.0 <= request.brake_norm <= 1.0
+        assert request.throttle_norm == 0.0 or request.brake_norm == 0.0
