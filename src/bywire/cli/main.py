@@ -15,7 +15,10 @@ from bywire.errors import BywireError
 # `bywire --help` stays fast and one broken optional dependency cannot take down every command.
 COMMANDS: dict[str, tuple[str, str]] = {
     "demo": ("bywire.cli.demo", "run the codecs on simulated traffic and show what they do"),
-    "bittiming": ("bywire.cli.bittiming", "CAN bit timing: bxCAN CAN_BTR values and ip-link settings"),
+    "bittiming": (
+        "bywire.cli.bittiming",
+        "CAN bit timing: bxCAN CAN_BTR values and ip-link settings",
+    ),
     "dbc": ("bywire.cli.dbc", "the CAN database: show messages and signals, generate C code"),
 }
 
