@@ -1,0 +1,149 @@
+"""Value types every layer shares: enums and frozen messages whose field names carry their units.
+
+The CAN messages mirror the CAN database (``protocol/albert.dbc``) one to one: each class is named
+like its DBC message and each field like its DBC signal, so the codec needs no mapping table. The
+codec (``bywire.protocol.dbc``) checks ranges; these types only describe values.
+
+Units in names: ``_norm`` is a normalised set-point (steering −1…1, throttle and brake 0…1),
+``_mps`` metres per second, ``_s`` seconds, ``_ms`` milliseconds.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from enum import IntEnum
+
+
+class Gear(IntEnum):
+    """Driving direction; the values are the DBC's ``gear`` value table."""
+
+    NEUTRAL = 0
+    FORWARD = 1
+    REVERSE = 2
+
+
+class ControlMode(IntEnum):
+    """Who drives, chosen on the RC transmitter; the values are the DBC's ``control_mode`` table.
+
+    STOP is 0 so that an all-zero report, or a zero-initialised C struct, reads as the safe state.
+    """
+
+    STOP = 0
+    RC = 1
+    CAN = 2
+
+
+# Commands: higher-level computer -> controller. Each carries its 4-bit rolling counter (0…15);
+# the CRC is computed and checked by the codec and never appears here.
+
+
+@dataclass(frozen=True, slots=True)
+class ControlCommand:
+    """Remote stop and re-enable request; re-enable acts on its rising edge only."""
+
+    remote_stop: bool
+    re_enable: bool
+    counter: int
+
+
+@dataclass(frozen=True, slots=True)
+class MovementCommand:
+    """Movement set-points: steering −1 (left)…1 (right), throttle and brake 0…1, gear."""
+
+    steering_norm: float
+    throttle_norm: float
+    brake_norm: float
+    gear: Gear
+    counter: int
+
+
+@dataclass(frozen=True, slots=True)
+class LightsCommand:
+    """Light requests; brake, reverse and error lights follow the robot's state instead."""
+
+    turn_left: bool
+    turn_right: bool
+    hazard: bool
+    low_beam: bool
+    counter: int
+
+
+Command = ControlCommand | MovementCommand | LightsCommand
+"""Any command frame's content."""
+
+COMMAND_TYPES: tuple[type[Command], ...] = (ControlCommand, MovementCommand, LightsCommand)
+
+
+# Reports: controller -> higher-level computer, 50 Hz. Values outside a signal's range are
+# saturated by the encoder, so a runaway value never stops the reporting task.
+
+
+@dataclass(frozen=True, slots=True)
+class ModeReport:
+    """Gear, control mode and the safety state."""
+
+    gear: Gear
+    control_mode: ControlMode
+    estop_engaged: bool
+    stop_latched: bool
+    armed: bool
+
+
+@dataclass(frozen=True, slots=True)
+class ErrorReport:
+    """The error flags as one 64-bit unsigned integer, one bit per flag; 0 means no error."""
+
+    flags: int
+
+
+@dataclass(frozen=True, slots=True)
+class WheelSpeedReport:
+    """Wheel speeds, positive forward (int16, 0.01 m/s per bit, as in the thesis' Figure 26)."""
+
+    left_mps: float
+    right_mps: float
+
+
+@dataclass(frozen=True, slots=True)
+class SteeringReport:
+    """Steering as applied and as measured; ``measured_norm`` means nothing unless valid."""
+
+    commanded_norm: float
+    measured_norm: float
+    measured_valid: bool
+
+
+@dataclass(frozen=True, slots=True)
+class LightsReport:
+    """Light functions as driven; blinkers report the function, not the flash phase."""
+
+    brake: bool
+    reverse: bool
+    turn_left: bool
+    turn_right: bool
+    hazard: bool
+    low_beam: bool
+    error_led: bool
+
+
+@dataclass(frozen=True, slots=True)
+class StatusReport:
+    """Controller health; every field saturates at its DBC maximum (ages: 4095 = never seen)."""
+
+    uptime_s: int
+    overrun_count: int
+    rc_input_age_ms: int
+    can_command_age_ms: int
+
+
+Report = ModeReport | ErrorReport | WheelSpeedReport | SteeringReport | LightsReport | StatusReport
+"""Any report frame's content."""
+
+REPORT_TYPES: tuple[type[Report], ...] = (
+    ModeReport,
+    ErrorReport,
+    WheelSpeedReport,
+    SteeringReport,
+    LightsReport,
+    StatusReport,
+)

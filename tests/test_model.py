@@ -1,0 +1,56 @@
+"""The model mirrors the DBC: enum values are its value tables, fields are its signals."""
+
+from __future__ import annotations
+
+import dataclasses
+
+import pytest
+
+from bywire.model import (
+    COMMAND_TYPES,
+    REPORT_TYPES,
+    ControlMode,
+    Gear,
+    MovementCommand,
+    WheelSpeedReport,
+)
+from bywire.protocol.dbc import database
+
+
+def _choices(message_name: str, signal_name: str) -> dict[int, str]:
+    signal = database().get_message_by_name(message_name).get_signal_by_name(signal_name)
+    return {int(value): str(name) for value, name in (signal.choices or {}).items()}
+
+
+@pytest.mark.parametrize("message_name", ["MovementCommand", "ModeReport"])
+def test_gear_values_are_the_dbc_value_table(message_name: str) -> None:
+    assert _choices(message_name, "gear") == {gear.value: gear.name for gear in Gear}
+
+
+def test_control_mode_values_are_the_dbc_value_table() -> None:
+    assert _choices("ModeReport", "control_mode") == {mode.value: mode.name for mode in ControlMode}
+
+
+def test_stop_is_zero_so_a_zeroed_report_reads_as_stop() -> None:
+    assert ControlMode(0) is ControlMode.STOP
+
+
+@pytest.mark.parametrize("kind", COMMAND_TYPES + REPORT_TYPES, ids=lambda kind: kind.__name__)
+def test_fields_are_exactly_the_dbc_signals(kind: type) -> None:
+    signal_names = {signal.name for signal in database().get_message_by_name(kind.__name__).signals}
+    field_names = {field.name for field in dataclasses.fields(kind)}
+    # The CRC is the codec's business; every other signal is a field and vice versa.
+    assert field_names == signal_names - {"crc"}
+
+
+def test_commands_carry_a_counter_and_reports_do_not() -> None:
+    assert all("counter" in {f.name for f in dataclasses.fields(kind)} for kind in COMMAND_TYPES)
+    assert not any("counter" in {f.name for f in dataclasses.fields(k)} for k in REPORT_TYPES)
+
+
+def test_messages_are_frozen_values() -> None:
+    command = MovementCommand(0.1, 0.2, 0.0, Gear.FORWARD, counter=3)
+    with pytest.raises(dataclasses.FrozenInstanceError):
+        command.counter = 4  # type: ignore[misc]
+    assert command == MovementCommand(0.1, 0.2, 0.0, Gear.FORWARD, 3)
+    assert len({WheelSpeedReport(1.0, 1.0), WheelSpeedReport(1.0, 1.0)}) == 1
