@@ -1,0 +1,110 @@
+"""`bywire dbc`: show the CAN database's messages and signals, or generate C code from it."""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+
+from cantools.database.can import Database, Message, Signal
+from cantools.database.can.c_source import generate
+
+from bywire.errors import BywireError
+from bywire.protocol.dbc import database, load_database
+
+
+class OutputError(BywireError, OSError):
+    """The generated files cannot be written where the user asked."""
+
+
+def configure(parser: argparse.ArgumentParser) -> None:
+    """Add the `show` and `codegen` sub-commands."""
+    commands = parser.add_subparsers(dest="dbc_command", metavar="ACTION", required=True)
+    show = commands.add_parser("show", help="list messages and signals")
+    codegen = commands.add_parser("codegen", help="write cantools-generated C (.h and .c)")
+    codegen.add_argument("outdir", type=Path, metavar="OUTDIR", help="created if missing")
+    codegen.add_argument(
+        "--name", type=_c_identifier, default="albert", help="C prefix and file name (albert)"
+    )
+    for sub in (show, codegen):
+        sub.add_argument("--dbc", type=Path, metavar="FILE", help="DBC file (packaged albert.dbc)")
+
+
+def _c_identifier(text: str) -> str:
+    if not (text.isascii() and text.isidentifier()):
+        raise argparse.ArgumentTypeError(f"{text!r} is not a C identifier")
+    return text
+
+
+def run(args: argparse.Namespace) -> int:
+    """Run `show` or `codegen`; an unreadable DBC raises DbcError (one line, exit status 2)."""
+    loaded = database() if args.dbc is None else load_database(args.dbc)
+    if args.dbc_command == "show":
+        print("\n".join(describe(loaded)))
+    else:
+        for path in write_c_sources(loaded, args.outdir, args.name):
+            print(path)
+    return 0
+
+
+# --- show -------------------------------------------------------------------------------------
+
+_SIGNAL_HEADER = (
+    f"    {'signal':<20} {'start':>5} {'len':>3}  {'type':<8} {'scale':>8} {'offset':>6}"
+    f"  {'unit':<8} {'range':<24} values"
+)
+
+
+def describe(loaded: Database) -> list[str]:
+    """Plain-text lines: each message (by id) with its signals."""
+    lines = [_bus_line(loaded)]
+    for message in sorted(loaded.messages, key=lambda message: message.frame_id):
+        lines += ["", *_message_lines(message)]
+    return lines
+
+
+def _bus_line(loaded: Database) -> str:
+    bus = loaded.buses[0] if loaded.buses else None
+    rate = f", {bus.baudrate // 1000} kbit/s" if bus is not None and bus.baudrate else ""
+    return f"{len(loaded.messages)} messages{rate}"
+
+
+def _message_lines(message: Message) -> list[str]:
+    senders = ",".join(message.senders) or "-"
+    period = f"{message.cycle_time} ms" if message.cycle_time else "-"
+    head = f"0x{message.frame_id:03X}  {message.name}  sender {senders}  DLC {message.length}"
+    lines = [f"{head}  period {period}", f"    {message.comment or '(no comment)'}"]
+    return [*lines, _SIGNAL_HEADER, *(_signal_line(signal) for signal in message.signals)]
+
+
+def _signal_line(signal: Signal) -> str:
+    kind = "float" if signal.is_float else "signed" if signal.is_signed else "unsigned"
+    if signal.byte_order == "big_endian":
+        kind += " BE"
+    limits = f"[{signal.minimum}|{signal.maximum}]"
+    choices = " ".join(f"{value}={name}" for value, name in (signal.choices or {}).items())
+    return (
+        f"    {signal.name:<20} {signal.start:>5} {signal.length:>3}  {kind:<8}"
+        f" {signal.scale:>8} {signal.offset:>6}  {signal.unit or '-':<8} {limits:<24} {choices}"
+    ).rstrip()
+
+
+# --- codegen ----------------------------------------------------------------------------------
+
+
+def write_c_sources(loaded: Database, outdir: Path, name: str) -> list[Path]:
+    """Write ``<name>.h`` and ``<name>.c`` (cantools' C generator) into outdir; their paths.
+
+    The encoders round to nearest (``use_round``; link with -lm) instead of cantools' default
+    truncation, which would turn 0.1234 into 1233 steps where the Python codec sends 1234.
+    """
+    header, source, _fuzzer, _makefile = generate(
+        loaded, name, f"{name}.h", f"{name}.c", f"{name}_fuzzer.c", use_round=True
+    )
+    paths = [outdir / f"{name}.h", outdir / f"{name}.c"]
+    try:
+        outdir.mkdir(parents=True, exist_ok=True)
+        for path, text in zip(paths, (header, source), strict=True):
+            path.write_text(text, encoding="utf-8")
+    except OSError as error:
+        raise OutputError(f"cannot write into {outdir}: {error}") from error
+    return paths
