@@ -122,6 +122,7 @@ inputs_strategy = st.builds(
     can_movement=st.none() | st.just(CAN_MOVE),
     remote_stop=st.booleans(),
     re_enable=st.booleans(),
+    hardware_fault=st.booleans(),
 )
 
 
@@ -134,4 +135,15 @@ def test_never_drives_a_source_that_is_missing_or_not_selected(steps: list[MuxIn
             assert inputs.rc is not None
             assert state.mode is inputs.rc.mode
             assert not inputs.remote_stop
+            assert not inputs.hardware_fault
             assert state.mode is ControlMode.RC or inputs.can_movement is not None
+
+
+def test_hardware_fault_latches_until_the_switch_passes_through_stop() -> None:
+    driving = MuxState(ControlMode.RC, latch=None)
+    state = mux_step(driving, MuxInputs(rc(ControlMode.RC), None, hardware_fault=True))
+    assert (state.mode, state.latch) == (ControlMode.STOP, Latch.HARDWARE_FAULT)
+    state = mux_step(state, MuxInputs(rc(ControlMode.CAN), CAN_IDLE, re_enable=True))
+    assert state.mode is ControlMode.STOP
+    state = run(state, MuxInputs(rc(ControlMode.STOP), None), MuxInputs(rc(ControlMode.RC), None))
+    assert state.mode is ControlMode.RC

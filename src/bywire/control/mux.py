@@ -36,6 +36,7 @@ class MuxInputs:
     can_movement: MovementCommand | None
     remote_stop: bool = False
     re_enable: bool = False
+    hardware_fault: bool = False
 
 
 class Latch(enum.Enum):
@@ -45,6 +46,7 @@ class Latch(enum.Enum):
     RC_LOST = "RC link lost or implausible"
     CAN_LOST = "CAN commands stale while in CAN mode"
     REMOTE_STOP = "remote stop requested over CAN"
+    HARDWARE_FAULT = "actuator fault (DAC writes failing, watchdog)"
 
 
 CAN_CLEARABLE = frozenset({Latch.CAN_LOST, Latch.REMOTE_STOP})
@@ -60,6 +62,8 @@ class MuxState:
 
 
 def _fault(inputs: MuxInputs) -> Latch | None:
+    if inputs.hardware_fault:
+        return Latch.HARDWARE_FAULT
     if inputs.rc is None:
         return Latch.RC_LOST
     if inputs.remote_stop:
