@@ -76,6 +76,7 @@ class ControlOutputs:
     hydrobrake_duty: float
     ebrake_engaged: bool
     lights: LightOutputs
+    light_request: LightRequest
     error_flags: int
 
 
@@ -135,6 +136,7 @@ def controller_step(
     steering, pulse_s = steering_step(state.steering, target_norm, now, config.steering)
     flags = inputs.fault_flags | _input_flags(inputs, mux_inputs, now, config)
     lights_command = fresh(inputs.lights, now, config.can_command_timeout_s)
+    light_request = _light_request(mux.mode, mux_inputs, lights_command, movement, flags)
     outputs = ControlOutputs(
         mode=mux.mode,
         latch=mux.latch,
@@ -143,9 +145,8 @@ def controller_step(
         drive=drive_outputs(movement, enabled=driving, config=config.drive),
         hydrobrake_duty=hydrobrake_duty(movement.brake_norm, config.hydrobrake_threshold_norm),
         ebrake_engaged=not driving,
-        lights=light_outputs(
-            _light_request(mux.mode, mux_inputs, lights_command, movement, flags), now
-        ),
+        lights=light_outputs(light_request, now),
+        light_request=light_request,
         error_flags=flags,
     )
     return ControlState(mux=mux, steering=steering), outputs

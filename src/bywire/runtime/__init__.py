@@ -1,0 +1,1 @@
+"""The imperative shell: readers, the periodic task loop, actuator writes and the lifecycle."""

@@ -1,0 +1,213 @@
+"""The controller process: one loop that waits on the clock, reads inputs, and runs the schedule.
+
+Inputs are event-driven: when the clock wakes the loop because bytes or frames arrived, they are
+read at once and, if they carry a new command, the decision is taken and steering, drive and
+brakes are written immediately, so command-to-actuator latency is not bound to the 100 Hz tick.
+Periodic tasks run on absolute deadlines from the schedule table and re-take the decision, so
+input ages are checked every control cycle. Outputs start safe and end safe, whatever happens.
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Callable
+from dataclasses import dataclass, field, replace
+
+from bywire.control.controller import (
+    ControlConfig,
+    ControlInputs,
+    ControlOutputs,
+    ControlState,
+    controller_step,
+)
+from bywire.control.error_flags import ErrorFlag
+from bywire.control.validity import Stamped, age_s
+from bywire.hal.hardware import Hardware
+from bywire.hal.ports import CanFrame
+from bywire.model import Command, ControlCommand, ControlMode, LightsCommand, MovementCommand
+from bywire.protocol import dbc
+from bywire.runtime.actuators import ActuatorConfig, Actuators
+from bywire.runtime.readers import CanReader, IbusReader, RecentFault
+from bywire.runtime.reports import Health, build_reports
+from bywire.runtime.schedule import SCHEDULE, PeriodicTask, TaskSpec
+
+Observer = Callable[[float, ControlOutputs], None]
+
+
+@dataclass(frozen=True, slots=True)
+class RuntimeConfig:
+    """Everything the runtime needs: the decision's configuration, the actuators', the schedule."""
+
+    control: ControlConfig = field(default_factory=ControlConfig)
+    actuators: ActuatorConfig = field(default_factory=ActuatorConfig)
+    schedule: tuple[TaskSpec, ...] = SCHEDULE
+
+
+class Runtime:
+    """Runs the controller on a Hardware bundle until asked to stop or a time is reached."""
+
+    def __init__(self, hardware: Hardware, config: RuntimeConfig) -> None:
+        self.hardware = hardware
+        self.config = config
+        self.clock = hardware.clock
+        self.ibus = IbusReader(hardware.rc_uart, config.control.rc_mapping)
+        self.can = CanReader(hardware.can)
+        self.actuators = Actuators(hardware, config.actuators)
+        self.started_at = self.clock.now()
+        self.tasks = [PeriodicTask(spec, self.started_at) for spec in config.schedule]
+        self.state = ControlState()
+        self.inputs = ControlInputs()
+        self.outputs: ControlOutputs | None = None
+        self.mode_log: list[tuple[float, ControlMode]] = []
+        self.tx_faults = RecentFault()
+        self.overrun_faults = RecentFault()
+        self.reports_sent = 0
+        self.observers: list[Observer] = []
+        self._stepped_at: float | None = None
+        self._stop_requested = False
+        self._actions: dict[str, Callable[[float], None]] = {
+            "steering": self._steering_task,
+            "driving": self._driving_task,
+            "hydrobrake": self._hydrobrake_task,
+            "can_tx": self._can_tx_task,
+            "lights": self._lights_task,
+        }
+
+    def request_stop(self) -> None:
+        """End the loop at its next wake-up (signal handlers and the simulator call this)."""
+        self._stop_requested = True
+
+    def run(self, until_s: float | None = None) -> None:
+        """Loop until `until_s` (clock time) or `request_stop`; outputs safe before and after."""
+        self.actuators.write_safe(self.clock.now())
+        try:
+            while not self._stop_requested:
+                now = self.clock.now()
+                if until_s is not None and now >= until_s:
+                    break
+                self._poll_inputs(now)
+                self._run_due_tasks()
+                self.clock.wait_until(self._next_wake(until_s))
+        finally:
+            self.actuators.write_safe(self.clock.now())
+
+    @property
+    def overrun_count(self) -> int:
+        return sum(task.stats.overruns for task in self.tasks)
+
+    def _next_wake(self, until_s: float | None) -> float:
+        deadline_s = min(task.next_deadline_s for task in self.tasks)
+        return deadline_s if until_s is None else min(deadline_s, until_s)
+
+    # --- inputs -------------------------------------------------------------------------------
+
+    def _poll_inputs(self, now: float) -> None:
+        rc = self.ibus.poll(now)
+        commands = self.can.poll(now)
+        if rc is not None:
+            self.inputs = replace(self.inputs, rc=rc)
+        for command in commands:
+            self._store(command)
+        if rc is not None or commands:
+            outputs = self._decide(now, force=True)
+            self.actuators.write_steering(outputs.steering_pulse_s)
+            self.actuators.write_drive(outputs.drive, now)
+            self.actuators.write_brakes(outputs.hydrobrake_duty, outputs.ebrake_engaged)
+
+    def _store(self, command: Stamped[Command]) -> None:
+        value = command.value
+        if isinstance(value, MovementCommand):
+            self.inputs = replace(self.inputs, movement=Stamped(value, command.received_at))
+        elif isinstance(value, LightsCommand):
+            self.inputs = replace(self.inputs, lights=Stamped(value, command.received_at))
+        elif isinstance(value, ControlCommand):
+            self.inputs = replace(self.inputs, control=Stamped(value, command.received_at))
+
+    # --- the decision -------------------------------------------------------------------------
+
+    def _shell_flags(self, now: float) -> ErrorFlag:
+        sources = (
+            (self.ibus.checksum_faults, ErrorFlag.IBUS_CHECKSUM),
+            (self.ibus.resync_faults, ErrorFlag.IBUS_RESYNC),
+            (self.can.reject_faults, ErrorFlag.CAN_COMMAND_REJECTED),
+            (self.actuators.dac_failures, ErrorFlag.DAC_WRITE_FAILED),
+            (self.actuators.dac_clamps, ErrorFlag.DAC_VALUE_CLAMPED),
+            (self.tx_faults, ErrorFlag.CAN_TX_FAILED),
+            (self.overrun_faults, ErrorFlag.TASK_OVERRUN),
+        )
+        flags = ErrorFlag(0)
+        for fault, flag in sources:
+            if fault.active(now):
+                flags |= flag
+        if self.actuators.dac_fault:
+            flags |= ErrorFlag.DAC_FAULT_STOP
+        return flags
+
+    def _decide(self, now: float, *, force: bool = False) -> ControlOutputs:
+        """Take the decision at `now` (once per instant unless new input forces it)."""
+        if self.outputs is not None and self._stepped_at == now and not force:
+            return self.outputs
+        self.inputs = replace(
+            self.inputs,
+            fault_flags=int(self._shell_flags(now)),
+            hardware_fault=self.actuators.dac_fault,
+        )
+        self.state, outputs = controller_step(self.state, self.inputs, now, self.config.control)
+        if self.outputs is None or outputs.mode is not self.outputs.mode:
+            self.mode_log.append((now, outputs.mode))
+        self.outputs, self._stepped_at = outputs, now
+        return outputs
+
+    # --- periodic tasks -----------------------------------------------------------------------
+
+    def _run_due_tasks(self) -> None:
+        for task in self.tasks:
+            now = self.clock.now()
+            if not task.due(now):
+                continue
+            started = time.perf_counter()
+            self._actions[task.spec.name](now)
+            spent_s = time.perf_counter() - started
+            task.stats.record(now - task.next_deadline_s, spent_s, task.spec.budget_s)
+            overruns_before = task.stats.overruns
+            task.advance(self.clock.now())
+            if task.stats.overruns > overruns_before:
+                self.overrun_faults.happened(now)
+
+    def _steering_task(self, now: float) -> None:
+        self.actuators.write_steering(self._decide(now).steering_pulse_s)
+
+    def _driving_task(self, now: float) -> None:
+        outputs = self._decide(now)
+        self.actuators.write_drive(outputs.drive, now)
+        for observer in self.observers:
+            observer(now, outputs)
+
+    def _hydrobrake_task(self, now: float) -> None:
+        outputs = self._decide(now)
+        self.actuators.write_brakes(outputs.hydrobrake_duty, outputs.ebrake_engaged)
+
+    def _lights_task(self, now: float) -> None:
+        self.actuators.write_lights(self._decide(now).lights)
+
+    def _can_tx_task(self, now: float) -> None:
+        """Send one full set of reports; on the first refusal give up until the next period.
+
+        Backing off instead of retrying is the fix for §5.2: with the bus unplugged no mailbox
+        ever frees, and a task that keeps retrying starves everything below it.
+        """
+        sensor = self.hardware.wheel_speeds
+        health = Health(
+            uptime_s=now - self.started_at,
+            overrun_count=self.overrun_count,
+            rc_age_s=age_s(self.inputs.rc, now),
+            can_age_s=age_s(self.inputs.movement, now),
+            wheel_speeds_mps=None if sensor is None else sensor.read(),
+            steering_setpoint_norm=self.state.steering.setpoint_norm,
+        )
+        for report in build_reports(self._decide(now), health):
+            frame_id, payload = dbc.encode_report(report)
+            if not self.hardware.can.send(CanFrame(frame_id, payload, now)):
+                self.tx_faults.happened(now)
+                return
+            self.reports_sent += 1

@@ -1,0 +1,69 @@
+"""The 50 Hz reports to the higher-level computer, built from one control step's outputs."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+from bywire.control.controller import ControlOutputs
+from bywire.model import (
+    ErrorReport,
+    LightsReport,
+    ModeReport,
+    Report,
+    StatusReport,
+    SteeringReport,
+    WheelSpeedReport,
+)
+
+NEVER_SEEN_MS = 4095  # the StatusReport's "never received" value
+
+
+@dataclass(frozen=True, slots=True)
+class Health:
+    """What the status report says about the controller itself."""
+
+    uptime_s: float
+    overrun_count: int
+    rc_age_s: float | None
+    can_age_s: float | None
+    wheel_speeds_mps: tuple[float, float] | None
+    steering_setpoint_norm: float
+
+
+def _age_ms(age_s: float | None) -> int:
+    return NEVER_SEEN_MS if age_s is None else min(max(round(age_s * 1000), 0), NEVER_SEEN_MS)
+
+
+def build_reports(outputs: ControlOutputs, health: Health) -> tuple[Report, ...]:
+    """Reports in priority order: safety state first, then data."""
+    request = outputs.light_request
+    left_mps, right_mps = health.wheel_speeds_mps or (0.0, 0.0)
+    return (
+        ModeReport(
+            gear=outputs.movement.gear,
+            control_mode=outputs.mode,
+            estop_engaged=outputs.ebrake_engaged,
+            stop_latched=outputs.latch is not None,
+            armed=outputs.latch is None,
+        ),
+        ErrorReport(flags=outputs.error_flags),
+        WheelSpeedReport(left_mps=left_mps, right_mps=right_mps),
+        SteeringReport(
+            commanded_norm=health.steering_setpoint_norm, measured_norm=0.0, measured_valid=False
+        ),
+        LightsReport(
+            brake=outputs.lights.brake,
+            reverse=outputs.lights.reverse,
+            turn_left=request.turn_left or request.hazard,
+            turn_right=request.turn_right or request.hazard,
+            hazard=request.hazard,
+            low_beam=outputs.lights.low_beam,
+            error_led=outputs.lights.error_led,
+        ),
+        StatusReport(
+            uptime_s=int(health.uptime_s),
+            overrun_count=health.overrun_count,
+            rc_input_age_ms=_age_ms(health.rc_age_s),
+            can_command_age_ms=_age_ms(health.can_age_s),
+        ),
+    )
