@@ -1,0 +1,1 @@
+"""The simulated robot as a program: scenarios, the run, its record, summary, plot and log."""

@@ -1,0 +1,232 @@
+"""Scenarios as data: timed events on the simulated robot and expectations to check (TOML).
+
+A scenario file::
+
+    name = "rc-link-lost"
+    description = "RC receiver unplugged while driving by RC"
+    duration_s = 6.0
+
+    [[event]]                       # every event: at_s, optional label, one action
+    at_s = 0.5
+    rc = { mode = "stop" }          # RC sticks and switches (see RC_KEYS)
+    [[event]]
+    at_s = 1.0
+    rc = { mode = "rc", gear = "forward", throttle = 0.4 }
+    [[event]]
+    at_s = 4.0
+    label = "unplugged"
+    fault = "rc_link_lost"          # see FAULTS; some take `count` or `load`
+
+    [[expect]]                      # within_s of a labelled event, or at a time (at_s)
+    after = "unplugged"
+    within_s = 0.110
+    mode = "stop"
+    throttle_volts_max = 0.0
+    ebrake_engaged = true
+
+Other actions: `hlc = { steering, throttle, brake, gear }` (the simulated higher-level computer's
+movement command), `hlc_lights = { turn_left, turn_right, hazard, low_beam }`, `hlc_control =
+{ remote_stop, re_enable }`. Expectation conditions are listed in CONDITIONS.
+"""
+
+from __future__ import annotations
+
+import difflib
+import tomllib
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+from bywire.errors import ConfigError
+
+RC_KEYS = {"steering", "throttle", "mode", "gear", "low_beam", "hazard"}
+HLC_KEYS = {"steering", "throttle", "brake", "gear"}
+HLC_LIGHTS_KEYS = {"turn_left", "turn_right", "hazard", "low_beam"}
+HLC_CONTROL_KEYS = {"remote_stop", "re_enable"}
+ACTIONS = {
+    "rc": RC_KEYS,
+    "hlc": HLC_KEYS,
+    "hlc_lights": HLC_LIGHTS_KEYS,
+    "hlc_control": HLC_CONTROL_KEYS,
+}
+FAULTS = {
+    "rc_link_lost": "the RC receiver stops sending (unplugged, or the UART dies)",
+    "rc_link_restored": "the RC receiver sends again",
+    "rc_failsafe": "the receiver sends its failsafe values (transmitter out of range)",
+    "rc_failsafe_off": "the transmitter is back in range",
+    "ibus_garbage": "`count` random bytes on the RC line",
+    "ibus_corrupt": "the next `count` IBUS frames have a corrupted byte",
+    "can_silence": "the higher-level computer stops sending commands",
+    "can_resume": "the higher-level computer sends again",
+    "can_corrupt_crc": "the next `count` command frames carry a bad CRC",
+    "can_corrupt_length": "the next `count` command frames have the wrong length",
+    "can_corrupt_counter": "the next `count` command frames repeat their counter",
+    "can_corrupt_range": "the next `count` command frames carry an out-of-range value",
+    "dac_fail": "every DAC write is NAKed from now on",
+    "dac_restore": "DAC writes succeed again",
+    "can_unplug": "the CAN cable is pulled: nothing is delivered, transmit queues fill",
+    "can_plug": "the CAN cable is back",
+    "can_flood": "other nodes fill `load` (0…1) of the bus with lower-priority frames",
+    "can_flood_off": "the other nodes stop",
+}
+CONDITIONS = {
+    "mode": "control mode: stop, rc or can",
+    "latched": "STOP is latched (true/false)",
+    "throttle_volts_max": "throttle DAC output at most this (V)",
+    "throttle_volts_min": "throttle DAC output at least this (V)",
+    "motors_enabled": "the motors' enable line",
+    "ebrake_engaged": "the emergency brake is engaged",
+    "speed_min_mps": "vehicle speed at least this (m/s, signed)",
+    "speed_max_mps": "vehicle speed at most this (m/s, signed)",
+    "brake_light": "brake lights on",
+    "reverse_light": "reverse lights on",
+    "error_led": "error LED on",
+    "low_beam": "low beam on",
+    "hydrobrake_duty_min": "hydraulic brake PWM duty at least this",
+}
+EVENT_KEYS = {"at_s", "label", "fault", "count", "load", *ACTIONS}
+EXPECT_KEYS = {"after", "within_s", "at_s", "label", *CONDITIONS}
+
+
+@dataclass(frozen=True, slots=True)
+class Event:
+    """One timed action: `kind` is an ACTIONS key or "fault"; `values` its settings."""
+
+    at_s: float
+    kind: str
+    values: dict[str, Any]
+    label: str | None = None
+
+
+@dataclass(frozen=True, slots=True)
+class Expectation:
+    """Conditions that must hold together, within `within_s` of an event or at `at_s`."""
+
+    conditions: dict[str, Any]
+    after: str | None = None
+    within_s: float | None = None
+    at_s: float | None = None
+    label: str | None = None
+
+    def describe(self) -> str:
+        if self.label:
+            return self.label
+        if self.after is not None and self.within_s is not None:
+            when = f"within {self.within_s * 1000:.0f} ms of '{self.after}'"
+        else:
+            when = f"at {self.at_s} s"
+        return f"{when}: " + ", ".join(f"{key}={value}" for key, value in self.conditions.items())
+
+
+@dataclass(frozen=True, slots=True)
+class Scenario:
+    """A whole scenario: events sorted by time, expectations, and how long to run."""
+
+    name: str
+    description: str
+    duration_s: float
+    events: tuple[Event, ...]
+    expectations: tuple[Expectation, ...]
+
+
+def _refuse(
+    origin: str, key: str, problem: str, allowed: set[str] | None = None, given: str | None = None
+) -> ConfigError:
+    """The error for one bad key; `given` (default: the key's last part) is matched to `allowed`."""
+    hint = ""
+    if allowed is not None:
+        wrong = given if given is not None else key.rsplit(".", 1)[-1]
+        close = difflib.get_close_matches(wrong, sorted(allowed), n=1)
+        hint = (
+            f" (did you mean '{close[0]}'?)"
+            if close
+            else f"; allowed: {', '.join(sorted(allowed))}"
+        )
+    return ConfigError(f"{origin}: {key}: {problem}{hint}")
+
+
+def _key(where: str, key: str) -> str:
+    return f"{where}.{key}" if where else key
+
+
+def _check_keys(table: dict[str, Any], allowed: set[str], origin: str, where: str) -> None:
+    for key in table:
+        if key not in allowed:
+            raise _refuse(origin, _key(where, key), "unknown key", allowed)
+
+
+def _time(table: dict[str, Any], key: str, origin: str, where: str) -> float:
+    value = table.get(key)
+    if isinstance(value, bool) or not isinstance(value, int | float) or value < 0:
+        raise _refuse(origin, _key(where, key), f"must be a time in seconds ≥ 0, got {value!r}")
+    return float(value)
+
+
+def _event(table: dict[str, Any], origin: str, where: str) -> Event:
+    _check_keys(table, EVENT_KEYS, origin, where)
+    kinds = [key for key in (*ACTIONS, "fault") if key in table]
+    if len(kinds) != 1:
+        raise _refuse(origin, where, f"needs exactly one of {', '.join([*ACTIONS, 'fault'])}")
+    kind = kinds[0]
+    if kind == "fault":
+        fault = table["fault"]
+        if fault not in FAULTS:
+            raise _refuse(
+                origin, f"{where}.fault", f"unknown fault {fault!r}", set(FAULTS), str(fault)
+            )
+        values = {"fault": fault, "count": table.get("count", 1), "load": table.get("load", 1.0)}
+    else:
+        values = dict(table[kind])
+        _check_keys(values, ACTIONS[kind], origin, f"{where}.{kind}")
+    return Event(_time(table, "at_s", origin, where), kind, values, table.get("label"))
+
+
+def _expectation(table: dict[str, Any], origin: str, where: str, labels: set[str]) -> Expectation:
+    _check_keys(table, EXPECT_KEYS, origin, where)
+    conditions = {key: value for key, value in table.items() if key in CONDITIONS}
+    if not conditions:
+        raise _refuse(origin, where, "needs at least one condition", set(CONDITIONS))
+    after = table.get("after")
+    if after is not None:
+        if after not in labels:
+            raise _refuse(
+                origin, f"{where}.after", f"no event is labelled {after!r}", labels, after
+            )
+        within_s = _time(table, "within_s", origin, where)
+        return Expectation(conditions, after=after, within_s=within_s, label=table.get("label"))
+    at_s = _time(table, "at_s", origin, where)
+    return Expectation(conditions, at_s=at_s, label=table.get("label"))
+
+
+def parse_scenario(text: str, origin: str) -> Scenario:
+    """A scenario from TOML text; ConfigError naming the key and what is allowed otherwise."""
+    try:
+        document = tomllib.loads(text)
+    except tomllib.TOMLDecodeError as error:
+        raise ConfigError(f"{origin}: not valid TOML: {error}") from error
+    _check_keys(document, {"name", "description", "duration_s", "event", "expect"}, origin, "")
+    events = [
+        _event(table, origin, f"event[{index}]")
+        for index, table in enumerate(document.get("event", []))
+    ]
+    labels = {event.label for event in events if event.label}
+    expectations = [
+        _expectation(table, origin, f"expect[{index}]", labels)
+        for index, table in enumerate(document.get("expect", []))
+    ]
+    return Scenario(
+        name=str(document.get("name", Path(origin).stem)),
+        description=str(document.get("description", "")),
+        duration_s=_time(document, "duration_s", origin, "") if "duration_s" in document else 30.0,
+        events=tuple(sorted(events, key=lambda event: event.at_s)),
+        expectations=tuple(expectations),
+    )
+
+
+def load_scenario(path: Path) -> Scenario:
+    """Read and parse a scenario file; ConfigError naming the path if it cannot be read."""
+    try:
+        text = path.read_text(encoding="utf-8")
+    except OSError as error:
+        raise ConfigError(f"cannot read scenario {path}: {error.strerror}") from error
+    return parse_scenario(text, str(path))

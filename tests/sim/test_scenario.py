@@ -1,0 +1,75 @@
+"""Scenario files: parsing, sorting, and refusals that name the key and what is allowed."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+
+from bywire.errors import ConfigError
+from bywire.sim.scenario import load_scenario, parse_scenario
+
+GOOD = """
+name = "demo"
+duration_s = 5.0
+
+[[event]]
+at_s = 2.0
+label = "lost"
+fault = "rc_link_lost"
+
+[[event]]
+at_s = 0.5
+rc = { mode = "stop" }
+
+[[event]]
+at_s = 1.0
+hlc = { throttle = 0.3, gear = "forward" }
+
+[[expect]]
+after = "lost"
+within_s = 0.11
+mode = "stop"
+throttle_volts_max = 0.0
+
+[[expect]]
+at_s = 1.5
+speed_min_mps = 0.1
+"""
+
+
+def test_a_good_scenario_parses_with_events_in_time_order() -> None:
+    scenario = parse_scenario(GOOD, "demo.toml")
+    assert scenario.name == "demo"
+    assert scenario.duration_s == 5.0
+    assert [event.at_s for event in scenario.events] == [0.5, 1.0, 2.0]
+    assert scenario.events[2].kind == "fault"
+    assert scenario.events[2].values["fault"] == "rc_link_lost"
+    assert scenario.events[1].values == {"throttle": 0.3, "gear": "forward"}
+    first, second = scenario.expectations
+    assert (first.after, first.within_s, first.conditions["mode"]) == ("lost", 0.11, "stop")
+    assert second.at_s == 1.5
+    assert "within 110 ms of 'lost'" in first.describe()
+
+
+@pytest.mark.parametrize(
+    ("text", "message"),
+    [
+        ("[[event]]\nat_s = 1\nfault = 'rc_lnk_lost'", "did you mean 'rc_link_lost'"),
+        ("[[event]]\nat_s = -1\nfault = 'rc_link_lost'", "event[0].at_s"),
+        ("[[event]]\nat_s = 1", "needs exactly one of"),
+        ("[[event]]\nat_s = 1\nrc = { mode = 'rc', throtle = 1 }", "event[0].rc.throtle"),
+        ("[[expect]]\nat_s = 1", "needs at least one condition"),
+        ("[[expect]]\nafter = 'nothing'\nwithin_s = 0.1\nmode = 'stop'", "no event is labelled"),
+        ("duraton_s = 3", "did you mean 'duration_s'"),
+        ("name = ", "not valid TOML"),
+    ],
+)
+def test_bad_scenarios_are_refused_naming_the_key(text: str, message: str) -> None:
+    with pytest.raises(ConfigError, match=message.replace("(", r"\(").replace("[", r"\[")):
+        parse_scenario(text, "bad.toml")
+
+
+def test_missing_file_names_the_path(tmp_path: Path) -> None:
+    with pytest.raises(ConfigError, match=r"nothing\.toml"):
+        load_scenario(tmp_path / "nothing.toml")
