@@ -1,0 +1,136 @@
+"""Actuator sections: the drive DAC and motor lines, brakes and lights, into their dataclasses."""
+
+from __future__ import annotations
+
+from bywire.config.limits import (
+    BLINK_HZ,
+    BRAKE_PWM_HZ,
+    GPIO_OFFSETS,
+    I2C_BUSES,
+    MOTOR_VOLTS,
+    THRESHOLD_NORM,
+    VREF_VOLTS,
+)
+from bywire.config.model import (
+    DacOutput,
+    DriveSection,
+    EbrakeSection,
+    GpioLine,
+    HydrobrakeSection,
+    LightsSection,
+)
+from bywire.config.reader import MISSING, Table, toml_type
+from bywire.config.sections import pwm
+from bywire.control.drive import DriveConfig
+from bywire.protocol import dac6574
+
+LINE_FORMS = f"a line name (string) or an offset (integer {GPIO_OFFSETS[0]}..{GPIO_OFFSETS[-1]})"
+
+
+def hex_address(address: int) -> str:
+    return f"0x{address:02X}"
+
+
+def drive_section(table: Table, chip: str) -> DriveSection:
+    default, limits = DriveSection(), DriveConfig()
+    section = DriveSection(
+        limits=DriveConfig(
+            max_throttle_volts=table.number(
+                "max_throttle_volts", limits.max_throttle_volts, MOTOR_VOLTS
+            ),
+            max_regen_volts=table.number("max_regen_volts", limits.max_regen_volts, MOTOR_VOLTS),
+        ),
+        dac=dac(table.table("dac")),
+        motors_enable=gpio_line(table, "motors_enable", GpioLine(chip, default.motors_enable.line)),
+        motors_forward=gpio_line(
+            table, "motors_forward", GpioLine(chip, default.motors_forward.line)
+        ),
+        motors_reverse=gpio_line(
+            table, "motors_reverse", GpioLine(chip, default.motors_reverse.line)
+        ),
+    )
+    table.close()
+    return section
+
+
+def dac(table: Table) -> DacOutput:
+    default = DacOutput()
+    output = DacOutput(
+        i2c_bus=table.integer("i2c_bus", default.i2c_bus, I2C_BUSES),
+        address=table.integer("address", default.address, dac6574.ADDRESSES, hex_address),
+        vref_volts=table.number("vref_volts", default.vref_volts, VREF_VOLTS),
+        throttle_channel=table.integer(
+            "throttle_channel", default.throttle_channel, dac6574.CHANNELS
+        ),
+        regen_channel=table.integer("regen_channel", default.regen_channel, dac6574.CHANNELS),
+    )
+    table.close()
+    return output
+
+
+def hydrobrake_section(table: Table) -> HydrobrakeSection:
+    default = HydrobrakeSection()
+    section = HydrobrakeSection(
+        threshold_norm=table.number("threshold_norm", default.threshold_norm, THRESHOLD_NORM),
+        pwm=pwm(table.table("pwm"), default.pwm, BRAKE_PWM_HZ),
+    )
+    table.close()
+    return section
+
+
+def ebrake_section(table: Table, chip: str) -> EbrakeSection:
+    default = EbrakeSection()
+    line = gpio_line(table, "ebrake_release", GpioLine(chip, default.ebrake_release.line))
+    table.close()
+    return EbrakeSection(ebrake_release=line)
+
+
+def lights_section(table: Table, chip: str) -> LightsSection:
+    default = LightsSection()
+
+    def line(name: str) -> GpioLine:
+        default_line: GpioLine = getattr(default, name)
+        return gpio_line(table, name, GpioLine(chip, default_line.line))
+
+    section = LightsSection(
+        blink_rate_hz=table.number("blink_rate_hz", default.blink_rate_hz, BLINK_HZ),
+        brake_light=line("brake_light"),
+        reverse_light=line("reverse_light"),
+        turn_left_light=line("turn_left_light"),
+        turn_right_light=line("turn_right_light"),
+        low_beam=line("low_beam"),
+        error_led=line("error_led"),
+    )
+    table.close()
+    return section
+
+
+def gpio_line(table: Table, name: str, default: GpioLine) -> GpioLine:
+    """A line given as a name or offset on the default chip, or as { chip = ..., line = ... }."""
+    value = table.get(name)
+    if value is MISSING:
+        return default
+    if not isinstance(value, dict):
+        return GpioLine(default.chip, _line(table, name, value, default.line))
+    inner = table.table(name)
+    chip = inner.text("chip", default.chip)
+    line = inner.get("line")
+    if line is MISSING:
+        key = inner.key("line")
+        inner.problems.add(key, f"{key} is missing: give {LINE_FORMS}")
+        line = default.line
+    inner.close()
+    return GpioLine(chip, _line(inner, "line", line, default.line))
+
+
+def _line(table: Table, name: str, value: object, default: str | int) -> str | int:
+    if isinstance(value, str) and value.strip():
+        return value
+    if isinstance(value, int) and not isinstance(value, bool):
+        if value in GPIO_OFFSETS:
+            return value
+        table.refuse(name, value, f"out of range; allowed {LINE_FORMS}")
+        return default
+    table_form = "or a table { chip = ..., line = ... }"
+    table.refuse(name, value, f"expected {LINE_FORMS}, {table_form}, got {toml_type(value)}")
+    return default

@@ -1,0 +1,125 @@
+"""Checks across keys: min < centre < max, one function per channel or line, exact bit timing."""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from itertools import pairwise
+
+from bywire.config.model import OUTPUT_LINE_KEYS, CanSection, RobotConfig, output_lines
+from bywire.config.reader import Problems, number_text, show
+from bywire.errors import ConfigError
+from bywire.protocol import bittiming
+
+CONTROL_TASKS = ("steering_rate_hz", "driving_rate_hz", "hydrobrake_rate_hz")
+RC_AXES = ("steering", "throttle_brake")
+RC_FUNCTIONS = (*RC_AXES, "mode_switch", "gear_switch", "low_beam_switch", "hazard_switch")
+WATCHDOG_PERIODS = 2  # a watchdog shorter than two control periods would bite a healthy loop
+
+
+def check_consistency(config: RobotConfig, problems: Problems) -> None:
+    """Record every problem that no single key shows; keys that already failed are skipped."""
+    for check in (_calibrations, _rc_channels, _dac, _outputs, _bit_timing, _watchdog):
+        check(config, problems)
+
+
+def _calibrations(config: RobotConfig, problems: Problems) -> None:
+    servo = config.steering.servo
+    pulses = (servo.min_pulse_s, servo.center_pulse_s, servo.max_pulse_s)
+    _increasing(problems, "steering", ("min_pulse_s", "center_pulse_s", "max_pulse_s"), pulses)
+    for axis_name in RC_AXES:
+        axis = getattr(config.rc.mapping, axis_name)
+        raws = (axis.min_raw, axis.center_raw, axis.max_raw)
+        _increasing(problems, f"rc.{axis_name}", ("min_raw", "center_raw", "max_raw"), raws)
+
+
+def _rc_channels(config: RobotConfig, problems: Problems) -> None:
+    mapping = config.rc.mapping
+    channels = [(f"rc.{name}.channel", getattr(mapping, name).channel) for name in RC_FUNCTIONS]
+    _distinct(problems, channels, "RC channel")
+
+
+def _dac(config: RobotConfig, problems: Problems) -> None:
+    dac = config.drive.dac
+    channels = [("drive.dac.throttle_channel", dac.throttle_channel)]
+    _distinct(problems, [*channels, ("drive.dac.regen_channel", dac.regen_channel)], "channel")
+    for name in ("max_throttle_volts", "max_regen_volts"):
+        _within_vref(problems, name, getattr(config.drive.limits, name), dac.vref_volts)
+
+
+def _outputs(config: RobotConfig, problems: Problems) -> None:
+    pwms = [("steering.pwm", config.steering.pwm), ("hydrobrake.pwm", config.hydrobrake.pwm)]
+    _distinct(problems, [(key, (pwm.chip, pwm.channel)) for key, pwm in pwms], "PWM chip, channel")
+    lines = output_lines(config)
+    keyed = [(key, (lines[name].chip, lines[name].line)) for name, key in OUTPUT_LINE_KEYS.items()]
+    _distinct(problems, keyed, "GPIO chip, line")
+
+
+def _increasing(
+    problems: Problems, section: str, names: Sequence[str], values: Sequence[float]
+) -> None:
+    keys = [f"{section}.{name}" for name in names]
+    if problems.affects(*keys) or all(a < b for a, b in pairwise(values)):
+        return
+    shown = ", ".join(f"{key} = {show(value)}" for key, value in zip(keys, values, strict=True))
+    problems.add(keys[1], f"{shown}: must increase (min < center < max)")
+
+
+def _distinct(problems: Problems, items: Sequence[tuple[str, object]], what: str) -> None:
+    seen: dict[object, str] = {}
+    for key, value in items:
+        if problems.affects(key):
+            continue
+        if value in seen:
+            shown = ", ".join(map(show, value)) if isinstance(value, tuple) else show(value)
+            problems.add(key, f"{seen[value]} and {key} both use {what} {shown}: give each its own")
+        seen.setdefault(value, key)
+
+
+def _within_vref(problems: Problems, name: str, volts: float, vref_volts: float) -> None:
+    key = f"drive.{name}"
+    if volts > vref_volts and not problems.affects(key, "drive.dac.vref_volts"):
+        limit = f"allowed 0..{number_text(vref_volts)} V (drive.dac.vref_volts)"
+        problems.add(key, f"{key} = {show(volts)}: the DAC cannot exceed its reference; {limit}")
+
+
+def _bit_timing(config: RobotConfig, problems: Problems) -> None:
+    can, keys = config.can, ("can.bitrate_bps", "can.clock_hz", "can.sample_point")
+    if can.clock_hz is None or problems.affects(*keys):
+        return
+    where = f"can.bitrate_bps = {can.bitrate_bps} with can.clock_hz = {can.clock_hz}"
+    try:
+        if bittiming.solutions(can.clock_hz, can.bitrate_bps, can.sample_point):
+            return
+    except ConfigError as error:
+        problems.add(keys[0], f"{where}: {error}")
+        return
+    exact = [rate for rate in bittiming.STANDARD_BITRATES_BPS if _exact(can, rate)]
+    allowed = ", ".join(map(str, exact)) or "none of the standard bitrates"
+    problems.add(
+        keys[0],
+        f"{where}: no exact bxCAN bit timing at sample point {can.sample_point};"
+        f" allowed on this clock: {allowed}",
+    )
+
+
+def _exact(can: CanSection, bitrate_bps: int) -> bool:
+    try:
+        return bool(bittiming.solutions(can.clock_hz or 0, bitrate_bps, can.sample_point))
+    except ConfigError:
+        return False
+
+
+def _watchdog(config: RobotConfig, problems: Problems) -> None:
+    keys = ["timeouts.watchdog_s", *(f"tasks.{name}" for name in CONTROL_TASKS)]
+    if problems.affects(*keys):
+        return
+    slowest = min(CONTROL_TASKS, key=lambda name: float(getattr(config.tasks, name)))
+    slowest_hz = float(getattr(config.tasks, slowest))
+    minimum_s = WATCHDOG_PERIODS / slowest_hz
+    if config.timeouts.watchdog_s < minimum_s:
+        problems.add(
+            keys[0],
+            f"timeouts.watchdog_s = {show(config.timeouts.watchdog_s)}: shorter than"
+            f" {WATCHDOG_PERIODS} periods of tasks.{slowest} = {show(slowest_hz)};"
+            f" allowed >= {number_text(minimum_s)} s",
+        )

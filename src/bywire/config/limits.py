@@ -1,0 +1,32 @@
+"""What each configuration value may be: the ranges the loader checks and its messages quote."""
+
+from __future__ import annotations
+
+from bywire.config.reader import Interval
+from bywire.protocol import bittiming
+
+POSITIVE_NORM_PER_S = Interval(0.0, 100.0, "norm/s", low_open=True)
+PULSE_S = Interval(0.0005, 0.0025, "s")
+BOOST_GAIN = Interval(0.0, 2.0)
+SERVO_PWM_HZ = Interval(50.0, 50.0, "Hz")
+BRAKE_PWM_HZ = Interval(50.0, 20_000.0, "Hz")
+PWM_CHANNELS = range(32)
+RC_CHANNELS = range(14)
+RC_RAW = range(800, 2201)
+DEADBAND_NORM = Interval(0.0, 0.5)
+IBUS_BAUD = range(115_200, 115_201)
+BITRATES_BPS = range(10_000, 1_000_001)
+CLOCKS_HZ = range(1_000_000, 500_000_001)
+SAMPLE_POINT = Interval(bittiming.SAMPLE_POINT_MIN, bittiming.SAMPLE_POINT_MAX)
+I2C_BUSES = range(256)
+VREF_VOLTS = Interval(0.0, 5.5, "V", low_open=True)
+MOTOR_VOLTS = Interval(0.0, 5.5, "V")
+THRESHOLD_NORM = Interval(0.0, 1.0, high_open=True)
+BLINK_HZ = Interval(0.5, 5.0, "Hz")
+INPUT_TIMEOUT_S = Interval(0.020, 1.0, "s")
+WATCHDOG_S = Interval(0.020, 5.0, "s")
+TASK_RATE_HZ = Interval(1.0, 1000.0, "Hz")
+GPIO_OFFSETS = range(1024)
+SEEDS = range(2**32)
+RC_FRAME_PERIOD_S = Interval(0.001, 0.1, "s")
+TOP_SPEED_MPS = Interval(0.1, 30.0, "m/s")

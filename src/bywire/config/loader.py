@@ -1,0 +1,95 @@
+"""Loading: a TOML file or text into a validated RobotConfig, or the packaged simulator default."""
+
+from __future__ import annotations
+
+import tomllib
+from collections.abc import Mapping
+from importlib import resources
+from pathlib import Path
+
+from bywire.config.actuators import (
+    drive_section,
+    ebrake_section,
+    hydrobrake_section,
+    lights_section,
+)
+from bywire.config.consistency import check_consistency
+from bywire.config.model import BACKENDS, Backend, RobotConfig
+from bywire.config.reader import Problems, Table
+from bywire.config.sections import (
+    can_section,
+    rc_section,
+    sim_section,
+    steering_section,
+    tasks_section,
+    timeouts_section,
+)
+from bywire.errors import ConfigError
+
+DEFAULT_SIM_RESOURCE = ("defaults", "sim.toml")
+
+
+def load_config(path: Path | str) -> RobotConfig:
+    """Read and validate one robot's TOML file; ConfigError names the file and what is wrong."""
+    try:
+        text = Path(path).read_text(encoding="utf-8")
+    except FileNotFoundError as error:
+        raise ConfigError(f"{path}: no such configuration file") from error
+    except UnicodeDecodeError as error:
+        raise ConfigError(f"{path}: not UTF-8 text (byte {error.start})") from error
+    except OSError as error:
+        reason = error.strerror or str(error)
+        raise ConfigError(f"{path}: cannot read configuration file: {reason}") from error
+    return parse_config(text, str(path))
+
+
+def parse_config(text: str, origin: str = "<string>") -> RobotConfig:
+    """Validate TOML text; every problem found is reported at once, each naming its key."""
+    try:
+        data = tomllib.loads(text)
+    except tomllib.TOMLDecodeError as error:
+        raise ConfigError(f"{origin}: invalid TOML: {_located(error, text)}") from error
+    problems = Problems(origin)
+    config = build_robot(data, problems)
+    check_consistency(config, problems)
+    problems.check()
+    return config
+
+
+def default_sim_config() -> RobotConfig:
+    """The simulator's configuration, shipped in the package as bywire/defaults/sim.toml."""
+    resource = resources.files("bywire")
+    for part in DEFAULT_SIM_RESOURCE:
+        resource = resource.joinpath(part)
+    return parse_config(resource.read_text(encoding="utf-8"), "bywire/defaults/sim.toml")
+
+
+def _located(error: tomllib.TOMLDecodeError, text: str) -> str:
+    """tomllib names the line of every error but the last one; name that one's line too."""
+    last_line = f"end of document, line {len(text.splitlines()) or 1}"
+    return str(error).replace("end of document", last_line)
+
+
+def build_robot(data: Mapping[str, object], problems: Problems) -> RobotConfig:
+    """The whole tree from a parsed TOML document; problems are recorded, not raised."""
+    root, default = Table(data, "", problems), RobotConfig()
+    backend_name = root.text("backend", default.backend, BACKENDS)
+    backend: Backend = "linux" if backend_name == "linux" else "sim"
+    chip = root.text("gpio_chip", default.gpio_chip)
+    config = RobotConfig(
+        name=root.text("name", default.name),
+        backend=backend,
+        gpio_chip=chip,
+        can=can_section(root.table("can")),
+        rc=rc_section(root.table("rc")),
+        steering=steering_section(root.table("steering")),
+        drive=drive_section(root.table("drive"), chip),
+        hydrobrake=hydrobrake_section(root.table("hydrobrake")),
+        ebrake=ebrake_section(root.table("ebrake"), chip),
+        lights=lights_section(root.table("lights"), chip),
+        timeouts=timeouts_section(root.table("timeouts")),
+        tasks=tasks_section(root.table("tasks")),
+        sim=sim_section(root.table("sim")),
+    )
+    root.close()
+    return config

@@ -1,0 +1,189 @@
+"""The robot configuration as one frozen dataclass tree, each field's unit in its name.
+
+The control sections reuse the control layer's own configuration types (SteeringConfig,
+DriveConfig, RcMapping), so there is one definition of each calibration value. Every default here
+is the simulator's: `RobotConfig()` equals the packaged `bywire/defaults/sim.toml`.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Literal
+
+from bywire.control.drive import DriveConfig
+from bywire.control.hydrobrake import DEFAULT_THRESHOLD_NORM
+from bywire.control.lights import BLINK_RATE_HZ
+from bywire.control.rc_mapping import RcMapping
+from bywire.control.steering import SteeringConfig
+
+Backend = Literal["sim", "linux"]
+BACKENDS: tuple[Backend, ...] = ("sim", "linux")
+DEFAULT_GPIO_CHIP = "gpiochip0"
+
+
+@dataclass(frozen=True, slots=True)
+class GpioLine:
+    """One digital line: a name (looked up on `chip`) or an offset on `chip` (label or path)."""
+
+    chip: str
+    line: str | int
+
+
+def _line(name: str) -> GpioLine:
+    return GpioLine(DEFAULT_GPIO_CHIP, name)
+
+
+@dataclass(frozen=True, slots=True)
+class PwmOutput:
+    """One sysfs PWM channel: chip (`pwmchip0` or a /sys/class/pwm path) and channel number."""
+
+    chip: str = "pwmchip0"
+    channel: int = 0
+    frequency_hz: float = 50.0
+
+
+@dataclass(frozen=True, slots=True)
+class CanSection:
+    """The CAN controller, opened through python-can; `clock_hz` only to check bxCAN timing."""
+
+    interface: str = "virtual"
+    channel: str = "vcan0"
+    bitrate_bps: int = 500_000
+    sample_point: float = 0.875
+    clock_hz: int | None = None
+
+
+@dataclass(frozen=True, slots=True)
+class RcSection:
+    """The RC receiver's UART (IBUS, 115200 8N1) and what each channel does."""
+
+    port: str = "/dev/ttyAMA0"
+    baud: int = 115_200
+    mapping: RcMapping = field(default_factory=RcMapping)
+
+
+@dataclass(frozen=True, slots=True)
+class SteeringSection:
+    """The steering servo: calibration and dynamics, and the 50 Hz PWM output driving it."""
+
+    servo: SteeringConfig = field(default_factory=SteeringConfig)
+    pwm: PwmOutput = field(default_factory=PwmOutput)
+
+
+@dataclass(frozen=True, slots=True)
+class DacOutput:
+    """The DAC6574 that makes the throttle and regenerative-brake voltages."""
+
+    i2c_bus: int = 1
+    address: int = 0x4C
+    vref_volts: float = 5.0
+    throttle_channel: int = 0
+    regen_channel: int = 1
+
+
+@dataclass(frozen=True, slots=True)
+class DriveSection:
+    """The driving motors: voltage limits, the DAC, and the enable and direction lines."""
+
+    limits: DriveConfig = field(default_factory=DriveConfig)
+    dac: DacOutput = field(default_factory=DacOutput)
+    motors_enable: GpioLine = field(default_factory=lambda: _line("MOTORS_ENABLE"))
+    motors_forward: GpioLine = field(default_factory=lambda: _line("MOTORS_FORWARD"))
+    motors_reverse: GpioLine = field(default_factory=lambda: _line("MOTORS_REVERSE"))
+
+
+@dataclass(frozen=True, slots=True)
+class HydrobrakeSection:
+    """The hydraulic brake: the command threshold below which it stays off, and its PWM."""
+
+    threshold_norm: float = DEFAULT_THRESHOLD_NORM
+    pwm: PwmOutput = field(default_factory=lambda: PwmOutput(channel=1, frequency_hz=1000.0))
+
+
+@dataclass(frozen=True, slots=True)
+class EbrakeSection:
+    """The spring-applied emergency brake: its line is high only to release it."""
+
+    ebrake_release: GpioLine = field(default_factory=lambda: _line("EBRAKE_RELEASE"))
+
+
+@dataclass(frozen=True, slots=True)
+class LightsSection:
+    """Every lamp's line and the turn-signal blink rate."""
+
+    blink_rate_hz: float = BLINK_RATE_HZ
+    brake_light: GpioLine = field(default_factory=lambda: _line("BRAKE_LIGHT"))
+    reverse_light: GpioLine = field(default_factory=lambda: _line("REVERSE_LIGHT"))
+    turn_left_light: GpioLine = field(default_factory=lambda: _line("TURN_LEFT_LIGHT"))
+    turn_right_light: GpioLine = field(default_factory=lambda: _line("TURN_RIGHT_LIGHT"))
+    low_beam: GpioLine = field(default_factory=lambda: _line("LOW_BEAM"))
+    error_led: GpioLine = field(default_factory=lambda: _line("ERROR_LED"))
+
+
+@dataclass(frozen=True, slots=True)
+class TimeoutsSection:
+    """How old an input may get before STOP, and how long the loop may stall (R-TIMEOUT)."""
+
+    rc_timeout_s: float = 0.100
+    can_command_timeout_s: float = 0.100
+    watchdog_s: float = 0.200
+
+
+@dataclass(frozen=True, slots=True)
+class TasksSection:
+    """Rates of the periodic tasks (thesis Table 1)."""
+
+    steering_rate_hz: float = 100.0
+    driving_rate_hz: float = 100.0
+    hydrobrake_rate_hz: float = 100.0
+    can_tx_rate_hz: float = 50.0
+    lights_rate_hz: float = 20.0
+
+
+@dataclass(frozen=True, slots=True)
+class SimSection:
+    """Knobs of the simulated robot; ignored by the linux backend."""
+
+    seed: int = 0
+    rc_frame_period_s: float = 0.0077
+    top_speed_mps: float = 5.5
+
+
+@dataclass(frozen=True, slots=True)
+class RobotConfig:
+    """Everything one robot needs: buses, addresses, lines, calibration, limits and rates."""
+
+    name: str = "sim"
+    backend: Backend = "sim"
+    gpio_chip: str = DEFAULT_GPIO_CHIP
+    can: CanSection = field(default_factory=CanSection)
+    rc: RcSection = field(default_factory=RcSection)
+    steering: SteeringSection = field(default_factory=SteeringSection)
+    drive: DriveSection = field(default_factory=DriveSection)
+    hydrobrake: HydrobrakeSection = field(default_factory=HydrobrakeSection)
+    ebrake: EbrakeSection = field(default_factory=EbrakeSection)
+    lights: LightsSection = field(default_factory=LightsSection)
+    timeouts: TimeoutsSection = field(default_factory=TimeoutsSection)
+    tasks: TasksSection = field(default_factory=TasksSection)
+    sim: SimSection = field(default_factory=SimSection)
+
+
+OUTPUT_LINE_KEYS: dict[str, str] = {
+    name: f"{section}.{name}"
+    for section, names in (
+        ("drive", ("motors_enable", "motors_forward", "motors_reverse")),
+        ("ebrake", ("ebrake_release",)),
+        ("lights", ("brake_light", "reverse_light", "turn_left_light", "turn_right_light")),
+        ("lights", ("low_beam", "error_led")),
+    )
+    for name in names
+}
+"""Every digital output, named like `bywire.hal.hardware.DigitalOutputs`' fields, to its key."""
+
+
+def output_lines(config: RobotConfig) -> dict[str, GpioLine]:
+    """Every digital output's line, keyed like the fields of `DigitalOutputs`."""
+    lines: dict[str, GpioLine] = {}
+    for name, key in OUTPUT_LINE_KEYS.items():
+        lines[name] = getattr(getattr(config, key.partition(".")[0]), name)
+    return lines

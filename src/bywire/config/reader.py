@@ -1,0 +1,198 @@
+"""Reading one TOML table: typed values with defaults, ranges checked, unknown keys refused.
+
+A bad value is recorded in `Problems` and replaced by its default, so one pass over a file finds
+every problem in it; `Problems.check` then raises them together as one ConfigError.
+"""
+
+from __future__ import annotations
+
+import difflib
+import json
+import math
+from collections.abc import Callable, Mapping, Sequence
+from dataclasses import dataclass
+
+from bywire.errors import ConfigError
+
+MISSING = object()
+SHOWN_ITEMS = 3
+_TOML_TYPES = (
+    (bool, "a boolean"),
+    (int, "an integer"),
+    (float, "a float"),
+    (str, "a string"),
+    (list, "an array"),
+    (Mapping, "a table"),
+)
+
+
+def show(value: object) -> str:
+    """A value as TOML would write it, for messages."""
+    if isinstance(value, bool):
+        return "true" if value else "false"
+    if isinstance(value, str):
+        return json.dumps(value)
+    if isinstance(value, Mapping):
+        items = [f"{key} = {show(item)}" for key, item in value.items()]
+        items[SHOWN_ITEMS:] = ["..."] if len(items) > SHOWN_ITEMS else []
+        return "{ " + ", ".join(items) + " }" if items else "{}"
+    return repr(value)
+
+
+def toml_type(value: object) -> str:
+    """The TOML name of a value's type, with its article."""
+    found = (name for kind, name in _TOML_TYPES if isinstance(value, kind))
+    return next(found, "a date or time")
+
+
+def number_text(value: float) -> str:
+    """1000.0 as "1000", 0.0005 as "0.0005": short and exact."""
+    if math.isfinite(value) and float(value).is_integer():
+        return str(int(value))
+    return repr(float(value))
+
+
+@dataclass(frozen=True, slots=True)
+class Interval:
+    """Allowed numbers low…high, either end optionally open, with the unit for messages."""
+
+    low: float
+    high: float = math.inf
+    unit: str = ""
+    low_open: bool = False
+    high_open: bool = False
+
+    def __contains__(self, value: float) -> bool:
+        above = value > self.low if self.low_open else value >= self.low
+        below = value < self.high if self.high_open else value <= self.high
+        return above and below  # NaN is never allowed
+
+    def __str__(self) -> str:
+        unit = f" {self.unit}" if self.unit else ""
+        low, high = number_text(self.low), number_text(self.high)
+        if self.low == self.high:
+            return f"only {low}{unit}"
+        if not (self.low_open or self.high_open or math.isinf(self.high)):
+            return f"{low}..{high}{unit}"
+        bounds = [f"{'>' if self.low_open else '>='} {low}"]
+        if math.isfinite(self.high):
+            bounds.append(f"{'<' if self.high_open else '<='} {high}")
+        return " and ".join(bounds) + unit
+
+
+class Problems:
+    """Every problem found in one file, raised together as one ConfigError naming the file."""
+
+    def __init__(self, origin: str) -> None:
+        self.origin = origin
+        self.entries: list[tuple[str, str]] = []
+
+    def add(self, key: str, message: str) -> None:
+        self.entries.append((key, message))
+
+    def affects(self, *keys: str) -> bool:
+        """True if any of `keys` (or anything below it) already has a problem."""
+        return any(k == key or k.startswith(key + ".") for k, _ in self.entries for key in keys)
+
+    def check(self) -> None:
+        if len(self.entries) == 1:
+            raise ConfigError(f"{self.origin}: {self.entries[0][1]}")
+        if self.entries:
+            lines = "".join(f"\n  {message}" for _, message in self.entries)
+            raise ConfigError(f"{self.origin}: {len(self.entries)} problems:{lines}")
+
+
+class Table:
+    """One TOML table at a dotted path; every key read is remembered so the rest are unknown."""
+
+    def __init__(self, data: Mapping[str, object], path: str, problems: Problems) -> None:
+        self.data, self.path, self.problems = data, path, problems
+        self._known: dict[str, None] = {}
+
+    def key(self, name: str) -> str:
+        return f"{self.path}.{name}" if self.path else name
+
+    def get(self, name: str) -> object:
+        """The raw value, or MISSING; marks `name` as a known key."""
+        self._known[name] = None
+        return self.data.get(name, MISSING)
+
+    def refuse(self, name: str, value: object, reason: str) -> None:
+        self.problems.add(self.key(name), f"{self.key(name)} = {show(value)}: {reason}")
+
+    def number(self, name: str, default: float, allowed: Interval) -> float:
+        value = self.get(name)
+        if value is MISSING:
+            return default
+        if isinstance(value, bool) or not isinstance(value, int | float):
+            self.refuse(name, value, f"expected a number in {allowed}, got {toml_type(value)}")
+            return default
+        if float(value) not in allowed:
+            self.refuse(name, value, f"out of range; allowed {allowed}")
+            return default
+        return float(value)
+
+    def integer(
+        self, name: str, default: int, allowed: range, show_int: Callable[[int], str] = str
+    ) -> int:
+        value = self.get(name)
+        text = f"only {show_int(allowed.start)}" if len(allowed) == 1 else ""
+        text = text or f"{show_int(allowed.start)}..{show_int(allowed[-1])}"
+        if value is MISSING:
+            return default
+        if isinstance(value, bool) or not isinstance(value, int):
+            self.refuse(name, value, f"expected an integer in {text}, got {toml_type(value)}")
+            return default
+        if value not in allowed:
+            shown = f"{self.key(name)} = {show_int(value)}"
+            self.problems.add(self.key(name), f"{shown}: out of range; allowed {text}")
+            return default
+        return value
+
+    def text(self, name: str, default: str, choices: Sequence[str] = ()) -> str:
+        value = self.get(name)
+        allowed = "one of " + ", ".join(map(show, choices)) if choices else "a non-empty string"
+        if value is MISSING:
+            return default
+        if not isinstance(value, str):
+            self.refuse(name, value, f"expected {allowed}, got {toml_type(value)}")
+        elif choices and value not in choices:
+            guess = _guess(value, choices, show)
+            self.refuse(name, value, f"not allowed; expected {allowed}{guess}")
+        elif not value.strip():
+            self.refuse(name, value, f"expected {allowed}")
+        else:
+            return value
+        return default
+
+    def flag(self, name: str, default: bool) -> bool:
+        value = self.get(name)
+        if value is MISSING:
+            return default
+        if not isinstance(value, bool):
+            self.refuse(name, value, f"expected true or false, got {toml_type(value)}")
+            return default
+        return value
+
+    def table(self, name: str) -> Table:
+        value = self.get(name)
+        if value is MISSING:
+            return Table({}, self.key(name), self.problems)
+        if not isinstance(value, Mapping):
+            self.refuse(name, value, f"expected a table [{self.key(name)}], got {toml_type(value)}")
+            return Table({}, self.key(name), self.problems)
+        return Table(value, self.key(name), self.problems)
+
+    def close(self) -> None:
+        """Refuse every key that no reader asked for, suggesting the nearest known one."""
+        known = list(self._known)
+        for name, value in self.data.items():
+            if name not in known:
+                expected = ", ".join(known)
+                guess = _guess(name, known, self.key)
+                self.refuse(name, value, f"unknown key{guess}; known keys: {expected}")
+
+
+def _guess(name: str, choices: Sequence[str], render: Callable[[str], str]) -> str:
+    near = difflib.get_close_matches(name, choices, n=1, cutoff=0.6)
+    return f" (did you mean {render(near[0])}?)" if near else ""

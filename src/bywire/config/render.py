@@ -1,0 +1,79 @@
+"""The resolved configuration back as nested dicts and as TOML text that loads to the same tree."""
+
+from __future__ import annotations
+
+import json
+from collections.abc import Mapping
+from dataclasses import fields, is_dataclass
+
+from bywire.config.model import GpioLine, RobotConfig
+from bywire.control.drive import DriveConfig
+from bywire.control.rc_mapping import RcMapping
+from bywire.control.steering import SteeringConfig
+
+# The control layer's own configs are written flat into their section, as in the TOML file.
+FLATTENED = (SteeringConfig, DriveConfig, RcMapping)
+# Fixed by the transmitter's switch layout (reverse flips them), so not configuration keys.
+NOT_KEYS = frozenset({"mode_positions", "gear_positions"})
+INLINE_MAX_KEYS = 3
+
+
+def as_dict(config: RobotConfig) -> dict[str, object]:
+    """Nested dicts laid out like the TOML file; unset optional keys left out."""
+    return _table(config, config.gpio_chip)
+
+
+def describe(config: RobotConfig) -> str:
+    """Every resolved value as TOML text; `parse_config(describe(c)) == c`."""
+    lines: list[str] = []
+    _emit(as_dict(config), "", lines)
+    return "\n".join(lines) + "\n"
+
+
+def _table(node: object, chip: str) -> dict[str, object]:
+    table: dict[str, object] = {}
+    for field in fields(node):  # type: ignore[arg-type]
+        value = getattr(node, field.name)
+        if field.name in NOT_KEYS or value is None:
+            continue
+        if isinstance(value, GpioLine):
+            explicit = {"chip": value.chip, "line": value.line}
+            table[field.name] = value.line if value.chip == chip else explicit
+        elif isinstance(value, FLATTENED):
+            table.update(_table(value, chip))
+        elif is_dataclass(value):
+            table[field.name] = _table(value, chip)
+        else:
+            table[field.name] = value
+    return table
+
+
+def _emit(table: Mapping[str, object], path: str, lines: list[str]) -> None:
+    nested = {
+        key: value
+        for key, value in table.items()
+        if isinstance(value, Mapping) and not (path and _inline(value))
+    }
+    for key, value in table.items():
+        if key not in nested:
+            lines.append(f"{key} = {_value(key, value)}")
+    for key, value in nested.items():
+        lines.extend(("", f"[{path}{key}]"))
+        _emit(value, f"{path}{key}.", lines)
+
+
+def _inline(table: Mapping[str, object]) -> bool:
+    scalars = not any(isinstance(value, Mapping) for value in table.values())
+    return scalars and len(table) <= INLINE_MAX_KEYS
+
+
+def _value(key: str, value: object) -> str:
+    if isinstance(value, bool):
+        return "true" if value else "false"
+    if isinstance(value, str):
+        return json.dumps(value)
+    if isinstance(value, int) and key == "address":
+        return f"0x{value:02X}"
+    if isinstance(value, Mapping):
+        return "{ " + ", ".join(f"{k} = {_value(k, v)}" for k, v in value.items()) + " }"
+    return repr(value)

@@ -1,0 +1,171 @@
+"""Bus, input and timing sections: one TOML table each into its dataclass, range-checked."""
+
+from __future__ import annotations
+
+from bywire.config.limits import (
+    BITRATES_BPS,
+    BOOST_GAIN,
+    CLOCKS_HZ,
+    DEADBAND_NORM,
+    IBUS_BAUD,
+    INPUT_TIMEOUT_S,
+    POSITIVE_NORM_PER_S,
+    PULSE_S,
+    PWM_CHANNELS,
+    RC_CHANNELS,
+    RC_FRAME_PERIOD_S,
+    RC_RAW,
+    SAMPLE_POINT,
+    SEEDS,
+    SERVO_PWM_HZ,
+    TASK_RATE_HZ,
+    TOP_SPEED_MPS,
+    WATCHDOG_S,
+)
+from bywire.config.model import (
+    CanSection,
+    PwmOutput,
+    RcSection,
+    SimSection,
+    SteeringSection,
+    TasksSection,
+    TimeoutsSection,
+)
+from bywire.config.reader import MISSING, Interval, Table
+from bywire.control.rc_mapping import AxisCalibration, RcMapping, SwitchCalibration
+from bywire.control.steering import SteeringConfig
+
+
+def can_section(table: Table) -> CanSection:
+    default = CanSection()
+    clock = table.get("clock_hz")
+    section = CanSection(
+        interface=table.text("interface", default.interface, can_interfaces()),
+        channel=table.text("channel", default.channel),
+        bitrate_bps=table.integer("bitrate_bps", default.bitrate_bps, BITRATES_BPS),
+        sample_point=table.number("sample_point", default.sample_point, SAMPLE_POINT),
+        clock_hz=None if clock is MISSING else table.integer("clock_hz", 0, CLOCKS_HZ) or None,
+    )
+    table.close()
+    return section
+
+
+def can_interfaces() -> tuple[str, ...]:
+    """python-can's interface names, plugins included (imported here: python-can is slow)."""
+    import can  # noqa: PLC0415
+
+    return tuple(sorted(can.VALID_INTERFACES))
+
+
+def rc_section(table: Table) -> RcSection:
+    default, mapping = RcSection(), RcMapping()
+    section = RcSection(
+        port=table.text("port", default.port),
+        baud=table.integer("baud", default.baud, IBUS_BAUD),
+        mapping=RcMapping(
+            steering=axis(table.table("steering"), mapping.steering),
+            throttle_brake=axis(table.table("throttle_brake"), mapping.throttle_brake),
+            mode_switch=switch(table.table("mode_switch"), mapping.mode_switch),
+            gear_switch=switch(table.table("gear_switch"), mapping.gear_switch),
+            low_beam_switch=switch(table.table("low_beam_switch"), mapping.low_beam_switch),
+            hazard_switch=switch(table.table("hazard_switch"), mapping.hazard_switch),
+        ),
+    )
+    table.close()
+    return section
+
+
+def axis(table: Table, default: AxisCalibration) -> AxisCalibration:
+    calibration = AxisCalibration(
+        channel=table.integer("channel", default.channel, RC_CHANNELS),
+        min_raw=table.integer("min_raw", default.min_raw, RC_RAW),
+        center_raw=table.integer("center_raw", default.center_raw, RC_RAW),
+        max_raw=table.integer("max_raw", default.max_raw, RC_RAW),
+        deadband_norm=table.number("deadband_norm", default.deadband_norm, DEADBAND_NORM),
+        reverse=table.flag("reverse", default.reverse),
+    )
+    table.close()
+    return calibration
+
+
+def switch(table: Table, default: SwitchCalibration) -> SwitchCalibration:
+    calibration = SwitchCalibration(
+        channel=table.integer("channel", default.channel, RC_CHANNELS),
+        reverse=table.flag("reverse", default.reverse),
+    )
+    table.close()
+    return calibration
+
+
+def steering_section(table: Table) -> SteeringSection:
+    default = SteeringConfig()
+    servo = SteeringConfig(
+        min_pulse_s=table.number("min_pulse_s", default.min_pulse_s, PULSE_S),
+        center_pulse_s=table.number("center_pulse_s", default.center_pulse_s, PULSE_S),
+        max_pulse_s=table.number("max_pulse_s", default.max_pulse_s, PULSE_S),
+        reverse=table.flag("reverse", default.reverse),
+        rate_limit_norm_per_s=table.number(
+            "rate_limit_norm_per_s", default.rate_limit_norm_per_s, POSITIVE_NORM_PER_S
+        ),
+        boost_gain=table.number("boost_gain", default.boost_gain, BOOST_GAIN),
+        servo_speed_norm_per_s=table.number(
+            "servo_speed_norm_per_s", default.servo_speed_norm_per_s, POSITIVE_NORM_PER_S
+        ),
+    )
+    section = SteeringSection(servo, pwm(table.table("pwm"), SteeringSection().pwm, SERVO_PWM_HZ))
+    table.close()
+    return section
+
+
+def pwm(table: Table, default: PwmOutput, frequencies: Interval) -> PwmOutput:
+    output = PwmOutput(
+        chip=table.text("chip", default.chip),
+        channel=table.integer("channel", default.channel, PWM_CHANNELS),
+        frequency_hz=table.number("frequency_hz", default.frequency_hz, frequencies),
+    )
+    table.close()
+    return output
+
+
+def timeouts_section(table: Table) -> TimeoutsSection:
+    default = TimeoutsSection()
+    section = TimeoutsSection(
+        rc_timeout_s=table.number("rc_timeout_s", default.rc_timeout_s, INPUT_TIMEOUT_S),
+        can_command_timeout_s=table.number(
+            "can_command_timeout_s", default.can_command_timeout_s, INPUT_TIMEOUT_S
+        ),
+        watchdog_s=table.number("watchdog_s", default.watchdog_s, WATCHDOG_S),
+    )
+    table.close()
+    return section
+
+
+def tasks_section(table: Table) -> TasksSection:
+    default = TasksSection()
+
+    def rate(name: str) -> float:
+        default_hz: float = getattr(default, name)
+        return table.number(name, default_hz, TASK_RATE_HZ)
+
+    section = TasksSection(
+        steering_rate_hz=rate("steering_rate_hz"),
+        driving_rate_hz=rate("driving_rate_hz"),
+        hydrobrake_rate_hz=rate("hydrobrake_rate_hz"),
+        can_tx_rate_hz=rate("can_tx_rate_hz"),
+        lights_rate_hz=rate("lights_rate_hz"),
+    )
+    table.close()
+    return section
+
+
+def sim_section(table: Table) -> SimSection:
+    default = SimSection()
+    section = SimSection(
+        seed=table.integer("seed", default.seed, SEEDS),
+        rc_frame_period_s=table.number(
+            "rc_frame_period_s", default.rc_frame_period_s, RC_FRAME_PERIOD_S
+        ),
+        top_speed_mps=table.number("top_speed_mps", default.top_speed_mps, TOP_SPEED_MPS),
+    )
+    table.close()
+    return section

@@ -1,0 +1,151 @@
+"""Loading: shipped files validate, defaults match Table 1, I/O and TOML errors name the place."""
+
+from __future__ import annotations
+
+import re
+import tomllib
+from dataclasses import fields
+from pathlib import Path
+
+import pytest
+
+from bywire.config import (
+    GpioLine,
+    RobotConfig,
+    as_dict,
+    default_sim_config,
+    describe,
+    load_config,
+    output_lines,
+    parse_config,
+)
+from bywire.errors import ConfigError
+from bywire.hal.hardware import DigitalOutputs
+from tests.config.toml_keys import leaf_keys
+
+ROOT = Path(__file__).resolve().parents[2]
+ALBERT = ROOT / "config" / "albert.toml"
+SIM = ROOT / "src" / "bywire" / "defaults" / "sim.toml"
+
+
+def test_packaged_sim_default_is_the_dataclass_default() -> None:
+    config = default_sim_config()
+    assert config.backend == "sim"
+    assert config == RobotConfig()
+
+
+def test_albert_loads_as_the_reference_robot_on_linux() -> None:
+    config = load_config(ALBERT)
+    assert (config.name, config.backend) == ("albert", "linux")
+    assert (config.can.interface, config.can.channel) == ("socketcan", "can0")
+    assert config.can.bitrate_bps == 500_000
+    assert (config.rc.port, config.rc.baud) == ("/dev/ttyAMA0", 115_200)
+    assert (config.drive.dac.i2c_bus, config.drive.dac.address) == (1, 0x4C)
+    assert config.drive.motors_enable == GpioLine("gpiochip0", "GPIO5")
+
+
+@pytest.mark.parametrize("path", [SIM, ALBERT], ids=["sim", "albert"])
+def test_defaults_are_table_1_rates_and_100_ms_timeouts(path: Path) -> None:
+    config = load_config(path)
+    tasks, timeouts = config.tasks, config.timeouts
+    control_rates = (tasks.steering_rate_hz, tasks.driving_rate_hz, tasks.hydrobrake_rate_hz)
+    assert control_rates == (100.0, 100.0, 100.0)
+    assert (tasks.can_tx_rate_hz, tasks.lights_rate_hz) == (50.0, 20.0)
+    assert (timeouts.rc_timeout_s, timeouts.can_command_timeout_s) == (0.100, 0.100)
+    assert timeouts.watchdog_s == 0.200
+    assert config.steering.pwm.frequency_hz == 50.0
+    assert config.hydrobrake.threshold_norm == 0.5
+
+
+def test_empty_file_takes_every_default() -> None:
+    assert parse_config("") == RobotConfig()
+
+
+@pytest.mark.parametrize("path", [SIM, ALBERT], ids=["sim", "albert"])
+def test_shipped_files_spell_out_every_key(path: Path) -> None:
+    written = set(leaf_keys(tomllib.loads(path.read_text(encoding="utf-8"))))
+    resolved = set(leaf_keys(as_dict(load_config(path))))
+    assert resolved - written == set()
+
+
+def test_every_albert_key_has_a_comment() -> None:
+    assignments = [
+        line
+        for line in ALBERT.read_text(encoding="utf-8").splitlines()
+        if re.match(r"\s*[a-z_]+\s*=", line)
+    ]
+    assert len(assignments) > 60
+    assert [line for line in assignments if "#" not in line] == []
+
+
+def test_output_lines_name_every_hardware_output() -> None:
+    lines = output_lines(load_config(ALBERT))
+    assert list(lines) == [field.name for field in fields(DigitalOutputs)]
+    assert lines["ebrake_release"] == GpioLine("gpiochip0", "GPIO17")
+    assert len(set(lines.values())) == len(lines)
+
+
+@pytest.mark.parametrize("path", [SIM, ALBERT], ids=["sim", "albert"])
+def test_describe_is_toml_that_loads_back_to_the_same_config(path: Path) -> None:
+    config = load_config(path)
+    assert parse_config(describe(config), "described") == config
+
+
+def test_describe_mentions_resolved_values() -> None:
+    text = describe(load_config(ALBERT))
+    assert 'backend = "linux"' in text
+    assert 'interface = "socketcan"' in text
+    assert "address = 0x4C" in text
+    assert "bitrate_bps = 500000" in text
+    assert 'motors_enable = "GPIO5"' in text
+    assert "[timeouts]\nrc_timeout_s = 0.1\n" in text
+
+
+def test_as_dict_keeps_a_line_on_another_chip_explicit() -> None:
+    config = parse_config('[lights]\nerror_led = { chip = "/dev/gpiochip4", line = 7 }')
+    lights = as_dict(config)["lights"]
+    assert isinstance(lights, dict)
+    assert lights["error_led"] == {"chip": "/dev/gpiochip4", "line": 7}
+    assert lights["low_beam"] == "LOW_BEAM"
+    assert "clock_hz" not in str(as_dict(config)["can"])
+
+
+def test_missing_file_names_the_path(tmp_path: Path) -> None:
+    path = tmp_path / "nowhere" / "robot.toml"
+    with pytest.raises(ConfigError, match=re.escape(str(path))):
+        load_config(path)
+
+
+def test_unreadable_path_names_the_path(tmp_path: Path) -> None:
+    with pytest.raises(ConfigError, match=f"{re.escape(str(tmp_path))}: cannot read"):
+        load_config(tmp_path)
+
+
+def test_non_utf8_file_names_the_path(tmp_path: Path) -> None:
+    path = tmp_path / "robot.toml"
+    path.write_bytes(b'name = "\xff"\n')
+    with pytest.raises(ConfigError, match=r"robot\.toml: not UTF-8"):
+        load_config(str(path))
+
+
+@pytest.mark.parametrize(
+    ("text", "line"),
+    [
+        ('name = "x"\nbackend = = "sim"\n', "line 2"),
+        ("[can]\n[can]\n", "line 2"),
+        ('name = "x"\n\nsteering = [\n', "line 3"),
+    ],
+    ids=["bad-value", "duplicate-table", "unterminated"],
+)
+def test_bad_toml_names_the_file_and_line(tmp_path: Path, text: str, line: str) -> None:
+    path = tmp_path / "robot.toml"
+    path.write_text(text, encoding="utf-8")
+    with pytest.raises(ConfigError) as caught:
+        load_config(path)
+    assert str(path) in str(caught.value)
+    assert line in str(caught.value)
+
+
+def test_config_error_is_a_value_error() -> None:
+    with pytest.raises(ValueError, match=r"rc\.baud"):
+        parse_config("[rc]\nbaud = 9600")
