@@ -12,7 +12,7 @@ from dataclasses import dataclass, field
 from bywire.control.drive import DriveConfig, DriveOutputs, drive_outputs
 from bywire.control.error_flags import ErrorFlag
 from bywire.control.hydrobrake import DEFAULT_THRESHOLD_NORM, hydrobrake_duty
-from bywire.control.lights import LightOutputs, LightRequest, light_outputs
+from bywire.control.lights import BLINK_RATE_HZ, LightOutputs, LightRequest, light_outputs
 from bywire.control.mux import Latch, Movement, MuxInputs, MuxState, movement_from, mux_step
 from bywire.control.rc_mapping import RcMapping, RcRequest
 from bywire.control.steering import SteeringConfig, SteeringState, steering_step
@@ -36,6 +36,7 @@ class ControlConfig:
     hydrobrake_threshold_norm: float = DEFAULT_THRESHOLD_NORM
     rc_timeout_s: float = 0.100
     can_command_timeout_s: float = 0.100
+    blink_rate_hz: float = BLINK_RATE_HZ
 
 
 @dataclass(frozen=True, slots=True)
@@ -145,7 +146,7 @@ def controller_step(
         drive=drive_outputs(movement, enabled=driving, config=config.drive),
         hydrobrake_duty=hydrobrake_duty(movement.brake_norm, config.hydrobrake_threshold_norm),
         ebrake_engaged=not driving,
-        lights=light_outputs(light_request, now),
+        lights=light_outputs(light_request, now, config.blink_rate_hz),
         light_request=light_request,
         error_flags=flags,
     )

@@ -39,9 +39,11 @@ def blink_phase_on(now: float, rate_hz: float = BLINK_RATE_HZ) -> bool:
     return math.fmod(now * rate_hz, 1.0) < 0.5
 
 
-def light_outputs(request: LightRequest, now: float) -> LightOutputs:
+def light_outputs(
+    request: LightRequest, now: float, blink_rate_hz: float = BLINK_RATE_HZ
+) -> LightOutputs:
     """Brake lights above 10 % brake, reverse lights in reverse, error LED on any flag."""
-    blink_on = blink_phase_on(now)
+    blink_on = blink_phase_on(now, blink_rate_hz)
     return LightOutputs(
         brake=not request.brake_norm <= BRAKE_LIGHT_THRESHOLD_NORM,  # NaN lights them up
         reverse=request.reverse_gear,
