@@ -1,0 +1,114 @@
+"""Simulated TI DAC6574: decodes every real I2C frame, keeps each channel's output, injects NAKs.
+
+A malformed frame raises HardwareError, as the real chip's missing acknowledge would make the
+I2C driver do, so a controller bug that builds a bad frame shows up as a failed write.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+from bywire.errors import FrameError, HardwareError
+from bywire.hal.sim.timers import SimClock
+from bywire.protocol import dac6574
+
+
+@dataclass(slots=True)
+class DacChannel:
+    """One output: the register's code, whether it is powered down, and the volts it drives."""
+
+    code: int = 0
+    powered_down: bool = False
+    volts: float = 0.0
+    written: bool = False
+
+
+class SimDac6574:
+    """An ``I2cDevice`` answering like a DAC6574 at Vref (5 V on the robot)."""
+
+    def __init__(
+        self,
+        clock: SimClock,
+        vref_volts: float = dac6574.DEFAULT_VREF_VOLTS,
+        extended_address: int = 0,
+        history_limit: int | None = 100_000,
+    ) -> None:
+        self._clock = clock
+        self._history_limit = history_limit
+        self._vref_volts = vref_volts
+        self._extended_address = extended_address
+        self._channels = [DacChannel() for _ in dac6574.CHANNELS]
+        self.history: list[tuple[float, int, float]] = []
+        """``(time_s, channel, volts)`` for the first write of a channel and every change; at
+        least the latest ``history_limit`` entries are kept (None: all)."""
+        self.writes = 0
+        self.failed_writes = 0
+        self.malformed_frames = 0
+        self._fail_until_s: float | None = None
+        self._fail_count = 0
+
+    def write(self, data: bytes) -> None:
+        if self._failing():
+            self.failed_writes += 1
+            raise HardwareError("DAC6574: no acknowledge (simulated bus fault)")
+        try:
+            frame = dac6574.decode_frame(data)
+        except FrameError as error:
+            self.malformed_frames += 1
+            raise HardwareError(f"DAC6574: frame not acknowledged: {error}") from error
+        if frame.extended_address != self._extended_address:
+            self.malformed_frames += 1
+            raise HardwareError(
+                f"DAC6574: extended address {frame.extended_address} is not "
+                f"{self._extended_address}; frame not acknowledged"
+            )
+        self.writes += 1
+        if isinstance(frame, dac6574.Write):
+            self._update(frame.channel, frame.code, powered_down=False)
+        else:
+            self._update(frame.channel, self._channels[frame.channel].code, powered_down=True)
+
+    def volts(self, channel: int) -> float:
+        """The voltage channel 0…3 drives now (0 V when powered down or never written)."""
+        return self._channels[channel].volts
+
+    def code(self, channel: int) -> int:
+        """The 10-bit code in the channel's register."""
+        return self._channels[channel].code
+
+    def powered_down(self, channel: int) -> bool:
+        """True when the channel was powered down and not written since."""
+        return self._channels[channel].powered_down
+
+    def fail_writes(self, until_s: float | None = None, count: int | None = None) -> None:
+        """Make writes fail: until ``until_s``, for the next ``count`` writes, or (neither) until
+        ``stop_failing()``. Each failed write raises HardwareError and is counted."""
+        if count is not None and count < 0:
+            raise ValueError(f"count must be >= 0, got {count}")
+        if until_s is None and count is None:
+            until_s = math.inf
+        self._fail_until_s = until_s
+        self._fail_count = count or 0
+
+    def stop_failing(self) -> None:
+        """Acknowledge writes again."""
+        self._fail_until_s = None
+        self._fail_count = 0
+
+    def _failing(self) -> bool:
+        if self._fail_count > 0:
+            self._fail_count -= 1
+            return True
+        return self._fail_until_s is not None and self._clock.now() < self._fail_until_s
+
+    def _update(self, channel: int, code: int, powered_down: bool) -> None:
+        state = self._channels[channel]
+        volts = 0.0 if powered_down else dac6574.volts_from_code(code, self._vref_volts)
+        if volts != state.volts or not state.written:
+            self.history.append((self._clock.now(), channel, volts))
+            limit = self._history_limit
+            if limit is not None and len(self.history) >= 2 * limit:
+                del self.history[: len(self.history) - limit]  # in batches: O(1) on average
+        state.code, state.powered_down, state.volts = code, powered_down, volts
+        state.written = True
