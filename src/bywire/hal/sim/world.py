@@ -1,0 +1,153 @@
+"""The whole simulated robot on one clock: the controller's ``Hardware`` and the scenario's handles.
+
+``hardware`` is all the controller sees (the same bundle the Linux backend gives). Everything
+else is for scenarios and tools: the RC transmitter, the higher-level computer, the bus with its
+log and faults, the DAC, the PWM channels and GPIO lines with their histories, and the vehicle.
+Randomness (which byte a corrupted IBUS frame flips) comes from ``seed``, so runs reproduce.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, fields
+from typing import Protocol
+
+from bywire.control.rc_mapping import RcMapping
+from bywire.hal.hardware import DigitalOutputs, Hardware
+from bywire.hal.ports import Clock
+from bywire.hal.sim.can_bus import SimCanBus
+from bywire.hal.sim.can_port import SimCanPort
+from bywire.hal.sim.dac import SimDac6574
+from bywire.hal.sim.gpio_pwm import SimDigitalOut, SimPwmChannel
+from bywire.hal.sim.hlc import SimHigherLevelComputer
+from bywire.hal.sim.rc_transmitter import SimRcTransmitter
+from bywire.hal.sim.timers import SimClock
+from bywire.hal.sim.uart import SimUart
+from bywire.hal.sim.vehicle import SimVehicle, SimWheelSpeedSensor, VehicleWiring
+from bywire.hal.sim.vehicle_model import VehicleConfig
+from bywire.protocol import dbc
+
+STEERING_PERIOD_S = 0.020
+DEFAULT_HYDROBRAKE_PERIOD_S = 0.001
+CONTROLLER_NODE = "bywire"
+SOCKETCAN_TX_QUEUE = 10  # the controller is a Linux SocketCAN node: txqueuelen defaults to 10
+HLC_NODE = "hlc"
+
+
+class WorldClock(SimClock, Clock, Protocol):
+    """A clock the simulator schedules on and the controller waits on (both our clocks)."""
+
+
+@dataclass(frozen=True, slots=True)
+class SimPwm:
+    """The two PWM outputs."""
+
+    steering: SimPwmChannel
+    hydrobrake: SimPwmChannel
+
+
+@dataclass(slots=True)
+class SimWorld:
+    """Every simulated part, wired together; build it with ``SimWorld.create``."""
+
+    clock: WorldClock
+    hardware: Hardware
+    bus: SimCanBus
+    controller_can: SimCanPort
+    hlc: SimHigherLevelComputer
+    uart: SimUart
+    rc: SimRcTransmitter
+    dac: SimDac6574
+    pwm: SimPwm
+    gpio: dict[str, SimDigitalOut]
+    vehicle: SimVehicle
+    wheel_sensor: SimWheelSpeedSensor
+
+    @classmethod
+    def create(
+        cls,
+        clock: WorldClock,
+        *,
+        dac_throttle_channel: int = 0,
+        dac_regen_channel: int = 1,
+        hydrobrake_period_s: float = DEFAULT_HYDROBRAKE_PERIOD_S,
+        seed: int = 0,
+        rc_mapping: RcMapping | None = None,
+        vehicle_config: VehicleConfig | None = None,
+        bus_log_limit: int | None = 20_000,
+    ) -> SimWorld:
+        """Build the robot; nothing runs until ``start()``.
+
+        The controller's CAN port wakes the clock on every frame and its acceptance filter passes
+        the command ids only, like the hardware filter the thesis' controller sets up. Its
+        transmit queue is SocketCAN's (10 frames), not bxCAN's three mailboxes: a full set of
+        six reports fits, and an unplugged bus still fills it within two report periods.
+        """
+        bus = SimCanBus(clock, log_limit=bus_log_limit)
+        controller_can = bus.attach(
+            CONTROLLER_NODE,
+            True,
+            accept_ids=dbc.command_ids(),
+            tx_mailboxes=SOCKETCAN_TX_QUEUE,
+        )
+        hlc = SimHigherLevelComputer(clock, bus.attach(HLC_NODE, accept_ids=dbc.report_ids()))
+        uart = SimUart(clock)
+        rc = SimRcTransmitter(clock, uart, mapping=rc_mapping, seed=seed)
+        dac = SimDac6574(clock)
+        pwm = SimPwm(
+            SimPwmChannel(clock, STEERING_PERIOD_S, "steering"),
+            SimPwmChannel(clock, hydrobrake_period_s, "hydrobrake"),
+        )
+        gpio = {line.name: SimDigitalOut(clock, line.name) for line in fields(DigitalOutputs)}
+        wiring = VehicleWiring(
+            dac,
+            gpio["motors_enable"],
+            gpio["motors_forward"],
+            gpio["motors_reverse"],
+            gpio["ebrake_release"],
+            pwm.steering,
+            pwm.hydrobrake,
+            throttle_channel=dac_throttle_channel,
+            regen_channel=dac_regen_channel,
+        )
+        vehicle = SimVehicle(clock, wiring, vehicle_config)
+        wheel_sensor = SimWheelSpeedSensor(vehicle)
+        hardware = Hardware(
+            clock=clock,
+            can=controller_can,
+            rc_uart=uart,
+            dac=dac,
+            steering_pwm=pwm.steering,
+            hydrobrake_pwm=pwm.hydrobrake,
+            outputs=DigitalOutputs(**gpio),
+            wheel_speeds=wheel_sensor,
+        )
+        return cls(
+            clock,
+            hardware,
+            bus,
+            controller_can,
+            hlc,
+            uart,
+            rc,
+            dac,
+            pwm,
+            gpio,
+            vehicle,
+            wheel_sensor,
+        )
+
+    def start(self, *, rc: bool = True, hlc: bool = True, vehicle: bool = True) -> None:
+        """Start the transmitter, the higher-level computer and the vehicle from now."""
+        if rc:
+            self.rc.start()
+        if hlc:
+            self.hlc.start()
+        if vehicle:
+            self.vehicle.start()
+
+    def stop(self) -> None:
+        """Stop every simulated device (frames already on the wire still arrive)."""
+        self.rc.stop()
+        self.hlc.silence()
+        self.vehicle.stop()
+        self.bus.stop_flood()

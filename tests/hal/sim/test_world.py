@@ -1,0 +1,121 @@
+"""The assembled simulated robot: the controller's hardware view and the scenario handles."""
+
+from __future__ import annotations
+
+from bywire.hal.hardware import Hardware
+from bywire.hal.sim.clock import RealtimeClock, VirtualClock
+from bywire.hal.sim.world import SimWorld
+from bywire.model import ControlMode, Gear, MovementCommand
+from bywire.protocol import dac6574, dbc, ibus
+
+
+def test_world_builds_the_hardware_bundle_from_its_parts() -> None:
+    world = SimWorld.create(VirtualClock(), hydrobrake_period_s=0.002)
+    hardware = world.hardware
+    assert isinstance(hardware, Hardware)
+    assert hardware.can is world.controller_can
+    assert hardware.rc_uart is world.uart
+    assert hardware.dac is world.dac
+    assert hardware.steering_pwm.period_s == 0.02
+    assert hardware.hydrobrake_pwm.period_s == 0.002
+    assert hardware.outputs.ebrake_release is world.gpio["ebrake_release"]
+    assert len(world.gpio) == 10
+    assert hardware.wheel_speeds is not None
+    assert hardware.wheel_speeds.read() == (0.0, 0.0)
+
+
+def test_a_short_run_brings_ibus_bytes_and_command_frames_to_the_controller() -> None:
+    clock = VirtualClock()
+    world = SimWorld.create(clock)
+    world.rc.set_mode(ControlMode.CAN)
+    world.hlc.set_movement(0.1, 0.3, 0.0, Gear.FORWARD)
+    world.start()
+    parser = ibus.IbusParser()
+    frames = []
+    wakeups = 0
+    while clock.now() < 0.1:
+        clock.wait_until(0.1)
+        wakeups += 1
+        parser.feed(world.hardware.rc_uart.read_available(), clock.now())
+        frames += world.hardware.can.receive()
+    assert parser.stats.frames == 13
+    assert parser.stats.checksum_errors == 0
+    assert {frame.arbitration_id for frame in frames} == set(dbc.command_ids())
+    movements = [
+        dbc.decode_command(f.arbitration_id, f.data, None)
+        for f in frames
+        if f.arbitration_id == 0x101
+    ]
+    assert len(movements) == 5
+    assert movements[-1] == MovementCommand(0.1, 0.3, 0.0, Gear.FORWARD, 4)
+    assert wakeups > 13  # every IBUS frame and every CAN frame woke the controller
+    assert len(world.bus.log) == 15
+
+
+def test_the_controller_port_filters_out_other_nodes_traffic() -> None:
+    clock = VirtualClock()
+    world = SimWorld.create(clock)
+    world.start(rc=False)
+    world.bus.flood(0.9)
+    clock.advance(0.2)
+    received = world.hardware.can.receive()
+    assert len(received) == 30
+    assert world.bus.bits_sent("flood") > 0.8 * 0.2 * 500_000
+
+
+def test_the_vehicle_moves_only_when_the_controller_drives_the_outputs() -> None:
+    clock = VirtualClock()
+    world = SimWorld.create(clock, dac_throttle_channel=3, dac_regen_channel=2)
+    world.start()
+    clock.advance(0.5)
+    assert world.vehicle.state.speed_mps == 0.0
+    outputs = world.hardware.outputs
+    outputs.motors_enable.set(True)
+    outputs.motors_forward.set(True)
+    outputs.ebrake_release.set(True)
+    world.hardware.dac.write(dac6574.encode_write(3, 512))
+    clock.advance(1.0)
+    assert world.vehicle.state.speed_mps > 0.2
+    outputs.all_low()
+    clock.advance(2.0)
+    assert world.vehicle.state.speed_mps == 0.0
+    assert world.gpio["motors_enable"].history == [(0.5, True), (1.5, False)]
+
+
+def test_runs_reproduce_with_the_same_seed() -> None:
+    def run(seed: int) -> bytes:
+        clock = VirtualClock()
+        world = SimWorld.create(clock, seed=seed)
+        world.rc.corrupt_next_frames(4)
+        world.start()
+        clock.advance(0.05)
+        return world.uart.read_available()
+
+    assert run(3) == run(3)
+    assert run(3) != run(4)
+
+
+def test_stop_silences_every_device() -> None:
+    clock = VirtualClock()
+    world = SimWorld.create(clock)
+    world.start()
+    clock.advance(0.05)
+    world.stop()
+    clock.advance(0.01)
+    world.uart.read_available()
+    world.controller_can.receive()
+    clock.advance(0.5)
+    assert world.uart.read_available() == b""
+    assert world.controller_can.receive() == []
+
+
+def test_the_world_also_runs_on_the_realtime_clock() -> None:
+    clock = RealtimeClock()
+    world = SimWorld.create(clock)
+    world.start()
+    deadline_s = clock.now() + 0.05
+    data = b""
+    while clock.now() < deadline_s:
+        clock.wait_until(deadline_s)
+        data += world.uart.read_available()
+    assert len(ibus.IbusParser().feed(data)) >= 5
