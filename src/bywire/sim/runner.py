@@ -1,0 +1,240 @@
+"""One simulated run: the real controller on the simulated robot, driven by a scenario.
+
+The scenario's events are timers on the world's clock; the controller is the same `Runtime` that
+drives the real robot. After every pass of the controller's loop the robot is observed: that is
+where expectations are checked (to the instant the outputs changed) and the record is sampled.
+"""
+
+from __future__ import annotations
+
+import functools
+import random
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from typing import Any
+
+from bywire.config import RobotConfig
+from bywire.hal.sim.can_bus import LoggedFrame
+from bywire.hal.sim.clock import RealtimeClock, VirtualClock
+from bywire.hal.sim.hlc import Corruption
+from bywire.hal.sim.world import SimWorld
+from bywire.model import ControlMode, Gear
+from bywire.runtime.app import Runtime, RuntimeConfig
+from bywire.sim.observe import Observation, conditions_hold, observe
+from bywire.sim.scenario import Event, Expectation, Scenario
+
+RECORD_PERIOD_S = 0.010  # the plot's resolution; expectations see every pass of the loop
+SAFE_SEARCH_S = 2.0  # how long after a fault the run looks for safe outputs
+CORRUPTIONS = {
+    "can_corrupt_crc": Corruption.BAD_CRC,
+    "can_corrupt_length": Corruption.WRONG_LENGTH,
+    "can_corrupt_counter": Corruption.REPEATED_COUNTER,
+    "can_corrupt_range": Corruption.OUT_OF_RANGE,
+}
+
+
+@dataclass(slots=True)
+class Verdict:
+    """How one expectation fared; `measured_s` is the time from its event to when it held."""
+
+    expectation: Expectation
+    passed: bool | None = None  # None while undecided
+    measured_s: float | None = None
+    window: tuple[float, float] | None = None
+
+
+@dataclass(slots=True)
+class FaultTiming:
+    """A labelled event and when the outputs were next safe after it."""
+
+    label: str
+    at_s: float
+    safe_at_s: float | None = None
+
+    @property
+    def time_to_safe_s(self) -> float | None:
+        return None if self.safe_at_s is None else self.safe_at_s - self.at_s
+
+
+@dataclass(slots=True)
+class RunRecord:
+    """Everything a run leaves for the summary, the plot and the checks."""
+
+    samples: list[Observation] = field(default_factory=list)
+    verdicts: list[Verdict] = field(default_factory=list)
+    fault_timings: list[FaultTiming] = field(default_factory=list)
+    top_speed_mps: float = 0.0
+
+
+class SimRun:
+    """Build the world and the controller for one scenario; `run()` plays it to the end."""
+
+    def __init__(
+        self,
+        robot: RobotConfig,
+        scenario: Scenario,
+        *,
+        realtime: bool = False,
+        duration_s: float | None = None,
+    ) -> None:
+        self.robot = robot
+        self.scenario = scenario
+        self.duration_s = scenario.duration_s if duration_s is None else duration_s
+        clock = RealtimeClock() if realtime else VirtualClock()
+        dac = robot.drive.dac
+        self.world = SimWorld.create(
+            clock,
+            dac_throttle_channel=dac.throttle_channel,
+            dac_regen_channel=dac.regen_channel,
+            hydrobrake_period_s=1.0 / robot.hydrobrake.pwm.frequency_hz,
+            seed=robot.sim.seed,
+            rc_mapping=robot.rc.mapping,
+            bus_log_limit=0,
+        )
+        self.runtime = Runtime(self.world.hardware, RuntimeConfig.from_robot(robot))
+        self.record = RunRecord(verdicts=[Verdict(e) for e in scenario.expectations])
+        self.started_at = clock.now()
+        self._random = random.Random(robot.sim.seed)
+        self._movement: dict[str, Any] = {
+            "steering": 0.0,
+            "throttle": 0.0,
+            "brake": 1.0,
+            "gear": "neutral",
+        }
+        self._next_record_s = self.started_at
+        self.runtime.on_cycle.append(self._observe)
+
+    def add_can_monitor(self, monitor: Callable[[LoggedFrame], None]) -> None:
+        """Called with every frame that crosses the bus (the CAN log writer)."""
+        self.world.bus.add_monitor(monitor)
+
+    def every(self, period_s: float, callback: Callable[[float], None]) -> None:
+        """Call `callback(elapsed_s)` every `period_s` of simulated time (progress display)."""
+
+        def tick() -> None:
+            callback(self.world.clock.now() - self.started_at)
+            self.world.clock.call_at(self.world.clock.now() + period_s, tick)
+
+        self.world.clock.call_at(self.started_at + period_s, tick)
+
+    def run(self) -> RunRecord:
+        """Play the scenario to its end and decide every expectation."""
+        clock = self.world.clock
+        for event in self.scenario.events:
+            clock.call_at(self.started_at + event.at_s, functools.partial(self._apply, event))
+        self.world.start()
+        self.runtime.run(until_s=self.started_at + self.duration_s)
+        self.world.stop()
+        for verdict in self.record.verdicts:
+            if verdict.passed is None:
+                verdict.passed = False
+        return self.record
+
+    # --- events -------------------------------------------------------------------------------
+
+    def _apply(self, event: Event) -> None:
+        now = self.world.clock.now()
+        if event.label:
+            self.record.fault_timings.append(FaultTiming(event.label, now))
+            for verdict in self.record.verdicts:
+                if verdict.expectation.after == event.label and verdict.window is None:
+                    within_s = verdict.expectation.within_s or 0.0
+                    verdict.window = (now, now + within_s)
+        getattr(self, f"_apply_{event.kind}")(event.values)
+
+    def _apply_rc(self, values: dict[str, Any]) -> None:
+        rc = self.world.rc
+        if "mode" in values:
+            rc.set_mode(ControlMode[str(values["mode"]).upper()])
+        if "gear" in values:
+            rc.set_gear(Gear[str(values["gear"]).upper()])
+        if "steering" in values:
+            rc.set_steering(float(values["steering"]))
+        if "throttle" in values:
+            rc.set_pedal(float(values["throttle"]))
+        if "low_beam" in values:
+            rc.set_low_beam(bool(values["low_beam"]))
+        if "hazard" in values:
+            rc.set_hazard(bool(values["hazard"]))
+
+    def _apply_hlc(self, values: dict[str, Any]) -> None:
+        self._movement.update(values)
+        movement = self._movement
+        self.world.hlc.set_movement(
+            float(movement["steering"]),
+            float(movement["throttle"]),
+            float(movement["brake"]),
+            Gear[str(movement["gear"]).upper()],
+        )
+
+    def _apply_hlc_lights(self, values: dict[str, Any]) -> None:
+        self.world.hlc.set_lights(**{key: bool(value) for key, value in values.items()})
+
+    def _apply_hlc_control(self, values: dict[str, Any]) -> None:
+        self.world.hlc.set_control(
+            bool(values.get("remote_stop", False)), bool(values.get("re_enable", False))
+        )
+
+    def _apply_fault(self, values: dict[str, Any]) -> None:
+        world, fault, count = self.world, values["fault"], int(values["count"])
+        actions: dict[str, Callable[[], None]] = {
+            "rc_link_lost": world.rc.link_lost,
+            "rc_link_restored": world.rc.link_restored,
+            "rc_failsafe": lambda: world.rc.failsafe(self._failsafe_values()),
+            "rc_failsafe_off": world.rc.failsafe_off,
+            "ibus_garbage": lambda: world.rc.inject_bytes(self._random.randbytes(count)),
+            "ibus_corrupt": lambda: world.rc.corrupt_next_frames(count),
+            "can_silence": world.hlc.silence,
+            "can_resume": world.hlc.start,
+            "dac_fail": world.dac.fail_writes,
+            "dac_restore": world.dac.stop_failing,
+            "can_unplug": world.bus.unplug,
+            "can_plug": world.bus.plug,
+            "can_flood": lambda: world.bus.flood(float(values["load"])),
+            "can_flood_off": world.bus.stop_flood,
+        }
+        if fault in CORRUPTIONS:
+            world.hlc.corrupt_next(count, CORRUPTIONS[fault])
+        else:
+            actions[fault]()
+
+    def _failsafe_values(self) -> dict[int, int]:
+        """What a FlySky receiver typically holds on loss: sticks centred, switch to STOP."""
+        mapping = self.robot.rc.mapping
+        return {
+            mapping.steering.channel: mapping.steering.center_raw,
+            mapping.throttle_brake.channel: mapping.throttle_brake.min_raw,
+            mapping.mode_switch.channel: 1000,
+        }
+
+    # --- observation --------------------------------------------------------------------------
+
+    def _observe(self, now: float) -> None:
+        outputs = self.runtime.outputs
+        if outputs is None:
+            return
+        dac = self.robot.drive.dac
+        observation = observe(self.world, outputs, dac.throttle_channel, dac.regen_channel)
+        self.record.top_speed_mps = max(self.record.top_speed_mps, abs(observation.speed_mps))
+        if now >= self._next_record_s:
+            self.record.samples.append(observation)
+            self._next_record_s = now + RECORD_PERIOD_S
+        self._judge(observation)
+
+    def _judge(self, observation: Observation) -> None:
+        now = observation.time_s
+        for timing in self.record.fault_timings:
+            if timing.safe_at_s is None and observation.safe and now - timing.at_s <= SAFE_SEARCH_S:
+                timing.safe_at_s = now
+        for verdict in self.record.verdicts:
+            if verdict.passed is not None:
+                continue
+            expectation = verdict.expectation
+            if expectation.at_s is not None and now >= self.started_at + expectation.at_s:
+                verdict.passed = conditions_hold(observation, expectation.conditions)
+            elif verdict.window is not None:
+                start_s, end_s = verdict.window
+                if conditions_hold(observation, expectation.conditions):
+                    verdict.passed, verdict.measured_s = now <= end_s, now - start_s
+                elif now > end_s:
+                    verdict.passed = False
