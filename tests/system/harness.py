@@ -1,0 +1,77 @@
+"""A whole robot for system tests: the real controller on the simulated robot, on virtual time."""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass
+
+from bywire.hal.sim.clock import VirtualClock
+from bywire.hal.sim.world import SimWorld
+from bywire.model import ControlMode, Gear
+from bywire.runtime.app import Runtime, RuntimeConfig
+
+THROTTLE_CHANNEL = 0
+
+
+@dataclass
+class Robot:
+    """World, controller and a timeline of actions; `run` plays it once, then read the histories."""
+
+    clock: VirtualClock
+    world: SimWorld
+    runtime: Runtime
+
+    @classmethod
+    def build(cls, config: RuntimeConfig | None = None) -> Robot:
+        clock = VirtualClock()
+        world = SimWorld.create(clock)
+        return cls(clock, world, Runtime(world.hardware, config or RuntimeConfig()))
+
+    def at(self, time_s: float, action: Callable[[], None]) -> None:
+        self.clock.call_at(time_s, action)
+
+    def arm_rc(self, at_s: float = 0.1) -> None:
+        """Switch through STOP into RC, forward gear, sticks centred."""
+        rc = self.world.rc
+        self.at(at_s, lambda: (rc.set_mode(ControlMode.STOP), rc.set_gear(Gear.FORWARD)))
+        self.at(at_s + 0.1, lambda: rc.set_mode(ControlMode.RC))
+
+    def run(self, until_s: float) -> None:
+        self.world.start()
+        self.runtime.run(until_s=until_s)
+
+    # --- reading the outputs as they were ------------------------------------------------------
+
+    def level(self, line: str, time_s: float) -> bool:
+        return self.world.gpio[line].level_at(time_s)
+
+    def throttle_volts(self, time_s: float) -> float:
+        volts = 0.0
+        for stamp_s, channel, value in self.world.dac.history:
+            if stamp_s > time_s:
+                break
+            if channel == THROTTLE_CHANNEL:
+                volts = value
+        return volts
+
+    def first_time(self, after_s: float, condition: Callable[[float], bool]) -> float | None:
+        """Earliest change time ≥ after_s at which `condition(time)` holds (every output change)."""
+        times = sorted(
+            {stamp for history in self._histories() for stamp in history if stamp >= after_s}
+        )
+        return next((stamp for stamp in [after_s, *times] if condition(stamp)), None)
+
+    def safe_at(self, time_s: float) -> bool:
+        return (
+            not self.level("ebrake_release", time_s)
+            and not self.level("motors_enable", time_s)
+            and self.throttle_volts(time_s) == 0.0
+        )
+
+    def rising_edges(self, line: str) -> list[float]:
+        history = self.world.gpio[line].history
+        return [stamp for stamp, level in history if level]
+
+    def _histories(self) -> list[list[float]]:
+        lines = [[stamp for stamp, _ in out.history] for out in self.world.gpio.values()]
+        return [*lines, [stamp for stamp, _, _ in self.world.dac.history]]
