@@ -227,14 +227,23 @@ class SimRun:
             if timing.safe_at_s is None and observation.safe and now - timing.at_s <= SAFE_SEARCH_S:
                 timing.safe_at_s = now
         for verdict in self.record.verdicts:
-            if verdict.passed is not None:
-                continue
-            expectation = verdict.expectation
-            if expectation.at_s is not None and now >= self.started_at + expectation.at_s:
+            if verdict.passed is None or verdict.measured_s is None:
+                self._judge_one(verdict, observation)
+
+    def _judge_one(self, verdict: Verdict, observation: Observation) -> None:
+        """Decide a pending expectation; a missed deadline still gets its measured time."""
+        now, expectation = observation.time_s, verdict.expectation
+        if expectation.at_s is not None:
+            if verdict.passed is None and now >= self.started_at + expectation.at_s:
                 verdict.passed = conditions_hold(observation, expectation.conditions)
-            elif verdict.window is not None:
-                start_s, end_s = verdict.window
-                if conditions_hold(observation, expectation.conditions):
-                    verdict.passed, verdict.measured_s = now <= end_s, now - start_s
-                elif now > end_s:
-                    verdict.passed = False
+            return
+        if verdict.window is None:
+            return
+        start_s, end_s = verdict.window
+        if conditions_hold(observation, expectation.conditions):
+            if verdict.passed is None:
+                verdict.passed = now <= end_s
+            if now - start_s <= SAFE_SEARCH_S:
+                verdict.measured_s = now - start_s
+        elif now > end_s and verdict.passed is None:
+            verdict.passed = False

@@ -1,0 +1,40 @@
+"""Every packaged fault-injection scenario passes its own expectations on the default robot."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+
+from bywire.config import default_sim_config
+from bywire.sim.runner import SimRun
+from bywire.sim.scenario import load_scenario, parse_scenario
+
+SCENARIOS = sorted((Path(__file__).resolve().parents[2] / "src/bywire/scenarios").glob("*.toml"))
+FAULTS = [path for path in SCENARIOS if path.stem != "test-course"]  # tests/system runs that one
+
+
+def test_the_folder_holds_the_fault_scenarios() -> None:
+    names = {path.stem for path in SCENARIOS}
+    assert {"test-course", "rc-link-lost", "can-silence", "can-unplugged", "dac-failure"} <= names
+
+
+@pytest.mark.parametrize("path", FAULTS, ids=[path.stem for path in FAULTS])
+def test_scenario_meets_its_expectations(path: Path) -> None:
+    scenario = load_scenario(path)
+    record = SimRun(default_sim_config(), scenario).run()
+    failed = [verdict.expectation.describe() for verdict in record.verdicts if not verdict.passed]
+    assert failed == []
+    assert record.verdicts
+
+
+def test_a_deadline_too_tight_fails() -> None:
+    """The checker can fail: the same RC-loss scenario with a 50 ms deadline must not pass."""
+    text = (SCENARIOS[0].parent / "rc-link-lost.toml").read_text(encoding="utf-8")
+    assert "within_s = 0.110" in text
+    tight = text.replace("within_s = 0.110", "within_s = 0.050")
+    record = SimRun(default_sim_config(), parse_scenario(tight, "tight.toml")).run()
+    verdict = next(v for v in record.verdicts if v.expectation.after == "rc lost")
+    assert verdict.passed is False
+    assert verdict.measured_s is not None
+    assert verdict.measured_s > 0.050
