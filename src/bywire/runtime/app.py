@@ -32,7 +32,7 @@ from bywire.runtime.readers import CanReader, IbusReader, RecentFault
 from bywire.runtime.reports import Health, build_reports
 from bywire.runtime.schedule import SCHEDULE, PeriodicTask, TaskSpec
 
-Observer = Callable[[float, ControlOutputs], None]
+CycleObserver = Callable[[float], None]
 
 
 @dataclass(frozen=True, slots=True)
@@ -88,7 +88,9 @@ class Runtime:
         self.tx_faults = RecentFault()
         self.overrun_faults = RecentFault()
         self.reports_sent = 0
-        self.observers: list[Observer] = []
+        self.on_cycle: list[CycleObserver] = []
+        """Called with `now` after every pass of the loop, when every output of that instant
+        has been written (the simulator observes the robot here)."""
         self._stepped_at: float | None = None
         self._stop_requested = False
         self._actions: dict[str, Callable[[float], None]] = {
@@ -113,6 +115,8 @@ class Runtime:
                     break
                 self._poll_inputs(now)
                 self._run_due_tasks()
+                for observer in self.on_cycle:
+                    observer(now)
                 self.clock.wait_until(self._next_wake(until_s))
         finally:
             self.actuators.write_safe(self.clock.now())
@@ -135,10 +139,21 @@ class Runtime:
         for command in commands:
             self._store(command)
         if rc is not None or commands:
-            outputs = self._decide(now, force=True)
-            self.actuators.write_steering(outputs.steering_pulse_s)
-            self.actuators.write_drive(outputs.drive, now)
-            self.actuators.write_brakes(outputs.hydrobrake_duty, outputs.ebrake_engaged)
+            before = self.outputs
+            self._write_changes(before, self._decide(now, force=True), now)
+
+    def _write_changes(
+        self, before: ControlOutputs | None, after: ControlOutputs, now: float
+    ) -> None:
+        """Write at once what a new input changed. The periodic tasks refresh everything anyway;
+        an unchanged DAC value is not worth an I2C transfer 140 times a second."""
+        if before is None or after.steering_pulse_s != before.steering_pulse_s:
+            self.actuators.write_steering(after.steering_pulse_s)
+        if before is None or after.drive != before.drive:
+            self.actuators.write_drive(after.drive, now)
+        brakes = (after.hydrobrake_duty, after.ebrake_engaged)
+        if before is None or brakes != (before.hydrobrake_duty, before.ebrake_engaged):
+            self.actuators.write_brakes(*brakes)
 
     def _store(self, command: Stamped[Command]) -> None:
         value = command.value
@@ -204,10 +219,7 @@ class Runtime:
         self.actuators.write_steering(self._decide(now).steering_pulse_s)
 
     def _driving_task(self, now: float) -> None:
-        outputs = self._decide(now)
-        self.actuators.write_drive(outputs.drive, now)
-        for observer in self.observers:
-            observer(now, outputs)
+        self.actuators.write_drive(self._decide(now).drive, now)
 
     def _hydrobrake_task(self, now: float) -> None:
         outputs = self._decide(now)
