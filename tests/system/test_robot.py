@@ -195,3 +195,16 @@ def test_the_test_course_meets_every_expectation() -> None:
     assert failed == []
     assert len(record.verdicts) >= 5
     assert record.samples[-1].distance_m > 20.0
+
+
+def test_unplugged_bus_does_not_starve_the_lights_task() -> None:
+    """§5.2: with no mailbox ever freeing, the report task must give up, not spin."""
+    robot = can_driving(throttle=0.3)
+    robot.at(1.0, robot.world.bus.unplug)
+    robot.run(5.0)
+    tasks = {task.spec.name: task.stats for task in robot.runtime.tasks}
+    assert tasks["lights"].runs == pytest.approx(5.0 * 20, abs=1)
+    assert all(stats.overruns == 0 for stats in tasks.values())
+    assert robot.runtime.tx_faults.count >= 150  # one refusal per report period, then back off
+    assert robot.runtime.reports_sent <= 50 * 6 + 10  # a second of reports, then a full queue
+    assert robot.level("error_led", 4.9)
