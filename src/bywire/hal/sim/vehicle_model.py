@@ -112,7 +112,9 @@ def speed_step(speed_mps: float, drive_mps2: float, resistance: float, dt_s: flo
         excess = abs(drive_mps2) - resistance
         return math.copysign(excess * dt_s, drive_mps2) if excess > 0.0 else 0.0
     new_speed_mps = speed_mps + (drive_mps2 - math.copysign(resistance, speed_mps)) * dt_s
-    return 0.0 if new_speed_mps * speed_mps < 0.0 else new_speed_mps
+    # Compare signs, not the product: for a tiny speed the product underflows to −0.0.
+    crossed_zero = (new_speed_mps > 0.0) != (speed_mps > 0.0)
+    return 0.0 if crossed_zero else new_speed_mps
 
 
 def servo_target_norm(pulse_s: float, current_norm: float, config: VehicleConfig) -> float:
