@@ -15,6 +15,10 @@ from bywire.errors import BywireError
 # name -> (module, one-line help). Modules are imported only when their command runs, so that
 # `bywire --help` stays fast and one broken optional dependency cannot take down every command.
 COMMANDS: dict[str, tuple[str, str]] = {
+    "sim": (
+        "bywire.cli.sim",
+        "run the controller on the simulated robot through a scenario, then summarise",
+    ),
     "demo": ("bywire.cli.demo", "run the codecs on simulated traffic and show what they do"),
     "bittiming": (
         "bywire.cli.bittiming",

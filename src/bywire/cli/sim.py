@@ -1,0 +1,174 @@
+"""`bywire sim`: the real controller on the simulated robot, driven by a scenario, then a summary.
+
+By default it plays `test-course`, the thesis' trial run (§5.1.2), in virtual time. It shows
+progress on stderr while it runs (when stderr is a terminal), prints the summary, optionally
+writes a plot and a CAN log, and exits 1 when an expectation of the scenario failed.
+"""
+
+from __future__ import annotations
+
+import argparse
+import contextlib
+import json
+import sys
+import time
+from collections.abc import Iterator
+from pathlib import Path
+
+from rich.console import Console
+from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
+from rich.table import Table
+
+from bywire.config import default_sim_config, load_config
+from bywire.sim.canlog import BusTally, CanLog, check_log_path
+from bywire.sim.catalog import DEFAULT_SCENARIO, find_scenario, packaged_scenarios
+from bywire.sim.plot import check_plot_path, write_plot
+from bywire.sim.runner import SimRun
+from bywire.sim.summary import build_summary, render
+
+PROGRESS_PERIOD_S = 0.1  # simulated seconds between progress updates
+
+
+class _Console(Console):
+    """rich exits 1 when the reader goes away; `bywire sim | head` is no error (main says so)."""
+
+    def on_broken_pipe(self) -> None:
+        self.quiet = True
+        raise BrokenPipeError
+
+
+def _seconds(text: str) -> float:
+    try:
+        value = float(text)
+    except ValueError:
+        value = -1.0
+    if not value > 0:
+        raise argparse.ArgumentTypeError(f"must be a number of seconds > 0, got {text!r}")
+    return value
+
+
+def configure(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument(
+        "--scenario",
+        default=DEFAULT_SCENARIO,
+        metavar="NAME|FILE",
+        help=f"packaged scenario (see --list) or scenario TOML file (default: {DEFAULT_SCENARIO})",
+    )
+    parser.add_argument("--list", action="store_true", help="list the packaged scenarios and exit")
+    parser.add_argument(
+        "--duration", type=_seconds, metavar="S", help="simulated seconds (default: the scenario's)"
+    )
+    parser.add_argument(
+        "--realtime", action="store_true", help="pace the run by the wall clock (live view)"
+    )
+    parser.add_argument(
+        "--json", action="store_true", help="print the summary as JSON and nothing else"
+    )
+    parser.add_argument("--plot", type=Path, metavar="FILE.png", help="write a plot of the run")
+    parser.add_argument(
+        "--log",
+        type=Path,
+        metavar="FILE.blf|.asc|.log",
+        help="write every CAN frame (BLF, Vector ASC or candump -L, by suffix)",
+    )
+    parser.add_argument(
+        "--config",
+        type=Path,
+        metavar="FILE",
+        help="robot configuration TOML (default: the packaged simulator defaults)",
+    )
+
+
+def run(args: argparse.Namespace) -> int:
+    if args.list:
+        _list(as_json=args.json)
+        return 0
+    if args.plot is not None:
+        check_plot_path(args.plot)
+    if args.log is not None:
+        check_log_path(args.log)
+    robot = default_sim_config() if args.config is None else load_config(args.config)
+    sim = SimRun(
+        robot, find_scenario(args.scenario), realtime=args.realtime, duration_s=args.duration
+    )
+    tally = BusTally()
+    sim.add_can_monitor(tally)
+    wall_s, frames_logged = _play(
+        sim, args.log, show_progress=sys.stderr.isatty() and not args.json
+    )
+    summary = build_summary(sim, wall_s, tally)
+    if args.plot is not None:
+        write_plot(sim, args.plot)
+    files = {"plot": _name(args.plot), "can_log": _name(args.log)}
+    if args.json:
+        print(json.dumps({**summary.as_json(), "files": files}, indent=2))
+    else:
+        console = _Console()
+        render(summary, console)
+        if args.plot is not None:
+            console.print(f"Plot: {args.plot}", soft_wrap=True)
+        if args.log is not None:
+            console.print(f"CAN log: {args.log} ({frames_logged} frames)", soft_wrap=True)
+    return 0 if summary.passed else 1
+
+
+def _name(path: Path | None) -> str | None:
+    return None if path is None else str(path)
+
+
+def _play(sim: SimRun, log_path: Path | None, *, show_progress: bool) -> tuple[float, int]:
+    """Run to the end; (wall seconds, frames logged). The log is closed even if the run fails."""
+    with contextlib.ExitStack() as stack:
+        log = None
+        if log_path is not None:
+            log = stack.enter_context(CanLog(log_path, sim.started_at))
+            sim.add_can_monitor(log)
+        if show_progress:
+            stack.enter_context(_progress(sim))
+        started = time.perf_counter()
+        sim.run()
+        return time.perf_counter() - started, 0 if log is None else log.frames
+
+
+@contextlib.contextmanager
+def _progress(sim: SimRun) -> Iterator[None]:
+    """A progress bar on stderr in simulated seconds, with the speed-up and the robot's state."""
+    progress = Progress(
+        TextColumn("[bold]{task.description}"),
+        BarColumn(),
+        TextColumn("{task.completed:5.1f}/{task.total:.1f} s"),
+        TimeElapsedColumn(),
+        TextColumn("{task.fields[live]}"),
+        console=Console(stderr=True),
+        transient=True,
+    )
+    wall_start_s = time.perf_counter()
+
+    def update(elapsed_s: float) -> None:
+        speedup = elapsed_s / max(time.perf_counter() - wall_start_s, 1e-9)
+        live = f"×{speedup:.1f}"
+        if sim.record.samples:
+            now = sim.record.samples[-1]
+            live += f"  {now.mode.name:<4} {now.speed_mps:5.2f} m/s {now.distance_m:6.1f} m"
+        progress.update(task, completed=min(elapsed_s, sim.duration_s), live=live)
+
+    with progress:
+        task = progress.add_task(sim.scenario.name, total=sim.duration_s, live="")
+        sim.every(PROGRESS_PERIOD_S, update)
+        yield
+        update(sim.duration_s)
+
+
+def _list(*, as_json: bool) -> None:
+    scenarios = packaged_scenarios()
+    if as_json:
+        rows = [
+            {"name": name, "duration_s": s.duration_s, "description": s.description}
+            for name, s in scenarios.items()
+        ]
+        print(json.dumps(rows, indent=2))
+        return
+    table = Table("scenario", "duration", "description", box=None, pad_edge=False)
+    for name, scenario in scenarios.items():
+        table.add_row(name, f"{scenario.duration_s:g} s", scenario.description)
+    _Console().print(table)
