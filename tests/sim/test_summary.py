@@ -123,8 +123,8 @@ def test_time_to_stop_is_the_stop_events_with_its_deadline(summary: Summary) -> 
     assert events["arm"].already_safe
     assert events["arm"].time_to_safe_s is None
     assert events["bad CRC"].action == "can_corrupt_crc"
-    # Outputs are timed to when they are next safe: here that is the STOP, 0.9 s later.
-    assert events["bad CRC"].time_to_safe_s == pytest.approx(events["STOP"].at_s - 0.6, abs=0.02)
+    # The bad CRC did not make the robot stop, and the later STOP is not credited to it.
+    assert events["bad CRC"].time_to_safe_s is None
     (stop,) = summary.stop_times
     assert stop.label == "STOP"
     assert stop.deadline_s == 0.110

@@ -59,13 +59,14 @@ class TaskStats:
             self.budget_exceeded += 1
 
     def jitter_percentile_s(self, fraction: float) -> float:
-        """Upper edge of the bin holding that fraction of runs (0 when nothing ran)."""
+        """Upper edge of the bin holding that fraction of runs, never above the maximum seen
+        (0 when nothing ran)."""
         threshold = math.ceil(fraction * self.runs)
         seen = 0
         for index, count in enumerate(self.jitter_bins):
             seen += count
             if count and seen >= threshold:
-                return (index + 1) * JITTER_BIN_S
+                return min((index + 1) * JITTER_BIN_S, self.max_jitter_s)
         return 0.0
 
 

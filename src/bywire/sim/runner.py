@@ -45,11 +45,21 @@ class Verdict:
 
 @dataclass(slots=True)
 class FaultTiming:
-    """A labelled event and when the outputs were next safe after it."""
+    """A labelled event and when the outputs were next safe after it.
 
-    label: str
+    The search ends at the next labelled event, so a later STOP is never credited to an earlier,
+    unrelated event. `already_safe`: the outputs were safe when it happened.
+    """
+
+    event: Event
     at_s: float
+    already_safe: bool
     safe_at_s: float | None = None
+    searching: bool = True
+
+    @property
+    def label(self) -> str:
+        return self.event.label or ""
 
     @property
     def time_to_safe_s(self) -> float | None:
@@ -64,6 +74,7 @@ class RunRecord:
     verdicts: list[Verdict] = field(default_factory=list)
     fault_timings: list[FaultTiming] = field(default_factory=list)
     top_speed_mps: float = 0.0
+    error_flags_seen: int = 0
 
 
 class SimRun:
@@ -102,6 +113,7 @@ class SimRun:
             "gear": "neutral",
         }
         self._next_record_s = self.started_at
+        self._last: Observation | None = None
         self.runtime.on_cycle.append(self._observe)
 
     def add_can_monitor(self, monitor: Callable[[LoggedFrame], None]) -> None:
@@ -135,7 +147,10 @@ class SimRun:
     def _apply(self, event: Event) -> None:
         now = self.world.clock.now()
         if event.label:
-            self.record.fault_timings.append(FaultTiming(event.label, now))
+            for timing in self.record.fault_timings:
+                timing.searching = False
+            already_safe = self._last is None or self._last.safe
+            self.record.fault_timings.append(FaultTiming(event, now, already_safe))
             for verdict in self.record.verdicts:
                 if verdict.expectation.after == event.label and verdict.window is None:
                     within_s = verdict.expectation.within_s or 0.0
@@ -215,7 +230,9 @@ class SimRun:
             return
         dac = self.robot.drive.dac
         observation = observe(self.world, outputs, dac.throttle_channel, dac.regen_channel)
+        self._last = observation
         self.record.top_speed_mps = max(self.record.top_speed_mps, abs(observation.speed_mps))
+        self.record.error_flags_seen |= observation.error_flags
         if now >= self._next_record_s:
             self.record.samples.append(observation)
             self._next_record_s = now + RECORD_PERIOD_S
@@ -224,8 +241,10 @@ class SimRun:
     def _judge(self, observation: Observation) -> None:
         now = observation.time_s
         for timing in self.record.fault_timings:
-            if timing.safe_at_s is None and observation.safe and now - timing.at_s <= SAFE_SEARCH_S:
-                timing.safe_at_s = now
+            if not timing.searching or timing.already_safe:
+                continue
+            if observation.safe and now - timing.at_s <= SAFE_SEARCH_S:
+                timing.safe_at_s, timing.searching = now, False
         for verdict in self.record.verdicts:
             if verdict.passed is None or verdict.measured_s is None:
                 self._judge_one(verdict, observation)

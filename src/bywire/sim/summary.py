@@ -119,9 +119,6 @@ def build_summary(run: SimRun, wall_s: float, bus: BusTally | None = None) -> Su
     start_s = run.started_at
     simulated_s = min(run.world.clock.now() - start_s, run.duration_s)
     samples = run.record.samples
-    flags_seen = 0
-    for sample in samples:
-        flags_seen |= sample.error_flags
     return Summary(
         scenario=run.scenario.name,
         description=run.scenario.description,
@@ -133,25 +130,22 @@ def build_summary(run: SimRun, wall_s: float, bus: BusTally | None = None) -> Su
         mode_changes=tuple(ModeChange(at - start_s, m.name) for at, m in run.runtime.mode_log),
         events=_labelled_events(run),
         expectations=tuple(_result(v, run, simulated_s) for v in run.record.verdicts),
-        error_flags_seen=tuple(flag_names(flags_seen)),
+        error_flags_seen=tuple(flag_names(run.record.error_flags_seen)),
         inputs=_inputs(run, bus),
         tasks=tuple(_task_row(task, simulated_s, wall_s) for task in run.runtime.tasks),
     )
 
 
 def _labelled_events(run: SimRun) -> tuple[LabelledEvent, ...]:
-    actions = {e.label: e.values.get("fault", e.kind) for e in run.scenario.events}
     rows = []
     for timing in run.record.fault_timings:
-        before = [s for s in run.record.samples if s.time_s < timing.at_s]
-        already_safe = before[-1].safe if before else True  # the controller starts safe
         rows.append(
             LabelledEvent(
                 label=timing.label,
                 at_s=timing.at_s - run.started_at,
-                action=str(actions.get(timing.label, "")),
-                already_safe=already_safe,
-                time_to_safe_s=None if already_safe else timing.time_to_safe_s,
+                action=str(timing.event.values.get("fault", timing.event.kind)),
+                already_safe=timing.already_safe,
+                time_to_safe_s=None if timing.already_safe else timing.time_to_safe_s,
                 deadline_s=_deadline_s(run.scenario, timing.label),
             )
         )
@@ -212,7 +206,7 @@ def _task_row(task: PeriodicTask, simulated_s: float, wall_s: float) -> TaskRow:
         runs=stats.runs,
         runtime_share_pct=100.0 * stats.spent_s / wall_s if wall_s > 0 else 0.0,
         # The percentile is a 10 µs bin's upper edge: never report it above the maximum.
-        jitter_p99_s=min(stats.jitter_percentile_s(0.99), stats.max_jitter_s),
+        jitter_p99_s=stats.jitter_percentile_s(0.99),
         jitter_max_s=stats.max_jitter_s,
         overruns=stats.overruns,
         budget_exceeded=stats.budget_exceeded,
