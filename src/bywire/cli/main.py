@@ -25,6 +25,7 @@ COMMANDS: dict[str, tuple[str, str]] = {
         "CAN bit timing: bxCAN CAN_BTR values and ip-link settings",
     ),
     "dbc": ("bywire.cli.dbc", "the CAN database: show messages and signals, generate C code"),
+    "bench": ("bywire.cli.bench", "measure latency, jitter, CPU, memory and speed-up (§8)"),
 }
 
 

@@ -1,0 +1,250 @@
+"""The real-time session: the controller on the simulated robot, a nominal and a flood phase.
+
+Timeline, in seconds after the controller starts (D = one phase)::
+
+    0        RC transmitter in STOP with gear forward; the computer asks for zero throttle
+    0.5      mode switch to CAN: the robot arms (moved through STOP with throttle at zero)
+    1        nominal phase: CAN sweep; half-way, mode switch to RC and RC sweep
+    1 + D    flood phase: other nodes fill the bus; CAN sweep, then RC sweep as before
+    1 + 2D   stop
+
+The clock is injected: the benchmark runs on a real-time clock, the tests on a virtual one (where
+every latency is exactly zero); both are metered, to tell the simulator's CPU time apart. The
+benchmark's own work is put a few ms after the 10 ms grid of the controller's deadlines, where
+the loop is idle, so that it disturbs the figures least.
+"""
+
+from __future__ import annotations
+
+import functools
+from collections.abc import Callable
+from dataclasses import dataclass
+
+from bywire.bench.clocks import MeteredClock
+from bywire.bench.latency import (
+    DacWrite,
+    SentCommand,
+    ThrottleOutput,
+    can_command,
+    rc_command,
+)
+from bywire.bench.machine import peak_rss_bytes
+from bywire.bench.phases import (
+    Marks,
+    PhaseResult,
+    PhaseWindow,
+    TaskFigures,
+    latency_in,
+    stops_in,
+)
+from bywire.bench.sweeps import CanSweep, MovementLog, RcSweep
+from bywire.config import RobotConfig
+from bywire.hal.sim.hlc import COMMAND_PERIOD_S
+from bywire.hal.sim.world import SimWorld
+from bywire.model import ControlMode, Gear
+from bywire.protocol import ibus
+from bywire.runtime.app import Runtime, RuntimeConfig
+from bywire.runtime.schedule import TaskStats
+
+ARM_AT_S = 0.5
+FIRST_PHASE_AT_S = 1.0
+GRID_OFFSET_S = 0.004
+PROGRESS_PERIOD_S = 1.0
+
+Progress = Callable[[str, float, float], None]
+"""Called with the phase's name, seconds done and seconds in all (about once a second)."""
+
+
+@dataclass(frozen=True, slots=True)
+class BenchSettings:
+    """How long each phase lasts, how full the flood makes the bus, how long a switch settles."""
+
+    phase_s: float = 60.0
+    flood_load: float = 1.0
+    settle_s: float = 0.2
+
+
+@dataclass(frozen=True, slots=True)
+class RealtimeResult:
+    """Both phases' results and the process's peak resident memory at the end."""
+
+    phases: tuple[PhaseResult, ...]
+    peak_rss_bytes: int
+
+
+class RealtimeSession:
+    """One world, one controller, the sweeps and the phase timers on ``clock``."""
+
+    def __init__(
+        self,
+        robot: RobotConfig,
+        settings: BenchSettings,
+        clock: MeteredClock,
+        progress: Progress | None = None,
+    ) -> None:
+        self.robot = robot
+        self.clock = clock
+        self.settings = settings
+        self.progress = progress
+        dac = robot.drive.dac
+        self.world = SimWorld.create(
+            clock,
+            dac_throttle_channel=dac.throttle_channel,
+            dac_regen_channel=dac.regen_channel,
+            hydrobrake_period_s=1.0 / robot.hydrobrake.pwm.frequency_hz,
+            seed=robot.sim.seed,
+            rc_mapping=robot.rc.mapping,
+            bus_log_limit=0,
+        )
+        self.runtime = Runtime(self.world.hardware, RuntimeConfig.from_robot(robot))
+        self.movement_log = MovementLog(self.world.bus)
+        self.can_sweep = CanSweep(self.world)
+        self.rc_sweep = RcSweep(self.world)
+        self.writes: list[DacWrite] = []
+        first_s = self.runtime.started_at + FIRST_PHASE_AT_S + GRID_OFFSET_S
+        self.windows = (
+            PhaseWindow("nominal", first_s, first_s + settings.phase_s, None, settings.settle_s),
+            PhaseWindow(
+                "flood",
+                first_s + settings.phase_s,
+                first_s + 2 * settings.phase_s,
+                settings.flood_load,
+                settings.settle_s,
+            ),
+        )
+
+    def run(self) -> RealtimeResult:
+        """Play the timeline to its end; the controller's outputs end safe."""
+        self._schedule()
+        self.runtime.run(until_s=self.windows[-1].end_s + 1.0)
+        self.world.stop()
+        rss_bytes = peak_rss_bytes()
+        commands = self.commands()
+        phases = tuple(self._result(window, *commands) for window in self.windows)
+        return RealtimeResult(phases, rss_bytes)
+
+    # --- the timeline -------------------------------------------------------------------------
+
+    def _schedule(self) -> None:
+        world, clock = self.world, self.world.clock
+        world.rc.set_gear(Gear.FORWARD)
+        world.hlc.set_movement(0.0, 0.0, 0.0, Gear.FORWARD)
+        first_s = self.runtime.started_at + GRID_OFFSET_S
+        world.rc.start(first_s)
+        world.hlc.start(first_s)
+        world.vehicle.start(first_s)
+        self.can_sweep.start(first_s + COMMAND_PERIOD_S / 2)
+        self.rc_sweep.start(first_s + ibus.FRAME_PERIOD_S / 2)
+        clock.call_at(self.runtime.started_at + ARM_AT_S, self._to_can)
+        for window in self.windows:
+            clock.call_at(window.start_s, functools.partial(self._begin, window))
+            clock.call_at(window.half_s, self._to_rc)
+            clock.call_at(window.end_s, functools.partial(self._end, window))
+        clock.call_at(self.windows[-1].end_s, self.runtime.request_stop)
+        if self.progress is not None:
+            clock.call_at(self.windows[0].start_s + PROGRESS_PERIOD_S, self._report_progress)
+
+    def _to_can(self) -> None:
+        self.rc_sweep.active = False
+        self.world.rc.set_mode(ControlMode.CAN)
+        self.can_sweep.active = True
+
+    def _to_rc(self) -> None:
+        self.can_sweep.active = False
+        self.world.rc.set_mode(ControlMode.RC)
+        self.rc_sweep.active = True
+
+    def _begin(self, window: PhaseWindow) -> None:
+        for task in self.runtime.tasks:
+            task.stats = TaskStats()
+        if window.flood_load is not None:
+            self.world.bus.flood(window.flood_load)
+        self._to_can()
+        window.started = Marks.take(self.clock, self.world.bus)
+        if self.progress is not None:
+            first, last = self.windows[0], self.windows[-1]
+            self.progress(window.name, window.start_s - first.start_s, last.end_s - first.start_s)
+
+    def _end(self, window: PhaseWindow) -> None:
+        window.ended = Marks.take(self.clock, self.world.bus)
+        window.task_stats = [(task, task.stats) for task in self.runtime.tasks]
+        for task in self.runtime.tasks:
+            task.stats = TaskStats()  # the phase's figures stay as they are now
+        self.can_sweep.active = self.rc_sweep.active = False
+        self.world.bus.stop_flood()
+        self._collect_writes()
+
+    def _collect_writes(self) -> None:
+        """Copy the throttle channel's new history entries (the DAC trims old ones on long runs)."""
+        channel = self.robot.drive.dac.throttle_channel
+        after_s = self.writes[-1].time_s if self.writes else float("-inf")
+        self.writes += [
+            DacWrite(time_s, volts)
+            for time_s, entry_channel, volts in self.world.dac.history
+            if entry_channel == channel and time_s > after_s
+        ]
+
+    def _report_progress(self) -> None:
+        if self.progress is None:
+            return
+        now = self.world.clock.now()
+        first, last = self.windows[0], self.windows[-1]
+        current = next((w for w in self.windows if w.start_s <= now < w.end_s), last)
+        self.progress(current.name, now - first.start_s, last.end_s - first.start_s)
+        if now + PROGRESS_PERIOD_S < last.end_s:
+            self.world.clock.call_at(now + PROGRESS_PERIOD_S, self._report_progress)
+
+    # --- results ------------------------------------------------------------------------------
+
+    def _output(self) -> ThrottleOutput:
+        return ThrottleOutput(self.robot.drive.limits, self.robot.drive.dac.vref_volts)
+
+    def commands(self) -> tuple[list[SentCommand], list[SentCommand]]:
+        """Every CAN movement command and every swept IBUS frame, with the volts it must set."""
+        output, mapping = self._output(), self.robot.rc.mapping
+        can_commands = [
+            command
+            for frame in self.movement_log.frames
+            if (command := can_command(output, frame.timestamp_s, frame.data)) is not None
+        ]
+        rc_commands = [
+            command
+            for completed_s, channels in self.rc_sweep.frames
+            if (command := rc_command(output, mapping, completed_s, channels)) is not None
+        ]
+        return can_commands, rc_commands
+
+    def _result(
+        self,
+        window: PhaseWindow,
+        can_commands: list[SentCommand],
+        rc_commands: list[SentCommand],
+    ) -> PhaseResult:
+        tolerance_volts = self._output().tolerance_volts
+        started, ended = window.started, window.ended
+        if started is None or ended is None:
+            raise RuntimeError(f"the {window.name} phase did not run to its end")
+        duration_s = window.end_s - window.start_s
+        wall_s = ended.wall_s - started.wall_s
+        return PhaseResult(
+            name=window.name,
+            duration_s=duration_s,
+            flood_load=window.flood_load,
+            cpu_share=(ended.cpu_s - started.cpu_s) / wall_s,
+            sim_cpu_share=(ended.sim_cpu_s - started.sim_cpu_s) / wall_s,
+            bus_load=(ended.bus_bits - started.bus_bits) / self.world.bus.bitrate_bps / duration_s,
+            can_latency=latency_in(can_commands, self.writes, window.can_span(), tolerance_volts),
+            ibus_latency=latency_in(rc_commands, self.writes, window.rc_span(), tolerance_volts),
+            tasks=tuple(TaskFigures.of(task, stats) for task, stats in window.task_stats),
+            stops=stops_in(self.runtime.mode_log, (window.start_s + window.settle_s, window.end_s)),
+        )
+
+
+def run_realtime(
+    robot: RobotConfig,
+    settings: BenchSettings,
+    clock: MeteredClock,
+    progress: Progress | None = None,
+) -> RealtimeResult:
+    """Run the whole session on ``clock`` and return its figures."""
+    return RealtimeSession(robot, settings, clock, progress).run()

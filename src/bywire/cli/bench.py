@@ -1,0 +1,136 @@
+"""`bywire bench`: measures REQUIREMENTS §8's figures on the simulated robot and prints a table."""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager
+from pathlib import Path
+
+from rich.console import Console
+from rich.progress import BarColumn, Progress, TextColumn
+
+from bywire.bench.clocks import MeteredRealtimeClock
+from bywire.bench.figures import BenchResult, as_json
+from bywire.bench.machine import machine_info
+from bywire.bench.realtime import BenchSettings, run_realtime
+from bywire.bench.realtime import Progress as ProgressCallback
+from bywire.bench.table import render, summary_line
+from bywire.bench.virtual import measure_speedup
+from bywire.config import RobotConfig, default_sim_config, load_config
+from bywire.errors import ConfigError
+from bywire.sim.catalog import DEFAULT_SCENARIO
+
+QUICK_PHASE_S = 1.0
+QUICK_COURSE_S = 10.0
+MAX_PHASE_S = 3600.0
+
+
+def configure(parser: argparse.ArgumentParser) -> None:
+    """Add the options of `bywire bench`."""
+    parser.epilog = (
+        "Runs the controller on the simulated robot in real time: a nominal phase and a phase"
+        " with the CAN bus flooded by other nodes, each first driven over CAN and then by RC;"
+        " then the test course in virtual time. Exit status 0 whether or not targets are met."
+    )
+    parser.add_argument(
+        "--duration",
+        type=float,
+        default=60.0,
+        metavar="SECONDS",
+        help="real time per phase (default 60, as §8's 'over a minute' asks)",
+    )
+    parser.add_argument(
+        "--flood-load",
+        type=float,
+        default=1.0,
+        metavar="SHARE",
+        help="share of the 500 kbit/s bus the other nodes fill in the flood phase (default 1.0)",
+    )
+    parser.add_argument(
+        "--quick",
+        action="store_true",
+        help=f"smoke run: {QUICK_PHASE_S:g} s phases and {QUICK_COURSE_S:g} s of the course",
+    )
+    parser.add_argument("--config", type=Path, metavar="FILE", help="robot TOML (default: sim)")
+    parser.add_argument("--json", action="store_true", help="print the figures as JSON")
+
+
+def _settings(args: argparse.Namespace) -> BenchSettings:
+    phase_s = QUICK_PHASE_S if args.quick else args.duration
+    if not (math.isfinite(phase_s) and 0.5 <= phase_s <= MAX_PHASE_S):
+        raise ConfigError(f"--duration {phase_s:g}: use 0.5 to {MAX_PHASE_S:g} seconds")
+    if not 0.0 < args.flood_load <= 1.0:
+        raise ConfigError(f"--flood-load {args.flood_load:g}: use a share in (0, 1]")
+    return BenchSettings(phase_s=phase_s, flood_load=args.flood_load)
+
+
+def run(args: argparse.Namespace) -> int:
+    """Measure, then print the table (or JSON); 0 whatever the figures are."""
+    settings = _settings(args)
+    robot: RobotConfig = default_sim_config() if args.config is None else load_config(args.config)
+    course_s = QUICK_COURSE_S if args.quick else None
+    machine = machine_info()
+    console = Console(stderr=True)
+    with _progress(console, 2 * settings.phase_s) as progress:
+        realtime = run_realtime(robot, settings, MeteredRealtimeClock(), progress)
+        progress("virtual-time course", 2 * settings.phase_s, 2 * settings.phase_s)
+        speedup = measure_speedup(robot, DEFAULT_SCENARIO, course_s)
+    result = BenchResult(
+        realtime=realtime,
+        speedup=speedup,
+        machine=machine,
+        settings={
+            "phase_s": settings.phase_s,
+            "flood_load": settings.flood_load,
+            "settle_s": settings.settle_s,
+            "quick": bool(args.quick),
+            "config": None if args.config is None else str(args.config),
+            "course_duration_s": speedup.simulated_s,
+        },
+    )
+    if args.json:
+        print(json.dumps(as_json(result), indent=2))
+    else:
+        out = Console()
+        out.print(render(result))
+        out.print(summary_line(result))
+    return 0
+
+
+@contextmanager
+def _progress(console: Console, total_s: float) -> Iterator[ProgressCallback]:
+    """A progress callback on stderr: a bar on a terminal, a line per stage otherwise.
+
+    The bar refreshes only when called (no refresh thread), so it does not compete with the
+    controller's loop for the interpreter.
+    """
+    console.print(
+        f"bywire bench: {total_s:g} s in real time, then the {DEFAULT_SCENARIO} in virtual time",
+        highlight=False,
+    )
+    if not console.is_terminal:
+        yield _stage_lines(console)
+        return
+    columns = (TextColumn("{task.description:<20}"), BarColumn(), TextColumn("{task.fields[done]}"))
+    with Progress(*columns, console=console, auto_refresh=False, transient=True) as bar:
+        task = bar.add_task("nominal", total=total_s, done="")
+
+        def update(stage: str, done_s: float, all_s: float) -> None:
+            bar.update(task, description=stage, completed=done_s, done=f"{done_s:.0f}/{all_s:g} s")
+            bar.refresh()
+
+        yield update
+
+
+def _stage_lines(console: Console) -> Callable[[str, float, float], None]:
+    stages: list[str] = []
+
+    def update(stage: str, done_s: float, all_s: float) -> None:
+        if not stages or stages[-1] != stage:
+            stages.append(stage)
+            console.print(f"  {stage} ({done_s:.0f}/{all_s:g} s)", highlight=False)
+
+    return update
