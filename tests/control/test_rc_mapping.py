@@ -8,6 +8,7 @@ from hypothesis import strategies as st
 
 from bywire.control.rc_mapping import (
     AxisCalibration,
+    FailsafeSignature,
     RcMapping,
     SwitchCalibration,
     axis_norm,
@@ -98,3 +99,17 @@ def test_any_frame_maps_into_command_ranges_or_is_rejected(channels: tuple[int, 
         assert 0.0 <= request.throttle_norm <= 1.0
         assert 0.0 <= request.brake_norm <= 1.0
         assert request.throttle_norm == 0.0 or request.brake_norm == 0.0
+
+
+def test_failsafe_signature_refuses_the_frame_at_once() -> None:
+    mapping = RcMapping()
+    assert rc_request(frame(ch1=900), mapping) is None
+    assert rc_request(frame(ch1=949), mapping) is None
+    assert rc_request(frame(ch1=950), mapping) is not None  # boundary: not below
+    assert rc_request(frame(ch1=1000), mapping) is not None
+
+
+def test_failsafe_signature_channel_is_configurable() -> None:
+    mapping = RcMapping(failsafe=FailsafeSignature(channel=9, below_raw=1100))
+    assert rc_request(frame(ch9=1000), mapping) is None
+    assert rc_request(frame(ch1=900), mapping) is not None  # 900 is a plausible stick value

@@ -32,7 +32,12 @@ from bywire.config.model import (
     TimeoutsSection,
 )
 from bywire.config.reader import MISSING, Interval, Table
-from bywire.control.rc_mapping import AxisCalibration, RcMapping, SwitchCalibration
+from bywire.control.rc_mapping import (
+    AxisCalibration,
+    FailsafeSignature,
+    RcMapping,
+    SwitchCalibration,
+)
 from bywire.control.steering import SteeringConfig
 
 
@@ -69,6 +74,7 @@ def rc_section(table: Table) -> RcSection:
             gear_switch=switch(table.table("gear_switch"), mapping.gear_switch),
             low_beam_switch=switch(table.table("low_beam_switch"), mapping.low_beam_switch),
             hazard_switch=switch(table.table("hazard_switch"), mapping.hazard_switch),
+            failsafe=failsafe(table.table("failsafe"), mapping.failsafe),
         ),
     )
     table.close()
@@ -86,6 +92,15 @@ def axis(table: Table, default: AxisCalibration) -> AxisCalibration:
     )
     table.close()
     return calibration
+
+
+def failsafe(table: Table, default: FailsafeSignature) -> FailsafeSignature:
+    signature = FailsafeSignature(
+        channel=table.integer("channel", default.channel, RC_CHANNELS),
+        below_raw=table.integer("below_raw", default.below_raw, RC_RAW),
+    )
+    table.close()
+    return signature
 
 
 def switch(table: Table, default: SwitchCalibration) -> SwitchCalibration:

@@ -37,6 +37,19 @@ class SwitchCalibration:
 
 
 @dataclass(frozen=True, slots=True)
+class FailsafeSignature:
+    """How to recognise the receiver's failsafe output (R-FAILSAFE, Table 4).
+
+    On losing the transmitter a FlySky receiver sends the failsafe values set on the transmitter.
+    Set the failsafe of `channel` to a pulse below `below_raw` (e.g. 900 µs on the throttle stick,
+    a value the stick itself never reaches) and bywire recognises failsafe frames at once.
+    """
+
+    channel: int = 1
+    below_raw: int = 950
+
+
+@dataclass(frozen=True, slots=True)
 class RcMapping:
     """Which channel does what; the modes and gears are listed from the low to the high position."""
 
@@ -52,6 +65,7 @@ class RcMapping:
         ControlMode.CAN,
     )
     gear_positions: tuple[Gear, Gear, Gear] = (Gear.REVERSE, Gear.NEUTRAL, Gear.FORWARD)
+    failsafe: FailsafeSignature = field(default_factory=FailsafeSignature)
 
 
 @dataclass(frozen=True, slots=True)
@@ -96,9 +110,16 @@ def channels_plausible(channels: tuple[int, ...], mapping: RcMapping) -> bool:
     return all(index < len(channels) and channels[index] in PLAUSIBLE_RAW for index in used)
 
 
+def in_failsafe(channels: tuple[int, ...], mapping: RcMapping) -> bool:
+    """True when the frame carries the receiver's failsafe signature."""
+    signature = mapping.failsafe
+    return signature.channel < len(channels) and channels[signature.channel] < signature.below_raw
+
+
 def rc_request(channels: tuple[int, ...], mapping: RcMapping) -> RcRequest | None:
-    """The request this frame carries, or None when any used channel is implausible."""
-    if not channels_plausible(channels, mapping):
+    """The request this frame carries, or None when it is failsafe output or any used channel is
+    implausible: suspect input is refused whole, at once."""
+    if in_failsafe(channels, mapping) or not channels_plausible(channels, mapping):
         return None
 
     def position(switch: SwitchCalibration) -> int:

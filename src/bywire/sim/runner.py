@@ -214,12 +214,13 @@ class SimRun:
             actions[fault]()
 
     def _failsafe_values(self) -> dict[int, int]:
-        """What a FlySky receiver typically holds on loss: sticks centred, switch to STOP."""
+        """A FlySky receiver's output on loss: the transmitter's failsafe values. Sticks centred,
+        switches as they were, and the configured signature channel at 900 µs."""
         mapping = self.robot.rc.mapping
         return {
             mapping.steering.channel: mapping.steering.center_raw,
-            mapping.throttle_brake.channel: mapping.throttle_brake.min_raw,
-            mapping.mode_switch.channel: 1000,
+            mapping.throttle_brake.channel: mapping.throttle_brake.center_raw,
+            mapping.failsafe.channel: mapping.failsafe.below_raw - 50,
         }
 
     # --- observation --------------------------------------------------------------------------
