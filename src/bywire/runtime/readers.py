@@ -18,6 +18,8 @@ from bywire.protocol import dbc
 from bywire.protocol.ibus import IbusParser
 
 FAULT_HOLD_S = 0.5  # a flag stays up this long after the last bad frame, so a report catches it
+COUNTER_FAIL_LIMIT = 3  # a message with this many unbalanced counter errors is not trusted
+COUNTER_FAIL_MAX = 10  # the leaky counter saturates here, so recovery never takes forever
 
 
 @dataclass(slots=True)
@@ -67,15 +69,24 @@ class IbusReader:
 
 
 class CanReader:
-    """Controller's CAN port → checked commands; counters tracked per message, rejects counted."""
+    """Controller's CAN port → checked commands; counters tracked per message, rejects counted.
+
+    Each command message has a leaky counter of counter errors (as opendbc's CANParser does): a
+    repeated or skipped counter adds one, a good frame takes one away. While it stands at
+    COUNTER_FAIL_LIMIT or more, even intact frames of that message are not used: a sender whose
+    counter keeps jumping (two senders on one id, a replaying node) is not trusted until it has
+    sent that many good frames in a row.
+    """
 
     def __init__(self, port: CanPort) -> None:
         self._port = port
         self._command_ids = frozenset(dbc.command_ids())
         self._previous_counter: dict[int, int | None] = dict.fromkeys(self._command_ids)
+        self.counter_fail: dict[int, int] = dict.fromkeys(self._command_ids, 0)
         self.rejected: Counter[dbc.RejectReason] = Counter()
         self.reject_faults = RecentFault()
         self.ignored_frames = 0
+        self.untrusted_frames = 0
 
     def poll(self, now: float) -> list[Stamped[Command]]:
         """Every command accepted since the last poll, oldest first."""
@@ -91,12 +102,20 @@ class CanReader:
                 self._reject(rejected, now)
                 continue
             self._previous_counter[frame_id] = command.counter
+            self.counter_fail[frame_id] = max(self.counter_fail[frame_id] - 1, 0)
+            if self.counter_fail[frame_id] >= COUNTER_FAIL_LIMIT:
+                self.untrusted_frames += 1
+                self.reject_faults.happened(now)
+                continue
             accepted.append(Stamped(command, now))
         return accepted
 
     def _reject(self, rejected: dbc.CommandRejected, now: float) -> None:
         self.rejected[rejected.reason] += 1
         self.reject_faults.happened(now)
+        if rejected.reason is dbc.RejectReason.COUNTER:
+            fails = self.counter_fail[rejected.frame_id] + 1
+            self.counter_fail[rejected.frame_id] = min(fails, COUNTER_FAIL_MAX)
         if rejected.counter is not None:
             # The frame was intact: follow its counter, as panda does, so one lost frame does
             # not reject every later one.
