@@ -43,8 +43,9 @@ from bywire.hal.sim.hlc import COMMAND_PERIOD_S
 from bywire.hal.sim.world import SimWorld
 from bywire.model import ControlMode, Gear
 from bywire.protocol import ibus
-from bywire.runtime.app import Runtime, RuntimeConfig
+from bywire.runtime.app import Runtime
 from bywire.runtime.schedule import TaskStats
+from bywire.runtime.settings import RuntimeConfig
 
 ARM_AT_S = 0.5
 FIRST_PHASE_AT_S = 1.0

@@ -12,11 +12,9 @@ from __future__ import annotations
 import gc
 import time
 from collections.abc import Callable
-from dataclasses import dataclass, field, replace
+from dataclasses import replace
 
-from bywire.config import RobotConfig
 from bywire.control.controller import (
-    ControlConfig,
     ControlInputs,
     ControlOutputs,
     ControlState,
@@ -28,52 +26,27 @@ from bywire.hal.hardware import Hardware
 from bywire.hal.ports import CanFrame
 from bywire.model import Command, ControlCommand, ControlMode, LightsCommand, MovementCommand
 from bywire.protocol import dbc
-from bywire.runtime.actuators import ActuatorConfig, Actuators
+from bywire.runtime.actuators import Actuators
 from bywire.runtime.readers import CanReader, IbusReader, RecentFault
 from bywire.runtime.reports import Health, build_reports
-from bywire.runtime.schedule import SCHEDULE, PeriodicTask, TaskSpec
+from bywire.runtime.schedule import PeriodicTask
+from bywire.runtime.settings import RuntimeConfig
+from bywire.runtime.watchdog import Watchdog
 
 CycleObserver = Callable[[float], None]
-
-
-@dataclass(frozen=True, slots=True)
-class RuntimeConfig:
-    """Everything the runtime needs: the decision's configuration, the actuators', the schedule."""
-
-    control: ControlConfig = field(default_factory=ControlConfig)
-    actuators: ActuatorConfig = field(default_factory=ActuatorConfig)
-    schedule: tuple[TaskSpec, ...] = SCHEDULE
-
-    @classmethod
-    def from_robot(cls, robot: RobotConfig) -> RuntimeConfig:
-        """The runtime's view of a robot's validated configuration."""
-        servo = robot.steering.servo
-        control = ControlConfig(
-            steering=servo,
-            drive=robot.drive.limits,
-            rc_mapping=robot.rc.mapping,
-            hydrobrake_threshold_norm=robot.hydrobrake.threshold_norm,
-            rc_timeout_s=robot.timeouts.rc_timeout_s,
-            can_command_timeout_s=robot.timeouts.can_command_timeout_s,
-            blink_rate_hz=robot.lights.blink_rate_hz,
-        )
-        dac = robot.drive.dac
-        actuators = ActuatorConfig(
-            dac_throttle_channel=dac.throttle_channel,
-            dac_regen_channel=dac.regen_channel,
-            dac_vref_volts=dac.vref_volts,
-            safe_steering_pulse_s=servo.center_pulse_s,
-        )
-        schedule = tuple(
-            replace(spec, rate_hz=getattr(robot.tasks, f"{spec.name}_rate_hz")) for spec in SCHEDULE
-        )
-        return cls(control, actuators, schedule)
 
 
 class Runtime:
     """Runs the controller on a Hardware bundle until asked to stop or a time is reached."""
 
-    def __init__(self, hardware: Hardware, config: RuntimeConfig) -> None:
+    def __init__(
+        self,
+        hardware: Hardware,
+        config: RuntimeConfig,
+        *,
+        notify: Callable[[str], None] | None = None,
+    ) -> None:
+        """`notify` receives systemd notifications (READY=1, WATCHDOG=1, STOPPING=1)."""
         self.hardware = hardware
         self.config = config
         self.clock = hardware.clock
@@ -93,6 +66,12 @@ class Runtime:
         """Called with `now` after every pass of the loop, when every output of that instant
         has been written (the simulator observes the robot here)."""
         self._stepped_at: float | None = None
+        self._notify = notify
+        self.watchdog = (
+            None
+            if config.watchdog_s is None
+            else Watchdog(self._watchdog_trip, config.watchdog_s, notify=notify)
+        )
         self._stop_requested = False
         self._actions: dict[str, Callable[[float], None]] = {
             "steering": self._steering_task,
@@ -112,6 +91,7 @@ class Runtime:
         # Everything built so far lives as long as the process: keep it out of the collector's
         # full passes, which otherwise stall the loop for ~10 ms now and then.
         gc.freeze()
+        self._start_watchdog()
         try:
             while not self._stop_requested:
                 now = self.clock.now()
@@ -121,9 +101,28 @@ class Runtime:
                 self._run_due_tasks()
                 for observer in self.on_cycle:
                     observer(now)
+                if self.watchdog is not None:
+                    self.watchdog.feed()
                 self.clock.wait_until(self._next_wake(until_s))
         finally:
+            self._stop_watchdog()
             self.actuators.write_safe(self.clock.now())
+
+    def _start_watchdog(self) -> None:
+        if self.watchdog is not None:
+            self.watchdog.start()
+        if self._notify is not None:
+            self._notify("READY=1")
+
+    def _stop_watchdog(self) -> None:
+        if self._notify is not None:
+            self._notify("STOPPING=1")
+        if self.watchdog is not None:
+            self.watchdog.stop()
+
+    def _watchdog_trip(self) -> None:
+        """From the watchdog's thread: the loop is stuck, so write the safe outputs here."""
+        self.actuators.write_safe(self.clock.now())
 
     @property
     def overrun_count(self) -> int:
@@ -186,22 +185,34 @@ class Runtime:
                 flags |= flag
         if self.actuators.dac_fault:
             flags |= ErrorFlag.DAC_FAULT_STOP
+        if self.watchdog is not None and self.watchdog.tripped:
+            flags |= ErrorFlag.WATCHDOG_TRIPPED
         return flags
 
     def _decide(self, now: float, *, force: bool = False) -> ControlOutputs:
         """Take the decision at `now` (once per instant unless new input forces it)."""
         if self.outputs is not None and self._stepped_at == now and not force:
             return self.outputs
+        self._acknowledge_watchdog()
         self.inputs = replace(
             self.inputs,
             fault_flags=int(self._shell_flags(now)),
-            hardware_fault=self.actuators.dac_fault,
+            hardware_fault=self.actuators.dac_fault
+            or (self.watchdog is not None and self.watchdog.tripped),
         )
         self.state, outputs = controller_step(self.state, self.inputs, now, self.config.control)
         if self.outputs is None or outputs.mode is not self.outputs.mode:
             self.mode_log.append((now, outputs.mode))
         self.outputs, self._stepped_at = outputs, now
         return outputs
+
+    def _acknowledge_watchdog(self) -> None:
+        """A trip is acknowledged by the operator moving the mode switch to STOP."""
+        rc = self.inputs.rc
+        if self.watchdog is None or not self.watchdog.tripped or rc is None or rc.value is None:
+            return
+        if rc.value.mode is ControlMode.STOP:
+            self.watchdog.reset()
 
     # --- periodic tasks -----------------------------------------------------------------------
 

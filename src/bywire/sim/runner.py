@@ -7,6 +7,7 @@ where expectations are checked (to the instant the outputs changed) and the reco
 
 from __future__ import annotations
 
+import dataclasses
 import functools
 import random
 from collections.abc import Callable
@@ -19,7 +20,8 @@ from bywire.hal.sim.clock import RealtimeClock, VirtualClock
 from bywire.hal.sim.hlc import Corruption
 from bywire.hal.sim.world import SimWorld
 from bywire.model import ControlMode, Gear
-from bywire.runtime.app import Runtime, RuntimeConfig
+from bywire.runtime.app import Runtime
+from bywire.runtime.settings import RuntimeConfig
 from bywire.sim.observe import Observation, conditions_hold, observe
 from bywire.sim.scenario import Event, Expectation, Scenario
 
@@ -102,7 +104,12 @@ class SimRun:
             rc_mapping=robot.rc.mapping,
             bus_log_limit=0,
         )
-        self.runtime = Runtime(self.world.hardware, RuntimeConfig.from_robot(robot))
+        config = RuntimeConfig.from_robot(robot)
+        if not realtime:
+            # Virtual time never stalls the wall clock's way; a watchdog thread would only
+            # watch the simulator's speed.
+            config = dataclasses.replace(config, watchdog_s=None)
+        self.runtime = Runtime(self.world.hardware, config)
         self.record = RunRecord(verdicts=[Verdict(e) for e in scenario.expectations])
         self.started_at = clock.now()
         self._random = random.Random(robot.sim.seed)

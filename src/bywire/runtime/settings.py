@@ -1,0 +1,45 @@
+"""The runtime's configuration: the decision's, the actuators', the schedule and the watchdog."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field, replace
+
+from bywire.config import RobotConfig
+from bywire.control.controller import ControlConfig
+from bywire.runtime.actuators import ActuatorConfig
+from bywire.runtime.schedule import SCHEDULE, TaskSpec
+
+
+@dataclass(frozen=True, slots=True)
+class RuntimeConfig:
+    """Everything the runtime needs: the decision's configuration, the actuators', the schedule."""
+
+    control: ControlConfig = field(default_factory=ControlConfig)
+    actuators: ActuatorConfig = field(default_factory=ActuatorConfig)
+    schedule: tuple[TaskSpec, ...] = SCHEDULE
+    watchdog_s: float | None = None  # None: no watchdog thread (virtual time has no stalls)
+
+    @classmethod
+    def from_robot(cls, robot: RobotConfig) -> RuntimeConfig:
+        """The runtime's view of a robot's validated configuration."""
+        servo = robot.steering.servo
+        control = ControlConfig(
+            steering=servo,
+            drive=robot.drive.limits,
+            rc_mapping=robot.rc.mapping,
+            hydrobrake_threshold_norm=robot.hydrobrake.threshold_norm,
+            rc_timeout_s=robot.timeouts.rc_timeout_s,
+            can_command_timeout_s=robot.timeouts.can_command_timeout_s,
+            blink_rate_hz=robot.lights.blink_rate_hz,
+        )
+        dac = robot.drive.dac
+        actuators = ActuatorConfig(
+            dac_throttle_channel=dac.throttle_channel,
+            dac_regen_channel=dac.regen_channel,
+            dac_vref_volts=dac.vref_volts,
+            safe_steering_pulse_s=servo.center_pulse_s,
+        )
+        schedule = tuple(
+            replace(spec, rate_hz=getattr(robot.tasks, f"{spec.name}_rate_hz")) for spec in SCHEDULE
+        )
+        return cls(control, actuators, schedule, robot.timeouts.watchdog_s)
