@@ -10,7 +10,15 @@ from __future__ import annotations
 from dataclasses import dataclass, fields
 from typing import Protocol
 
-from bywire.hal.ports import ByteStream, CanPort, Clock, DigitalOut, I2cDevice, PwmChannel
+from bywire.hal.ports import (
+    AnalogInput,
+    ByteStream,
+    CanPort,
+    Clock,
+    DigitalOut,
+    I2cDevice,
+    PwmChannel,
+)
 
 
 class WheelSpeedSensor(Protocol):
@@ -54,3 +62,5 @@ class Hardware:
     hydrobrake_pwm: PwmChannel
     outputs: DigitalOutputs
     wheel_speeds: WheelSpeedSensor | None = None
+    hydrobrake_pressure_bar: AnalogInput | None = None  # optional (Table 4): checked if fitted
+    steering_encoder_norm: AnalogInput | None = None  # optional (Table 4): −1…1 like the command

@@ -70,6 +70,14 @@ class DigitalOut(Protocol):
         ...
 
 
+class AnalogInput(Protocol):
+    """One measured value from a sensor (a pressure, an angle), in the unit its name says."""
+
+    def read(self) -> float | None:
+        """The latest reading, or None when the sensor gives none (unplugged, not ready)."""
+        ...
+
+
 class Clock(Protocol):
     """Monotonic time, and the one place the runtime waits."""
 

@@ -7,7 +7,13 @@ import pytest
 from bywire.hal.sim.clock import VirtualClock
 from bywire.hal.sim.dac import SimDac6574
 from bywire.hal.sim.gpio_pwm import SimDigitalOut, SimPwmChannel
-from bywire.hal.sim.vehicle import SimVehicle, SimWheelSpeedSensor, VehicleWiring
+from bywire.hal.sim.vehicle import (
+    SimPressureSensor,
+    SimSteeringEncoder,
+    SimVehicle,
+    SimWheelSpeedSensor,
+    VehicleWiring,
+)
 from bywire.protocol import dac6574
 
 
@@ -100,3 +106,47 @@ def test_stop_freezes_the_vehicle() -> None:
     frozen = vehicle.state
     clock.advance(1.0)
     assert vehicle.state == frozen
+
+
+def test_a_failed_hydraulic_brake_neither_brakes_nor_builds_pressure() -> None:
+    clock, wiring, vehicle = wired_vehicle()
+    sensor = SimPressureSensor(vehicle)
+    drive_forward(wiring)
+    clock.advance(2.0)
+    wiring.dac.write(dac6574.encode_write(0, 0))
+    wiring.motors_enable.set(False)
+    vehicle.faults.hydrobrake_failed = True
+    wiring.hydrobrake_pwm.set_pulse(0.001)  # full duty commanded
+    clock.advance(0.1)
+    assert sensor.read() == 0.0
+    coasting_mps = vehicle.state.speed_mps
+    assert coasting_mps > 0.5
+    vehicle.faults.hydrobrake_failed = False
+    clock.advance(0.1)
+    assert sensor.read() == pytest.approx(10.0)
+    assert vehicle.state.speed_mps < coasting_mps - 0.3
+
+
+def test_a_failed_ebrake_does_not_stop_the_vehicle() -> None:
+    clock, wiring, vehicle = wired_vehicle()
+    drive_forward(wiring)
+    clock.advance(2.0)
+    wiring.motors_enable.set(False)
+    vehicle.faults.ebrake_failed = True
+    wiring.ebrake_release.set(False)  # engage: but it is broken
+    clock.advance(0.2)
+    assert vehicle.state.speed_mps > 1.0
+
+
+def test_a_stuck_servo_stays_and_the_encoder_tells() -> None:
+    clock, wiring, vehicle = wired_vehicle()
+    encoder = SimSteeringEncoder(vehicle)
+    wiring.steering_pwm.set_pulse(0.002)
+    clock.advance(1.0)
+    assert encoder.read() == pytest.approx(1.0)
+    vehicle.faults.servo_stuck = True
+    wiring.steering_pwm.set_pulse(0.001)
+    clock.advance(1.0)
+    assert encoder.read() == pytest.approx(1.0)
+    encoder.failed = True
+    assert encoder.read() is None

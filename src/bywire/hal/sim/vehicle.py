@@ -33,18 +33,27 @@ class VehicleWiring:
     throttle_channel: int = 0
     regen_channel: int = 1
 
-    def sample(self) -> ActuatorInputs:
-        """The actuator inputs at this instant."""
+    def sample(self, faults: ActuatorFaults) -> ActuatorInputs:
+        """The actuator inputs at this instant, as broken actuators pass them on."""
         return ActuatorInputs(
             throttle_volts=self.dac.volts(self.throttle_channel),
             regen_volts=self.dac.volts(self.regen_channel),
             motors_enable=self.motors_enable.level,
             motors_forward=self.motors_forward.level,
             motors_reverse=self.motors_reverse.level,
-            ebrake_release=self.ebrake_release.level,
-            hydraulic_duty=self.hydrobrake_pwm.duty,
-            steering_pulse_s=self.steering_pwm.pulse_s,
+            ebrake_release=self.ebrake_release.level or faults.ebrake_failed,
+            hydraulic_duty=0.0 if faults.hydrobrake_failed else self.hydrobrake_pwm.duty,
+            steering_pulse_s=0.0 if faults.servo_stuck else self.steering_pwm.pulse_s,
         )
+
+
+@dataclass(slots=True)
+class ActuatorFaults:
+    """Broken actuators (Table 4): a brake that does not brake, a servo that does not move."""
+
+    hydrobrake_failed: bool = False  # no pressure builds, no hydraulic braking
+    ebrake_failed: bool = False  # the spring brake does not engage
+    servo_stuck: bool = False  # the steering servo stays where it is
 
 
 class SimVehicle:
@@ -62,6 +71,7 @@ class SimVehicle:
         self.model = VehicleModel(config or VehicleConfig())
         self.state = VehicleState()
         self.inputs = ActuatorInputs()
+        self.faults = ActuatorFaults()
         self.history: deque[tuple[float, VehicleState]] = deque(maxlen=history_limit)
         """``(time_s, state)`` after each step, the latest ``history_limit`` of them."""
         self._clock = clock
@@ -86,7 +96,7 @@ class SimVehicle:
         return self.model.wheel_speeds(self.state)
 
     def _step(self, tick_s: float) -> None:
-        self.inputs = self.wiring.sample()
+        self.inputs = self.wiring.sample(self.faults)
         self.state = self.model.step(self.state, self.inputs, self._step_s)
         self.history.append((tick_s, self.state))
 
@@ -108,3 +118,25 @@ class SimWheelSpeedSensor:
     def restore(self) -> None:
         """The sensor answers again."""
         self.failed = False
+
+
+class SimPressureSensor:
+    """Hydraulic brake pressure in bar: proportional to the duty the brake really applies."""
+
+    def __init__(self, vehicle: SimVehicle, full_scale_bar: float = 10.0) -> None:
+        self._vehicle = vehicle
+        self._full_scale_bar = full_scale_bar
+
+    def read(self) -> float | None:
+        return self._vehicle.inputs.hydraulic_duty * self._full_scale_bar
+
+
+class SimSteeringEncoder:
+    """The steering angle the servo really reached, −1…1; `fail()` makes it read None."""
+
+    def __init__(self, vehicle: SimVehicle) -> None:
+        self._vehicle = vehicle
+        self.failed = False
+
+    def read(self) -> float | None:
+        return None if self.failed else self._vehicle.state.steering_norm

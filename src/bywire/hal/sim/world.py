@@ -22,7 +22,13 @@ from bywire.hal.sim.hlc import SimHigherLevelComputer
 from bywire.hal.sim.rc_transmitter import SimRcTransmitter
 from bywire.hal.sim.timers import SimClock
 from bywire.hal.sim.uart import SimUart
-from bywire.hal.sim.vehicle import SimVehicle, SimWheelSpeedSensor, VehicleWiring
+from bywire.hal.sim.vehicle import (
+    SimPressureSensor,
+    SimSteeringEncoder,
+    SimVehicle,
+    SimWheelSpeedSensor,
+    VehicleWiring,
+)
 from bywire.hal.sim.vehicle_model import VehicleConfig
 from bywire.protocol import dbc
 
@@ -61,6 +67,8 @@ class SimWorld:
     gpio: dict[str, SimDigitalOut]
     vehicle: SimVehicle
     wheel_sensor: SimWheelSpeedSensor
+    pressure_sensor: SimPressureSensor
+    steering_encoder: SimSteeringEncoder
 
     @classmethod
     def create(
@@ -111,6 +119,8 @@ class SimWorld:
         )
         vehicle = SimVehicle(clock, wiring, vehicle_config)
         wheel_sensor = SimWheelSpeedSensor(vehicle)
+        pressure_sensor = SimPressureSensor(vehicle)
+        steering_encoder = SimSteeringEncoder(vehicle)
         hardware = Hardware(
             clock=clock,
             can=controller_can,
@@ -120,6 +130,8 @@ class SimWorld:
             hydrobrake_pwm=pwm.hydrobrake,
             outputs=DigitalOutputs(**gpio),
             wheel_speeds=wheel_sensor,
+            hydrobrake_pressure_bar=pressure_sensor,
+            steering_encoder_norm=steering_encoder,
         )
         return cls(
             clock,
@@ -134,6 +146,8 @@ class SimWorld:
             gpio,
             vehicle,
             wheel_sensor,
+            pressure_sensor,
+            steering_encoder,
         )
 
     def start(self, *, rc: bool = True, hlc: bool = True, vehicle: bool = True) -> None:
