@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import replace
 
 import pytest
@@ -59,18 +60,27 @@ def test_power_up_with_no_input_is_stop_with_every_output_safe() -> None:
     assert outputs.steering_pulse_s == pytest.approx(0.0015)
 
 
+def held(
+    first_s: float, duration_s: float, inputs: Callable[[float], ControlInputs]
+) -> list[tuple[float, ControlInputs]]:
+    """The same input, refreshed every 10 ms for `duration_s` (the throttle ramps up meanwhile)."""
+    return [
+        (first_s + tick * 0.01, inputs(first_s + tick * 0.01))
+        for tick in range(int(duration_s * 100) + 1)
+    ]
+
+
 def test_rc_drives_after_arming_through_stop() -> None:
-    last = run(
-        [
-            *armed_rc(0.0, mode=ControlMode.RC),
-            (
-                0.02,
-                ControlInputs(
-                    rc=rc_at(0.02, mode=ControlMode.RC, throttle_norm=0.5, steering_norm=0.5)
-                ),
-            ),
-        ]
-    )[-1]
+    def driving(now: float) -> ControlInputs:
+        return ControlInputs(
+            rc=rc_at(now, mode=ControlMode.RC, throttle_norm=0.5, steering_norm=0.5)
+        )
+
+    outputs = run([*armed_rc(0.0, mode=ControlMode.RC), *held(0.02, 0.6, driving)])
+    first, last = outputs[2], outputs[-1]
+    # the slew limit ramps the throttle at 1.0 /s from the last step in RC (t = 0.01 s)
+    assert first.drive.throttle_volts == pytest.approx(0.01 * 5.0)
+    assert outputs[12].drive.throttle_volts == pytest.approx(0.11 * 5.0)
     assert last.mode is ControlMode.RC
     assert last.drive.enable
     assert last.drive.forward
@@ -88,13 +98,12 @@ def test_rc_without_passing_through_stop_stays_stop() -> None:
 
 def test_can_drives_in_can_mode() -> None:
     movement = MovementCommand(-0.4, 0.6, 0.0, Gear.REVERSE, counter=3)
-    steps = [
-        *armed_rc(0.0, mode=ControlMode.RC),
-        (
-            0.02,
-            ControlInputs(rc=rc_at(0.02, mode=ControlMode.CAN), movement=Stamped(movement, 0.02)),
-        ),
-    ]
+
+    def driving(now: float) -> ControlInputs:
+        return ControlInputs(rc=rc_at(now, mode=ControlMode.CAN), movement=Stamped(movement, now))
+
+    # armed with the gear switch in reverse: RC's gear was reverse already, no direction change
+    steps = [*armed_rc(0.0, mode=ControlMode.RC, gear=Gear.REVERSE), *held(0.02, 0.7, driving)]
     last = run(steps)[-1]
     assert last.mode is ControlMode.CAN
     assert last.drive.reverse

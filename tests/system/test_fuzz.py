@@ -62,7 +62,7 @@ def test_can_noise_never_changes_what_rc_drives(can_frames: list[tuple[float, in
     spammed(robot, [(at_s + 0.2, frame_id, data) for at_s, frame_id, data in can_frames])
     robot.run(0.8)
     assert [mode for _, mode in robot.runtime.mode_log] == [ControlMode.STOP, ControlMode.RC]
-    throttle = {volts for _, channel, volts in robot.world.dac.history if channel == 0}
+    throttle = [volts for _, channel, volts in robot.world.dac.history if channel == 0]
     driving = robot.throttle_volts(0.75)
-    assert throttle == {0.0, driving}  # only RC's 0.3 throttle, never anything from CAN
+    assert max(throttle) == driving  # RC's 0.3 throttle after its ramp, never more from CAN
     assert abs(driving - 1.5) < 0.01

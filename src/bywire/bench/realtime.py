@@ -18,7 +18,7 @@ from __future__ import annotations
 
 import functools
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 from bywire.bench.clocks import MeteredClock
 from bywire.bench.latency import (
@@ -54,6 +54,18 @@ PROGRESS_PERIOD_S = 1.0
 
 Progress = Callable[[str, float, float], None]
 """Called with the phase's name, seconds done and seconds in all (about once a second)."""
+
+
+def bench_runtime_config(robot: RobotConfig) -> RuntimeConfig:
+    """The robot's runtime configuration without the throttle slew limit.
+
+    The sweeps raise the throttle in every frame; the interlocks' slew limit delays each rise on
+    purpose, by up to a frame. Latency is the controller's reaction time, so it is measured with
+    that limit lifted (falling throttle, brake and STOP are never slew-limited anyway).
+    """
+    config = RuntimeConfig.from_robot(robot)
+    interlocks = replace(config.control.interlocks, throttle_slew_up_per_s=1e6)
+    return replace(config, control=replace(config.control, interlocks=interlocks))
 
 
 @dataclass(frozen=True, slots=True)
@@ -97,7 +109,7 @@ class RealtimeSession:
             rc_mapping=robot.rc.mapping,
             bus_log_limit=0,
         )
-        self.runtime = Runtime(self.world.hardware, RuntimeConfig.from_robot(robot))
+        self.runtime = Runtime(self.world.hardware, bench_runtime_config(robot))
         self.movement_log = MovementLog(self.world.bus)
         self.can_sweep = CanSweep(self.world)
         self.rc_sweep = RcSweep(self.world)

@@ -12,7 +12,15 @@ from dataclasses import dataclass, field
 from bywire.control.drive import DriveConfig, DriveOutputs, drive_outputs
 from bywire.control.error_flags import ErrorFlag
 from bywire.control.hydrobrake import DEFAULT_THRESHOLD_NORM, hydrobrake_duty
+from bywire.control.interlocks import InterlockConfig, InterlockState, interlock_step
 from bywire.control.lights import BLINK_RATE_HZ, LightOutputs, LightRequest, light_outputs
+from bywire.control.monitors import (
+    MonitorConfig,
+    MonitorInputs,
+    MonitorState,
+    monitor_step,
+    stop_required,
+)
 from bywire.control.mux import Latch, Movement, MuxInputs, MuxState, movement_from, mux_step
 from bywire.control.rc_mapping import RcMapping, RcRequest
 from bywire.control.steering import SteeringConfig, SteeringState, steering_step
@@ -37,6 +45,8 @@ class ControlConfig:
     rc_timeout_s: float = 0.100
     can_command_timeout_s: float = 0.100
     blink_rate_hz: float = BLINK_RATE_HZ
+    interlocks: InterlockConfig = field(default_factory=InterlockConfig)
+    monitors: MonitorConfig = field(default_factory=MonitorConfig)
 
 
 @dataclass(frozen=True, slots=True)
@@ -55,6 +65,9 @@ class ControlInputs:
     control: Stamped[ControlCommand] | None = None
     fault_flags: int = 0
     hardware_fault: bool = False
+    speed_mps: float | None = None  # signed, positive forward; None without a speed sensor
+    hydrobrake_pressure_bar: float | None = None  # None without a pressure sensor
+    steering_measured_norm: float | None = None  # None without a steering encoder
 
 
 @dataclass(frozen=True, slots=True)
@@ -63,6 +76,9 @@ class ControlState:
 
     mux: MuxState = field(default_factory=MuxState)
     steering: SteeringState = field(default_factory=SteeringState)
+    interlock: InterlockState = field(default_factory=InterlockState)
+    monitor: MonitorState = field(default_factory=MonitorState)
+    hydrobrake_duty: float = 1.0  # as applied by the previous step: what the pressure answers to
 
 
 @dataclass(frozen=True, slots=True)
@@ -71,7 +87,8 @@ class ControlOutputs:
 
     mode: ControlMode
     latch: Latch | None
-    movement: Movement
+    movement: Movement  # after the interlocks: what the actuators follow
+    direction_change_held: bool
     steering_pulse_s: float
     drive: DriveOutputs
     hydrobrake_duty: float
@@ -81,7 +98,9 @@ class ControlOutputs:
     error_flags: int
 
 
-def _mux_inputs(inputs: ControlInputs, now: float, config: ControlConfig) -> MuxInputs:
+def _mux_inputs(
+    inputs: ControlInputs, now: float, config: ControlConfig, monitor_stop: bool
+) -> MuxInputs:
     rc = fresh(inputs.rc, now, config.rc_timeout_s)
     control = fresh(inputs.control, now, config.can_command_timeout_s)
     return MuxInputs(
@@ -89,8 +108,21 @@ def _mux_inputs(inputs: ControlInputs, now: float, config: ControlConfig) -> Mux
         can_movement=fresh(inputs.movement, now, config.can_command_timeout_s),
         remote_stop=control is not None and control.remote_stop,
         re_enable=control is not None and control.re_enable,
-        hardware_fault=inputs.hardware_fault,
+        hardware_fault=inputs.hardware_fault or monitor_stop,
     )
+
+
+def _monitor(
+    state: ControlState, inputs: ControlInputs, now: float, config: ControlConfig
+) -> tuple[MonitorState, ErrorFlag]:
+    """Feedback against what the actuators were last told (the previous step's outputs)."""
+    monitor_inputs = MonitorInputs(
+        hydro_duty=state.hydrobrake_duty,
+        pressure_bar=inputs.hydrobrake_pressure_bar,
+        steering_command_norm=state.steering.setpoint_norm,
+        steering_measured_norm=inputs.steering_measured_norm,
+    )
+    return monitor_step(state.monitor, monitor_inputs, now, config.monitors)
 
 
 def _input_flags(inputs: ControlInputs, mux: MuxInputs, now: float, config: ControlConfig) -> int:
@@ -127,27 +159,38 @@ def _light_request(
 def controller_step(
     state: ControlState, inputs: ControlInputs, now: float, config: ControlConfig
 ) -> tuple[ControlState, ControlOutputs]:
-    """One decision: mode, set-point, and every actuator level."""
-    mux_inputs = _mux_inputs(inputs, now, config)
+    """One decision: monitors, mode, interlocks, then every actuator level."""
+    monitor, monitor_flags = _monitor(state, inputs, now, config)
+    mux_inputs = _mux_inputs(inputs, now, config, stop_required(monitor_flags, config.monitors))
     mux = mux_step(state.mux, mux_inputs)
-    movement = movement_from(mux.mode, mux_inputs)
+    interlock, movement, held = interlock_step(
+        state.interlock,
+        movement_from(mux.mode, mux_inputs),
+        inputs.speed_mps,
+        now,
+        config.interlocks,
+    )
     driving = mux.mode is not ControlMode.STOP
     # In STOP the steering holds where it is: centring at speed would be a swerve.
     target_norm = movement.steering_norm if driving else state.steering.setpoint_norm
-    steering, pulse_s = steering_step(state.steering, target_norm, now, config.steering)
-    flags = inputs.fault_flags | _input_flags(inputs, mux_inputs, now, config)
+    steering, pulse_s = steering_step(
+        state.steering, target_norm, now, config.steering, inputs.steering_measured_norm
+    )
+    flags = inputs.fault_flags | _input_flags(inputs, mux_inputs, now, config) | monitor_flags
     lights_command = fresh(inputs.lights, now, config.can_command_timeout_s)
     light_request = _light_request(mux.mode, mux_inputs, lights_command, movement, flags)
+    duty = hydrobrake_duty(movement.brake_norm, config.hydrobrake_threshold_norm)
     outputs = ControlOutputs(
         mode=mux.mode,
         latch=mux.latch,
         movement=movement,
+        direction_change_held=held,
         steering_pulse_s=pulse_s,
         drive=drive_outputs(movement, enabled=driving, config=config.drive),
-        hydrobrake_duty=hydrobrake_duty(movement.brake_norm, config.hydrobrake_threshold_norm),
+        hydrobrake_duty=duty,
         ebrake_engaged=not driving,
         lights=light_outputs(light_request, now, config.blink_rate_hz),
         light_request=light_request,
         error_flags=flags,
     )
-    return ControlState(mux=mux, steering=steering), outputs
+    return ControlState(mux, steering, interlock, monitor, duty), outputs

@@ -195,7 +195,7 @@ class Runtime:
             return self.outputs
         self._acknowledge_watchdog()
         self.inputs = replace(
-            self.inputs,
+            self._read_sensors(self.inputs),
             fault_flags=int(self._shell_flags(now)),
             hardware_fault=self.actuators.dac_fault
             or (self.watchdog is not None and self.watchdog.tripped),
@@ -205,6 +205,18 @@ class Runtime:
             self.mode_log.append((now, outputs.mode))
         self.outputs, self._stepped_at = outputs, now
         return outputs
+
+    def _read_sensors(self, inputs: ControlInputs) -> ControlInputs:
+        """The optional feedback sensors' latest readings (None where none is fitted)."""
+        hardware = self.hardware
+        wheels = None if hardware.wheel_speeds is None else hardware.wheel_speeds.read()
+        pressure, encoder = hardware.hydrobrake_pressure_bar, hardware.steering_encoder_norm
+        return replace(
+            inputs,
+            speed_mps=None if wheels is None else (wheels[0] + wheels[1]) / 2,
+            hydrobrake_pressure_bar=None if pressure is None else pressure.read(),
+            steering_measured_norm=None if encoder is None else encoder.read(),
+        )
 
     def _acknowledge_watchdog(self) -> None:
         """A trip is acknowledged by the operator moving the mode switch to STOP."""
