@@ -1,0 +1,143 @@
+"""Digital outputs through libgpiod v2: lines by name or offset, requested low from the start.
+
+Every line of one chip is requested in one request whose settings already say "output, inactive",
+so the kernel switches the pin to an output at the low (safe) level: no glitch at start-up
+(R-SAFE-START). A chip is given as a label (`pinctrl-bcm2711`), a name (`gpiochip0`) or a path.
+"""
+
+from __future__ import annotations
+
+import contextlib
+from collections.abc import Mapping
+from dataclasses import dataclass
+from pathlib import Path
+
+import gpiod
+
+from bywire.errors import HardwareError
+from bywire.hal.linux.device_errors import device_error, reason
+
+CONSUMER = "bywire"
+MISSING_HINT = "check gpio_chip (`gpiodetect` lists the chips and their labels)"
+
+
+@dataclass(frozen=True, slots=True)
+class LineSpec:
+    """One output: the configuration key (for messages), its chip and its line name or offset."""
+
+    key: str
+    chip: str
+    line: str | int
+
+
+def find_gpio_chip(dev_root: Path, spec: str) -> Path:
+    """The character device of chip `spec` (path, name or label); HardwareError otherwise."""
+    given = Path(spec)
+    if given.is_absolute():
+        return given
+    if (dev_root / spec).exists():
+        return dev_root / spec
+    found: list[str] = []
+    for path in sorted(dev_root.glob("gpiochip*")):
+        label = _label(path)
+        if label == spec:
+            return path
+        found.append(f"{path.name} = {label}")
+    shown = ", ".join(found) or "none"
+    raise HardwareError(f"GPIO: no chip {spec!r} under {dev_root} (found: {shown}): {MISSING_HINT}")
+
+
+def _label(path: Path) -> str:
+    if not gpiod.is_gpiochip_device(str(path)):
+        return "?"
+    try:
+        with gpiod.Chip(str(path)) as chip:
+            return chip.get_info().label
+    except OSError:
+        return "?"
+
+
+class GpiodLine:
+    """A `DigitalOut` on one line of a request."""
+
+    def __init__(self, request: gpiod.LineRequest, offset: int, key: str) -> None:
+        self._request, self._offset, self.key = request, offset, key
+
+    def set(self, level: bool) -> None:
+        value = gpiod.line.Value.ACTIVE if level else gpiod.line.Value.INACTIVE
+        try:
+            self._request.set_value(self._offset, value)
+        except (OSError, gpiod.RequestReleasedError) as error:
+            raise HardwareError(f"GPIO {self.key}: cannot set ({reason(error)})") from error
+
+
+class GpiodOutputs:
+    """Every output line, keyed like `lines`, requested low; `close()` drives them low."""
+
+    def __init__(self, lines: Mapping[str, LineSpec], dev_root: Path = Path("/dev")) -> None:
+        self._requests: list[gpiod.LineRequest] = []
+        self.lines: dict[str, GpiodLine] = {}
+        by_chip: dict[Path, dict[str, LineSpec]] = {}
+        for name, spec in lines.items():
+            by_chip.setdefault(find_gpio_chip(dev_root, spec.chip), {})[name] = spec
+        try:
+            for path, specs in by_chip.items():
+                self._request_chip(path, specs)
+        except BaseException:
+            self.close()
+            raise
+
+    def close(self) -> None:
+        """Every line low, then released; safe to call again."""
+        requests, self._requests = self._requests, []
+        for request in requests:
+            # A chip that is gone leaves its pins to their pull-downs.
+            with contextlib.suppress(OSError, gpiod.RequestReleasedError):
+                request.set_values(dict.fromkeys(request.offsets, gpiod.line.Value.INACTIVE))
+            request.release()
+
+    def _request_chip(self, path: Path, specs: Mapping[str, LineSpec]) -> None:
+        try:
+            chip = gpiod.Chip(str(path))
+        except OSError as error:
+            raise device_error(
+                "GPIO", str(path), error, group="gpio", missing=MISSING_HINT
+            ) from error
+        with chip:
+            offsets = {name: _offset(chip, path, spec) for name, spec in specs.items()}
+            _check_distinct(offsets, specs, path)
+            settings = gpiod.LineSettings(
+                direction=gpiod.line.Direction.OUTPUT, output_value=gpiod.line.Value.INACTIVE
+            )
+            try:
+                request = chip.request_lines(
+                    config={tuple(offsets.values()): settings}, consumer=CONSUMER
+                )
+            except OSError as error:
+                raise device_error(
+                    "GPIO", str(path), error, group="gpio", missing=MISSING_HINT
+                ) from error
+        self._requests.append(request)
+        for name, offset in offsets.items():
+            self.lines[name] = GpiodLine(request, offset, specs[name].key)
+
+
+def _offset(chip: gpiod.Chip, path: Path, spec: LineSpec) -> int:
+    try:
+        return chip.line_offset_from_id(spec.line)
+    except (OSError, ValueError) as error:
+        raise HardwareError(
+            f"GPIO {spec.key}: no line {spec.line!r} on {path} ({reason(error)}):"
+            " check the name with `gpioinfo` or give an offset"
+        ) from error
+
+
+def _check_distinct(offsets: Mapping[str, int], specs: Mapping[str, LineSpec], path: Path) -> None:
+    seen: dict[int, str] = {}
+    for name, offset in offsets.items():
+        if offset in seen:
+            raise HardwareError(
+                f"GPIO {seen[offset]} and {specs[name].key} are both line {offset} of {path}:"
+                " give each its own line"
+            )
+        seen[offset] = specs[name].key
