@@ -1,0 +1,149 @@
+"""The one chooser: a robot's configuration in, its `Hardware` out, de-energised on the way out.
+
+`open_hardware(config)` is a context manager. `backend = "linux"` opens the Linux backends in
+the order that keeps the robot safe while it happens: the GPIO lines first (requested low: motors
+disabled, e-brake engaged), then the DAC (0 V), the PWM outputs (enabled at duty 0), and the
+inputs last. `backend = "sim"` builds the simulated robot on a real-time clock, at rest: the RC
+transmitter idle in STOP, the higher-level computer sending neutral commands (scenarios are
+`bywire sim`'s job; this is a dry run of `bywire run` on any machine). On exit every output is
+de-energised (every line low, 0 V on the DAC, no PWM pulse) before the devices are closed, and
+every close is tried even if one fails.
+
+Absolute paths in the configuration are used as given; names resolve under `LinuxPaths`, whose
+roots a container or a test can move (`bywire run --sysfs-root/--dev-root`).
+"""
+
+from __future__ import annotations
+
+import contextlib
+import logging
+from collections.abc import Callable, Iterator
+from dataclasses import dataclass, fields
+from pathlib import Path
+from typing import TypeVar
+
+from bywire.config import RobotConfig, output_lines
+from bywire.config.model import OUTPUT_LINE_KEYS, DacOutput
+from bywire.errors import HardwareError
+from bywire.hal.hardware import DigitalOutputs, Hardware
+from bywire.hal.ports import DigitalOut, I2cDevice
+from bywire.protocol import dac6574
+
+log = logging.getLogger(__name__)
+T = TypeVar("T")
+
+
+@dataclass(frozen=True, slots=True)
+class LinuxPaths:
+    """Where the kernel's sysfs and device files are (moved by containers and tests)."""
+
+    sysfs_root: Path = Path("/sys")
+    dev_root: Path = Path("/dev")
+
+    def device(self, name: str) -> str:
+        """`name` if it is a path, else the device file of that name under `dev_root`."""
+        return name if Path(name).is_absolute() else str(self.dev_root / name)
+
+
+@contextlib.contextmanager
+def open_hardware(config: RobotConfig, paths: LinuxPaths | None = None) -> Iterator[Hardware]:
+    """The robot's ports; on exit (normal, error or signal) outputs de-energised, then closed."""
+    opener = _open_sim if config.backend == "sim" else _open_linux
+    with contextlib.ExitStack() as stack:
+        hardware = opener(config, paths or LinuxPaths(), stack)
+        stack.callback(de_energise, hardware, config.drive.dac)
+        yield hardware
+
+
+def de_energise(hardware: Hardware, dac: DacOutput) -> None:
+    """Every line low, 0 V on both DAC outputs, no PWM pulse; each tried whatever fails."""
+    for line in fields(DigitalOutputs):
+        output: DigitalOut = getattr(hardware.outputs, line.name)
+        _try(output.set, False)
+    for channel in (dac.throttle_channel, dac.regen_channel):
+        _try(hardware.dac.write, dac6574.encode_write(channel, 0))
+    for pwm in (hardware.steering_pwm, hardware.hydrobrake_pwm):
+        _try(pwm.set_pulse, 0.0)
+
+
+def _try(action: Callable[[T], None], value: T) -> None:
+    try:
+        action(value)
+    except HardwareError as error:
+        log.warning("de-energising: %s", error)
+
+
+def _open_sim(config: RobotConfig, _paths: LinuxPaths, stack: contextlib.ExitStack) -> Hardware:
+    from bywire.hal.sim.clock import RealtimeClock  # noqa: PLC0415 -- only the chosen backend
+    from bywire.hal.sim.world import SimWorld  # noqa: PLC0415
+
+    dac = config.drive.dac
+    world = SimWorld.create(
+        RealtimeClock(),
+        dac_throttle_channel=dac.throttle_channel,
+        dac_regen_channel=dac.regen_channel,
+        hydrobrake_period_s=1.0 / config.hydrobrake.pwm.frequency_hz,
+        seed=config.sim.seed,
+        rc_mapping=config.rc.mapping,
+        bus_log_limit=0,
+    )
+    world.start()
+    stack.callback(world.stop)
+    return world.hardware
+
+
+def _open_linux(config: RobotConfig, paths: LinuxPaths, stack: contextlib.ExitStack) -> Hardware:
+    from bywire.hal.linux.can_open import BusSettings  # noqa: PLC0415 -- only the chosen backend
+    from bywire.hal.linux.can_pythoncan import PythonCanPort  # noqa: PLC0415
+    from bywire.hal.linux.clock import LinuxClock  # noqa: PLC0415
+    from bywire.hal.linux.gpio_gpiod import GpiodOutputs, LineSpec  # noqa: PLC0415
+    from bywire.hal.linux.pwm_sysfs import SysfsPwm, find_pwm_chip  # noqa: PLC0415
+    from bywire.hal.linux.serial_pyserial import PyserialStream  # noqa: PLC0415
+    from bywire.protocol import dbc  # noqa: PLC0415
+
+    clock = LinuxClock()
+    specs = {
+        name: LineSpec(OUTPUT_LINE_KEYS[name], line.chip, line.line)
+        for name, line in output_lines(config).items()
+    }
+    gpio = GpiodOutputs(specs, paths.dev_root)
+    stack.callback(gpio.close)
+    dac = _open_dac(config.drive.dac, paths, stack)
+    pwms = []
+    outputs_pwm = (("steering.pwm", config.steering.pwm), ("hydrobrake.pwm", config.hydrobrake.pwm))
+    for key, output in outputs_pwm:
+        chip = find_pwm_chip(paths.sysfs_root, output.chip)
+        pwm = SysfsPwm(chip, output.channel, 1.0 / output.frequency_hz, key)
+        stack.callback(pwm.close)
+        pwms.append(pwm)
+    rc = PyserialStream(paths.device(config.rc.port), clock.notify_input, baud=config.rc.baud)
+    stack.callback(rc.close)
+    can = config.can
+    settings = BusSettings(
+        can.interface,
+        can.channel,
+        can.bitrate_bps,
+        accept_ids=dbc.command_ids(),
+        sample_point=can.sample_point,
+        clock_hz=can.clock_hz,
+        sysfs_root=paths.sysfs_root,
+    )
+    can_port = PythonCanPort(settings, clock.notify_input, clock.now)
+    stack.callback(can_port.close)
+    outputs = DigitalOutputs(**gpio.lines)
+    return Hardware(clock, can_port, rc, dac, pwms[0], pwms[1], outputs)
+
+
+def _open_dac(dac: DacOutput, paths: LinuxPaths, stack: contextlib.ExitStack) -> I2cDevice:
+    """The kernel's IIO driver when it owns the chip, else raw writes through /dev/i2c-N."""
+    from bywire.hal.linux.dac_iio import IioDac, find_iio_dac  # noqa: PLC0415
+    from bywire.hal.linux.dac_smbus2 import Smbus2Dac  # noqa: PLC0415
+
+    device = find_iio_dac(paths.sysfs_root, dac.i2c_bus, dac.address)
+    opened = IioDac(device) if device is not None else None
+    if opened is None:
+        raw = Smbus2Dac(paths.device(f"i2c-{dac.i2c_bus}"), dac.address)
+        stack.callback(raw.close)
+        return raw
+    stack.callback(opened.close)
+    return opened
