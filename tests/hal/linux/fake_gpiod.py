@@ -1,0 +1,157 @@
+"""A file-backed stand-in for the `gpiod` v2 module: no gpio-sim here, so chips are JSON files.
+
+A chip is a file (`make_chip`) holding its label and line names; a request writes the levels of
+its lines, the output values it was requested with, and whether it was released to
+`<chip>.state.json`, atomically, so a test (or another process) reads them back at any time.
+The backend under test (`bywire.hal.linux.gpio_gpiod`) uses only this part of the real API.
+"""
+
+from __future__ import annotations
+
+import enum
+import json
+import os
+import types
+from collections.abc import Iterable, Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+MARKER = "fake-gpiochip"
+
+
+class Value(enum.Enum):
+    INACTIVE = 0
+    ACTIVE = 1
+
+
+class Direction(enum.Enum):
+    AS_IS = 1
+    INPUT = 2
+    OUTPUT = 3
+
+
+line = types.SimpleNamespace(Value=Value, Direction=Direction)
+
+
+class RequestReleasedError(Exception):
+    """Raised when a released request is used, as gpiod's is."""
+
+
+@dataclass(frozen=True)
+class ChipInfo:
+    name: str
+    label: str
+    num_lines: int
+
+
+@dataclass
+class LineSettings:
+    direction: Direction = Direction.AS_IS
+    output_value: Value = Value.INACTIVE
+
+
+def make_chip(path: Path, label: str, line_names: Sequence[str]) -> Path:
+    """Create a chip file with these line names (offset = index)."""
+    path.write_text(json.dumps({MARKER: True, "label": label, "lines": list(line_names)}))
+    return path
+
+
+def read_state(chip: Path) -> dict[str, Any]:
+    """What the chip's request did: levels by line name, requested values, released."""
+    state: dict[str, Any] = json.loads(Path(f"{chip}.state.json").read_text())
+    return state
+
+
+def is_gpiochip_device(path: str) -> bool:
+    try:
+        return bool(json.loads(Path(path).read_text()).get(MARKER))
+    except (OSError, ValueError, AttributeError):
+        return False
+
+
+class Chip:
+    def __init__(self, path: str) -> None:
+        with open(path) as chip_file:  # raises FileNotFoundError, PermissionError like the real one
+            description = json.load(chip_file)
+        self.path = path
+        self._label: str = description["label"]
+        self._lines: list[str] = description["lines"]
+
+    def __enter__(self) -> Chip:
+        return self
+
+    def __exit__(self, *_exc: object) -> None:
+        self.close()
+
+    def close(self) -> None:
+        pass
+
+    def get_info(self) -> ChipInfo:
+        return ChipInfo(Path(self.path).name, self._label, len(self._lines))
+
+    def line_offset_from_id(self, id: str | int) -> int:
+        if isinstance(id, int):
+            if not 0 <= id < len(self._lines):
+                raise ValueError("line offset of out range")
+            return id
+        if id not in self._lines:
+            raise OSError(2, "No such file or directory")
+        return self._lines.index(id)
+
+    def request_lines(
+        self, config: dict[Any, LineSettings | None], consumer: str | None = None
+    ) -> LineRequest:
+        values: dict[int, Value] = {}
+        for key, settings in config.items():
+            offsets: Iterable[Any] = key if isinstance(key, tuple) else (key,)
+            for offset in offsets:
+                number = self.line_offset_from_id(offset)
+                if number in values:
+                    raise ValueError(f"line must be configured exactly once - offset {number}")
+                values[number] = (settings or LineSettings()).output_value
+        return LineRequest(Path(self.path), self._lines, values, consumer)
+
+
+class LineRequest:
+    def __init__(
+        self, chip: Path, names: list[str], values: dict[int, Value], consumer: str | None
+    ) -> None:
+        self._chip, self._names, self._values = chip, names, dict(values)
+        self._state: dict[str, Any] = {
+            "consumer": consumer,
+            "requested": {names[o]: v.value for o, v in values.items()},
+            "levels": {names[o]: v.value for o, v in values.items()},
+            "released": False,
+            "writes": 0,
+        }
+        self._save()
+
+    @property
+    def offsets(self) -> list[int]:
+        return list(self._values)
+
+    def set_value(self, offset: int, value: Value) -> None:
+        if self._state["released"]:
+            raise RequestReleasedError
+        self._values[offset] = value
+        self._state["levels"][self._names[offset]] = value.value
+        self._state["writes"] += 1
+        self._save()
+
+    def set_values(self, values: dict[int, Value]) -> None:
+        for offset, value in values.items():
+            self.set_value(offset, value)
+
+    def get_value(self, offset: int) -> Value:
+        return self._values[offset]
+
+    def release(self) -> None:
+        self._state["released"] = True
+        self._save()
+
+    def _save(self) -> None:
+        target = Path(f"{self._chip}.state.json")
+        temporary = target.with_suffix(".tmp")
+        temporary.write_text(json.dumps(self._state))
+        os.replace(temporary, target)

@@ -1,0 +1,72 @@
+"""`bywire` in a test's subprocess, with the stand-ins this machine lacks.
+
+Usage: python launch_bywire.py HLC_DIR CAN_CHANNEL -- BYWIRE_ARGS...
+
+- GPIO: the file-backed `fake_gpiod` is installed as `gpiod` before bywire imports it, so the
+  real backend (`bywire.hal.linux.gpio_gpiod`) runs against it.
+- CAN: python-can's virtual bus exists only inside one process, so the higher-level computer
+  runs here, on a second virtual bus: every 20 ms it sends the MovementCommand that the test
+  wrote to HLC_DIR/movement.json (nothing while there is none) and counts the reports it
+  receives into HLC_DIR/reports.json.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import sys
+import threading
+from pathlib import Path
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+import fake_gpiod
+
+sys.modules["gpiod"] = fake_gpiod
+
+import can  # noqa: E402
+
+from bywire.cli.main import main  # noqa: E402
+from bywire.model import Gear, ModeReport, MovementCommand  # noqa: E402
+from bywire.protocol import dbc  # noqa: E402
+
+PERIOD_S = 0.02
+
+
+def higher_level_computer(folder: Path, channel: str, stop: threading.Event) -> None:
+    bus = can.Bus(interface="virtual", channel=channel)
+    counter, counts, mode, armed = 0, 0, None, None
+    try:
+        while not stop.wait(PERIOD_S):
+            command = folder / "movement.json"
+            if command.exists():
+                fields = json.loads(command.read_text())
+                movement = MovementCommand(
+                    fields["steering"], fields["throttle"], fields["brake"],
+                    Gear[fields["gear"].upper()], counter,
+                )  # fmt: skip
+                frame_id, payload = dbc.encode_command(movement)
+                bus.send(can.Message(arbitration_id=frame_id, data=payload, is_extended_id=False))
+                counter = (counter + 1) % dbc.COUNTER_MODULUS
+            while (message := bus.recv(0)) is not None:
+                counts += 1
+                report = dbc.decode_report(message.arbitration_id, bytes(message.data))
+                if isinstance(report, ModeReport):
+                    mode, armed = report.control_mode.name, report.armed
+            temporary = folder / "reports.tmp"
+            temporary.write_text(json.dumps({"reports": counts, "mode": mode, "armed": armed}))
+            os.replace(temporary, folder / "reports.json")
+    finally:
+        bus.shutdown()
+
+
+if __name__ == "__main__":
+    hlc_dir, can_channel, separator, *bywire_args = sys.argv[1:]
+    stopping = threading.Event()
+    thread = threading.Thread(
+        target=higher_level_computer, args=(Path(hlc_dir), can_channel, stopping), daemon=True
+    )
+    thread.start()
+    status = main(bywire_args)
+    stopping.set()
+    thread.join(timeout=5.0)
+    sys.exit(status)

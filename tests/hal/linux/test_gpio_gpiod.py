@@ -1,0 +1,81 @@
+"""libgpiod backend on the gpiod stand-in: chips by label, lines by name or offset, requested
+low in the request itself, one request per chip, clear errors, low again on close."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+
+from bywire.errors import HardwareError
+from bywire.hal.linux import gpio_gpiod
+from bywire.hal.linux.gpio_gpiod import GpiodOutputs, LineSpec, find_gpio_chip
+from tests.hal.linux import fake_gpiod
+
+
+@pytest.fixture
+def dev(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> Path:
+    monkeypatch.setattr(gpio_gpiod, "gpiod", fake_gpiod)
+    fake_gpiod.make_chip(tmp_path / "gpiochip0", "pinctrl-bcm2711", [f"GPIO{n}" for n in range(58)])
+    fake_gpiod.make_chip(tmp_path / "gpiochip1", "raspberrypi-exp-gpio", ["BT_ON", "WL_ON"])
+    return tmp_path
+
+
+@pytest.mark.parametrize("spec", ["pinctrl-bcm2711", "gpiochip0"])
+def test_a_chip_is_found_by_label_or_name(dev: Path, spec: str) -> None:
+    assert find_gpio_chip(dev, spec) == dev / "gpiochip0"
+
+
+def test_an_unknown_chip_lists_labels(dev: Path) -> None:
+    with pytest.raises(HardwareError, match=r"found: gpiochip0 = pinctrl-bcm2711, gpiochip1 = "):
+        find_gpio_chip(dev, "pinctrl-rp1")
+
+
+def test_lines_by_name_and_offset_start_low_and_follow_sets(dev: Path) -> None:
+    outputs = GpiodOutputs(
+        {
+            "enable": LineSpec("drive.motors_enable", "pinctrl-bcm2711", "GPIO5"),
+            "ebrake": LineSpec("ebrake.ebrake_release", "pinctrl-bcm2711", 17),
+            "led": LineSpec("lights.error_led", str(dev / "gpiochip1"), "WL_ON"),
+        },
+        dev,
+    )
+    main, expander = (
+        fake_gpiod.read_state(dev / "gpiochip0"),
+        fake_gpiod.read_state(dev / "gpiochip1"),
+    )
+    assert main["requested"] == {"GPIO5": 0, "GPIO17": 0}  # low from the request on: no glitch
+    assert (main["consumer"], expander["requested"]) == ("bywire", {"WL_ON": 0})
+    outputs.lines["ebrake"].set(True)
+    assert fake_gpiod.read_state(dev / "gpiochip0")["levels"] == {"GPIO5": 0, "GPIO17": 1}
+    outputs.close()
+    outputs.close()
+    state = fake_gpiod.read_state(dev / "gpiochip0")
+    assert (state["levels"], state["released"]) == ({"GPIO5": 0, "GPIO17": 0}, True)
+    with pytest.raises(HardwareError, match=r"ebrake\.ebrake_release: cannot set"):
+        outputs.lines["ebrake"].set(True)
+
+
+def test_an_unknown_line_names_its_key(dev: Path) -> None:
+    with pytest.raises(
+        HardwareError, match=r"GPIO lights.low_beam: no line 'GPIO99' on .*gpioinfo"
+    ):
+        GpiodOutputs({"low_beam": LineSpec("lights.low_beam", "gpiochip0", "GPIO99")}, dev)
+
+
+def test_one_line_given_twice_is_refused_and_nothing_stays_requested(dev: Path) -> None:
+    specs = {
+        "a": LineSpec("drive.motors_forward", "gpiochip1", "BT_ON"),
+        "b": LineSpec("drive.motors_enable", "gpiochip0", "GPIO5"),
+        "c": LineSpec("drive.motors_reverse", "gpiochip0", 5),
+    }
+    with pytest.raises(
+        HardwareError, match=r"motors_enable and drive\.motors_reverse are both line 5"
+    ):
+        GpiodOutputs(specs, dev)
+    assert fake_gpiod.read_state(dev / "gpiochip1")["released"] is True
+
+
+def test_a_missing_chip_path_says_so(dev: Path) -> None:
+    with pytest.raises(HardwareError, match="gpiochip9 does not exist"):
+        GpiodOutputs({"a": LineSpec("drive.motors_enable", str(dev / "gpiochip9"), 1)}, dev)

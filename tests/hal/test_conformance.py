@@ -1,0 +1,148 @@
+"""The suite every backend passes, simulated and Linux alike: the seam's promises, port by port.
+
+Write → read back through the backend's stand-in, inputs fed on the far side arrive, filters
+hold, bad requests fail the same way, closing de-energises every output, and closing twice is
+harmless. Linux-only: a missing device is one clear HardwareError, and what was already opened
+is closed again.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterator
+from dataclasses import fields
+from pathlib import Path
+
+import pytest
+
+from bywire.errors import FrameError, HardwareError
+from bywire.hal.hardware import DigitalOutputs
+from bywire.hal.ports import CanFrame
+from bywire.protocol import dac6574, dbc, ibus
+from tests.hal.rigs import BACKENDS, Rig, make_rig, settle_until
+
+LINES = [line.name for line in fields(DigitalOutputs)]
+
+
+@pytest.fixture(params=BACKENDS)
+def rig(
+    request: pytest.FixtureRequest, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> Iterator[Rig]:
+    opened = make_rig(request.param, tmp_path, monkeypatch)
+    yield opened
+    opened.close()
+
+
+@pytest.mark.parametrize("name", LINES)
+def test_a_line_reads_back_what_was_written(rig: Rig, name: str) -> None:
+    line = getattr(rig.hardware.outputs, name)
+    line.set(True)
+    assert rig.level(name) is True
+    assert not any(rig.level(other) for other in LINES if other != name)
+    line.set(False)
+    assert rig.level(name) is False
+
+
+@pytest.mark.parametrize(
+    ("name", "period_s", "pulse_s"), [("steering", 0.020, 0.0017), ("hydrobrake", 0.001, 0.0004)]
+)
+def test_a_pwm_pulse_reads_back(rig: Rig, name: str, period_s: float, pulse_s: float) -> None:
+    pwm = getattr(rig.hardware, f"{name}_pwm")
+    assert pwm.period_s == pytest.approx(period_s)
+    pwm.set_pulse(pulse_s)
+    assert rig.pulse_s(name) == pytest.approx(pulse_s)
+    pwm.set_pulse(0.0)
+    assert rig.pulse_s(name) == 0.0
+
+
+@pytest.mark.parametrize("pulse_s", [-1e-6, 0.0201, float("nan")])
+def test_a_pulse_outside_the_period_is_refused(rig: Rig, pulse_s: float) -> None:
+    with pytest.raises(HardwareError, match="outside"):
+        rig.hardware.steering_pwm.set_pulse(pulse_s)
+
+
+@pytest.mark.parametrize(("channel", "code"), [(0, 1023), (1, 1), (3, 512)])
+def test_a_dac_frame_sets_its_channel(rig: Rig, channel: int, code: int) -> None:
+    rig.hardware.dac.write(dac6574.encode_write(channel, code))
+    assert rig.dac_code(channel) == code
+
+
+@pytest.mark.parametrize("frame", [b"", b"\x10\x00", b"\xff\xff\xff"])
+def test_a_malformed_dac_frame_is_a_hardware_error(rig: Rig, frame: bytes) -> None:
+    with pytest.raises(HardwareError):
+        rig.hardware.dac.write(frame)
+
+
+def test_rc_bytes_arrive_whole_and_in_order(rig: Rig) -> None:
+    channels = tuple(1000 + 37 * index for index in range(ibus.CHANNEL_COUNT))
+    sent = ibus.encode_frame(channels) * 3
+    received = bytearray()
+    rig.feed_rc(sent)
+    assert settle_until(rig, lambda: _collect(rig, received) >= len(sent))
+    assert bytes(received) == sent
+
+
+def _collect(rig: Rig, into: bytearray) -> int:
+    into.extend(rig.hardware.rc_uart.read_available())
+    return len(into)
+
+
+def test_rc_input_cuts_a_wait_short(rig: Rig) -> None:
+    clock = rig.hardware.clock
+    deadline_s = clock.now() + 60.0
+    rig.feed_rc(ibus.encode_frame([1500] * ibus.CHANNEL_COUNT))
+    clock.wait_until(deadline_s)
+    assert clock.now() < deadline_s
+
+
+def test_command_frames_arrive_and_other_ids_are_filtered(rig: Rig) -> None:
+    movement_id = dbc.command_ids()[1]
+    rig.peer_send(0x7FF, b"\x01")
+    rig.peer_send(movement_id, bytes(range(8)))
+    frames: list[CanFrame] = []
+    assert settle_until(rig, lambda: bool(frames.extend(rig.hardware.can.receive()) or frames))
+    rig.settle()
+    frames.extend(rig.hardware.can.receive())
+    assert [(frame.arbitration_id, frame.data) for frame in frames] == [
+        (movement_id, bytes(range(8)))
+    ]
+
+
+def test_a_sent_report_reaches_the_other_node(rig: Rig) -> None:
+    assert rig.hardware.can.send(CanFrame(0x200, b"\x12\x34"))
+    received: list[tuple[int, bytes]] = []
+    assert settle_until(rig, lambda: bool(received.extend(rig.peer_frames()) or received))
+    assert received == [(0x200, b"\x12\x34")]
+
+
+@pytest.mark.parametrize(("frame_id", "data"), [(0x800, b""), (-1, b""), (0x100, bytes(9))])
+def test_a_frame_classic_can_cannot_carry_is_refused(rig: Rig, frame_id: int, data: bytes) -> None:
+    with pytest.raises(FrameError):
+        rig.hardware.can.send(CanFrame(frame_id, data))
+
+
+def _drive_everything(rig: Rig) -> None:
+    for name in LINES:
+        getattr(rig.hardware.outputs, name).set(True)
+    rig.hardware.steering_pwm.set_pulse(0.0015)
+    rig.hardware.hydrobrake_pwm.set_pulse(0.0005)
+    for channel in (0, 1):
+        rig.hardware.dac.write(dac6574.encode_write(channel, 800))
+
+
+def _assert_de_energised(rig: Rig) -> None:
+    assert {name: rig.level(name) for name in LINES} == dict.fromkeys(LINES, False)
+    assert (rig.pulse_s("steering"), rig.pulse_s("hydrobrake")) == (0.0, 0.0)
+    assert (rig.dac_code(0), rig.dac_code(1)) == (0, 0)
+
+
+def test_closing_de_energises_every_output(rig: Rig) -> None:
+    _drive_everything(rig)
+    rig.close()
+    _assert_de_energised(rig)
+
+
+def test_closing_twice_is_harmless(rig: Rig) -> None:
+    _drive_everything(rig)
+    rig.close()
+    rig.close()
+    _assert_de_energised(rig)
