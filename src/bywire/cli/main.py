@@ -26,6 +26,8 @@ COMMANDS: dict[str, tuple[str, str]] = {
     ),
     "dbc": ("bywire.cli.dbc", "the CAN database: show messages and signals, generate C code"),
     "bench": ("bywire.cli.bench", "measure latency, jitter, CPU, memory and speed-up (§8)"),
+    "run": ("bywire.cli.run", "run the controller on the robot's hardware (until SIGINT/SIGTERM)"),
+    "config": ("bywire.cli.config", "robot configuration: check a file, print what it resolves to"),
 }
 
 

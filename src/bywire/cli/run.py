@@ -1,0 +1,93 @@
+"""`bywire run --config FILE`: the controller on the robot's hardware until SIGINT or SIGTERM.
+
+Opens the hardware from the configuration (`bywire.hal.opening`) and runs the control loop, which
+tells systemd READY=1, WATCHDOG=1 and STOPPING=1 through `hal.linux.systemd.notify`. SIGINT and
+SIGTERM end the loop at its next wake-up; whatever ends the run (a signal, a device error, a
+bug), the runtime writes the safe outputs and the hardware's exit de-energises them. Device
+problems are one line and exit 2.
+"""
+
+from __future__ import annotations
+
+import argparse
+import contextlib
+import logging
+import signal
+import sys
+from collections.abc import Iterator
+from pathlib import Path
+from types import FrameType
+
+from bywire.config import load_config
+from bywire.errors import HardwareError
+from bywire.hal.linux.device_errors import reason
+from bywire.hal.linux.systemd import notify
+from bywire.hal.opening import LinuxPaths, open_hardware
+from bywire.runtime.app import Runtime
+from bywire.runtime.settings import RuntimeConfig
+
+STOP_SIGNALS = (signal.SIGINT, signal.SIGTERM)
+log = logging.getLogger(__name__)
+
+
+def configure(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument(
+        "--config", type=Path, required=True, metavar="FILE", help="robot configuration TOML"
+    )
+    parser.add_argument(
+        "--sysfs-root",
+        type=Path,
+        default=LinuxPaths().sysfs_root,
+        metavar="DIR",
+        help="where sysfs is mounted (containers, tests; default: /sys)",
+    )
+    parser.add_argument(
+        "--dev-root",
+        type=Path,
+        default=LinuxPaths().dev_root,
+        metavar="DIR",
+        help="where device names such as i2c-1 and gpiochip0 resolve (default: /dev)",
+    )
+    parser.add_argument("--verbose", action="store_true", help="log device events in detail")
+
+
+def run(args: argparse.Namespace) -> int:
+    logging.basicConfig(
+        level=logging.DEBUG if args.verbose else logging.INFO,
+        format="bywire run: %(levelname)s %(name)s: %(message)s",
+        stream=sys.stderr,
+    )
+    robot = load_config(args.config)
+    paths = LinuxPaths(args.sysfs_root, args.dev_root)
+    with _device_errors(), open_hardware(robot, paths) as hardware:
+        runtime = Runtime(hardware, RuntimeConfig.from_robot(robot), notify=notify)
+        log.info("running %s (%s backend)", robot.name, robot.backend)
+        with _stop_on_signals(runtime):
+            runtime.run()
+    log.info("stopped; outputs de-energised")
+    return 0
+
+
+@contextlib.contextmanager
+def _stop_on_signals(runtime: Runtime) -> Iterator[None]:
+    def stop(signal_number: int, _frame: FrameType | None) -> None:
+        runtime.request_stop()
+
+    previous = {number: signal.signal(number, stop) for number in STOP_SIGNALS}
+    try:
+        yield
+    finally:
+        for number, handler in previous.items():
+            signal.signal(number, handler)
+
+
+@contextlib.contextmanager
+def _device_errors() -> Iterator[None]:
+    """An OSError that no backend put into words still becomes one line, not a traceback."""
+    try:
+        yield
+    except HardwareError:
+        raise
+    except OSError as error:
+        where = f" ({error.filename})" if error.filename else ""
+        raise HardwareError(f"device error{where}: {reason(error)}") from error

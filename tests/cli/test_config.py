@@ -1,0 +1,53 @@
+"""`bywire config check`: a good file prints every resolved value (loadable again), a bad one is
+exit 2 with the key and the allowed range."""
+
+from __future__ import annotations
+
+import contextlib
+import io
+import json
+from pathlib import Path
+
+from bywire.cli.main import main
+from bywire.config import as_dict, load_config, parse_config
+
+ROOT = Path(__file__).resolve().parents[2]
+ALBERT = ROOT / "config" / "albert.toml"
+
+
+def _check(*argv: str) -> tuple[int, str, str]:
+    out, err = io.StringIO(), io.StringIO()
+    with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
+        status = main(["config", "check", *argv])
+    return status, out.getvalue(), err.getvalue()
+
+
+def test_a_valid_file_prints_what_it_resolved_to() -> None:
+    status, out, err = _check(str(ALBERT))
+    assert (status, err) == (0, "")
+    assert out.splitlines()[0] == f"# {ALBERT}: valid; robot 'albert', backend 'linux'"
+    assert parse_config(out) == load_config(ALBERT)
+    assert 'interface = "socketcan"' in out
+
+
+def test_json_gives_the_same_values() -> None:
+    status, out, _ = _check(str(ALBERT), "--json")
+    assert status == 0
+    assert json.loads(out) == json.loads(json.dumps(as_dict(load_config(ALBERT))))
+
+
+def test_a_bad_value_names_the_key_and_range(tmp_path: Path) -> None:
+    bad = tmp_path / "bad.toml"
+    bad.write_text('backend = "linux"\n[drive.dac]\naddress = 0x50\n')
+    status, out, err = _check(str(bad))
+    assert (status, out) == (2, "")
+    assert err.startswith("bywire config: error: ")
+    assert "drive.dac.address = 0x50" in err
+    assert "0x4C..0x4F" in err
+
+
+def test_a_missing_file_is_one_line(tmp_path: Path) -> None:
+    status, _, err = _check(str(tmp_path / "none.toml"))
+    assert status == 2
+    assert err.count("\n") == 1
+    assert "no such configuration file" in err

@@ -1,0 +1,249 @@
+"""`bywire run` as a process on the stand-ins: IBUS on a pty and CAN frames drive the outputs, a
+signal ends it with every output de-energised, and a device problem is one line, exit 2.
+
+The process is `tests/hal/linux/launch_bywire.py`: the real CLI, with the file-backed gpiod
+stand-in and the higher-level computer on its virtual CAN channel (see its docstring). Waiting
+for the process polls the files it writes, with generous limits; nothing sleeps blindly.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import shutil
+import signal
+import subprocess
+import sys
+import tempfile
+import time
+from collections.abc import Callable, Iterator
+from pathlib import Path
+from typing import Any
+
+import pytest
+
+from bywire.model import ControlMode, Gear
+from tests.hal.linux import fake_gpiod
+from tests.hal.linux.bench import Bench, make_bench
+from tests.hal.linux.fake_sysfs import make_can_netdev
+from tests.hal.linux.pty_rc import PtyRcLine
+
+LAUNCHER = Path(__file__).resolve().parents[1] / "hal" / "linux" / "launch_bywire.py"
+CENTRE_NS = 1_500_000
+LIMIT_S = 30.0  # generous: a loaded CI machine may be slow to start python-can and cantools
+
+
+class Robot:
+    """A running `bywire run` on a bench, with its RC line and higher-level computer."""
+
+    def __init__(self, bench: Bench, line: PtyRcLine | None, *, user: int | None = None) -> None:
+        self.bench, self.line = bench, line
+        self.hlc = bench.root / "hlc"
+        self.hlc.mkdir(exist_ok=True)
+        self.hlc.chmod(0o777)  # the higher-level computer writes here, as whichever user runs
+        config = bench.root / "robot.toml"
+        config.write_text(bench.config_text())
+        args = ["run", "--config", str(config), "--sysfs-root", str(bench.sysfs)]
+        args += ["--dev-root", str(bench.dev)]
+        command = [sys.executable, str(LAUNCHER), str(self.hlc), bench.can_channel, "--", *args]
+        if user is not None:
+            command = ["setpriv", f"--reuid={user}", f"--regid={user}", "--clear-groups", *command]
+        self.process = subprocess.Popen(
+            command, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True
+        )
+
+    def wait_for(self, what: str, condition: Callable[[], bool]) -> None:
+        deadline_s = time.monotonic() + LIMIT_S
+        while not _holds(condition):
+            if self.process.poll() is not None:
+                pytest.fail(
+                    f"bywire exited ({self.process.returncode}) before {what}: {self.errors()}"
+                )
+            if time.monotonic() > deadline_s:
+                pytest.fail(f"no {what} within {LIMIT_S} s")
+            time.sleep(0.02)
+
+    def finish(self) -> int:
+        try:
+            return self.process.wait(timeout=LIMIT_S)
+        finally:
+            self._output = self.process.communicate()
+
+    def errors(self) -> str:
+        if self.process.poll() is None:
+            return ""
+        if not hasattr(self, "_output"):
+            self._output = self.process.communicate()
+        return self._output[1]
+
+    def command(self, **movement: Any) -> None:
+        temporary = self.hlc / "movement.tmp"
+        temporary.write_text(json.dumps(movement))
+        os.replace(temporary, self.hlc / "movement.json")
+
+    def reports(self) -> dict[str, Any]:
+        return json.loads((self.hlc / "reports.json").read_text())
+
+    def kill(self) -> None:
+        if self.process.poll() is None:
+            self.process.kill()
+            self.process.communicate()
+
+
+def _holds(condition: Callable[[], bool]) -> bool:
+    try:
+        return condition()
+    except (OSError, ValueError, KeyError):
+        return False  # a file the process has not written yet
+
+
+@pytest.fixture
+def line(tmp_path: Path) -> Iterator[PtyRcLine]:
+    rc = PtyRcLine(tmp_path / "ttyRC")
+    rc.transmitter.set_mode(ControlMode.STOP)
+    rc.transmitter.set_gear(Gear.FORWARD)
+    rc.start()
+    yield rc
+    rc.close()
+
+
+def _stop_armed(robot: Robot) -> dict[str, Any]:
+    """The RC link is up with the switch at STOP: the robot may be armed."""
+    return {**robot.reports(), "mode": "STOP", "armed": True}
+
+
+def _steering_ns(bench: Bench) -> int:
+    return bench.pwm(0)[1]
+
+
+@pytest.mark.parametrize("stop_signal", [signal.SIGINT, signal.SIGTERM], ids=["SIGINT", "SIGTERM"])
+def test_ibus_and_can_drive_the_outputs_and_a_signal_ends_safe(
+    tmp_path: Path, line: PtyRcLine, stop_signal: signal.Signals
+) -> None:
+    bench = make_bench(tmp_path)
+    robot = Robot(bench, line)
+    try:
+        robot.command(steering=-0.6, throttle=0.0, brake=0.5, gear="forward")
+        robot.wait_for("armed in STOP", lambda: robot.reports() == _stop_armed(robot))
+        assert bench.levels()["ebrake_release"] == 0
+        line.transmitter.set_mode(ControlMode.RC)
+        robot.wait_for("RC mode in the reports", lambda: robot.reports()["mode"] == "RC")
+        line.transmitter.set_steering(0.8)
+        line.transmitter.set_throttle(0.5)
+        robot.wait_for("RC steering right", lambda: _steering_ns(bench) > CENTRE_NS + 200_000)
+        robot.wait_for("RC throttle", lambda: bench.dac_code(0) > 0)
+        assert bench.levels()["motors_enable"] == 1
+        assert bench.levels()["ebrake_release"] == 1
+        line.transmitter.set_throttle(0.0)
+        robot.command(steering=-0.6, throttle=0.3, brake=0.0, gear="forward")
+        line.transmitter.set_mode(ControlMode.CAN)
+        robot.wait_for("CAN mode in the reports", lambda: robot.reports()["mode"] == "CAN")
+        robot.wait_for("CAN steering left", lambda: _steering_ns(bench) < CENTRE_NS - 200_000)
+        robot.process.send_signal(stop_signal)
+        assert robot.finish() == 0, robot.errors()
+    finally:
+        robot.kill()
+    _assert_de_energised(bench)
+    assert "Traceback" not in robot.errors()
+
+
+def _assert_de_energised(bench: Bench) -> None:
+    state = bench.gpio_state()
+    assert set(state["levels"].values()) == {0}
+    assert state["released"] is True
+    assert set(state["requested"].values()) == {0}  # requested low: no glitch at start
+    assert bench.pwm(0)[1:] == (0, 0)
+    assert bench.pwm(1)[1:] == (0, 0)
+    assert [bench.dac_code(channel) for channel in range(4)] == [0, 0, 0, 0]
+
+
+def _no_gpio_chip(bench: Bench) -> None:
+    bench.gpio_chip.unlink()
+
+
+def _no_pwm_chip(bench: Bench) -> None:
+    (bench.sysfs / "class" / "pwm" / bench.pwm_chip.name).unlink()
+
+
+def _no_dac(bench: Bench) -> None:
+    (bench.sysfs / "bus" / "iio" / "devices" / "iio:device0").unlink()
+
+
+def _no_rc_receiver(bench: Bench) -> None:
+    bench.rc_link.unlink(missing_ok=True)
+
+
+def _kvaser(bench: Bench) -> None:
+    bench.config_text = lambda: Bench.config_text(bench).replace('"virtual"', '"kvaser"')  # type: ignore[method-assign]
+
+
+def _socketcan_down(bench: Bench) -> None:
+    make_can_netdev(bench.sysfs, bench.can_channel, "down")
+    bench.config_text = lambda: Bench.config_text(bench).replace('"virtual"', '"socketcan"')  # type: ignore[method-assign]
+
+
+def _unknown_interface(bench: Bench) -> None:
+    bench.config_text = lambda: Bench.config_text(bench).replace('"virtual"', '"vcan"')  # type: ignore[method-assign]
+
+
+@pytest.mark.parametrize(
+    ("break_it", "expected"),
+    [
+        (_no_gpio_chip, "GPIO: no chip 'bywire-test-gpio'"),
+        (_no_pwm_chip, "PWM: no chip 'fe20c000.pwm'"),
+        (_no_dac, "i2c-1 does not exist: enable I2C"),
+        (_no_rc_receiver, "ttyRC does not exist: enable the UART"),
+        (_kvaser, "CAN kvaser"),
+        (_socketcan_down, "is down: sudo ip link set"),
+        (_unknown_interface, 'can.interface = "vcan": not allowed'),
+    ],
+    ids=["gpio", "pwm", "dac", "uart", "can-driver", "can-down", "can-interface"],
+)
+def test_a_missing_device_is_one_line_and_exit_2(
+    tmp_path: Path, line: PtyRcLine, break_it: Callable[[Bench], None], expected: str
+) -> None:
+    bench = make_bench(tmp_path)
+    break_it(bench)
+    robot = Robot(bench, line)
+    status = robot.finish()
+    errors = robot.errors().strip().splitlines()
+    assert status == 2
+    assert len(errors) == 1, errors
+    assert expected in errors[0]
+    assert errors[0].startswith("bywire run: error: ")
+    if Path(f"{bench.gpio_chip}.state.json").exists():  # requested before the failure
+        assert fake_gpiod.read_state(bench.gpio_chip)["released"] is True
+
+
+@pytest.mark.skipif(
+    os.geteuid() == 0 and shutil.which("setpriv") is None, reason="root, and no setpriv to drop it"
+)
+@pytest.mark.parametrize(
+    ("denied", "expected"),
+    [("uart", "add the user to group dialout"), ("pwm", "add the user to group gpio")],
+)
+def test_a_device_the_user_may_not_open_says_which_group(denied: str, expected: str) -> None:
+    """Run as an unprivileged user (nobody, through setpriv, when the tests run as root), so
+    that the kernel itself refuses the device file."""
+    user = 65534 if os.geteuid() == 0 else None
+    with tempfile.TemporaryDirectory() as folder:
+        root = Path(folder)
+        root.chmod(0o755)
+        bench = make_bench(root)
+        bench.dev.chmod(0o777)  # the gpiod stand-in writes its state there
+        for path in bench.sysfs.rglob("*"):
+            if path.is_file() and (denied != "pwm" or "pwm" not in str(path)):
+                path.chmod(0o666)
+        line = PtyRcLine(bench.rc_link)
+        try:
+            if denied != "uart":
+                os.chmod(os.path.realpath(bench.rc_link), 0o666)
+            robot = Robot(bench, line, user=user)
+            status = robot.finish()
+        finally:
+            line.close()
+    errors = robot.errors().strip().splitlines()
+    assert status == 2
+    assert len(errors) == 1, errors
+    assert "permission denied" in errors[0]
+    assert expected in errors[0]
