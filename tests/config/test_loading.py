@@ -41,7 +41,7 @@ def test_albert_loads_as_the_reference_robot_on_linux() -> None:
     assert config.can.bitrate_bps == 500_000
     assert (config.rc.port, config.rc.baud) == ("/dev/ttyAMA0", 115_200)
     assert (config.drive.dac.i2c_bus, config.drive.dac.address) == (1, 0x4C)
-    assert config.drive.motors_enable == GpioLine("gpiochip0", "GPIO5")
+    assert config.drive.motors_enable == GpioLine("pinctrl-bcm2711", "GPIO5")
 
 
 @pytest.mark.parametrize("path", [SIM, ALBERT], ids=["sim", "albert"])
@@ -81,7 +81,7 @@ def test_every_albert_key_has_a_comment() -> None:
 def test_output_lines_name_every_hardware_output() -> None:
     lines = output_lines(load_config(ALBERT))
     assert list(lines) == [field.name for field in fields(DigitalOutputs)]
-    assert lines["ebrake_release"] == GpioLine("gpiochip0", "GPIO17")
+    assert lines["ebrake_release"] == GpioLine("pinctrl-bcm2711", "GPIO17")
     assert len(set(lines.values())) == len(lines)
 
 
