@@ -15,6 +15,8 @@ import time
 from collections.abc import Callable
 
 DEFAULT_LIMIT_S = 0.200
+POLL_S = 0.010  # one control period: the trip comes at most this late after the limit
+NOTIFY_PERIOD_S = 0.100  # systemd needs a ping well within WatchdogSec, not every poll
 
 
 class Watchdog:
@@ -65,7 +67,7 @@ class Watchdog:
             return self._tripped
 
     def start(self) -> None:
-        """Run `check` from a daemon thread four times per limit."""
+        """Run `check` from a daemon thread every control period (or faster for short limits)."""
         self._stop.clear()
         self._thread = threading.Thread(target=self._watch, name="bywire-watchdog", daemon=True)
         self._thread.start()
@@ -77,6 +79,9 @@ class Watchdog:
             self._thread = None
 
     def _watch(self) -> None:
-        while not self._stop.wait(self.limit_s / 4):
-            if not self.check() and self._notify is not None:
-                self._notify("WATCHDOG=1")
+        next_notify_s = self._monotonic()
+        while not self._stop.wait(min(POLL_S, self.limit_s / 4)):
+            if self.check() or self._notify is None or self._monotonic() < next_notify_s:
+                continue
+            self._notify("WATCHDOG=1")
+            next_notify_s = self._monotonic() + NOTIFY_PERIOD_S
