@@ -73,3 +73,12 @@ def test_bad_scenarios_are_refused_naming_the_key(text: str, message: str) -> No
 def test_missing_file_names_the_path(tmp_path: Path) -> None:
     with pytest.raises(ConfigError, match=r"nothing\.toml"):
         load_scenario(tmp_path / "nothing.toml")
+
+
+def test_a_loop_stall_needs_real_time() -> None:
+    text = "[[event]]\nat_s = 1\nfault = 'loop_stall'\nstall_s = 0.3"
+    with pytest.raises(ConfigError, match="realtime = true"):
+        parse_scenario(text, "stall.toml")
+    scenario = parse_scenario("realtime = true\n" + text, "stall.toml")
+    assert scenario.realtime
+    assert scenario.events[0].values["stall_s"] == 0.3

@@ -10,6 +10,7 @@ from __future__ import annotations
 import dataclasses
 import functools
 import random
+import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any
@@ -93,6 +94,7 @@ class SimRun:
         self.robot = robot
         self.scenario = scenario
         self.duration_s = scenario.duration_s if duration_s is None else duration_s
+        realtime = realtime or scenario.realtime
         clock = RealtimeClock() if realtime else VirtualClock()
         dac = robot.drive.dac
         self.world = SimWorld.create(
@@ -215,10 +217,35 @@ class SimRun:
             "can_flood": lambda: world.bus.flood(float(values["load"])),
             "can_flood_off": world.bus.stop_flood,
         }
+        actions.update(self._actuator_faults(values))
         if fault in CORRUPTIONS:
             world.hlc.corrupt_next(count, CORRUPTIONS[fault])
         else:
             actions[fault]()
+
+    def _actuator_faults(self, values: dict[str, Any]) -> dict[str, Callable[[], None]]:
+        faults, encoder = self.world.vehicle.faults, self.world.steering_encoder
+
+        def setter(name: str, value: bool) -> Callable[[], None]:
+            return lambda: setattr(faults, name, value)
+
+        return {
+            "hydrobrake_fail": setter("hydrobrake_failed", True),
+            "hydrobrake_restore": setter("hydrobrake_failed", False),
+            "ebrake_fail": setter("ebrake_failed", True),
+            "servo_stuck": setter("servo_stuck", True),
+            "servo_free": setter("servo_stuck", False),
+            "encoder_fail": lambda: setattr(encoder, "failed", True),
+            "loop_stall": lambda: self._stall(float(values["stall_s"])),
+        }
+
+    def _stall(self, stall_s: float) -> None:
+        """Hang the controller's thread (this timer runs in it), watching the outputs meanwhile:
+        only the watchdog's own thread can make them safe now."""
+        end_s = time.perf_counter() + stall_s
+        while time.perf_counter() < end_s:
+            time.sleep(0.002)
+            self._observe(self.world.clock.now())
 
     def _failsafe_values(self) -> dict[int, int]:
         """A FlySky receiver's output on loss: the transmitter's failsafe values. Sticks centred,

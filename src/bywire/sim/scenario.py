@@ -68,6 +68,14 @@ FAULTS = {
     "can_plug": "the CAN cable is back",
     "can_flood": "other nodes fill `load` (0…1) of the bus with lower-priority frames",
     "can_flood_off": "the other nodes stop",
+    "hydrobrake_fail": "the hydraulic brake builds no pressure and does not brake",
+    "hydrobrake_restore": "the hydraulic brake works again",
+    "ebrake_fail": "the spring-applied emergency brake does not engage",
+    "servo_stuck": "the steering servo stays where it is",
+    "servo_free": "the steering servo moves again",
+    "encoder_fail": "the steering encoder gives no reading",
+    "loop_stall": "the control loop hangs for `stall_s` (needs realtime = true: the watchdog's "
+    "limit is wall-clock time)",
 }
 CONDITIONS = {
     "mode": "control mode: stop, rc or can",
@@ -84,7 +92,7 @@ CONDITIONS = {
     "low_beam": "low beam on",
     "hydrobrake_duty_min": "hydraulic brake PWM duty at least this",
 }
-EVENT_KEYS = {"at_s", "label", "fault", "count", "load", *ACTIONS}
+EVENT_KEYS = {"at_s", "label", "fault", "count", "load", "stall_s", *ACTIONS}
 EXPECT_KEYS = {"after", "within_s", "at_s", "label", *CONDITIONS}
 
 
@@ -127,6 +135,7 @@ class Scenario:
     duration_s: float
     events: tuple[Event, ...]
     expectations: tuple[Expectation, ...]
+    realtime: bool = False  # paced by the wall clock (what the watchdog measures)
 
 
 def _refuse(
@@ -174,7 +183,12 @@ def _event(table: dict[str, Any], origin: str, where: str) -> Event:
             raise _refuse(
                 origin, f"{where}.fault", f"unknown fault {fault!r}", set(FAULTS), str(fault)
             )
-        values = {"fault": fault, "count": table.get("count", 1), "load": table.get("load", 1.0)}
+        values = {
+            "fault": fault,
+            "count": table.get("count", 1),
+            "load": table.get("load", 1.0),
+            "stall_s": table.get("stall_s", 0.5),
+        }
     else:
         values = dict(table[kind])
         _check_keys(values, ACTIONS[kind], origin, f"{where}.{kind}")
@@ -204,7 +218,8 @@ def parse_scenario(text: str, origin: str) -> Scenario:
         document = tomllib.loads(text)
     except tomllib.TOMLDecodeError as error:
         raise ConfigError(f"{origin}: not valid TOML: {error}") from error
-    _check_keys(document, {"name", "description", "duration_s", "event", "expect"}, origin, "")
+    top_keys = {"name", "description", "duration_s", "realtime", "event", "expect"}
+    _check_keys(document, top_keys, origin, "")
     events = [
         _event(table, origin, f"event[{index}]")
         for index, table in enumerate(document.get("event", []))
@@ -220,7 +235,17 @@ def parse_scenario(text: str, origin: str) -> Scenario:
         duration_s=_time(document, "duration_s", origin, "") if "duration_s" in document else 30.0,
         events=tuple(sorted(events, key=lambda event: event.at_s)),
         expectations=tuple(expectations),
+        realtime=_realtime(document, events, origin),
     )
+
+
+def _realtime(document: dict[str, Any], events: list[Event], origin: str) -> bool:
+    realtime = document.get("realtime", False)
+    if not isinstance(realtime, bool):
+        raise _refuse(origin, "realtime", f"must be true or false, got {realtime!r}")
+    if not realtime and any(event.values.get("fault") == "loop_stall" for event in events):
+        raise _refuse(origin, "realtime", "a loop_stall needs realtime = true")
+    return realtime
 
 
 def load_scenario(path: Path) -> Scenario:
