@@ -232,7 +232,8 @@ def encode_report(report: Report) -> tuple[int, bytes]:
     """
     message = database().get_message_by_name(type(report).__name__)
     raw = dbc_values.raw_values(message, report, saturate=True)
-    return message.frame_id, bytes(message.encode(raw, scaling=False, strict=True))
+    # strict=False: raw_values has saturated every value into its range already
+    return message.frame_id, bytes(message.encode(raw, scaling=False, strict=False))
 
 
 def decode_report(frame: int, data: bytes | bytearray) -> Report:

@@ -194,11 +194,15 @@ class Runtime:
         if self.outputs is not None and self._stepped_at == now and not force:
             return self.outputs
         self._acknowledge_watchdog()
+        speed_mps, pressure_bar, steering_norm = self._sensor_readings()
         self.inputs = replace(
-            self._read_sensors(self.inputs),
+            self.inputs,
             fault_flags=int(self._shell_flags(now)),
             hardware_fault=self.actuators.dac_fault
             or (self.watchdog is not None and self.watchdog.tripped),
+            speed_mps=speed_mps,
+            hydrobrake_pressure_bar=pressure_bar,
+            steering_measured_norm=steering_norm,
         )
         self.state, outputs = controller_step(self.state, self.inputs, now, self.config.control)
         if self.outputs is None or outputs.mode is not self.outputs.mode:
@@ -206,16 +210,15 @@ class Runtime:
         self.outputs, self._stepped_at = outputs, now
         return outputs
 
-    def _read_sensors(self, inputs: ControlInputs) -> ControlInputs:
-        """The optional feedback sensors' latest readings (None where none is fitted)."""
+    def _sensor_readings(self) -> tuple[float | None, float | None, float | None]:
+        """Speed, brake pressure and steering angle now (None where no sensor is fitted)."""
         hardware = self.hardware
         wheels = None if hardware.wheel_speeds is None else hardware.wheel_speeds.read()
         pressure, encoder = hardware.hydrobrake_pressure_bar, hardware.steering_encoder_norm
-        return replace(
-            inputs,
-            speed_mps=None if wheels is None else (wheels[0] + wheels[1]) / 2,
-            hydrobrake_pressure_bar=None if pressure is None else pressure.read(),
-            steering_measured_norm=None if encoder is None else encoder.read(),
+        return (
+            None if wheels is None else (wheels[0] + wheels[1]) / 2,
+            None if pressure is None else pressure.read(),
+            None if encoder is None else encoder.read(),
         )
 
     def _acknowledge_watchdog(self) -> None:

@@ -15,7 +15,7 @@ import time
 from collections.abc import Callable
 
 DEFAULT_LIMIT_S = 0.200
-POLL_S = 0.010  # one control period: the trip comes at most this late after the limit
+POLL_S = 0.005  # half a control period: the trip lands within limit + one period
 NOTIFY_PERIOD_S = 0.100  # systemd needs a ping well within WatchdogSec, not every poll
 
 

@@ -122,7 +122,6 @@ class SimRun:
             "gear": "neutral",
         }
         self._next_record_s = self.started_at
-        self._last: Observation | None = None
         self.runtime.on_cycle.append(self._observe)
 
     def add_can_monitor(self, monitor: Callable[[LoggedFrame], None]) -> None:
@@ -158,7 +157,8 @@ class SimRun:
         if event.label:
             for timing in self.record.fault_timings:
                 timing.searching = False
-            already_safe = self._last is None or self._last.safe
+            observation = self._observation()
+            already_safe = observation is None or observation.safe
             self.record.fault_timings.append(FaultTiming(event, now, already_safe))
             for verdict in self.record.verdicts:
                 if verdict.expectation.after == event.label and verdict.window is None:
@@ -259,19 +259,41 @@ class SimRun:
 
     # --- observation --------------------------------------------------------------------------
 
+    def _observation(self) -> Observation | None:
+        outputs = self.runtime.outputs
+        if outputs is None:
+            return None
+        dac = self.robot.drive.dac
+        return observe(self.world, outputs, dac.throttle_channel, dac.regen_channel)
+
     def _observe(self, now: float) -> None:
+        """After each pass of the loop: flags always; a full observation when one is due."""
         outputs = self.runtime.outputs
         if outputs is None:
             return
-        dac = self.robot.drive.dac
-        observation = observe(self.world, outputs, dac.throttle_channel, dac.regen_channel)
-        self._last = observation
-        self.record.top_speed_mps = max(self.record.top_speed_mps, abs(observation.speed_mps))
-        self.record.error_flags_seen |= observation.error_flags
-        if now >= self._next_record_s:
+        self.record.error_flags_seen |= outputs.error_flags
+        recording = now >= self._next_record_s
+        if not (recording or self._watching(now)):
+            return
+        observation = self._observation()
+        if observation is None:
+            return
+        if recording:
             self.record.samples.append(observation)
+            self.record.top_speed_mps = max(self.record.top_speed_mps, abs(observation.speed_mps))
             self._next_record_s = now + RECORD_PERIOD_S
         self._judge(observation)
+
+    def _watching(self, now: float) -> bool:
+        """True while a deadline runs or a timed expectation is due: observe every pass."""
+        timings = (t.searching and not t.already_safe for t in self.record.fault_timings)
+        return any(timings) or any(self._due(verdict, now) for verdict in self.record.verdicts)
+
+    def _due(self, verdict: Verdict, now: float) -> bool:
+        at_s = verdict.expectation.at_s
+        if at_s is not None:
+            return verdict.passed is None and now >= self.started_at + at_s
+        return verdict.window is not None and (verdict.passed is None or verdict.measured_s is None)
 
     def _judge(self, observation: Observation) -> None:
         now = observation.time_s
