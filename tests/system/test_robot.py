@@ -208,3 +208,18 @@ def test_unplugged_bus_does_not_starve_the_lights_task() -> None:
     assert robot.runtime.tx_faults.count >= 150  # one refusal per report period, then back off
     assert robot.runtime.reports_sent <= 50 * 6 + 10  # a second of reports, then a full queue
     assert robot.level("error_led", 4.9)
+
+
+def test_a_crash_inside_the_loop_still_ends_with_every_output_safe() -> None:
+    robot = rc_driving(throttle=0.5)
+
+    def crash(now: float) -> None:
+        if now > 1.5:
+            raise RuntimeError("a task failed")
+
+    robot.runtime.on_cycle.append(crash)
+    with pytest.raises(RuntimeError, match="a task failed"):
+        robot.run(3.0)
+    crashed_at = robot.clock.now()
+    assert robot.level("motors_enable", crashed_at - 0.02)  # it was driving
+    assert robot.safe_at(crashed_at)
