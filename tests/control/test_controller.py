@@ -222,3 +222,15 @@ def test_brake_from_rc_drives_regen_hydro_and_brake_lights() -> None:
     assert last.drive.regen_volts == pytest.approx(4.0)
     assert last.hydrobrake_duty == pytest.approx(0.6)
     assert last.lights.brake
+
+
+@pytest.mark.parametrize(("age_s", "mode"), [(0.0999, ControlMode.CAN), (0.1001, ControlMode.STOP)])
+def test_can_timeout_boundary_in_can_mode(age_s: float, mode: ControlMode) -> None:
+    movement = MovementCommand(0.0, 0.0, 0.2, Gear.FORWARD, counter=1)
+    sent = Stamped(movement, 0.02)
+    steps = [
+        *armed_rc(0.0, mode=ControlMode.RC),
+        (0.02, ControlInputs(rc=rc_at(0.02, mode=ControlMode.CAN), movement=sent)),
+        (0.02 + age_s, ControlInputs(rc=rc_at(0.02 + age_s, mode=ControlMode.CAN), movement=sent)),
+    ]
+    assert run(steps)[-1].mode is mode

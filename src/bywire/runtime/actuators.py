@@ -38,11 +38,20 @@ class Actuators:
         self.dac_failures = RecentFault()
         self.dac_clamps = RecentFault()
         self.consecutive_dac_failures = 0
+        self._dac_fault = False
 
     @property
     def dac_fault(self) -> bool:
-        """True while the DAC has failed `dac_failure_limit` writes in a row."""
-        return self.consecutive_dac_failures >= self._config.dac_failure_limit
+        """True from the `dac_failure_limit`-th failed write in a row until acknowledged: one good
+        write in between must not re-enable the motors of an intermittent DAC."""
+        return self._dac_fault
+
+    def acknowledge_dac_fault(self) -> bool:
+        """The operator acknowledged (mode switch to STOP): clear the fault if the DAC has
+        answered since. True when cleared."""
+        if self.consecutive_dac_failures == 0:
+            self._dac_fault = False
+        return not self._dac_fault
 
     def write_steering(self, pulse_s: float) -> None:
         self._hardware.steering_pwm.set_pulse(pulse_s)
@@ -90,7 +99,8 @@ class Actuators:
         except HardwareError:
             self.dac_failures.happened(now)
             self.consecutive_dac_failures += 1
-            if self.dac_fault:
+            if self.consecutive_dac_failures >= self._config.dac_failure_limit:
+                self._dac_fault = True
                 self._hardware.outputs.motors_enable.set(False)
         else:
             self.consecutive_dac_failures = 0

@@ -193,7 +193,7 @@ class Runtime:
         """Take the decision at `now` (once per instant unless new input forces it)."""
         if self.outputs is not None and self._stepped_at == now and not force:
             return self.outputs
-        self._acknowledge_watchdog()
+        self._acknowledge_faults()
         speed_mps, pressure_bar, steering_norm = self._sensor_readings()
         self.inputs = replace(
             self.inputs,
@@ -221,13 +221,15 @@ class Runtime:
             None if encoder is None else encoder.read(),
         )
 
-    def _acknowledge_watchdog(self) -> None:
-        """A trip is acknowledged by the operator moving the mode switch to STOP."""
+    def _acknowledge_faults(self) -> None:
+        """Hardware faults (watchdog, DAC) are acknowledged by moving the mode switch to STOP."""
         rc = self.inputs.rc
-        if self.watchdog is None or not self.watchdog.tripped or rc is None or rc.value is None:
+        if rc is None or rc.value is None or rc.value.mode is not ControlMode.STOP:
             return
-        if rc.value.mode is ControlMode.STOP:
+        if self.watchdog is not None and self.watchdog.tripped:
             self.watchdog.reset()
+        if self.actuators.dac_fault:
+            self.actuators.acknowledge_dac_fault()
 
     # --- periodic tasks -----------------------------------------------------------------------
 
