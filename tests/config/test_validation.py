@@ -97,6 +97,10 @@ BAD_VALUES = [
     ("[timeouts]\nrc_timeout_s = 1.5", "timeouts.rc_timeout_s", "0.02..1 s"),
     ("[timeouts]\ncan_command_timeout_s = 0", "timeouts.can_command_timeout_s", "0.02..1 s"),
     ("[timeouts]\nwatchdog_s = 0.01", "timeouts.watchdog_s", "0.02..5 s"),
+    ("[interlocks]\nthrottle_slew_up_per_s = 0", "interlocks.throttle_slew_up_per_s", "/s"),
+    ("[interlocks]\ndirection_dwell_s = 11", "interlocks.direction_dwell_s", "0..10 s"),
+    ("[monitors]\nhydro_min_duty = 1.5", "monitors.hydro_min_duty", "0..1"),
+    ("[monitors]\nhydro_response_s = -1", "monitors.hydro_response_s", "0..5 s"),
     (
         "[timeouts]\nwatchdog_s = 0.1\n[tasks]\nsteering_rate_hz = 10",
         "timeouts.watchdog_s",

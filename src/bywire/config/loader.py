@@ -18,6 +18,8 @@ from bywire.config.model import BACKENDS, Backend, RobotConfig
 from bywire.config.reader import Problems, Table
 from bywire.config.sections import (
     can_section,
+    interlocks_section,
+    monitors_section,
     rc_section,
     sim_section,
     steering_section,
@@ -88,6 +90,8 @@ def build_robot(data: Mapping[str, object], problems: Problems) -> RobotConfig:
         ebrake=ebrake_section(root.table("ebrake"), chip),
         lights=lights_section(root.table("lights"), chip),
         timeouts=timeouts_section(root.table("timeouts")),
+        interlocks=interlocks_section(root.table("interlocks")),
+        monitors=monitors_section(root.table("monitors")),
         tasks=tasks_section(root.table("tasks")),
         sim=sim_section(root.table("sim")),
     )

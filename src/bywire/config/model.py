@@ -12,7 +12,9 @@ from typing import Literal
 
 from bywire.control.drive import DriveConfig
 from bywire.control.hydrobrake import DEFAULT_THRESHOLD_NORM
+from bywire.control.interlocks import InterlockConfig
 from bywire.control.lights import BLINK_RATE_HZ
+from bywire.control.monitors import MonitorConfig
 from bywire.control.rc_mapping import RcMapping
 from bywire.control.steering import SteeringConfig
 
@@ -164,6 +166,8 @@ class RobotConfig:
     ebrake: EbrakeSection = field(default_factory=EbrakeSection)
     lights: LightsSection = field(default_factory=LightsSection)
     timeouts: TimeoutsSection = field(default_factory=TimeoutsSection)
+    interlocks: InterlockConfig = field(default_factory=InterlockConfig)
+    monitors: MonitorConfig = field(default_factory=MonitorConfig)
     tasks: TasksSection = field(default_factory=TasksSection)
     sim: SimSection = field(default_factory=SimSection)
 

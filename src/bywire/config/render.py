@@ -14,7 +14,10 @@ from bywire.control.steering import SteeringConfig
 # The control layer's own configs are written flat into their section, as in the TOML file.
 FLATTENED = (SteeringConfig, DriveConfig, RcMapping)
 # Fixed by the transmitter's switch layout (reverse flips them), so not configuration keys.
-NOT_KEYS = frozenset({"mode_positions", "gear_positions"})
+NOT_KEYS = frozenset(
+    # fixed by the transmitter's switch layout, or safety policy that is not a tuning knob
+    {"mode_positions", "gear_positions", "stop_flags", "encoder_valid_limit_norm"}
+)
 INLINE_MAX_KEYS = 3
 
 

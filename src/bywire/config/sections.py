@@ -7,18 +7,25 @@ from bywire.config.limits import (
     BOOST_GAIN,
     CLOCKS_HZ,
     DEADBAND_NORM,
+    DUTY,
+    DWELL_S,
     IBUS_BAUD,
     INPUT_TIMEOUT_S,
     POSITIVE_NORM_PER_S,
+    PRESSURE_BAR,
     PULSE_S,
     PWM_CHANNELS,
     RC_CHANNELS,
     RC_FRAME_PERIOD_S,
     RC_RAW,
+    RESPONSE_S,
     SAMPLE_POINT,
     SEEDS,
     SERVO_PWM_HZ,
+    SLEW_PER_S,
+    STANDSTILL_MPS,
     TASK_RATE_HZ,
+    TOLERANCE_NORM,
     TOP_SPEED_MPS,
     WATCHDOG_S,
 )
@@ -32,6 +39,8 @@ from bywire.config.model import (
     TimeoutsSection,
 )
 from bywire.config.reader import MISSING, Interval, Table
+from bywire.control.interlocks import InterlockConfig
+from bywire.control.monitors import MonitorConfig
 from bywire.control.rc_mapping import (
     AxisCalibration,
     FailsafeSignature,
@@ -181,6 +190,43 @@ def sim_section(table: Table) -> SimSection:
             "rc_frame_period_s", default.rc_frame_period_s, RC_FRAME_PERIOD_S
         ),
         top_speed_mps=table.number("top_speed_mps", default.top_speed_mps, TOP_SPEED_MPS),
+    )
+    table.close()
+    return section
+
+
+def interlocks_section(table: Table) -> InterlockConfig:
+    default = InterlockConfig()
+    section = InterlockConfig(
+        standstill_speed_mps=table.number(
+            "standstill_speed_mps", default.standstill_speed_mps, STANDSTILL_MPS
+        ),
+        direction_dwell_s=table.number("direction_dwell_s", default.direction_dwell_s, DWELL_S),
+        unknown_speed_dwell_s=table.number(
+            "unknown_speed_dwell_s", default.unknown_speed_dwell_s, DWELL_S
+        ),
+        throttle_slew_up_per_s=table.number(
+            "throttle_slew_up_per_s", default.throttle_slew_up_per_s, SLEW_PER_S
+        ),
+    )
+    table.close()
+    return section
+
+
+def monitors_section(table: Table) -> MonitorConfig:
+    default = MonitorConfig()
+
+    def number(name: str, allowed: Interval) -> float:
+        default_value: float = getattr(default, name)
+        return table.number(name, default_value, allowed)
+
+    section = MonitorConfig(
+        hydro_min_duty=number("hydro_min_duty", DUTY),
+        hydro_response_s=number("hydro_response_s", RESPONSE_S),
+        hydro_bar_at_full_duty=number("hydro_bar_at_full_duty", PRESSURE_BAR),
+        steering_tolerance_norm=number("steering_tolerance_norm", TOLERANCE_NORM),
+        servo_speed_norm_per_s=number("servo_speed_norm_per_s", POSITIVE_NORM_PER_S),
+        steering_margin_s=number("steering_margin_s", RESPONSE_S),
     )
     table.close()
     return section

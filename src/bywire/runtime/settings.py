@@ -31,6 +31,8 @@ class RuntimeConfig:
             rc_timeout_s=robot.timeouts.rc_timeout_s,
             can_command_timeout_s=robot.timeouts.can_command_timeout_s,
             blink_rate_hz=robot.lights.blink_rate_hz,
+            interlocks=robot.interlocks,
+            monitors=robot.monitors,
         )
         dac = robot.drive.dac
         actuators = ActuatorConfig(
