@@ -28,6 +28,10 @@ COMMANDS: dict[str, tuple[str, str]] = {
     "bench": ("bywire.cli.bench", "measure latency, jitter, CPU, memory and speed-up (§8)"),
     "run": ("bywire.cli.run", "run the controller on the robot's hardware (until SIGINT/SIGTERM)"),
     "config": ("bywire.cli.config", "robot configuration: check a file, print what it resolves to"),
+    "teleop": (
+        "bywire.cli.teleop",
+        "drive the robot or the simulator from the keyboard; shows its reports",
+    ),
 }
 
 

@@ -1,0 +1,123 @@
+"""The teleop terminal program (textual): keys to CAN commands every 20 ms, reports on screen.
+
+All decisions are in the pure modules (``state``, ``frames``, ``reports``); this shell owns the
+bus, the clock and the screen. ``tick()`` is one send period: read what arrived, send the three
+command frames, advance the state. By default a textual interval calls it every 20 ms; a test
+passes ``auto_tick=False`` and calls it from a simulated clock, and ``now`` is that clock.
+Reports arrive through a ``can.Notifier`` thread into a ``can.BufferedReader`` (``notifier=False``
+polls the bus in ``tick`` instead, for a single-threaded simulation). On exit one period of full
+brake goes out; then the commands stop and the controller's CAN timeout takes it to STOP.
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Callable
+from dataclasses import replace
+
+import can
+from rich.text import Text
+from textual import events
+from textual.app import App, ComposeResult
+from textual.widgets import Static
+
+from bywire.teleop.frames import SEND_PERIOD_S, Counters, frames
+from bywire.teleop.reports import ReportView, command_lines, fold, report_lines
+from bywire.teleop.state import KEYS, TeleopState, advance, help_line, press
+
+KEY_NAMES = frozenset(binding.key for binding in KEYS)
+
+
+class TeleopApp(App[None]):
+    """Drive the robot from the keyboard over ``bus``; ``q`` quits."""
+
+    TITLE = "bywire teleop"
+    BINDINGS = [("q", "quit", "quit")]  # noqa: RUF012 -- textual's own class attribute
+    CSS = """
+    #commands { border: round $accent; padding: 0 1; height: auto; }
+    #reports { border: round $primary; padding: 0 1; height: auto; }
+    #help { color: $text-muted; padding: 0 1; }
+    """
+
+    def __init__(
+        self,
+        bus: can.BusABC,
+        *,
+        now: Callable[[], float] = time.monotonic,
+        auto_tick: bool = True,
+        notifier: bool = True,
+    ) -> None:
+        super().__init__()
+        self.bus = bus
+        self.state = TeleopState()
+        self.counters = Counters()
+        self.view = ReportView()
+        self.frames_sent = 0
+        self.send_errors = 0
+        self._now = now
+        self._auto_tick = auto_tick
+        self._reader: can.BufferedReader | None = can.BufferedReader() if notifier else None
+        self._notifier: can.Notifier | None = None
+
+    def compose(self) -> ComposeResult:
+        yield Static(id="commands")
+        yield Static(id="reports")
+        yield Static(Text(help_line() + "  q: quit"), id="help")
+
+    def on_mount(self) -> None:
+        if self._reader is not None:
+            self._notifier = can.Notifier(self.bus, [self._reader], timeout=0.05)
+        if self._auto_tick:
+            self.set_interval(SEND_PERIOD_S, self.tick)
+        self._show(self._now())
+
+    def on_unmount(self) -> None:
+        stopped = replace(self.state, throttle_norm=0.0, brake_norm=1.0)
+        self._send(stopped)
+        if self._notifier is not None:
+            self._notifier.stop()
+
+    def on_key(self, event: events.Key) -> None:
+        if event.key in KEY_NAMES:
+            event.stop()
+            event.prevent_default()
+            now_s = self._now()
+            self.state = press(self.state, event.key, now_s)
+            self._show(now_s)
+
+    def tick(self) -> None:
+        """One send period: take in the reports, send the commands, advance the state."""
+        now_s = self._now()
+        self._receive(now_s)
+        self._send(self.state)
+        self.state = advance(self.state, now_s)
+        self._show(now_s)
+
+    def _send(self, state: TeleopState) -> None:
+        period_frames, self.counters = frames(state, self.counters)
+        for frame_id, data in period_frames:
+            message = can.Message(arbitration_id=frame_id, data=data, is_extended_id=False)
+            try:
+                self.bus.send(message, timeout=SEND_PERIOD_S)
+            except can.CanError:
+                self.send_errors += 1  # the controller sees a skipped counter and resyncs
+            else:
+                self.frames_sent += 1
+
+    def _receive(self, now_s: float) -> None:
+        while (message := self._next_message()) is not None:
+            if not message.is_error_frame and not message.is_extended_id:
+                data = bytes(message.data)
+                self.view = fold(self.view, message.arbitration_id, data, now_s)
+
+    def _next_message(self) -> can.Message | None:
+        if self._reader is not None:
+            return self._reader.get_message(timeout=0.0)
+        return self.bus.recv(timeout=0.0)
+
+    def _show(self, now_s: float) -> None:
+        sent = f"frames sent {self.frames_sent}  send errors {self.send_errors}"
+        self.query_one("#commands", Static).update(
+            Text("\n".join([*command_lines(self.state), sent]))
+        )
+        self.query_one("#reports", Static).update(Text("\n".join(report_lines(self.view, now_s))))
