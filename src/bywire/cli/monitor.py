@@ -1,0 +1,95 @@
+"""`bywire monitor`: the bus decoded with the DBC, live (textual) or as one snapshot table.
+
+Connects with any python-can interface; by default to the simulator's transport
+(`bywire sim --realtime --serve 29536`) over socketcand on loopback.
+"""
+
+from __future__ import annotations
+
+import argparse
+import time
+from pathlib import Path
+
+import can
+from rich.console import Console
+
+from bywire.tools.can_feed import CanFeed, open_bus
+from bywire.tools.loopback import DEFAULT_HOST, DEFAULT_PORT
+from bywire.tools.monitor_model import BusModel
+from bywire.tools.monitor_view import snapshot_table
+
+SNAPSHOT_S = 1.0
+
+
+def _seconds(text: str) -> float:
+    try:
+        value = float(text)
+    except ValueError:
+        value = -1.0
+    if not value > 0:
+        raise argparse.ArgumentTypeError(f"must be a number of seconds > 0, got {text!r}")
+    return value
+
+
+def configure(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument(
+        "-i",
+        "--interface",
+        default="socketcand",
+        choices=sorted(can.VALID_INTERFACES),
+        metavar="NAME",
+        help="python-can interface: socketcand (default), socketcan, virtual, pcan, …",
+    )
+    parser.add_argument("-c", "--channel", default="can0", help="CAN channel (default: can0)")
+    parser.add_argument(
+        "--host", default=DEFAULT_HOST, help=f"socketcand host (default: {DEFAULT_HOST})"
+    )
+    parser.add_argument(
+        "--port", type=int, default=DEFAULT_PORT, help=f"socketcand port (default: {DEFAULT_PORT})"
+    )
+    parser.add_argument(
+        "--record",
+        type=Path,
+        metavar="FILE.blf|.asc|.log",
+        help="also write every frame (BLF, Vector ASC or candump -L, by suffix)",
+    )
+    parser.add_argument(
+        "--once", action="store_true", help=f"listen {SNAPSHOT_S:g} s, print the table, exit"
+    )
+    parser.add_argument(
+        "--duration",
+        type=_seconds,
+        metavar="S",
+        help="listen S seconds, print the table, exit (exit 1 if no frame arrived)",
+    )
+
+
+def run(args: argparse.Namespace) -> int:
+    feed = CanFeed(open_bus(args.interface, args.channel, args.host, args.port), args.record)
+    source = f"{args.interface} {args.channel}"
+    if args.interface == "socketcand":
+        source += f" @ {args.host}:{args.port}"
+    if args.once or args.duration is not None:
+        return _snapshot(feed, source, args.duration or SNAPSHOT_S)
+    from bywire.tools.monitor_app import MonitorApp  # noqa: PLC0415 -- textual: live view only
+
+    feed.start()
+    try:
+        MonitorApp(feed, BusModel(), source).run()
+    finally:
+        feed.stop()
+    return 0
+
+
+def _snapshot(feed: CanFeed, source: str, duration_s: float) -> int:
+    model = BusModel()
+    feed.start()
+    try:
+        time.sleep(duration_s)
+    finally:
+        feed.stop()
+    for message in feed.drain():
+        model.add(message.arbitration_id, bytes(message.data), message.timestamp)
+    title = f"{source}: {model.frames} frames in {duration_s:g} s"
+    Console().print(snapshot_table(model.rows(time.time()), title), soft_wrap=True)
+    return 0 if model.frames else 1
