@@ -1,0 +1,77 @@
+"""Compare two output histories instant by instant and name the first output that differs."""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+from bywire.tools.run_record import Output, OutputValue
+
+Instant = tuple[float, list[Output]]
+
+
+@dataclass(frozen=True, slots=True)
+class Divergence:
+    """At `time_s` output `name` was `recorded` in the record but `replayed` on replay (each the
+    value after that instant's writes; None: not written yet)."""
+
+    time_s: float
+    name: str
+    recorded: OutputValue | None
+    replayed: OutputValue | None
+
+    def describe(self, start_s: float = 0.0) -> str:
+        return (
+            f"first divergence at {self.time_s - start_s:.6f} s: {self.name}"
+            f" recorded {show(self.recorded)}, replayed {show(self.replayed)}"
+        )
+
+
+def show(value: OutputValue | None) -> str:
+    """A value as the divergence message shows it."""
+    if value is None:
+        return "(not written)"
+    if isinstance(value, float):
+        return f"{value:.9g}"
+    return str(value)
+
+
+def _instants(outputs: Sequence[Output]) -> list[Instant]:
+    instants: list[Instant] = []
+    for output in outputs:
+        if instants and instants[-1][0] == output.time_s:
+            instants[-1][1].append(output)
+        else:
+            instants.append((output.time_s, [output]))
+    return instants
+
+
+def _first_name(recorded: list[Output], replayed: list[Output]) -> str:
+    """The output whose writes differ at one instant; if only their order differs, the first."""
+    names = dict.fromkeys(o.name for o in (*recorded, *replayed))
+    for name in names:
+        if [o.value for o in recorded if o.name == name] != [
+            o.value for o in replayed if o.name == name
+        ]:
+            return name
+    pairs = zip(recorded, replayed, strict=False)
+    return next((a.name for a, b in pairs if (a.name, a.value) != (b.name, b.value)), "")
+
+
+def first_divergence(recorded: Sequence[Output], replayed: Sequence[Output]) -> Divergence | None:
+    """None when both histories are identical (same instants, names, values, order)."""
+    ours, theirs = _instants(recorded), _instants(replayed)
+    state_recorded: dict[str, OutputValue] = {}
+    state_replayed: dict[str, OutputValue] = {}
+    i = j = 0
+    while i < len(ours) or j < len(theirs):
+        time_s = min(x[0] for x in (ours[i : i + 1] + theirs[j : j + 1]))
+        a = ours[i][1] if i < len(ours) and ours[i][0] == time_s else []
+        b = theirs[j][1] if j < len(theirs) and theirs[j][0] == time_s else []
+        i, j = i + bool(a), j + bool(b)
+        state_recorded.update((o.name, o.value) for o in a)
+        state_replayed.update((o.name, o.value) for o in b)
+        if [(o.name, o.value) for o in a] != [(o.name, o.value) for o in b]:
+            name = _first_name(a, b)
+            return Divergence(time_s, name, state_recorded.get(name), state_replayed.get(name))
+    return None

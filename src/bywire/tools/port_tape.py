@@ -1,0 +1,170 @@
+"""Taped ports: wrappers around a Hardware bundle that note every input and output on a tape.
+
+They sit exactly on the seam (`bywire.hal.ports`), so a tape holds everything the controller
+received and everything it wrote, whatever the backend; `bywire.tools.run_record` describes the
+events. The wrappers only forward and note: the controller cannot tell them from the ports.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import fields
+from typing import Generic, TypeVar
+
+from bywire.errors import FrameError, HardwareError
+from bywire.hal.hardware import DigitalOutputs, Hardware
+from bywire.hal.ports import ByteStream, CanFrame, CanPort, Clock, DigitalOut, I2cDevice, PwmChannel
+from bywire.protocol import dac6574
+from bywire.tools.run_record import Event, OutputValue
+
+V = TypeVar("V")
+_UNSET = object()
+
+
+class Tape:
+    """Events in the order they happened, stamped with the clock's time."""
+
+    def __init__(self, clock: Clock) -> None:
+        self._clock = clock
+        self.events: list[Event] = []
+        self._last_output: dict[str, OutputValue] = {}
+
+    def add(self, kind: str, **values: object) -> None:
+        self.events.append({"t": self._clock.now(), "kind": kind, **values})
+
+    def output(self, name: str, value: OutputValue, *, on_change: bool = True) -> None:
+        """Note an output; with `on_change`, only its first value and every change."""
+        if on_change and self._last_output.get(name, _UNSET) == value:
+            return
+        self._last_output[name] = value
+        self.add("out", name=name, value=value)
+
+
+class TapedByteStream:
+    """A ByteStream noting each non-empty read."""
+
+    def __init__(self, inner: ByteStream, tape: Tape) -> None:
+        self._inner, self._tape = inner, tape
+
+    def read_available(self) -> bytes:
+        data = self._inner.read_available()
+        if data:
+            self._tape.add("rc_bytes", hex=data.hex())
+        return data
+
+
+class TapedCanPort:
+    """A CanPort noting each non-empty receive, every frame sent and every refused send."""
+
+    def __init__(self, inner: CanPort, tape: Tape) -> None:
+        self._inner, self._tape = inner, tape
+        self._sends = 0
+
+    def send(self, frame: CanFrame) -> bool:
+        call, self._sends = self._sends, self._sends + 1
+        accepted = self._inner.send(frame)
+        self._tape.output(f"can_tx.0x{frame.arbitration_id:03X}", frame.data.hex(), on_change=False)
+        if not accepted:
+            self._tape.add("refused", name="can_tx", call=call)
+        return accepted
+
+    def receive(self) -> list[CanFrame]:
+        frames = self._inner.receive()
+        if frames:
+            rows = [[f.arbitration_id, f.data.hex(), f.timestamp_s] for f in frames]
+            self._tape.add("can_rx", frames=rows)
+        return frames
+
+
+class TapedDac:
+    """An I2cDevice (the DAC6574) noting each channel's frame when it changes, and each NAK."""
+
+    def __init__(self, inner: I2cDevice, tape: Tape) -> None:
+        self._inner, self._tape = inner, tape
+        self._writes = 0
+
+    def write(self, data: bytes) -> None:
+        call, self._writes = self._writes, self._writes + 1
+        try:
+            self._inner.write(data)
+        except HardwareError:
+            self._tape.add("refused", name="dac", call=call)
+            raise
+        try:
+            name = f"dac.{dac6574.decode_frame(data).channel}"
+        except FrameError:
+            name = "dac"  # a device that acknowledged a frame the codec cannot read: still noted
+        self._tape.output(name, data.hex())
+
+
+class TapedPwm:
+    """A PwmChannel noting its pulse width when it changes."""
+
+    def __init__(self, inner: PwmChannel, name: str, tape: Tape) -> None:
+        self._inner, self._name, self._tape = inner, name, tape
+
+    @property
+    def period_s(self) -> float:
+        return self._inner.period_s
+
+    def set_pulse(self, pulse_s: float) -> None:
+        self._inner.set_pulse(pulse_s)
+        self._tape.output(self._name, float(pulse_s))
+
+
+class TapedDigitalOut:
+    """A DigitalOut noting its level when it changes."""
+
+    def __init__(self, inner: DigitalOut, name: str, tape: Tape) -> None:
+        self._inner, self._name, self._tape = inner, name, tape
+
+    def set(self, level: bool) -> None:
+        self._inner.set(level)
+        self._tape.output(self._name, bool(level))
+
+
+class TapedSensor(Generic[V]):
+    """A sensor noting the number of each read whose value differs from the read before."""
+
+    def __init__(self, read: Callable[[], V], name: str, tape: Tape) -> None:
+        self._read, self._name, self._tape = read, name, tape
+        self._reads = 0
+        self._last: object = _UNSET
+
+    def read(self) -> V:
+        value = self._read()
+        if value != self._last:
+            self._tape.add("sensor", name=self._name, read=self._reads, value=value)
+            self._last = value
+        self._reads += 1
+        return value
+
+
+def taped_hardware(hardware: Hardware, tape: Tape) -> Hardware:
+    """The same bundle with every port taped; the clock is shared, not taped."""
+    outputs = hardware.outputs
+    lines = {
+        line.name: TapedDigitalOut(getattr(outputs, line.name), f"gpio.{line.name}", tape)
+        for line in fields(DigitalOutputs)
+    }
+    wheels, pressure, encoder = (
+        hardware.wheel_speeds,
+        hardware.hydrobrake_pressure_bar,
+        hardware.steering_encoder_norm,
+    )
+    return Hardware(
+        clock=hardware.clock,
+        can=TapedCanPort(hardware.can, tape),
+        rc_uart=TapedByteStream(hardware.rc_uart, tape),
+        dac=TapedDac(hardware.dac, tape),
+        steering_pwm=TapedPwm(hardware.steering_pwm, "steering_pwm", tape),
+        hydrobrake_pwm=TapedPwm(hardware.hydrobrake_pwm, "hydrobrake_pwm", tape),
+        outputs=DigitalOutputs(**lines),
+        wheel_speeds=None if wheels is None else TapedSensor(wheels.read, "wheel_speeds", tape),
+        hydrobrake_pressure_bar=None
+        if pressure is None
+        else TapedSensor(pressure.read, "hydrobrake_pressure_bar", tape),
+        steering_encoder_norm=None
+        if encoder is None
+        else TapedSensor(encoder.read, "steering_encoder_norm", tape),
+    )

@@ -1,0 +1,176 @@
+"""Replay a run record through the controller in virtual time and compare what it writes.
+
+No vehicle, transmitter or higher-level computer: the controller (the real `Runtime`, readers
+and codecs included) runs on ports that hand it exactly what it received in the recorded run,
+at the recorded instants: the RC UART's bytes and the CAN frames (each arrival wakes the loop, as
+the port's interrupt did), the sensors' readings in read order, the refused sends and DAC writes.
+Its outputs are taped like the recording's and compared instant by instant.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from collections import deque
+from collections.abc import Sequence
+from dataclasses import dataclass
+from typing import Generic, TypeVar
+
+from bywire.config import RobotConfig, parse_config
+from bywire.errors import HardwareError
+from bywire.hal.hardware import DigitalOutputs, Hardware
+from bywire.hal.ports import CanFrame, I2cDevice
+from bywire.hal.sim.clock import VirtualClock
+from bywire.hal.sim.dac import SimDac6574
+from bywire.hal.sim.gpio_pwm import SimDigitalOut, SimPwmChannel
+from bywire.runtime.app import Runtime
+from bywire.runtime.settings import RuntimeConfig
+from bywire.tools.divergence import Divergence, first_divergence
+from bywire.tools.port_tape import Tape, taped_hardware
+from bywire.tools.run_record import Output, RecordedRun, SensorValue, outputs_of
+
+T = TypeVar("T")
+
+
+class _Arrivals(Generic[T]):
+    """Recorded arrivals in time order; `due()` takes every one whose time has come."""
+
+    def __init__(self, clock: VirtualClock, arrivals: Sequence[tuple[float, T]]) -> None:
+        self._clock = clock
+        self._pending = deque(arrivals)
+
+    def due(self) -> list[T]:
+        now, taken = self._clock.now(), []
+        while self._pending and self._pending[0][0] <= now:
+            taken.append(self._pending.popleft()[1])
+        return taken
+
+
+class ReplayByteStream:
+    """The RC UART: each recorded read's bytes, at its instant."""
+
+    def __init__(self, clock: VirtualClock, chunks: Sequence[tuple[float, bytes]]) -> None:
+        self._arrivals = _Arrivals(clock, chunks)
+
+    def read_available(self) -> bytes:
+        return b"".join(self._arrivals.due())
+
+
+class ReplayCanPort:
+    """The CAN port: each recorded receive's frames at its instant; sends refused as recorded."""
+
+    def __init__(
+        self,
+        clock: VirtualClock,
+        batches: Sequence[tuple[float, list[CanFrame]]],
+        refused_calls: set[int],
+    ) -> None:
+        self._arrivals = _Arrivals(clock, batches)
+        self._refused_calls = refused_calls
+        self._sends = 0
+
+    def send(self, frame: CanFrame) -> bool:
+        call, self._sends = self._sends, self._sends + 1
+        return call not in self._refused_calls
+
+    def receive(self) -> list[CanFrame]:
+        return [frame for batch in self._arrivals.due() for frame in batch]
+
+
+class ReplayDac:
+    """The DAC: a simulated DAC6574 (it checks every frame) that refuses the recorded writes."""
+
+    def __init__(self, inner: I2cDevice, refused_calls: set[int]) -> None:
+        self._inner, self._refused_calls = inner, refused_calls
+        self._writes = 0
+
+    def write(self, data: bytes) -> None:
+        call, self._writes = self._writes, self._writes + 1
+        if call in self._refused_calls:
+            raise HardwareError("DAC6574: no acknowledge (as recorded)")
+        self._inner.write(data)
+
+
+class _ReadOrder:
+    """A sensor giving its n-th read the value recorded for the n-th read."""
+
+    def __init__(self, reads: Sequence[tuple[int, SensorValue]]) -> None:
+        self._changes = deque(reads)
+        self._value: SensorValue = None
+        self._reads = 0
+
+    def _next(self) -> SensorValue:
+        while self._changes and self._changes[0][0] <= self._reads:
+            self._value = self._changes.popleft()[1]
+        self._reads += 1
+        return self._value
+
+
+class ReplayAnalogInput(_ReadOrder):
+    """A brake-pressure or steering-angle sensor, replayed in read order."""
+
+    def read(self) -> float | None:
+        value = self._next()
+        return None if isinstance(value, tuple) else value
+
+
+class ReplayWheelSpeeds(_ReadOrder):
+    """The wheel-speed sensor, replayed in read order."""
+
+    def read(self) -> tuple[float, float] | None:
+        value = self._next()
+        return value if isinstance(value, tuple) else None
+
+
+def replay_hardware(record: RecordedRun, clock: VirtualClock) -> Hardware:
+    """Ports that replay `record` on `clock`, with a wake-up at every recorded arrival."""
+    for time_s in sorted({t for t, _ in record.rc_bytes} | {t for t, _ in record.can_rx}):
+        clock.call_at(time_s, clock.notify_input)
+    periods, reads, present = record.header.pwm_period_s, record.sensor_reads, record.header.sensors
+    lines = {
+        line.name: SimDigitalOut(clock, line.name) for line in dataclasses.fields(DigitalOutputs)
+    }
+
+    def analog(name: str) -> ReplayAnalogInput | None:
+        return ReplayAnalogInput(reads.get(name, [])) if name in present else None
+
+    return Hardware(
+        clock=clock,
+        can=ReplayCanPort(clock, record.can_rx, record.refusals.get("can_tx", set())),
+        rc_uart=ReplayByteStream(clock, record.rc_bytes),
+        dac=ReplayDac(SimDac6574(clock), record.refusals.get("dac", set())),
+        steering_pwm=SimPwmChannel(clock, periods["steering"], "steering"),
+        hydrobrake_pwm=SimPwmChannel(clock, periods["hydrobrake"], "hydrobrake"),
+        outputs=DigitalOutputs(**lines),
+        wheel_speeds=ReplayWheelSpeeds(reads.get("wheel_speeds", []))
+        if "wheel_speeds" in present
+        else None,
+        hydrobrake_pressure_bar=analog("hydrobrake_pressure_bar"),
+        steering_encoder_norm=analog("steering_encoder_norm"),
+    )
+
+
+@dataclass(frozen=True, slots=True)
+class ReplayResult:
+    """The recorded and the replayed outputs, and the first divergence (None: identical)."""
+
+    recorded: list[Output]
+    replayed: list[Output]
+    divergence: Divergence | None
+
+
+def recorded_robot(record: RecordedRun) -> RobotConfig:
+    """The robot configuration the run was recorded with."""
+    return parse_config(record.header.config_toml, "the run record's configuration")
+
+
+def replay(record: RecordedRun, robot: RobotConfig | None = None) -> ReplayResult:
+    """Run the controller on the record's inputs (with `robot`, default: the recorded one)."""
+    robot = recorded_robot(record) if robot is None else robot
+    clock = VirtualClock(record.header.start_s)
+    tape = Tape(clock)
+    hardware = taped_hardware(replay_hardware(record, clock), tape)
+    # Virtual time: a watchdog thread would only watch how fast the replay runs.
+    config = dataclasses.replace(RuntimeConfig.from_robot(robot), watchdog_s=None)
+    Runtime(hardware, config).run(until_s=record.header.end_s)
+    replayed = outputs_of(tape.events)
+    return ReplayResult(record.outputs, replayed, first_divergence(record.outputs, replayed))

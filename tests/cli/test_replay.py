@@ -1,0 +1,96 @@
+"""`bywire sim --record` then `bywire replay`: identical outputs exit 0, a changed steering
+calibration exits 1 naming the steering output and its time, anything else exits 2."""
+
+from __future__ import annotations
+
+import contextlib
+import dataclasses
+import io
+import json
+import re
+from pathlib import Path
+
+import pytest
+
+from bywire.cli.main import main
+from bywire.config import default_sim_config, describe
+
+
+def _main(*argv: str) -> tuple[int, str, str]:
+    out, err = io.StringIO(), io.StringIO()
+    with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
+        status = main(list(argv))
+    return status, out.getvalue(), err.getvalue()
+
+
+@pytest.fixture(scope="module")
+def record(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    path = tmp_path_factory.mktemp("replay") / "course.jsonl"
+    status, out, err = _main("sim", "--duration", "5", "--record", str(path), "--json")
+    assert status == 0, err
+    assert json.loads(out)["files"]["record"] == str(path)
+    return path
+
+
+def _robot_toml(tmp_path: Path, **servo: float) -> Path:
+    robot = default_sim_config()
+    steering = dataclasses.replace(
+        robot.steering, servo=dataclasses.replace(robot.steering.servo, **servo)
+    )
+    path = tmp_path / "changed.toml"
+    path.write_text(describe(dataclasses.replace(robot, steering=steering)), encoding="utf-8")
+    return path
+
+
+def test_a_recorded_sim_run_replays_identically(record: Path) -> None:
+    status, out, err = _main("replay", str(record))
+    assert (status, err) == (0, "")
+    match = re.fullmatch(r"(\d+) outputs identical \(test-course, 5 s replayed\)\n", out)
+    assert match is not None
+    assert int(match[1]) > 1000
+
+
+def test_a_changed_steering_calibration_names_the_first_divergent_output(
+    record: Path, tmp_path: Path
+) -> None:
+    config = _robot_toml(tmp_path, max_pulse_s=0.0019)
+    status, out, _ = _main("replay", str(record), "--config", str(config))
+    assert status == 1
+    found = re.search(
+        r"first divergence at (\d+\.\d+) s: steering_pwm recorded (\S+), replayed", out
+    )
+    assert found is not None, out
+    assert 3.5 <= float(found[1]) < 3.6
+    status, out, _ = _main("replay", str(record), "--config", str(config), "--json")
+    verdict = json.loads(out)
+    assert (status, verdict["identical"], verdict["divergence"]["output"]) == (
+        1,
+        False,
+        "steering_pwm",
+    )
+
+
+def test_the_sim_says_where_the_record_went(tmp_path: Path) -> None:
+    path = tmp_path / "short.jsonl.gz"
+    status, out, _ = _main("sim", "--duration", "0.5", "--record", str(path))
+    assert status in (0, 1)  # expectations after 0.5 s are not reached
+    assert f"Run record: {path}" in out
+    assert _main("replay", str(path))[0] == 0
+
+
+@pytest.mark.parametrize(
+    ("argv", "message"),
+    [
+        (["replay", "{tmp}/run.blf"], "is a CAN log"),
+        (["replay", "{tmp}/missing.jsonl"], "no such run record"),
+        (["replay", "{tmp}/not-a-record.jsonl"], "line 1: not a valid run record"),
+        (["sim", "--record", "{tmp}/no/such/dir/run.jsonl"], "does not exist"),
+        (["sim", "--realtime", "--record", "{tmp}/run.jsonl"], "runs in real time"),
+    ],
+)
+def test_user_errors_are_one_line_and_exit_2(argv: list[str], message: str, tmp_path: Path) -> None:
+    (tmp_path / "not-a-record.jsonl").write_text("hello\n", encoding="utf-8")
+    status, _, err = _main(*(arg.replace("{tmp}", str(tmp_path)) for arg in argv))
+    assert status == 2
+    assert err.count("\n") == 1
+    assert message in err
