@@ -28,6 +28,15 @@ COMMANDS: dict[str, tuple[str, str]] = {
     "bench": ("bywire.cli.bench", "measure latency, jitter, CPU, memory and speed-up (§8)"),
     "run": ("bywire.cli.run", "run the controller on the robot's hardware (until SIGINT/SIGTERM)"),
     "config": ("bywire.cli.config", "robot configuration: check a file, print what it resolves to"),
+    "replay": (
+        "bywire.cli.replay",
+        "run the controller again on a recorded run's inputs and compare its outputs",
+    ),
+    "plot": ("bywire.cli.plot", "PNG of a CAN log (.blf, .asc, .log): commands, speed, mode"),
+    "monitor": (
+        "bywire.cli.monitor",
+        "live view of the CAN bus decoded with the DBC: rates, ages, signals, CRC/counter errors",
+    ),
     "teleop": (
         "bywire.cli.teleop",
         "drive the robot or the simulator from the keyboard; shows its reports",

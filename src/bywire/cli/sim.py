@@ -20,11 +20,16 @@ from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 from rich.table import Table
 
 from bywire.config import default_sim_config, load_config
+from bywire.errors import ConfigError
+from bywire.hal.sim.clock import RealtimeClock
 from bywire.sim.canlog import BusTally, CanLog, check_log_path
 from bywire.sim.catalog import DEFAULT_SCENARIO, find_scenario, packaged_scenarios
 from bywire.sim.plot import check_plot_path, write_plot
 from bywire.sim.runner import SimRun
 from bywire.sim.summary import build_summary, render
+from bywire.tools.loopback import Endpoint, parse_endpoint
+from bywire.tools.sim_bridge import serve_bus
+from bywire.tools.sim_record import SimRunRecorder
 
 PROGRESS_PERIOD_S = 0.1  # simulated seconds between progress updates
 
@@ -45,6 +50,13 @@ def _seconds(text: str) -> float:
     if not value > 0:
         raise argparse.ArgumentTypeError(f"must be a number of seconds > 0, got {text!r}")
     return value
+
+
+def _endpoint(text: str) -> Endpoint:
+    try:
+        return parse_endpoint(text)
+    except ConfigError as error:
+        raise argparse.ArgumentTypeError(str(error)) from None
 
 
 def configure(parser: argparse.ArgumentParser) -> None:
@@ -72,6 +84,19 @@ def configure(parser: argparse.ArgumentParser) -> None:
         help="write every CAN frame (BLF, Vector ASC or candump -L, by suffix)",
     )
     parser.add_argument(
+        "--record",
+        type=Path,
+        metavar="FILE.jsonl",
+        help="write a run record (every input and output of the controller) for bywire replay",
+    )
+    parser.add_argument(
+        "--serve",
+        type=_endpoint,
+        metavar="[HOST:]PORT",
+        help="with --realtime: serve the simulated bus to socketcand clients (python-can,"
+        " cantools, bywire monitor) on this loopback port (host 127.0.0.1, ::1 or localhost)",
+    )
+    parser.add_argument(
         "--config",
         type=Path,
         metavar="FILE",
@@ -91,15 +116,21 @@ def run(args: argparse.Namespace) -> int:
     sim = SimRun(
         robot, find_scenario(args.scenario), realtime=args.realtime, duration_s=args.duration
     )
+    if args.serve is not None and not isinstance(sim.world.clock, RealtimeClock):
+        raise ConfigError("--serve needs --realtime: virtual time outruns any client")
+    recorder = None if args.record is None else SimRunRecorder.attach(sim, args.record)
     tally = BusTally()
     sim.add_can_monitor(tally)
     wall_s, frames_logged = _play(
-        sim, args.log, show_progress=sys.stderr.isatty() and not args.json
+        sim, args.log, show_progress=sys.stderr.isatty() and not args.json, serve=args.serve
     )
+    if recorder is not None:
+        recorder.write()
     summary = build_summary(sim, wall_s, tally)
     if args.plot is not None:
         write_plot(sim, args.plot)
     files = {"plot": _name(args.plot), "can_log": _name(args.log)}
+    files.update({} if recorder is None else {"record": str(recorder.path)})
     if args.json:
         print(json.dumps({**summary.as_json(), "files": files}, indent=2))
     else:
@@ -109,6 +140,8 @@ def run(args: argparse.Namespace) -> int:
             console.print(f"Plot: {args.plot}", soft_wrap=True)
         if args.log is not None:
             console.print(f"CAN log: {args.log} ({frames_logged} frames)", soft_wrap=True)
+        if args.record is not None:
+            console.print(f"Run record: {args.record} (for bywire replay)", soft_wrap=True)
     return 0 if summary.passed else 1
 
 
@@ -116,18 +149,34 @@ def _name(path: Path | None) -> str | None:
     return None if path is None else str(path)
 
 
-def _play(sim: SimRun, log_path: Path | None, *, show_progress: bool) -> tuple[float, int]:
+def _play(
+    sim: SimRun, log_path: Path | None, *, show_progress: bool, serve: Endpoint | None = None
+) -> tuple[float, int]:
     """Run to the end; (wall seconds, frames logged). The log is closed even if the run fails."""
     with contextlib.ExitStack() as stack:
         log = None
         if log_path is not None:
             log = stack.enter_context(CanLog(log_path, sim.started_at))
             sim.add_can_monitor(log)
+        if serve is not None:
+            _serve(stack, sim, serve)
         if show_progress:
             stack.enter_context(_progress(sim))
         started = time.perf_counter()
         sim.run()
         return time.perf_counter() - started, 0 if log is None else log.frames
+
+
+def _serve(stack: contextlib.ExitStack, sim: SimRun, endpoint: Endpoint) -> None:
+    """Put the bus on the network for the run; where it listens goes to stderr (port 0: any)."""
+    bridge = stack.enter_context(serve_bus(sim.world.bus, endpoint, sim.started_at))
+    host, port = bridge.server.address
+    print(
+        f"serving the simulated bus on {host} port {port} (socketcand, channel"
+        f" {bridge.server.channel})",
+        file=sys.stderr,
+        flush=True,
+    )
 
 
 @contextlib.contextmanager
