@@ -14,13 +14,20 @@ SCENARIOS = sorted((Path(__file__).resolve().parents[2] / "src/bywire/scenarios"
 # tests/system runs the test course; real-time scenarios are measurements on a noisy shared
 # machine, like the benchmark: tests/system/test_watchdog.py checks the behaviour of loop-stall.
 REALTIME = {path.stem for path in SCENARIOS if load_scenario(path).realtime}
-FAULTS = [path for path in SCENARIOS if path.stem != "test-course" and path.stem not in REALTIME]
+# Scenarios without expectations set the stage for a person (bywire teleop), they check nothing.
+INTERACTIVE = {path.stem for path in SCENARIOS if not load_scenario(path).expectations}
+FAULTS = [
+    path
+    for path in SCENARIOS
+    if path.stem != "test-course" and path.stem not in REALTIME | INTERACTIVE
+]
 
 
 def test_the_folder_holds_the_fault_scenarios() -> None:
     names = {path.stem for path in SCENARIOS}
     assert {"test-course", "rc-link-lost", "can-silence", "can-unplugged", "dac-failure"} <= names
     assert {"loop-stall"} == REALTIME
+    assert {"teleop"} == INTERACTIVE
 
 
 @pytest.mark.parametrize("path", FAULTS, ids=[path.stem for path in FAULTS])
@@ -42,3 +49,16 @@ def test_a_deadline_too_tight_fails() -> None:
     assert verdict.passed is False
     assert verdict.measured_s is not None
     assert verdict.measured_s > 0.050
+
+
+def test_the_teleop_scenario_waits_in_stop_for_an_outside_computer() -> None:
+    scenario = load_scenario(SCENARIOS[0].parent / "teleop.toml")
+    run = SimRun(default_sim_config(), scenario, duration_s=2.0)
+    run.run()
+    senders = run.world.bus.bits_by_sender
+    assert "hlc" not in senders  # the simulated computer never sent a command
+    outputs = run.runtime.outputs
+    assert outputs is not None
+    assert outputs.mode.name == "STOP"
+    assert outputs.latch is not None
+    assert outputs.latch.name == "CAN_LOST"  # cleared by the outside computer's re-enable edge
