@@ -99,16 +99,7 @@ class RealtimeSession:
         self.clock = clock
         self.settings = settings
         self.progress = progress
-        dac = robot.drive.dac
-        self.world = SimWorld.create(
-            clock,
-            dac_throttle_channel=dac.throttle_channel,
-            dac_regen_channel=dac.regen_channel,
-            hydrobrake_period_s=1.0 / robot.hydrobrake.pwm.frequency_hz,
-            seed=robot.sim.seed,
-            rc_mapping=robot.rc.mapping,
-            bus_log_limit=0,
-        )
+        self.world = SimWorld.from_robot(clock, robot)
         self.runtime = Runtime(self.world.hardware, bench_runtime_config(robot))
         self.movement_log = MovementLog(self.world.bus)
         self.can_sweep = CanSweep(self.world)

@@ -77,16 +77,7 @@ def _open_sim(config: RobotConfig, _paths: LinuxPaths, stack: contextlib.ExitSta
     from bywire.hal.sim.clock import RealtimeClock  # noqa: PLC0415 -- only the chosen backend
     from bywire.hal.sim.world import SimWorld  # noqa: PLC0415
 
-    dac = config.drive.dac
-    world = SimWorld.create(
-        RealtimeClock(),
-        dac_throttle_channel=dac.throttle_channel,
-        dac_regen_channel=dac.regen_channel,
-        hydrobrake_period_s=1.0 / config.hydrobrake.pwm.frequency_hz,
-        seed=config.sim.seed,
-        rc_mapping=config.rc.mapping,
-        bus_log_limit=0,
-    )
+    world = SimWorld.from_robot(RealtimeClock(), config)
     world.start()
     stack.callback(world.stop)
     return world.hardware

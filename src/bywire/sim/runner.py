@@ -96,16 +96,7 @@ class SimRun:
         self.duration_s = scenario.duration_s if duration_s is None else duration_s
         realtime = realtime or scenario.realtime
         clock = RealtimeClock() if realtime else VirtualClock()
-        dac = robot.drive.dac
-        self.world = SimWorld.create(
-            clock,
-            dac_throttle_channel=dac.throttle_channel,
-            dac_regen_channel=dac.regen_channel,
-            hydrobrake_period_s=1.0 / robot.hydrobrake.pwm.frequency_hz,
-            seed=robot.sim.seed,
-            rc_mapping=robot.rc.mapping,
-            bus_log_limit=0,
-        )
+        self.world = SimWorld.from_robot(clock, robot)
         config = RuntimeConfig.from_robot(robot)
         if not realtime:
             # Virtual time never stalls the wall clock's way; a watchdog thread would only

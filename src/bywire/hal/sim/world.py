@@ -9,7 +9,7 @@ Randomness (which byte a corrupted IBUS frame flips) comes from ``seed``, so run
 from __future__ import annotations
 
 from dataclasses import dataclass, fields
-from typing import Protocol
+from typing import TYPE_CHECKING, Protocol
 
 from bywire.control.rc_mapping import RcMapping
 from bywire.hal.hardware import DigitalOutputs, Hardware
@@ -31,6 +31,9 @@ from bywire.hal.sim.vehicle import (
 )
 from bywire.hal.sim.vehicle_model import VehicleConfig
 from bywire.protocol import dbc
+
+if TYPE_CHECKING:
+    from bywire.config import RobotConfig
 
 STEERING_PERIOD_S = 0.020
 DEFAULT_HYDROBRAKE_PERIOD_S = 0.001
@@ -148,6 +151,23 @@ class SimWorld:
             wheel_sensor,
             pressure_sensor,
             steering_encoder,
+        )
+
+    @classmethod
+    def from_robot(
+        cls, clock: WorldClock, robot: RobotConfig, *, bus_log_limit: int | None = 0
+    ) -> SimWorld:
+        """The simulated robot wired as a robot configuration says (DAC channels, brake PWM
+        period, RC mapping, seed)."""
+        dac = robot.drive.dac
+        return cls.create(
+            clock,
+            dac_throttle_channel=dac.throttle_channel,
+            dac_regen_channel=dac.regen_channel,
+            hydrobrake_period_s=1.0 / robot.hydrobrake.pwm.frequency_hz,
+            seed=robot.sim.seed,
+            rc_mapping=robot.rc.mapping,
+            bus_log_limit=bus_log_limit,
         )
 
     def start(self, *, rc: bool = True, hlc: bool = True, vehicle: bool = True) -> None:
