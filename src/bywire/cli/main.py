@@ -41,6 +41,10 @@ COMMANDS: dict[str, tuple[str, str]] = {
         "bywire.cli.teleop",
         "drive the robot or the simulator from the keyboard; shows its reports",
     ),
+    "dashboard": (
+        "bywire.cli.dashboard",
+        "live view of the controller on the simulated robot: mode, outputs, flags, task table",
+    ),
 }
 
 

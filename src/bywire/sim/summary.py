@@ -132,7 +132,7 @@ def build_summary(run: SimRun, wall_s: float, bus: BusTally | None = None) -> Su
         expectations=tuple(_result(v, run, simulated_s) for v in run.record.verdicts),
         error_flags_seen=tuple(flag_names(run.record.error_flags_seen)),
         inputs=_inputs(run, bus),
-        tasks=tuple(_task_row(task, simulated_s, wall_s) for task in run.runtime.tasks),
+        tasks=tuple(task_row(task, simulated_s, wall_s) for task in run.runtime.tasks),
     )
 
 
@@ -197,7 +197,7 @@ def _inputs(run: SimRun, bus: BusTally | None) -> InputStats:
     )
 
 
-def _task_row(task: PeriodicTask, simulated_s: float, wall_s: float) -> TaskRow:
+def task_row(task: PeriodicTask, simulated_s: float, wall_s: float) -> TaskRow:
     stats = task.stats
     return TaskRow(
         name=task.spec.name,
