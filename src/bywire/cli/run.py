@@ -5,6 +5,10 @@ tells systemd READY=1, WATCHDOG=1 and STOPPING=1 through `hal.linux.systemd.noti
 SIGTERM end the loop at its next wake-up; whatever ends the run (a signal, a device error, a
 bug), the runtime writes the safe outputs and the hardware's exit de-energises them. Device
 problems are one line and exit 2.
+
+With `--dashboard` the loop runs in a thread of its own and the terminal shows the live view of
+`bywire dashboard` (see `bywire.dashboard.on_robot` for which thread owns what); q, SIGINT and
+SIGTERM stop the controller, which writes the safe outputs before the hardware is closed.
 """
 
 from __future__ import annotations
@@ -19,7 +23,7 @@ from pathlib import Path
 from types import FrameType
 
 from bywire.config import load_config
-from bywire.errors import HardwareError
+from bywire.errors import BywireError, HardwareError
 from bywire.hal.linux.device_errors import reason
 from bywire.hal.linux.systemd import notify
 from bywire.hal.opening import LinuxPaths, open_hardware
@@ -49,6 +53,13 @@ def configure(parser: argparse.ArgumentParser) -> None:
         help="where device names such as i2c-1 and gpiochip0 resolve (default: /dev)",
     )
     parser.add_argument("--verbose", action="store_true", help="log device events in detail")
+    parser.add_argument(
+        "--dashboard",
+        action="store_true",
+        help="show the live controller view in this terminal (mode, flags, commands, actuators, "
+        "inputs, task table); q, SIGINT or SIGTERM stop the controller with safe outputs; "
+        "log lines are printed when it ends",
+    )
 
 
 def run(args: argparse.Namespace) -> int:
@@ -57,15 +68,28 @@ def run(args: argparse.Namespace) -> int:
         format="bywire run: %(levelname)s %(name)s: %(message)s",
         stream=sys.stderr,
     )
+    if args.dashboard and not sys.stderr.isatty():  # where textual draws
+        raise BywireError("--dashboard needs a terminal (stderr is not one)")
     robot = load_config(args.config)
     paths = LinuxPaths(args.sysfs_root, args.dev_root)
+    status = 0
     with _device_errors(), open_hardware(robot, paths) as hardware:
         runtime = Runtime(hardware, RuntimeConfig.from_robot(robot), notify=notify)
         log.info("running %s (%s backend)", robot.name, robot.backend)
         with _stop_on_signals(runtime):
-            runtime.run()
+            if args.dashboard:
+                status = _with_dashboard(runtime, f"{robot.name} ({robot.backend} backend)")
+            else:
+                runtime.run()
     log.info("stopped; outputs de-energised")
-    return 0
+    return status
+
+
+def _with_dashboard(runtime: Runtime, source: str) -> int:
+    """The controller in a thread, the view in front (textual is imported only for this)."""
+    from bywire.dashboard.on_robot import run_with_dashboard  # noqa: PLC0415
+
+    return run_with_dashboard(runtime, source=source)
 
 
 @contextlib.contextmanager
