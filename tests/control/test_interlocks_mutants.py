@@ -19,6 +19,11 @@ def test_zero_dwells_and_zero_standstill_speed_are_valid_settings() -> None:
     assert config.direction_dwell_s == 0.0
 
 
+def test_a_negative_dwell_is_refused_with_a_message_saying_what_is_wrong() -> None:
+    with pytest.raises(ValueError, match=r"^standstill speed and dwells must be finite and >= 0$"):
+        InterlockConfig(direction_dwell_s=-0.1)
+
+
 def test_a_bad_throttle_slew_is_refused_with_a_message_naming_it() -> None:
     with pytest.raises(ValueError, match=r"^throttle_slew_up_per_s must be finite and > 0$"):
         InterlockConfig(throttle_slew_up_per_s=0.0)

@@ -59,17 +59,17 @@ class Receiver:
 
 def test_checksum_faults_are_counted_per_bad_frame_and_stamped_with_the_poll_time() -> None:
     rx = Receiver()
-    rx.poll_after(CORRUPT + FRAME)
+    rx.poll_after(CORRUPT + CORRUPT + FRAME)
     second_s = rx.poll_after(CORRUPT + FRAME)
-    assert rx.reader.checksum_faults.count == 2
+    assert rx.reader.checksum_faults.count == 3
     assert rx.reader.checksum_faults.last_at == second_s
 
 
 def test_resyncs_are_counted_per_realignment_and_stamped_with_the_poll_time() -> None:
     rx = Receiver()
-    rx.poll_after(b"\x01\x02\x03" + FRAME)
+    rx.poll_after(b"\x01\x02\x03" + FRAME + b"\x06" + FRAME)
     second_s = rx.poll_after(b"\x04\x05" + FRAME)
-    assert rx.reader.resync_faults.count == 2
+    assert rx.reader.resync_faults.count == 3
     assert rx.reader.resync_faults.last_at == second_s
 
 

@@ -42,7 +42,7 @@ def watch(
 ) -> tuple[Watchdog, VirtualStop, list[str]]:
     """Run the watchdog's thread body for `polls` polls in this thread; `step` plays the time
     and the loop's feeding at each poll."""
-    clock, notes = FakeTime(), []
+    clock, notes = FakeTime(), list[str]()
     watchdog = Watchdog(lambda: None, limit_s, monotonic=clock, notify=notes.append)
     stop = VirtualStop(clock, polls, lambda timeout: step(clock, watchdog, timeout))
     watchdog._stop = stop  # type: ignore[assignment]
