@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
+from bywire.cli.arguments import positive_seconds
 from bywire.config import default_sim_config, load_config
 from bywire.dashboard.live import LiveRun
 from bywire.sim.catalog import DEFAULT_SCENARIO, find_scenario
@@ -24,16 +25,6 @@ examples:
 """
 
 
-def _seconds(text: str) -> float:
-    try:
-        value = float(text)
-    except ValueError:
-        value = -1.0
-    if not value > 0:
-        raise argparse.ArgumentTypeError(f"must be a number of seconds > 0, got {text!r}")
-    return value
-
-
 def configure(parser: argparse.ArgumentParser) -> None:
     parser.formatter_class = argparse.RawDescriptionHelpFormatter
     parser.epilog = EPILOG
@@ -44,7 +35,10 @@ def configure(parser: argparse.ArgumentParser) -> None:
         help=f"packaged scenario (`bywire sim --list`) or a file (default {DEFAULT_SCENARIO})",
     )
     parser.add_argument(
-        "--duration", type=_seconds, metavar="S", help="seconds to run (default: the scenario's)"
+        "--duration",
+        type=positive_seconds,
+        metavar="S",
+        help="seconds to run (default: the scenario's)",
     )
     parser.add_argument(
         "--config",

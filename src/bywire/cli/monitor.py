@@ -13,22 +13,13 @@ from pathlib import Path
 import can
 from rich.console import Console
 
+from bywire.cli.arguments import positive_seconds
 from bywire.tools.can_feed import CanFeed, open_bus
 from bywire.tools.loopback import DEFAULT_HOST, DEFAULT_PORT
 from bywire.tools.monitor_model import BusModel
 from bywire.tools.monitor_view import snapshot_table
 
 SNAPSHOT_S = 1.0
-
-
-def _seconds(text: str) -> float:
-    try:
-        value = float(text)
-    except ValueError:
-        value = -1.0
-    if not value > 0:
-        raise argparse.ArgumentTypeError(f"must be a number of seconds > 0, got {text!r}")
-    return value
 
 
 def configure(parser: argparse.ArgumentParser) -> None:
@@ -58,7 +49,7 @@ def configure(parser: argparse.ArgumentParser) -> None:
     )
     parser.add_argument(
         "--duration",
-        type=_seconds,
+        type=positive_seconds,
         metavar="S",
         help="listen S seconds, print the table, exit (exit 1 if no frame arrived)",
     )

@@ -19,6 +19,7 @@ from rich.console import Console
 from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 from rich.table import Table
 
+from bywire.cli.arguments import positive_seconds
 from bywire.config import default_sim_config, load_config
 from bywire.errors import ConfigError
 from bywire.hal.sim.clock import RealtimeClock
@@ -42,16 +43,6 @@ class _Console(Console):
         raise BrokenPipeError
 
 
-def _seconds(text: str) -> float:
-    try:
-        value = float(text)
-    except ValueError:
-        value = -1.0
-    if not value > 0:
-        raise argparse.ArgumentTypeError(f"must be a number of seconds > 0, got {text!r}")
-    return value
-
-
 def _endpoint(text: str) -> Endpoint:
     try:
         return parse_endpoint(text)
@@ -68,7 +59,10 @@ def configure(parser: argparse.ArgumentParser) -> None:
     )
     parser.add_argument("--list", action="store_true", help="list the packaged scenarios and exit")
     parser.add_argument(
-        "--duration", type=_seconds, metavar="S", help="simulated seconds (default: the scenario's)"
+        "--duration",
+        type=positive_seconds,
+        metavar="S",
+        help="simulated seconds (default: the scenario's)",
     )
     parser.add_argument(
         "--realtime", action="store_true", help="pace the run by the wall clock (live view)"

@@ -1,0 +1,16 @@
+"""Argument types the sub-commands share, so every command refuses bad values the same way."""
+
+from __future__ import annotations
+
+import argparse
+
+
+def positive_seconds(text: str) -> float:
+    """A duration in seconds, > 0; argparse turns the error into one line and exit 2."""
+    try:
+        value = float(text)
+    except ValueError:
+        value = -1.0
+    if not value > 0:  # also refuses NaN
+        raise argparse.ArgumentTypeError(f"must be a number of seconds > 0, got {text!r}")
+    return value
