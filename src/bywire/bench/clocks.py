@@ -12,34 +12,25 @@ import time
 from bywire.hal.sim.clock import RealtimeClock, VirtualClock
 
 
-class MeteredVirtualClock(VirtualClock):
+class _CpuMeter(VirtualClock):
+    """Adds up the process CPU time spent in ``wait_until``, where only the simulator runs."""
+
+    waiting_cpu_s: float = 0.0  # the first += makes it the instance's own
+
+    def wait_until(self, deadline_s: float) -> None:
+        started_s = time.process_time()
+        try:
+            super().wait_until(deadline_s)
+        finally:
+            self.waiting_cpu_s += time.process_time() - started_s
+
+
+class MeteredVirtualClock(_CpuMeter):
     """A VirtualClock that adds up the process CPU time spent in ``wait_until``."""
 
-    def __init__(self, start_s: float = 0.0) -> None:
-        super().__init__(start_s)
-        self.waiting_cpu_s = 0.0
 
-    def wait_until(self, deadline_s: float) -> None:
-        started_s = time.process_time()
-        try:
-            super().wait_until(deadline_s)
-        finally:
-            self.waiting_cpu_s += time.process_time() - started_s
-
-
-class MeteredRealtimeClock(RealtimeClock):
+class MeteredRealtimeClock(_CpuMeter, RealtimeClock):
     """A RealtimeClock that adds up the process CPU time spent in ``wait_until`` (sleep is free)."""
-
-    def __init__(self, start_s: float = 0.0) -> None:
-        super().__init__(start_s)
-        self.waiting_cpu_s = 0.0
-
-    def wait_until(self, deadline_s: float) -> None:
-        started_s = time.process_time()
-        try:
-            super().wait_until(deadline_s)
-        finally:
-            self.waiting_cpu_s += time.process_time() - started_s
 
 
 MeteredClock = MeteredVirtualClock | MeteredRealtimeClock
