@@ -8,33 +8,22 @@ from dataclasses import replace
 import pytest
 
 from bywire.control.controller import (
-    ControlConfig,
     ControlInputs,
     ControlOutputs,
-    ControlState,
-    controller_step,
 )
 from bywire.control.drive import SAFE_DRIVE
 from bywire.control.error_flags import ErrorFlag
-from bywire.control.mux import Latch
 from bywire.control.rc_mapping import RcRequest
+from bywire.control.supervisor import Cause
 from bywire.control.validity import Stamped
 from bywire.model import ControlCommand, ControlMode, Gear, LightsCommand, MovementCommand
+from tests.control.stepping import run
 
-CONFIG = ControlConfig()
 RC_STOP = RcRequest(ControlMode.STOP, 0.0, 0.0, 0.0, Gear.FORWARD, low_beam=False, hazard=False)
 
 
 def rc_at(at_s: float, **changes: object) -> Stamped[RcRequest | None]:
     return Stamped(replace(RC_STOP, **changes), received_at=at_s)  # type: ignore[arg-type]
-
-
-def run(steps: list[tuple[float, ControlInputs]]) -> list[ControlOutputs]:
-    state, outputs = ControlState(), []
-    for now, inputs in steps:
-        state, output = controller_step(state, inputs, now, CONFIG)
-        outputs.append(output)
-    return outputs
 
 
 def armed_rc(now: float, **changes: object) -> list[tuple[float, ControlInputs]]:
@@ -55,7 +44,7 @@ def assert_safe(outputs: ControlOutputs) -> None:
 def test_power_up_with_no_input_is_stop_with_every_output_safe() -> None:
     (outputs,) = run([(0.0, ControlInputs())])
     assert_safe(outputs)
-    assert outputs.latch is Latch.RC_LOST
+    assert outputs.causes == {Cause.POWER_UP, Cause.RC_LOST}
     assert outputs.error_flags & ErrorFlag.RC_TIMEOUT
     assert outputs.steering_pulse_s == pytest.approx(0.0015)
 
@@ -93,7 +82,7 @@ def test_rc_drives_after_arming_through_stop() -> None:
 def test_rc_without_passing_through_stop_stays_stop() -> None:
     (outputs,) = run([(0.0, ControlInputs(rc=rc_at(0.0, mode=ControlMode.RC)))])
     assert_safe(outputs)
-    assert outputs.latch is Latch.POWER_UP
+    assert outputs.causes == {Cause.POWER_UP}
 
 
 def test_can_drives_in_can_mode() -> None:
@@ -102,8 +91,17 @@ def test_can_drives_in_can_mode() -> None:
     def driving(now: float) -> ControlInputs:
         return ControlInputs(rc=rc_at(now, mode=ControlMode.CAN), movement=Stamped(movement, now))
 
-    # armed with the gear switch in reverse: RC's gear was reverse already, no direction change
-    steps = [*armed_rc(0.0, mode=ControlMode.RC, gear=Gear.REVERSE), *held(0.02, 0.7, driving)]
+    def handed_over(now: float) -> ControlInputs:
+        idle = replace(movement, throttle_norm=0.0)
+        return ControlInputs(rc=rc_at(now, mode=ControlMode.CAN), movement=Stamped(idle, now))
+
+    # armed with the gear switch in reverse: RC's gear was reverse already, no direction change;
+    # the computer is seen at zero throttle before it may apply any (bumpless transfer)
+    steps = [
+        *armed_rc(0.0, mode=ControlMode.RC, gear=Gear.REVERSE),
+        (0.02, handed_over(0.02)),
+        *held(0.03, 0.7, driving),
+    ]
     last = run(steps)[-1]
     assert last.mode is ControlMode.CAN
     assert last.drive.reverse
@@ -128,7 +126,7 @@ def test_can_timeout_in_can_mode_is_stop_not_rc() -> None:
     ]
     last = run(steps)[-1]
     assert_safe(last)
-    assert last.latch is Latch.CAN_LOST
+    assert last.causes == {Cause.CAN_LOST}
     assert last.error_flags & ErrorFlag.CAN_COMMAND_TIMEOUT
 
 
@@ -149,7 +147,7 @@ def test_remote_stop_over_can() -> None:
     ]
     last = run(steps)[-1]
     assert_safe(last)
-    assert last.latch is Latch.REMOTE_STOP
+    assert last.causes == {Cause.REMOTE_STOP}
 
 
 def test_hardware_fault_stops() -> None:
@@ -159,7 +157,7 @@ def test_hardware_fault_stops() -> None:
             0.02,
             ControlInputs(
                 rc=rc_at(0.02, mode=ControlMode.RC),
-                hardware_fault=True,
+                dac_failing=True,
                 fault_flags=int(ErrorFlag.DAC_FAULT_STOP),
             ),
         ),

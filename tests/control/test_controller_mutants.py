@@ -9,19 +9,16 @@ from dataclasses import replace
 import pytest
 
 from bywire.control.controller import (
-    ControlConfig,
     ControlInputs,
-    ControlOutputs,
-    ControlState,
-    controller_step,
 )
 from bywire.control.error_flags import ErrorFlag
 from bywire.control.monitors import MonitorConfig
-from bywire.control.mux import Latch
 from bywire.control.rc_mapping import RcRequest
 from bywire.control.steering import SteeringConfig
+from bywire.control.supervisor import Cause
 from bywire.control.validity import Stamped
 from bywire.model import ControlCommand, ControlMode, Gear, MovementCommand
+from tests.control.stepping import CONFIG, run
 
 RC_STOP = RcRequest(ControlMode.STOP, 0.0, 0.0, 0.0, Gear.FORWARD, low_beam=False, hazard=False)
 CAN_IDLE = MovementCommand(0.0, 0.0, 0.0, Gear.FORWARD, counter=1)
@@ -29,16 +26,6 @@ CAN_IDLE = MovementCommand(0.0, 0.0, 0.0, Gear.FORWARD, counter=1)
 
 def rc_at(at_s: float, **changes: object) -> Stamped[RcRequest | None]:
     return Stamped(replace(RC_STOP, **changes), received_at=at_s)  # type: ignore[arg-type]
-
-
-def run(
-    steps: list[tuple[float, ControlInputs]], config: ControlConfig | None = None
-) -> list[ControlOutputs]:
-    state, outputs = ControlState(), []
-    for now, inputs in steps:
-        state, output = controller_step(state, inputs, now, config or ControlConfig())
-        outputs.append(output)
-    return outputs
 
 
 def armed_rc(now: float, **changes: object) -> list[tuple[float, ControlInputs]]:
@@ -74,31 +61,31 @@ def test_an_invalid_steering_encoder_reading_stops_rc_driving_with_a_hardware_la
     assert outputs[1].mode is ControlMode.RC
     last = outputs[-1]
     assert last.mode is ControlMode.STOP
-    assert last.latch is Latch.HARDWARE_FAULT
+    assert last.causes == {Cause.STEERING_ENCODER}
     assert last.error_flags & ErrorFlag.STEERING_ENCODER_FAULT
 
 
 def test_a_monitor_flag_left_out_of_stop_flags_is_reported_but_does_not_stop() -> None:
-    config = ControlConfig(monitors=MonitorConfig(stop_flags=ErrorFlag(0)))
+    config = replace(CONFIG, monitors=MonitorConfig(stop_flags=ErrorFlag(0)))
     steps = [
         *armed_rc(0.0, mode=ControlMode.RC),
         (0.02, ControlInputs(rc=rc_at(0.02, mode=ControlMode.RC), steering_measured_norm=math.nan)),
     ]
     last = run(steps, config)[-1]
     assert last.mode is ControlMode.RC
-    assert last.latch is None
+    assert not last.causes
     assert last.error_flags & ErrorFlag.STEERING_ENCODER_FAULT
 
 
 def test_the_boost_works_from_the_encoder_reading_when_one_is_fitted() -> None:
     # Set-point centre, servo measured at +0.5: gain 1 asks for -0.5, i.e. 1.25 ms.
-    config = ControlConfig(steering=SteeringConfig(boost_gain=1.0))
+    config = replace(CONFIG, steering=SteeringConfig(boost_gain=1.0))
     (outputs,) = run([(0.0, ControlInputs(steering_measured_norm=0.5))], config)
     assert outputs.steering_pulse_s == pytest.approx(0.00125)
 
 
 def test_the_hydrobrake_threshold_comes_from_the_configuration() -> None:
-    config = ControlConfig(hydrobrake_threshold_norm=0.25)
+    config = replace(CONFIG, hydrobrake_threshold_norm=0.25)
     last = run(armed_rc(0.0, mode=ControlMode.RC, brake_norm=0.75), config)[-1]
     assert last.mode is ControlMode.RC
     assert last.hydrobrake_duty == pytest.approx((0.75 - 0.25) / (1.0 - 0.25))
@@ -108,7 +95,7 @@ def test_the_blink_rate_comes_from_the_configuration() -> None:
     # At t = 0.5 s a 1.5 Hz blink is in its dark half (phase 0.75), a 0.5 Hz one in its lit half.
     steps = armed_rc(0.49, mode=ControlMode.RC, hazard=True)
     assert not run(steps)[-1].lights.turn_left
-    assert run(steps, ControlConfig(blink_rate_hz=0.5))[-1].lights.turn_left
+    assert run(steps, replace(CONFIG, blink_rate_hz=0.5))[-1].lights.turn_left
 
 
 DRIVING_FORWARD: dict[str, object] = {
@@ -137,12 +124,16 @@ def test_a_direction_change_while_driving_is_reported_as_held() -> None:
 def test_a_can_re_enable_edge_clears_a_can_timeout_latch() -> None:
     sent = Stamped(CAN_IDLE, 0.02)
     again = Stamped(replace(CAN_IDLE, counter=2), 0.30)
-    re_enable = Stamped(ControlCommand(remote_stop=False, re_enable=True, counter=0), 0.30)
+    no_request = Stamped(ControlCommand(remote_stop=False, re_enable=False, counter=0), 0.29)
+    re_enable = Stamped(ControlCommand(remote_stop=False, re_enable=True, counter=1), 0.30)
     steps = [
         *armed_rc(0.0, mode=ControlMode.RC),
         (0.02, ControlInputs(rc=rc_at(0.02, mode=ControlMode.CAN), movement=sent)),
         (0.25, ControlInputs(rc=rc_at(0.25, mode=ControlMode.CAN), movement=sent)),
-        (0.29, ControlInputs(rc=rc_at(0.29, mode=ControlMode.CAN), movement=again)),
+        (
+            0.29,
+            ControlInputs(rc=rc_at(0.29, mode=ControlMode.CAN), movement=again, control=no_request),
+        ),
         (
             0.30,
             ControlInputs(rc=rc_at(0.30, mode=ControlMode.CAN), movement=again, control=re_enable),
@@ -150,10 +141,10 @@ def test_a_can_re_enable_edge_clears_a_can_timeout_latch() -> None:
     ]
     outputs = run(steps)
     assert outputs[2].mode is ControlMode.CAN
-    assert outputs[3].latch is Latch.CAN_LOST
-    assert outputs[4].latch is Latch.CAN_LOST  # fresh commands alone do not clear it
+    assert outputs[3].causes == {Cause.CAN_LOST}
+    assert outputs[4].causes == {Cause.CAN_LOST}  # fresh commands alone do not clear it
     assert outputs[5].mode is ControlMode.CAN
-    assert outputs[5].latch is None
+    assert not outputs[5].causes
 
 
 def test_remote_stop_is_flagged_alongside_an_rc_timeout() -> None:

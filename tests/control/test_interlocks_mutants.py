@@ -20,7 +20,9 @@ def test_zero_dwells_and_zero_standstill_speed_are_valid_settings() -> None:
 
 
 def test_a_negative_dwell_is_refused_with_a_message_saying_what_is_wrong() -> None:
-    with pytest.raises(ValueError, match=r"^standstill speed and dwells must be finite and >= 0$"):
+    with pytest.raises(
+        ValueError, match=r"^standstill speed, dwells and speed-check limits must be finite, >= 0$"
+    ):
         InterlockConfig(direction_dwell_s=-0.1)
 
 

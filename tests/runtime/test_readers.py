@@ -1,36 +1,75 @@
-"""Input readers on simulated ports: checked commands, counters followed, a leaky counter."""
+"""Input readers on simulated ports: checked commands, counters judged over a window, edges taken
+between consecutive accepted frames, and every bad frame counted once at the poll time."""
 
 from __future__ import annotations
 
 import pytest
 
+from bywire.control.command_edges import CommandEdges
 from bywire.control.rc_mapping import RcMapping
 from bywire.hal.ports import CanFrame
 from bywire.hal.sim.can_bus import SimCanBus
 from bywire.hal.sim.clock import VirtualClock
 from bywire.hal.sim.uart import SimUart
-from bywire.model import Gear, MovementCommand
+from bywire.model import ControlCommand, Gear, MovementCommand
 from bywire.protocol import dbc, ibus
-from bywire.runtime.readers import COUNTER_FAIL_LIMIT, CanReader, IbusReader
+from bywire.runtime.readers import COUNTER_MISS_LIMIT, COUNTER_WINDOW, CanReader, IbusReader
+from bywire.runtime.recent_fault import FAULT_HOLD_S, RecentFault
+
+CHANNELS = (1750, 1500, 1500, 1500, 1500, 1000, 1500) + (1500,) * 7
+FRAME = ibus.encode_frame(CHANNELS)
+CORRUPT = FRAME[:-1] + bytes([FRAME[-1] ^ 0xFF])
+FAILSAFE = ibus.encode_frame((1500, 900) + (1500,) * 12)
+MOVEMENT_ID = dbc.frame_id(MovementCommand)
 
 
 class Link:
     """A sender and the controller's reader on one simulated bus."""
 
-    def __init__(self) -> None:
+    def __init__(self, gap_s: float = 0.1) -> None:
         self.clock = VirtualClock()
         bus = SimCanBus(self.clock)
         self.sender = bus.attach("hlc", tx_mailboxes=64)
-        self.reader = CanReader(bus.attach("bywire", True))
+        self.reader = CanReader(bus.attach("bywire", True), gap_s=gap_s)
 
-    def send(self, *counters: int, data: bytes | None = None) -> list[int]:
-        """Send movement commands with these counters; the counters of the accepted ones."""
+    def queue(self, *counters: int, data: bytes | None = None) -> None:
         for counter in counters:
             command = MovementCommand(0.1, 0.2, 0.0, Gear.FORWARD, counter)
             frame_id, payload = dbc.encode_command(command)
             self.sender.send(CanFrame(frame_id, data if data is not None else payload))
-        self.clock.advance(0.05)
-        return [stamped.value.counter for stamped in self.reader.poll(self.clock.now())]
+
+    def send(self, *counters: int, data: bytes | None = None) -> list[int]:
+        """Send movement commands with these counters; the counters of the accepted ones."""
+        self.queue(*counters, data=data)
+        return self.poll()[1]
+
+    def poll(self, after_s: float = 0.05) -> tuple[float, list[int]]:
+        self.clock.advance(after_s)
+        now = self.clock.now()
+        return now, [stamped.value.counter for stamped in self.reader.poll(now)]
+
+    def control(self, counter: int, *, re_enable: bool = False, stop: bool = False) -> CommandEdges:
+        """One ControlCommand frame after 20 ms; the edges the reader took from it."""
+        frame_id, payload = dbc.encode_command(ControlCommand(stop, re_enable, counter))
+        self.sender.send(CanFrame(frame_id, payload))
+        self.clock.advance(0.02)
+        self.reader.poll(self.clock.now())
+        return self.reader.control_edges
+
+
+# --- RecentFault -------------------------------------------------------------------------------
+
+
+def test_a_fault_flag_is_held_for_exactly_the_hold_time_inclusive() -> None:
+    fault = RecentFault()
+    fault.happened(1.0)
+    assert fault.count == 1
+    assert FAULT_HOLD_S == 0.5
+    assert fault.active(1.5)
+    assert not fault.active(1.5001)
+
+
+# --- CAN: counters ------------------------------------------------------------------------------
 
 
 def test_consecutive_counters_are_accepted_and_wrap() -> None:
@@ -41,66 +80,177 @@ def test_a_repeated_frame_is_rejected_and_the_sequence_goes_on() -> None:
     link = Link()
     assert link.send(3, 4, 4, 5) == [3, 4, 5]
     assert link.reader.rejected[dbc.RejectReason.COUNTER] == 1
+    assert not link.reader.untrusted
 
 
-def test_one_lost_frame_costs_one_frame() -> None:
+def test_one_lost_frame_costs_one_frame_and_leaves_the_message_trusted() -> None:
     link = Link()
     assert link.send(3, 5, 6) == [3, 6]  # 5 skipped a counter; 6 follows 5 and is accepted
-    assert link.reader.counter_fail[dbc.frame_id(MovementCommand)] == 0
+    assert list(link.reader.trust[MOVEMENT_ID].misses) == [False, True, False]
+    assert not link.reader.untrusted
 
 
-def test_a_jumping_counter_makes_the_message_untrusted_until_enough_good_frames() -> None:
+def test_a_second_sender_one_counter_ahead_makes_the_message_untrusted() -> None:
+    """Hazard 10: half the frames intact, so a leaky count (+1 miss, -1 good) stays balanced."""
     link = Link()
-    jumps = [0, 2, 4, 6, 8]  # every frame skips one
-    assert link.send(*jumps) == [0]
-    assert link.reader.counter_fail[dbc.frame_id(MovementCommand)] == 4
-    good = [9, 10, 11, 12]
+    interleaved = [c for k in range(8) for c in (2 * k % 16, (2 * k + 1) % 16, (2 * k + 1) % 16)]
+    accepted = link.send(*interleaved)
+    misses = list(link.reader.trust[MOVEMENT_ID].misses)
+    assert sum(misses) >= COUNTER_MISS_LIMIT
+    assert link.reader.untrusted
+    assert len(accepted) < len(interleaved) * 2 // 3
+    assert link.reader.untrusted_frames > 0
+
+
+def test_an_untrusted_message_needs_a_whole_window_of_good_frames() -> None:
+    link = Link()
+    assert link.send(0, 2, 4, 6) == [0]  # three skips in a row
+    assert link.reader.untrusted
+    good = [(7 + k) % 16 for k in range(COUNTER_WINDOW)]
     accepted = link.send(*good)
-    # each good frame takes one away first; untrusted while the count is still >= the limit:
-    # 4 -> 3 (untrusted), 3 -> 2 (used), 2 -> 1, 1 -> 0
-    assert accepted == good[4 - COUNTER_FAIL_LIMIT :]
-    assert link.reader.untrusted_frames == 4 - COUNTER_FAIL_LIMIT
+    assert accepted == good[-1:]  # dropped until the window is clean, then used
+    assert not link.reader.untrusted
+    assert link.reader.untrusted_frames == COUNTER_WINDOW - 1
 
 
-def test_corrupt_frames_are_counted_and_never_returned() -> None:
+def test_a_frame_the_codec_could_not_read_restarts_the_sequence_instead_of_a_miss() -> None:
     link = Link()
-    frame_id, payload = dbc.encode_command(MovementCommand(0.0, 0.0, 0.0, Gear.FORWARD, 0))
+    _, payload = dbc.encode_command(MovementCommand(0.0, 0.0, 0.0, Gear.FORWARD, 4))
     bad = bytes([payload[0] ^ 1, *payload[1:]])
-    assert link.send(0, data=bad) == []
-    assert link.reader.rejected[dbc.RejectReason.CHECKSUM] == 1
-    assert frame_id in dbc.command_ids()
+    assert link.send(3) == [3]
+    assert link.send(4, data=bad) == []
+    assert link.send(5) == [5]
+    assert True not in link.reader.trust[MOVEMENT_ID].misses
 
 
-def test_unknown_ids_are_ignored() -> None:
+def test_corrupt_frames_are_counted_per_frame_and_flagged_at_the_poll_time() -> None:
+    link = Link()
+    _, payload = dbc.encode_command(MovementCommand(0.0, 0.0, 0.0, Gear.FORWARD, 0))
+    bad = bytes([payload[0] ^ 1, *payload[1:]])
+    link.sender.send(CanFrame(MOVEMENT_ID, bad))
+    link.sender.send(CanFrame(MOVEMENT_ID, bad))
+    now, accepted = link.poll()
+    assert accepted == []
+    assert link.reader.rejected[dbc.RejectReason.CHECKSUM] == 2
+    assert link.reader.reject_faults.count == 2
+    assert link.reader.reject_faults.last_at == now
+
+
+def test_a_frame_with_an_unknown_id_is_skipped_and_the_rest_of_the_batch_still_read() -> None:
     link = Link()
     link.sender.send(CanFrame(0x7FF, b"\x00" * 8))
-    link.clock.advance(0.01)
-    assert link.reader.poll(link.clock.now()) == []
-    assert link.reader.ignored_frames == 1
+    link.sender.send(CanFrame(0x7FE, b"\x00" * 8))
+    assert link.send(1) == [1]
+    assert link.reader.ignored_frames == 2
+
+
+# --- CAN: ControlCommand edges -------------------------------------------------------------------
+
+
+def test_a_re_enable_edge_is_a_change_between_consecutive_accepted_frames() -> None:
+    link = Link()
+    assert link.control(0) == CommandEdges()
+    assert link.control(1, re_enable=True) == CommandEdges(re_enable=True)
+    assert link.control(2, re_enable=True) == CommandEdges()  # held: no edge
+
+
+def test_a_re_enable_held_across_a_gap_is_not_an_edge() -> None:
+    """Hazard row 2: 1, a 150 ms gap, 1 again: the first frame after the gap has no reference."""
+    link = Link()
+    link.control(0)
+    link.control(1, re_enable=True)
+    link.clock.advance(0.15)
+    assert link.control(2, re_enable=True) == CommandEdges()
+    link.control(3)
+    assert link.control(4, re_enable=True) == CommandEdges(re_enable=True)
+
+
+def test_a_re_enable_after_a_rejected_frame_is_not_an_edge() -> None:
+    link = Link()
+    link.control(0)
+    frame_id, payload = dbc.encode_command(ControlCommand(False, False, 1))
+    link.sender.send(CanFrame(frame_id, payload[:-1] + bytes((payload[-1] ^ 0x5A,))))
+    assert link.control(2, re_enable=True) == CommandEdges()
+
+
+def test_a_remote_stop_counts_as_arriving_on_the_first_frame_that_carries_it() -> None:
+    link = Link()
+    assert link.control(0, stop=True) == CommandEdges(remote_stop=True)
+    assert link.control(1, stop=True) == CommandEdges()
+    link.clock.advance(0.15)
+    assert link.control(2, stop=True) == CommandEdges(remote_stop=True)  # the safe direction
+
+
+# --- IBUS ----------------------------------------------------------------------------------------
+
+
+class Receiver:
+    """An RC receiver's UART and the controller's reader on it."""
+
+    def __init__(self) -> None:
+        self.clock = VirtualClock()
+        self.uart = SimUart(self.clock)
+        self.reader = IbusReader(self.uart, RcMapping())
+
+    def poll_after(self, data: bytes) -> float:
+        """Send `data`, let it arrive, poll; the poll time."""
+        self.uart.transmit(data)
+        self.clock.advance(0.05)
+        now = self.clock.now()
+        self.reader.poll(now)
+        return now
 
 
 @pytest.mark.parametrize("chunk", [1, 5, 32, 64])
 def test_ibus_reader_returns_the_newest_request_stamped_now(chunk: int) -> None:
-    clock = VirtualClock()
-    uart = SimUart(clock)
-    reader = IbusReader(uart, RcMapping())
-    frame = ibus.encode_frame((1750, 1500, 1500, 1500, 1500, 1000, 1500) + (1500,) * 7)
-    for start in range(0, len(frame), chunk):
-        uart.transmit(frame[start : start + chunk])
-    clock.advance(0.01)
-    stamped = reader.poll(clock.now())
+    rx = Receiver()
+    for start in range(0, len(FRAME), chunk):
+        rx.uart.transmit(FRAME[start : start + chunk])
+    rx.clock.advance(0.01)
+    stamped = rx.reader.poll(rx.clock.now())
     assert stamped is not None
-    assert stamped.received_at == clock.now()
+    assert stamped.received_at == rx.clock.now()
     assert stamped.value is not None
     assert stamped.value.steering_norm == pytest.approx(0.5)
 
 
 def test_ibus_reader_marks_a_failsafe_frame_as_suspect() -> None:
-    clock = VirtualClock()
-    uart = SimUart(clock)
-    reader = IbusReader(uart, RcMapping())
-    uart.transmit(ibus.encode_frame((1500, 900) + (1500,) * 12))
-    clock.advance(0.01)
-    stamped = reader.poll(clock.now())
+    rx = Receiver()
+    rx.uart.transmit(FAILSAFE)
+    rx.clock.advance(0.01)
+    stamped = rx.reader.poll(rx.clock.now())
     assert stamped is not None
     assert stamped.value is None
+
+
+def test_one_failsafe_frame_anywhere_in_a_batch_makes_the_batch_suspect() -> None:
+    rx = Receiver()
+    rx.uart.transmit(FAILSAFE + FRAME)
+    rx.clock.advance(0.05)
+    stamped = rx.reader.poll(rx.clock.now())
+    assert stamped is not None
+    assert stamped.value is None
+
+
+def test_checksum_faults_are_counted_per_bad_frame_and_stamped_with_the_poll_time() -> None:
+    rx = Receiver()
+    rx.poll_after(CORRUPT + CORRUPT + FRAME)
+    second_s = rx.poll_after(CORRUPT + FRAME)
+    assert rx.reader.checksum_faults.count == 3
+    assert rx.reader.checksum_faults.last_at == second_s
+
+
+def test_resyncs_are_counted_per_realignment_and_stamped_with_the_poll_time() -> None:
+    rx = Receiver()
+    rx.poll_after(b"\x01\x02\x03" + FRAME + b"\x06" + FRAME)
+    second_s = rx.poll_after(b"\x04\x05" + FRAME)
+    assert rx.reader.resync_faults.count == 3
+    assert rx.reader.resync_faults.last_at == second_s
+
+
+def test_the_reader_keeps_the_newest_raw_channels_and_stamps_its_parser() -> None:
+    rx = Receiver()
+    assert rx.reader.last_channels is None
+    now = rx.poll_after(FRAME)
+    assert rx.reader.last_channels == CHANNELS
+    assert rx.reader.parser.last_frame_at == now

@@ -6,7 +6,7 @@ import threading
 from dataclasses import replace
 
 from bywire.control.error_flags import ErrorFlag
-from bywire.control.mux import Latch
+from bywire.control.supervisor import Cause
 from bywire.hal.sim.clock import RealtimeClock
 from bywire.hal.sim.world import SimWorld
 from bywire.model import ControlMode, Gear
@@ -50,5 +50,5 @@ def test_a_stalled_loop_gets_safe_outputs_and_a_latched_stop() -> None:
     outputs = runtime.outputs
     assert outputs is not None
     assert outputs.mode is ControlMode.STOP
-    assert outputs.latch is Latch.HARDWARE_FAULT
+    assert outputs.causes == {Cause.WATCHDOG}
     assert outputs.error_flags & ErrorFlag.WATCHDOG_TRIPPED

@@ -48,6 +48,7 @@ from bywire.runtime.schedule import TaskStats
 from bywire.runtime.settings import RuntimeConfig
 
 ARM_AT_S = 0.5
+HANDOVER_S = 0.06  # the switch counts after 3 IBUS frames (23 ms); well inside the settle time
 FIRST_PHASE_AT_S = 1.0
 GRID_OFFSET_S = 0.004
 PROGRESS_PERIOD_S = 1.0
@@ -149,14 +150,20 @@ class RealtimeSession:
             clock.call_at(self.windows[0].start_s + PROGRESS_PERIOD_S, self._report_progress)
 
     def _to_can(self) -> None:
-        self.rc_sweep.active = False
-        self.world.rc.set_mode(ControlMode.CAN)
-        self.can_sweep.active = True
+        """Hand over to CAN as an operator would: both sources at zero throttle, the switch
+        moved, and the computer's sweep only once the switch has counted (bumpless transfer)."""
+        self._hand_over(ControlMode.CAN)
+        self.world.clock.call_at(self.world.clock.now() + HANDOVER_S, self.can_sweep.activate)
 
     def _to_rc(self) -> None:
-        self.can_sweep.active = False
-        self.world.rc.set_mode(ControlMode.RC)
-        self.rc_sweep.active = True
+        self._hand_over(ControlMode.RC)
+        self.world.clock.call_at(self.world.clock.now() + HANDOVER_S, self.rc_sweep.activate)
+
+    def _hand_over(self, mode: ControlMode) -> None:
+        self.can_sweep.active = self.rc_sweep.active = False
+        self.world.rc.set_throttle(0.0)
+        self.world.hlc.set_movement(0.0, 0.0, 0.0, Gear.FORWARD)
+        self.world.rc.set_mode(mode)
 
     def _begin(self, window: PhaseWindow) -> None:
         for task in self.runtime.tasks:

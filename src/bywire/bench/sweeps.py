@@ -40,6 +40,10 @@ class CanSweep:
         """Tick from ``first_s`` (half a period after the computer's first frame)."""
         self._timer.start(first_s)
 
+    def activate(self) -> None:
+        """Sweep from the next tick on."""
+        self.active = True
+
     def _next(self, _tick_s: float) -> None:
         if self.active:
             self._hlc.set_movement(0.0, sawtooth_norm(self._index), 0.0, Gear.FORWARD)
@@ -66,6 +70,10 @@ class RcSweep:
     def start(self, first_s: float) -> None:
         """Tick from ``first_s`` (half a period after the receiver's first frame)."""
         self._timer.start(first_s)
+
+    def activate(self) -> None:
+        """Sweep from the next tick on."""
+        self.active = True
 
     def _next(self, _tick_s: float) -> None:
         if not self.active:

@@ -23,6 +23,7 @@ from bywire.config.sections import (
     rc_section,
     sim_section,
     steering_section,
+    supervisor_section,
     tasks_section,
     timeouts_section,
 )
@@ -92,6 +93,7 @@ def build_robot(data: Mapping[str, object], problems: Problems) -> RobotConfig:
         timeouts=timeouts_section(root.table("timeouts")),
         interlocks=interlocks_section(root.table("interlocks")),
         monitors=monitors_section(root.table("monitors")),
+        supervisor=supervisor_section(root.table("supervisor")),
         tasks=tasks_section(root.table("tasks")),
         sim=sim_section(root.table("sim")),
     )

@@ -17,6 +17,7 @@ from bywire.control.lights import BLINK_RATE_HZ
 from bywire.control.monitors import MonitorConfig
 from bywire.control.rc_mapping import RcMapping
 from bywire.control.steering import SteeringConfig
+from bywire.control.supervisor import SupervisorConfig
 
 Backend = Literal["sim", "linux"]
 BACKENDS: tuple[Backend, ...] = ("sim", "linux")
@@ -168,6 +169,7 @@ class RobotConfig:
     timeouts: TimeoutsSection = field(default_factory=TimeoutsSection)
     interlocks: InterlockConfig = field(default_factory=InterlockConfig)
     monitors: MonitorConfig = field(default_factory=MonitorConfig)
+    supervisor: SupervisorConfig = field(default_factory=SupervisorConfig)
     tasks: TasksSection = field(default_factory=TasksSection)
     sim: SimSection = field(default_factory=SimSection)
 

@@ -7,6 +7,7 @@ from bywire.config.limits import (
     BOOST_GAIN,
     CLOCKS_HZ,
     DEADBAND_NORM,
+    DEBOUNCE_FRAMES,
     DUTY,
     DWELL_S,
     IBUS_BAUD,
@@ -23,6 +24,8 @@ from bywire.config.limits import (
     SEEDS,
     SERVO_PWM_HZ,
     SLEW_PER_S,
+    SPEED_CHANGE_MPS2,
+    SPEED_STEP_MPS,
     STANDSTILL_MPS,
     TASK_RATE_HZ,
     TOLERANCE_NORM,
@@ -48,6 +51,7 @@ from bywire.control.rc_mapping import (
     SwitchCalibration,
 )
 from bywire.control.steering import SteeringConfig
+from bywire.control.supervisor import SupervisorConfig
 
 
 def can_section(table: Table) -> CanSection:
@@ -208,6 +212,16 @@ def interlocks_section(table: Table) -> InterlockConfig:
         throttle_slew_up_per_s=table.number(
             "throttle_slew_up_per_s", default.throttle_slew_up_per_s, SLEW_PER_S
         ),
+        speed_max_change_mps2=table.number(
+            "speed_max_change_mps2", default.speed_max_change_mps2, SPEED_CHANGE_MPS2
+        ),
+        speed_step_tolerance_mps=table.number(
+            "speed_step_tolerance_mps", default.speed_step_tolerance_mps, SPEED_STEP_MPS
+        ),
+        speed_stuck_throttle_norm=table.number(
+            "speed_stuck_throttle_norm", default.speed_stuck_throttle_norm, DUTY
+        ),
+        speed_stuck_s=table.number("speed_stuck_s", default.speed_stuck_s, DWELL_S),
     )
     table.close()
     return section
@@ -227,6 +241,15 @@ def monitors_section(table: Table) -> MonitorConfig:
         steering_tolerance_norm=number("steering_tolerance_norm", TOLERANCE_NORM),
         servo_speed_norm_per_s=number("servo_speed_norm_per_s", POSITIVE_NORM_PER_S),
         steering_margin_s=number("steering_margin_s", RESPONSE_S),
+    )
+    table.close()
+    return section
+
+
+def supervisor_section(table: Table) -> SupervisorConfig:
+    default = SupervisorConfig()
+    section = SupervisorConfig(
+        debounce_frames=table.integer("debounce_frames", default.debounce_frames, DEBOUNCE_FRAMES)
     )
     table.close()
     return section

@@ -9,28 +9,30 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 
+from bywire.control.command_edges import NO_EDGES, CommandEdges
 from bywire.control.drive import DriveConfig, DriveOutputs, drive_outputs
 from bywire.control.error_flags import ErrorFlag
 from bywire.control.hydrobrake import DEFAULT_THRESHOLD_NORM, hydrobrake_duty
 from bywire.control.interlocks import InterlockConfig, InterlockState, interlock_step
 from bywire.control.lights import BLINK_RATE_HZ, LightOutputs, LightRequest, light_outputs
-from bywire.control.monitors import (
-    MonitorConfig,
-    MonitorInputs,
-    MonitorState,
-    monitor_step,
-    stop_required,
-)
-from bywire.control.mux import Latch, Movement, MuxInputs, MuxState, movement_from, mux_step
+from bywire.control.monitors import MonitorConfig, MonitorInputs, MonitorState, monitor_step
+from bywire.control.mux import Movement, movement_from
 from bywire.control.rc_mapping import RcMapping, RcRequest
+from bywire.control.speed_check import SpeedCheckState, cleared, speed_check_step, trusted_speed
 from bywire.control.steering import SteeringConfig, SteeringState, steering_step
+from bywire.control.supervisor import (
+    Cause,
+    SupervisorConfig,
+    SupervisorInputs,
+    SupervisorState,
+    supervisor_step,
+)
 from bywire.control.validity import Stamped, fresh, is_fresh
-from bywire.model import (
-    ControlCommand,
-    ControlMode,
-    Gear,
-    LightsCommand,
-    MovementCommand,
+from bywire.model import ControlCommand, ControlMode, Gear, LightsCommand, MovementCommand
+
+MONITOR_CAUSES = (
+    (ErrorFlag.HYDRO_PRESSURE_FAULT, Cause.HYDRO_PRESSURE),
+    (ErrorFlag.STEERING_ENCODER_FAULT, Cause.STEERING_ENCODER),
 )
 
 
@@ -47,6 +49,7 @@ class ControlConfig:
     blink_rate_hz: float = BLINK_RATE_HZ
     interlocks: InterlockConfig = field(default_factory=InterlockConfig)
     monitors: MonitorConfig = field(default_factory=MonitorConfig)
+    supervisor: SupervisorConfig = field(default_factory=SupervisorConfig)
 
 
 @dataclass(frozen=True, slots=True)
@@ -55,16 +58,23 @@ class ControlInputs:
 
     `rc` holds None as its value when the last frame was intact but implausible (failsafe flags,
     a channel out of range): that counts as a lost link at once, not after the timeout.
+    `rc_frames` and `control_frames` count arrivals, so the decision sees which frame is new;
+    `control_edges` are the edges the newest ControlCommand frame made (see `command_edges`).
     `fault_flags` are the conditions only the shell can see (DAC writes, CAN transmit, overruns);
-    `hardware_fault` says one of them demands STOP.
+    `dac_failing`, `watchdog_tripped` and `can_untrusted` are the shell's conditions that stop.
     """
 
     rc: Stamped[RcRequest | None] | None = None
     movement: Stamped[MovementCommand] | None = None
     lights: Stamped[LightsCommand] | None = None
     control: Stamped[ControlCommand] | None = None
+    control_edges: CommandEdges = NO_EDGES
+    rc_frames: int = 0
+    control_frames: int = 0
     fault_flags: int = 0
-    hardware_fault: bool = False
+    dac_failing: bool = False
+    watchdog_tripped: bool = False
+    can_untrusted: bool = False
     speed_mps: float | None = None  # signed, positive forward; None without a speed sensor
     hydrobrake_pressure_bar: float | None = None  # None without a pressure sensor
     steering_measured_norm: float | None = None  # None without a steering encoder
@@ -74,11 +84,15 @@ class ControlInputs:
 class ControlState:
     """What the decision remembers between steps."""
 
-    mux: MuxState = field(default_factory=MuxState)
+    supervisor: SupervisorState = field(default_factory=SupervisorState)
     steering: SteeringState = field(default_factory=SteeringState)
     interlock: InterlockState = field(default_factory=InterlockState)
     monitor: MonitorState = field(default_factory=MonitorState)
+    speed_check: SpeedCheckState = field(default_factory=SpeedCheckState)
     hydrobrake_duty: float = 1.0  # as applied by the previous step: what the pressure answers to
+    applied_throttle_norm: float = 0.0  # as applied by the previous step (0 while disabled)
+    rc_frames_seen: int = 0
+    control_frames_seen: int = 0
 
 
 @dataclass(frozen=True, slots=True)
@@ -86,8 +100,8 @@ class ControlOutputs:
     """Every output level at one instant, and why."""
 
     mode: ControlMode
-    latch: Latch | None
-    movement: Movement  # after the interlocks: what the actuators follow
+    causes: frozenset[Cause]  # latched: STOP until each one's own clearing rule fires
+    movement: Movement  # after the supervisor's throttle gate and the interlocks
     direction_change_held: bool
     steering_pulse_s: float
     drive: DriveOutputs
@@ -98,17 +112,62 @@ class ControlOutputs:
     error_flags: int
 
 
-def _mux_inputs(
-    inputs: ControlInputs, now: float, config: ControlConfig, monitor_stop: bool
-) -> MuxInputs:
-    rc = fresh(inputs.rc, now, config.rc_timeout_s)
-    control = fresh(inputs.control, now, config.can_command_timeout_s)
-    return MuxInputs(
-        rc=rc,
-        can_movement=fresh(inputs.movement, now, config.can_command_timeout_s),
-        remote_stop=control is not None and control.remote_stop,
-        re_enable=control is not None and control.re_enable,
-        hardware_fault=inputs.hardware_fault or monitor_stop,
+@dataclass(frozen=True, slots=True)
+class _Sources:
+    """The inputs usable at one instant: None means missing, stale or invalid."""
+
+    rc: RcRequest | None
+    can_movement: MovementCommand | None
+    control: ControlCommand | None
+    lights: LightsCommand | None
+
+
+def _sources(inputs: ControlInputs, now: float, config: ControlConfig) -> _Sources:
+    timeout_s = config.can_command_timeout_s
+    return _Sources(
+        rc=fresh(inputs.rc, now, config.rc_timeout_s),
+        can_movement=fresh(inputs.movement, now, timeout_s),
+        control=fresh(inputs.control, now, timeout_s),
+        lights=fresh(inputs.lights, now, timeout_s),
+    )
+
+
+def _conditions(
+    inputs: ControlInputs, sources: _Sources, now: float, config: ControlConfig, monitor: int
+) -> frozenset[Cause]:
+    """Every cause whose condition holds now, whatever the mode."""
+    held = (
+        (not is_fresh(inputs.rc, now, config.rc_timeout_s), Cause.RC_LOST),
+        (
+            is_fresh(inputs.rc, now, config.rc_timeout_s) and sources.rc is None,
+            Cause.RC_IMPLAUSIBLE,
+        ),
+        (sources.can_movement is None, Cause.CAN_LOST),
+        (inputs.can_untrusted, Cause.CAN_UNTRUSTED),
+        (sources.control is not None and sources.control.remote_stop, Cause.REMOTE_STOP),
+        (inputs.dac_failing, Cause.DAC_FAULT),
+        (inputs.watchdog_tripped, Cause.WATCHDOG),
+        *(
+            (bool(monitor & flag & config.monitors.stop_flags), cause)
+            for flag, cause in MONITOR_CAUSES
+        ),
+    )
+    return frozenset(cause for holds, cause in held if holds)
+
+
+def _supervisor_inputs(
+    state: ControlState, inputs: ControlInputs, sources: _Sources, conditions: frozenset[Cause]
+) -> SupervisorInputs:
+    rc, can = sources.rc, sources.can_movement
+    new_control = inputs.control_frames != state.control_frames_seen and sources.control is not None
+    return SupervisorInputs(
+        conditions=conditions,
+        switch=None if rc is None else rc.mode,
+        rc_frame=inputs.rc_frames != state.rc_frames_seen,
+        rc_throttle_zero=rc is not None and rc.throttle_norm == 0.0,
+        can_throttle_zero=can is not None and can.throttle_norm == 0.0,
+        remote_stop_rising=new_control and inputs.control_edges.remote_stop,
+        re_enable_edge=new_control and inputs.control_edges.re_enable,
     )
 
 
@@ -125,24 +184,33 @@ def _monitor(
     return monitor_step(state.monitor, monitor_inputs, now, config.monitors)
 
 
-def _input_flags(inputs: ControlInputs, mux: MuxInputs, now: float, config: ControlConfig) -> int:
-    flags = ErrorFlag(0)
+def _input_flags(
+    inputs: ControlInputs,
+    sources: _Sources,
+    supervisor: SupervisorState,
+    now: float,
+    config: ControlConfig,
+) -> ErrorFlag:
+    """Flags of the inputs as they are now, beside the latched causes' own flags."""
+    flags = supervisor.flags
     if not is_fresh(inputs.rc, now, config.rc_timeout_s):
         flags |= ErrorFlag.RC_TIMEOUT
-    elif mux.rc is None:
+    elif sources.rc is None:
         flags |= ErrorFlag.RC_FAILSAFE
-    if mux.rc is not None and mux.rc.mode is ControlMode.CAN and mux.can_movement is None:
+    if supervisor.switch is ControlMode.CAN and sources.can_movement is None:
         flags |= ErrorFlag.CAN_COMMAND_TIMEOUT
-    if mux.remote_stop:
+    if sources.control is not None and sources.control.remote_stop:
         flags |= ErrorFlag.REMOTE_STOP
-    return int(flags)
+    if inputs.can_untrusted:
+        flags |= ErrorFlag.CAN_UNTRUSTED
+    return flags
 
 
 def _light_request(
-    mode: ControlMode, mux: MuxInputs, lights: LightsCommand | None, movement: Movement, flags: int
+    mode: ControlMode, sources: _Sources, movement: Movement, flags: int
 ) -> LightRequest:
-    rc_lights = mux.rc if mode is ControlMode.RC else None
-    can_lights = lights if mode is ControlMode.CAN else None
+    rc_lights = sources.rc if mode is ControlMode.RC else None
+    can_lights = sources.lights if mode is ControlMode.CAN else None
     return LightRequest(
         brake_norm=movement.brake_norm,
         reverse_gear=movement.gear is Gear.REVERSE,
@@ -156,41 +224,74 @@ def _light_request(
     )
 
 
+def _requested(supervisor: SupervisorState, sources: _Sources) -> Movement:
+    """The commanding source's set-point; its throttle stays zero until the supervisor opens it."""
+    movement = movement_from(supervisor.mode, sources.rc, sources.can_movement)
+    if supervisor.throttle_allowed:
+        return movement
+    return Movement(movement.steering_norm, 0.0, movement.brake_norm, movement.gear)
+
+
 def controller_step(
     state: ControlState, inputs: ControlInputs, now: float, config: ControlConfig
 ) -> tuple[ControlState, ControlOutputs]:
-    """One decision: monitors, mode, interlocks, then every actuator level."""
+    """One decision: monitors, supervisor, interlocks, then every actuator level."""
     monitor, monitor_flags = _monitor(state, inputs, now, config)
-    mux_inputs = _mux_inputs(inputs, now, config, stop_required(monitor_flags, config.monitors))
-    mux = mux_step(state.mux, mux_inputs)
+    speed_check = speed_check_step(
+        state.speed_check, inputs.speed_mps, state.applied_throttle_norm, now, config.interlocks
+    )
+    sources = _sources(inputs, now, config)
+    conditions = _conditions(inputs, sources, now, config, monitor_flags)
+    supervisor = supervisor_step(
+        state.supervisor,
+        _supervisor_inputs(state, inputs, sources, conditions),
+        config.supervisor,
+    )
+    driving = supervisor.mode is not ControlMode.STOP
+    if driving and state.supervisor.mode is ControlMode.STOP:
+        speed_check = cleared(speed_check)  # an arming event acknowledges a sensor fault
     interlock, movement, held = interlock_step(
         state.interlock,
-        movement_from(mux.mode, mux_inputs),
-        inputs.speed_mps,
+        _requested(supervisor, sources),
+        trusted_speed(speed_check, inputs.speed_mps),
         now,
         config.interlocks,
     )
-    driving = mux.mode is not ControlMode.STOP
     # In STOP the steering holds where it is: centring at speed would be a swerve.
     target_norm = movement.steering_norm if driving else state.steering.setpoint_norm
     steering, pulse_s = steering_step(
         state.steering, target_norm, now, config.steering, inputs.steering_measured_norm
     )
-    flags = inputs.fault_flags | _input_flags(inputs, mux_inputs, now, config) | monitor_flags
-    lights_command = fresh(inputs.lights, now, config.can_command_timeout_s)
-    light_request = _light_request(mux.mode, mux_inputs, lights_command, movement, flags)
+    flags = (
+        inputs.fault_flags | monitor_flags | _input_flags(inputs, sources, supervisor, now, config)
+    )
+    if speed_check.faulted:
+        flags |= ErrorFlag.SPEED_SENSOR_FAULT
+    light_request = _light_request(supervisor.mode, sources, movement, flags)
     duty = hydrobrake_duty(movement.brake_norm, config.hydrobrake_threshold_norm)
+    drive = drive_outputs(movement, enabled=driving, config=config.drive)
     outputs = ControlOutputs(
-        mode=mux.mode,
-        latch=mux.latch,
+        mode=supervisor.mode,
+        causes=supervisor.latched,
         movement=movement,
         direction_change_held=held,
         steering_pulse_s=pulse_s,
-        drive=drive_outputs(movement, enabled=driving, config=config.drive),
+        drive=drive,
         hydrobrake_duty=duty,
         ebrake_engaged=not driving,
         lights=light_outputs(light_request, now, config.blink_rate_hz),
         light_request=light_request,
-        error_flags=flags,
+        error_flags=int(flags),
     )
-    return ControlState(mux, steering, interlock, monitor, duty), outputs
+    new_state = ControlState(
+        supervisor,
+        steering,
+        interlock,
+        monitor,
+        speed_check,
+        duty,
+        movement.throttle_norm if drive.enable else 0.0,
+        inputs.rc_frames,
+        inputs.control_frames,
+    )
+    return new_state, outputs

@@ -10,7 +10,11 @@ import enum
 
 
 class ErrorFlag(enum.IntFlag):
-    """Every condition the controller reports; `RECOVERABLE` ones clear when the cause is gone."""
+    """Every condition the controller reports; `RECOVERABLE` ones clear when the cause is gone.
+
+    The others stay up while the STOP they caused is latched (`bywire.control.supervisor`), or,
+    for SPEED_SENSOR_FAULT, until the next arming: a latched STOP always names its cause.
+    """
 
     TASK_CRASHED = 1 << 0  # was cubemx_error_handler_activated
     CAN_OPEN_FAILED = 1 << 1  # was can_filter_config_failed / can_start_failed
@@ -32,6 +36,9 @@ class ErrorFlag(enum.IntFlag):
     HYDRO_PRESSURE_FAULT = 1 << 17
     STEERING_ENCODER_FAULT = 1 << 18
     REMOTE_STOP = 1 << 19  # the higher-level computer asked for STOP
+    CAN_UNTRUSTED = 1 << 20  # a command id's counter misses too often: a second sender, a replay
+    SPEED_SENSOR_FAULT = 1 << 21  # wheel speeds changed faster than the robot can: not used
+    NOT_ARMED = 1 << 22  # power-up STOP: the mode switch has not yet passed through STOP
 
 
 RECOVERABLE = (

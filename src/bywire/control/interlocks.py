@@ -42,11 +42,25 @@ class InterlockConfig:
     direction_dwell_s: float = 0.5
     unknown_speed_dwell_s: float = UNKNOWN_SPEED_DWELL_S
     throttle_slew_up_per_s: float = 1.0
+    # Plausibility of the speed sensor (`bywire.control.speed_check`): the robot brakes at most
+    # ~11.7 m/s² with every brake on and accelerates at 1.2 m/s², so 15 m/s² is never real.
+    speed_max_change_mps2: float = 15.0
+    speed_step_tolerance_mps: float = 0.3
+    speed_stuck_throttle_norm: float = 0.3
+    speed_stuck_s: float = 1.0
 
     def __post_init__(self) -> None:
-        limits = (self.standstill_speed_mps, self.direction_dwell_s, self.unknown_speed_dwell_s)
+        limits = (
+            self.standstill_speed_mps,
+            self.direction_dwell_s,
+            self.unknown_speed_dwell_s,
+            self.speed_max_change_mps2,
+            self.speed_step_tolerance_mps,
+            self.speed_stuck_throttle_norm,
+            self.speed_stuck_s,
+        )
         if not all(math.isfinite(value) and value >= 0.0 for value in limits):
-            raise ValueError("standstill speed and dwells must be finite and >= 0")
+            raise ValueError("standstill speed, dwells and speed-check limits must be finite, >= 0")
         if not (math.isfinite(self.throttle_slew_up_per_s) and self.throttle_slew_up_per_s > 0.0):
             raise ValueError("throttle_slew_up_per_s must be finite and > 0")
 

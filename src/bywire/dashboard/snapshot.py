@@ -25,7 +25,8 @@ SOURCES = {
 
 @dataclass(frozen=True, slots=True)
 class ModeView:
-    """The selected mode and, while STOP is latched, why; armed: nothing latched."""
+    """The selected mode and, while STOP is latched, every cause and why; armed: nothing
+    latched."""
 
     mode: str
     latch: str | None
@@ -98,16 +99,16 @@ def snapshot(runtime: Runtime, now: float, wall_elapsed_s: float) -> DashboardSn
         raise ValueError("the controller has not taken a decision yet")
     elapsed_s = now - runtime.started_at
     tasks = tuple(task_row(task, elapsed_s, wall_elapsed_s) for task in runtime.tasks)
-    latch = outputs.latch
+    causes = sorted(outputs.causes, key=lambda cause: cause.name)
     movement = outputs.movement
     return DashboardSnapshot(
         elapsed_s=elapsed_s,
         wall_elapsed_s=wall_elapsed_s,
         mode=ModeView(
             mode=outputs.mode.name,
-            latch=None if latch is None else latch.name,
-            latch_reason=None if latch is None else latch.value,
-            armed=latch is None,
+            latch=", ".join(cause.name for cause in causes) or None,
+            latch_reason="; ".join(cause.value for cause in causes) or None,
+            armed=not causes,
             direction_change_held=outputs.direction_change_held,
         ),
         command=CommandView(

@@ -1,8 +1,18 @@
 """Actuator writes: output levels from the control step onto the hardware ports.
 
-Each task writes its own actuators. DAC writes can fail (a NAK, a loose I2C cable): failures are
-counted and flagged, and a run of consecutive failures becomes a hardware fault that the control
-step turns into STOP with the motors disabled through the enable GPIO (R-DAC-FAULT).
+Every loop write goes through the `WriteGate`, so once the watchdog has tripped no loop write
+reaches a port until the trip is acknowledged. DAC writes can fail (a NAK, a loose I2C cable):
+failures are counted and flagged, and two rules turn them into a hardware fault (R-DAC-FAULT):
+
+- a leaky count: each failed write adds 1, each good one takes `DAC_LEAK` away; reaching
+  `dac_failure_limit` escalates, and the escalation holds until the count has drained to zero.
+  Three failures in a row escalate; so does every other write failing (+0.75 a pair), which a
+  count of *consecutive* failures never would;
+- a failed write that should have *lowered* a channel's voltage: the DAC may still drive the
+  old, higher voltage, so this alone is a fault until that channel is written successfully.
+
+While either holds, the motors' enable line is driven low at once and stays low, and the
+decision latches STOP (DAC_FAULT) until the operator re-arms.
 """
 
 from __future__ import annotations
@@ -14,7 +24,10 @@ from bywire.control.lights import LightOutputs
 from bywire.errors import HardwareError
 from bywire.hal.hardware import Hardware
 from bywire.protocol import dac6574
-from bywire.runtime.readers import RecentFault
+from bywire.runtime.recent_fault import RecentFault
+from bywire.runtime.write_gate import WriteGate
+
+DAC_LEAK = 0.25  # one failure is forgiven after four good writes
 
 
 @dataclass(frozen=True, slots=True)
@@ -24,56 +37,90 @@ class ActuatorConfig:
     dac_throttle_channel: int = 0
     dac_regen_channel: int = 1
     dac_vref_volts: float = 5.0
-    dac_failure_limit: int = 3  # consecutive failed writes (30 ms at 100 Hz) before STOP
+    dac_failure_limit: int = 3  # failures in a row (30 ms at 100 Hz) before STOP
     safe_hydrobrake_duty: float = 1.0
     safe_steering_pulse_s: float = 0.0015
 
 
 class Actuators:
-    """Writes levels to the ports and keeps the DAC's health."""
+    """Writes levels to the ports through the gate and keeps the DAC's health."""
 
     def __init__(self, hardware: Hardware, config: ActuatorConfig) -> None:
         self._hardware = hardware
         self._config = config
         self.dac_failures = RecentFault()
         self.dac_clamps = RecentFault()
-        self.consecutive_dac_failures = 0
-        self._dac_fault = False
+        self.dac_failure_level = 0.0
+        self._dac_escalated = False
+        self._dac_volts: dict[int, float] = {}  # the last value each channel acknowledged
+        self._dac_lowering_failed: set[int] = set()
+        lines = hardware.outputs
+        self.gate = WriteGate(
+            {
+                "motors_enable": lambda: lines.motors_enable.set(False),
+                "motors_direction": lambda: self._write_direction(False, False),
+                "dac": lambda: self._write_dac_pair(0.0, 0.0, None),
+                "hydrobrake": lambda: self._write_brakes(config.safe_hydrobrake_duty, True),
+                "steering": None,  # holds where it is
+                "lights": lambda: lines.error_led.set(True),
+            }
+        )
 
     @property
-    def dac_fault(self) -> bool:
-        """True from the `dac_failure_limit`-th failed write in a row until acknowledged: one good
-        write in between must not re-enable the motors of an intermittent DAC."""
-        return self._dac_fault
-
-    def acknowledge_dac_fault(self) -> bool:
-        """The operator acknowledged (mode switch to STOP): clear the fault if the DAC has
-        answered since. True when cleared."""
-        if self.consecutive_dac_failures == 0:
-            self._dac_fault = False
-        return not self._dac_fault
+    def dac_failing(self) -> bool:
+        """The DAC cannot be trusted to drive what it was told (see the module's rules)."""
+        return self._dac_escalated or bool(self._dac_lowering_failed)
 
     def write_steering(self, pulse_s: float) -> None:
-        self._hardware.steering_pwm.set_pulse(pulse_s)
+        self.gate.write("steering", lambda: self._hardware.steering_pwm.set_pulse(pulse_s))
 
     def write_drive(self, drive: DriveOutputs, now: float) -> None:
         """Table 2's signals; the enable line goes low first and high last."""
-        lines = self._hardware.outputs
-        if not drive.enable:
-            lines.motors_enable.set(False)
-        lines.motors_forward.set(drive.forward)
-        lines.motors_reverse.set(drive.reverse)
-        self._write_dac(self._config.dac_throttle_channel, drive.throttle_volts, now)
-        self._write_dac(self._config.dac_regen_channel, drive.regen_volts, now)
-        if drive.enable and not self.dac_fault:
-            lines.motors_enable.set(True)
+        enable = self._hardware.outputs.motors_enable
+        if not drive.enable or self.dac_failing:
+            self.gate.write("motors_enable", lambda: enable.set(False))
+        self.gate.write(
+            "motors_direction", lambda: self._write_direction(drive.forward, drive.reverse)
+        )
+        self.gate.write(
+            "dac", lambda: self._write_dac_pair(drive.throttle_volts, drive.regen_volts, now)
+        )
+        if drive.enable and not self.dac_failing:
+            self.gate.write("motors_enable", lambda: enable.set(True))
 
     def write_brakes(self, hydrobrake_duty: float, ebrake_engaged: bool) -> None:
+        self.gate.write("hydrobrake", lambda: self._write_brakes(hydrobrake_duty, ebrake_engaged))
+
+    def write_lights(self, lights: LightOutputs) -> None:
+        self.gate.write("lights", lambda: self._write_lights(lights))
+
+    def write_safe(self, now: float, *, centre_steering: bool) -> None:
+        """Every output to its de-energised state, past the gate; the DAC is tried but its failure
+        cannot stop the rest. The steering is centred only when asked (at start-up): at any
+        other time centring would be a swerve, so it holds."""
+        self._hardware.outputs.all_low()
+        self._write_brakes(self._config.safe_hydrobrake_duty, True)
+        if centre_steering:
+            self._hardware.steering_pwm.set_pulse(self._config.safe_steering_pulse_s)
+        self.gate.write_safe("dac", lambda: self._write_dac_pair(0.0, 0.0, now))
+
+    def watchdog_trip(self) -> None:
+        """From the watchdog's thread: refuse the loop's writes and make every output safe."""
+        self.gate.trip()
+
+    # --- the ports ------------------------------------------------------------------------------
+
+    def _write_direction(self, forward: bool, reverse: bool) -> None:
+        lines = self._hardware.outputs
+        lines.motors_forward.set(forward)
+        lines.motors_reverse.set(reverse)
+
+    def _write_brakes(self, hydrobrake_duty: float, ebrake_engaged: bool) -> None:
         pwm = self._hardware.hydrobrake_pwm
         pwm.set_pulse(hydrobrake_duty * pwm.period_s)
         self._hardware.outputs.ebrake_release.set(not ebrake_engaged)
 
-    def write_lights(self, lights: LightOutputs) -> None:
+    def _write_lights(self, lights: LightOutputs) -> None:
         lines = self._hardware.outputs
         lines.brake_light.set(lights.brake)
         lines.reverse_light.set(lights.reverse)
@@ -82,25 +129,36 @@ class Actuators:
         lines.low_beam.set(lights.low_beam)
         lines.error_led.set(lights.error_led)
 
-    def write_safe(self, now: float) -> None:
-        """Every output to its safe state; the DAC is tried but its failure cannot stop the rest."""
-        self._hardware.outputs.all_low()
-        self.write_brakes(self._config.safe_hydrobrake_duty, ebrake_engaged=True)
-        self.write_steering(self._config.safe_steering_pulse_s)
-        self._write_dac(self._config.dac_throttle_channel, 0.0, now)
-        self._write_dac(self._config.dac_regen_channel, 0.0, now)
+    def _write_dac_pair(self, throttle_volts: float, regen_volts: float, now: float | None) -> None:
+        self._write_dac(self._config.dac_throttle_channel, throttle_volts, now)
+        self._write_dac(self._config.dac_regen_channel, regen_volts, now)
 
-    def _write_dac(self, channel: int, volts: float, now: float) -> None:
+    def _write_dac(self, channel: int, volts: float, now: float | None) -> None:
+        """One channel; `now` None for the safe writes, which only count towards health."""
         conversion = dac6574.code_from_volts(volts, self._config.dac_vref_volts)
-        if conversion.clamped:
+        wanted = dac6574.volts_from_code(conversion.code, self._config.dac_vref_volts)
+        if conversion.clamped and now is not None:
             self.dac_clamps.happened(now)
         try:
             self._hardware.dac.write(dac6574.encode_write(channel, conversion.code))
         except HardwareError:
-            self.dac_failures.happened(now)
-            self.consecutive_dac_failures += 1
-            if self.consecutive_dac_failures >= self._config.dac_failure_limit:
-                self._dac_fault = True
-                self._hardware.outputs.motors_enable.set(False)
+            self._dac_failed(channel, wanted, now)
         else:
-            self.consecutive_dac_failures = 0
+            self._dac_volts[channel] = wanted
+            self._dac_lowering_failed.discard(channel)
+            self.dac_failure_level = max(self.dac_failure_level - DAC_LEAK, 0.0)
+            if self.dac_failure_level == 0.0:
+                self._dac_escalated = False
+
+    def _dac_failed(self, channel: int, wanted: float, now: float | None) -> None:
+        if now is not None:
+            self.dac_failures.happened(now)
+        self.dac_failure_level = min(
+            self.dac_failure_level + 1.0, 2.0 * self._config.dac_failure_limit
+        )
+        if self.dac_failure_level >= self._config.dac_failure_limit:
+            self._dac_escalated = True
+        if wanted < self._dac_volts.get(channel, 0.0):
+            self._dac_lowering_failed.add(channel)
+        if self.dac_failing:
+            self._hardware.outputs.motors_enable.set(False)  # the safe direction: never gated

@@ -7,34 +7,19 @@ input so that the matching error flag is set while faults keep coming and clears
 
 from __future__ import annotations
 
-from collections import Counter
-from dataclasses import dataclass
+from collections import Counter, deque
 
+from bywire.control.command_edges import NO_EDGES, CommandEdges, command_edges
 from bywire.control.rc_mapping import RcMapping, RcRequest, rc_request
 from bywire.control.validity import Stamped
 from bywire.hal.ports import ByteStream, CanPort
-from bywire.model import Command
+from bywire.model import Command, ControlCommand
 from bywire.protocol import dbc
 from bywire.protocol.ibus import IbusParser
+from bywire.runtime.recent_fault import RecentFault
 
-FAULT_HOLD_S = 0.5  # a flag stays up this long after the last bad frame, so a report catches it
-COUNTER_FAIL_LIMIT = 3  # a message with this many unbalanced counter errors is not trusted
-COUNTER_FAIL_MAX = 10  # the leaky counter saturates here, so recovery never takes forever
-
-
-@dataclass(slots=True)
-class RecentFault:
-    """When a kind of fault last happened, and how often."""
-
-    count: int = 0
-    last_at: float | None = None
-
-    def happened(self, now: float, times: int = 1) -> None:
-        self.count += times
-        self.last_at = now
-
-    def active(self, now: float) -> bool:
-        return self.last_at is not None and now - self.last_at <= FAULT_HOLD_S
+COUNTER_WINDOW = 16  # the last frames of a command message whose counters are judged
+COUNTER_MISS_LIMIT = 3  # this many counter misses among them: the message is not trusted
 
 
 class IbusReader:
@@ -68,55 +53,108 @@ class IbusReader:
         return Stamped(None if None in requests else requests[-1], now)
 
 
-class CanReader:
-    """Controller's CAN port → checked commands; counters tracked per message, rejects counted.
+class _CounterTrust:
+    """Whether one command message's counter can be trusted, judged over its last frames."""
 
-    Each command message has a leaky counter of counter errors (as opendbc's CANParser does): a
-    repeated or skipped counter adds one, a good frame takes one away. While it stands at
-    COUNTER_FAIL_LIMIT or more, even intact frames of that message are not used: a sender whose
-    counter keeps jumping (two senders on one id, a replaying node) is not trusted until it has
-    sent that many good frames in a row.
+    def __init__(self) -> None:
+        self.misses: deque[bool] = deque(maxlen=COUNTER_WINDOW)
+        self.untrusted = False
+
+    def record(self, miss: bool) -> None:
+        self.misses.append(miss)
+        count = sum(self.misses)
+        if count >= COUNTER_MISS_LIMIT:
+            self.untrusted = True
+        elif count == 0 and len(self.misses) == COUNTER_WINDOW:
+            self.untrusted = False
+
+
+class CanReader:
+    """Controller's CAN port → checked commands; counters judged per message, rejects counted.
+
+    Each command message's counter is judged over its last COUNTER_WINDOW frames (opendbc judges
+    a leaky count; a window also catches what that misses): COUNTER_MISS_LIMIT repeated or
+    skipped counters among them make the message *untrusted*. A second sender on the id, or a
+    replaying node, then cannot drive even with half its frames intact (a leaky count of +1 per
+    miss and -1 per good frame stays balanced at half). Its frames are dropped and the shell
+    reports CAN_UNTRUSTED, which stops CAN mode, until a whole window of good frames in a row.
+
+    ControlCommand edges (`control_edges`, see `bywire.control.command_edges`) are taken between
+    consecutive accepted frames: a rejected or dropped frame, or a gap longer than `gap_s`,
+    leaves no previous frame to compare with.
     """
 
-    def __init__(self, port: CanPort) -> None:
+    def __init__(self, port: CanPort, gap_s: float = 0.100) -> None:
         self._port = port
+        self._gap_s = gap_s
         self._command_ids = frozenset(dbc.command_ids())
+        self._control_id = dbc.frame_id(ControlCommand)
         self._previous_counter: dict[int, int | None] = dict.fromkeys(self._command_ids)
-        self.counter_fail: dict[int, int] = dict.fromkeys(self._command_ids, 0)
+        self.trust = {frame_id: _CounterTrust() for frame_id in self._command_ids}
         self.rejected: Counter[dbc.RejectReason] = Counter()
         self.reject_faults = RecentFault()
         self.ignored_frames = 0
         self.untrusted_frames = 0
+        self.control_edges = NO_EDGES
+        """The edges of the ControlCommand frames accepted by the latest poll (any of them)."""
+        self._previous_control: Stamped[ControlCommand] | None = None
+
+    @property
+    def untrusted(self) -> bool:
+        """Some command message is not trusted now."""
+        return any(trust.untrusted for trust in self.trust.values())
 
     def poll(self, now: float) -> list[Stamped[Command]]:
         """Every command accepted since the last poll, oldest first."""
         accepted: list[Stamped[Command]] = []
+        self.control_edges = NO_EDGES
         for frame in self._port.receive():
             frame_id = frame.arbitration_id
             if frame_id not in self._command_ids:
                 self.ignored_frames += 1
                 continue
-            try:
-                command = dbc.decode_command(frame_id, frame.data, self._previous_counter[frame_id])
-            except dbc.CommandRejected as rejected:
-                self._reject(rejected, now)
+            command = self._checked(frame_id, frame.data, now)
+            if command is None:
+                if frame_id == self._control_id:
+                    self._previous_control = None
                 continue
-            self._previous_counter[frame_id] = command.counter
-            self.counter_fail[frame_id] = max(self.counter_fail[frame_id] - 1, 0)
-            if self.counter_fail[frame_id] >= COUNTER_FAIL_LIMIT:
-                self.untrusted_frames += 1
-                self.reject_faults.happened(now)
-                continue
+            if isinstance(command, ControlCommand):
+                self._edges(command, now)
             accepted.append(Stamped(command, now))
         return accepted
+
+    def _checked(self, frame_id: int, data: bytes, now: float) -> Command | None:
+        """The decoded command, or None when rejected or untrusted (counted either way)."""
+        try:
+            command = dbc.decode_command(frame_id, data, self._previous_counter[frame_id])
+        except dbc.CommandRejected as rejected:
+            self._reject(rejected, now)
+            return None
+        self._previous_counter[frame_id] = command.counter
+        trust = self.trust[frame_id]
+        trust.record(miss=False)
+        if trust.untrusted:
+            self.untrusted_frames += 1
+            self.reject_faults.happened(now)
+            return None
+        return command
+
+    def _edges(self, command: ControlCommand, now: float) -> None:
+        previous = self._previous_control
+        recent = previous is not None and now - previous.received_at <= self._gap_s
+        edges = command_edges(previous.value if previous is not None and recent else None, command)
+        self.control_edges = CommandEdges(
+            re_enable=self.control_edges.re_enable or edges.re_enable,
+            remote_stop=self.control_edges.remote_stop or edges.remote_stop,
+        )
+        self._previous_control = Stamped(command, now)
 
     def _reject(self, rejected: dbc.CommandRejected, now: float) -> None:
         self.rejected[rejected.reason] += 1
         self.reject_faults.happened(now)
         if rejected.reason is dbc.RejectReason.COUNTER:
-            fails = self.counter_fail[rejected.frame_id] + 1
-            self.counter_fail[rejected.frame_id] = min(fails, COUNTER_FAIL_MAX)
-        if rejected.counter is not None:
-            # The frame was intact: follow its counter, as panda does, so one lost frame does
-            # not reject every later one.
-            self._previous_counter[rejected.frame_id] = rejected.counter
+            self.trust[rejected.frame_id].record(miss=True)
+        # An intact frame: follow its counter, as panda does, so one lost frame does not reject
+        # every later one. A frame the codec could not read says nothing of the sender's
+        # sequence: the next frame starts it afresh instead of counting as a miss.
+        self._previous_counter[rejected.frame_id] = rejected.counter

@@ -28,6 +28,15 @@ class Health:
     can_age_s: float | None
     wheel_speeds_mps: tuple[float, float] | None
     steering_setpoint_norm: float
+    steering_measured_norm: float | None = None  # None without a steering encoder
+    encoder_valid_limit_norm: float = 1.2  # a reading beyond this is invalid (monitors)
+
+    @property
+    def steering_measured(self) -> float | None:
+        """The encoder's reading when one is fitted and it is a valid angle, else None."""
+        measured = self.steering_measured_norm
+        valid = measured is not None and abs(measured) <= self.encoder_valid_limit_norm
+        return measured if valid else None
 
 
 def _age_ms(age_s: float | None) -> int:
@@ -38,18 +47,21 @@ def build_reports(outputs: ControlOutputs, health: Health) -> tuple[Report, ...]
     """Reports in priority order: safety state first, then data."""
     request = outputs.light_request
     left_mps, right_mps = health.wheel_speeds_mps or (0.0, 0.0)
+    measured = health.steering_measured
     return (
         ModeReport(
             gear=outputs.movement.gear,
             control_mode=outputs.mode,
             estop_engaged=outputs.ebrake_engaged,
-            stop_latched=outputs.latch is not None,
-            armed=outputs.latch is None,
+            stop_latched=bool(outputs.causes),
+            armed=not outputs.causes,
         ),
         ErrorReport(flags=outputs.error_flags),
         WheelSpeedReport(left_mps=left_mps, right_mps=right_mps),
         SteeringReport(
-            commanded_norm=health.steering_setpoint_norm, measured_norm=0.0, measured_valid=False
+            commanded_norm=health.steering_setpoint_norm,
+            measured_norm=0.0 if measured is None else measured,
+            measured_valid=measured is not None,
         ),
         LightsReport(
             brake=outputs.lights.brake,

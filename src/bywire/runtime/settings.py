@@ -33,6 +33,7 @@ class RuntimeConfig:
             blink_rate_hz=robot.lights.blink_rate_hz,
             interlocks=robot.interlocks,
             monitors=robot.monitors,
+            supervisor=robot.supervisor,
         )
         dac = robot.drive.dac
         actuators = ActuatorConfig(

@@ -64,7 +64,7 @@ def observe(
     return Observation(
         time_s=world.clock.now(),
         mode=outputs.mode,
-        latched=outputs.latch is not None,
+        latched=bool(outputs.causes),
         gear=outputs.movement.gear,
         steering_cmd_norm=outputs.movement.steering_norm,
         throttle_cmd_norm=outputs.movement.throttle_norm,

@@ -7,6 +7,7 @@ I2C driver do, so a controller bug that builds a bad frame shows up as a failed 
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass
 
 from bywire.errors import FrameError, HardwareError
@@ -47,8 +48,19 @@ class SimDac6574:
         self.malformed_frames = 0
         self._fail_until_s: float | None = None
         self._fail_count = 0
+        self._fail_pattern: tuple[bool, ...] = ()
+        self._pattern_index = 0
+        self._stall_next_s: float | None = None
+        self.on_stall: Callable[[float], None] | None = None
+        """Called with the stall's length when a stalled write begins (the world lets the
+        simulated time run meanwhile); the write lands when it returns, as an I2C write lands
+        at its last acknowledge."""
 
     def write(self, data: bytes) -> None:
+        if self._stall_next_s is not None:
+            stall_s, self._stall_next_s = self._stall_next_s, None
+            if self.on_stall is not None:
+                self.on_stall(stall_s)
         if self._failing():
             self.failed_writes += 1
             raise HardwareError("DAC6574: no acknowledge (simulated bus fault)")
@@ -91,15 +103,33 @@ class SimDac6574:
         self._fail_until_s = until_s
         self._fail_count = count or 0
 
+    def fail_pattern(self, pattern: tuple[bool, ...]) -> None:
+        """Fail writes by a repeating pattern (True: NAK), e.g. (True, False) for every other
+        one, from the next write until ``stop_failing()``."""
+        if not pattern:
+            raise ValueError("a failure pattern needs at least one entry")
+        self._fail_pattern, self._pattern_index = tuple(pattern), 0
+
     def stop_failing(self) -> None:
         """Acknowledge writes again."""
         self._fail_until_s = None
         self._fail_count = 0
+        self._fail_pattern = ()
+
+    def stall_next_write(self, stall_s: float) -> None:
+        """The next write hangs inside the driver for ``stall_s`` before it lands."""
+        if not stall_s >= 0.0:
+            raise ValueError(f"stall_s must be >= 0, got {stall_s}")
+        self._stall_next_s = stall_s
 
     def _failing(self) -> bool:
         if self._fail_count > 0:
             self._fail_count -= 1
             return True
+        if self._fail_pattern:
+            failing = self._fail_pattern[self._pattern_index % len(self._fail_pattern)]
+            self._pattern_index += 1
+            return failing
         return self._fail_until_s is not None and self._clock.now() < self._fail_until_s
 
     def _update(self, channel: int, code: int, powered_down: bool) -> None:

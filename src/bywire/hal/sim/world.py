@@ -45,6 +45,10 @@ HLC_NODE = "hlc"
 class WorldClock(SimClock, Clock, Protocol):
     """A clock the simulator schedules on and the controller waits on (both our clocks)."""
 
+    def advance(self, duration_s: float) -> None:
+        """Run every timer in the next `duration_s` (a port stalled inside a write)."""
+        ...
+
 
 @dataclass(frozen=True, slots=True)
 class SimPwm:
@@ -104,6 +108,7 @@ class SimWorld:
         uart = SimUart(clock)
         rc = SimRcTransmitter(clock, uart, mapping=rc_mapping, seed=seed)
         dac = SimDac6574(clock)
+        dac.on_stall = clock.advance  # the robot goes on while the controller hangs in a write
         pwm = SimPwm(
             SimPwmChannel(clock, STEERING_PERIOD_S, "steering"),
             SimPwmChannel(clock, hydrobrake_period_s, "hydrobrake"),

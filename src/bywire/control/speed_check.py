@@ -1,0 +1,67 @@
+"""Plausibility of the wheel-speed sensor; pure, takes `now`.
+
+The direction interlock trusts the measured speed to prove standstill, so a sensor that dies
+quietly (drops to 0 while the robot rolls) would let it reverse at speed. Two checks catch it:
+
+- the speed changes faster than the robot can brake or accelerate: more than
+  `speed_max_change_mps2` × elapsed time + `speed_step_tolerance_mps` between two readings;
+- the robot is driven (applied throttle ≥ `speed_stuck_throttle_norm`) for longer than
+  `speed_stuck_s` and the sensor keeps reading standstill.
+
+Either latches SPEED_SENSOR_FAULT: from then on the interlock gets no speed (its no-sensor rule,
+the longer dwell) until the next arming event clears the fault.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+from bywire.control.interlocks import InterlockConfig, elapsed_since
+
+
+@dataclass(frozen=True, slots=True)
+class SpeedCheckState:
+    """The last reading, since when the robot is driven without moving, and the latched fault."""
+
+    previous_mps: float | None = None
+    updated_at: float | None = None
+    stuck_since: float | None = None
+    faulted: bool = False
+
+
+def _jumped(state: SpeedCheckState, speed_mps: float, now: float, config: InterlockConfig) -> bool:
+    if state.previous_mps is None:
+        return False
+    allowed = config.speed_max_change_mps2 * elapsed_since(state.updated_at, now)
+    return abs(speed_mps - state.previous_mps) > allowed + config.speed_step_tolerance_mps
+
+
+def speed_check_step(
+    state: SpeedCheckState,
+    speed_mps: float | None,
+    applied_throttle_norm: float,
+    now: float,
+    config: InterlockConfig,
+) -> SpeedCheckState:
+    """The check after one reading (None: no sensor or no reading, nothing to check)."""
+    if speed_mps is None:
+        return SpeedCheckState(faulted=state.faulted)
+    if not math.isfinite(speed_mps):
+        return SpeedCheckState(faulted=True)
+    driven = applied_throttle_norm >= config.speed_stuck_throttle_norm
+    still = driven and abs(speed_mps) <= config.standstill_speed_mps
+    stuck_since = (now if state.stuck_since is None else state.stuck_since) if still else None
+    stuck = stuck_since is not None and now - stuck_since > config.speed_stuck_s
+    faulted = state.faulted or stuck or _jumped(state, speed_mps, now, config)
+    return SpeedCheckState(speed_mps, now, stuck_since, faulted)
+
+
+def trusted_speed(state: SpeedCheckState, speed_mps: float | None) -> float | None:
+    """The speed the interlock may use: none once the sensor is faulted."""
+    return None if state.faulted else speed_mps
+
+
+def cleared(state: SpeedCheckState) -> SpeedCheckState:
+    """After an arming event: trusted again, checked afresh from the next reading."""
+    return SpeedCheckState()

@@ -1,0 +1,254 @@
+"""The safety supervisor: mode, arming, latched causes, source handover and switch debounce.
+
+One small pure state machine with no clock: the controller turns times into levels (an input is
+fresh or stale, a fault holds or not) and passes them in as `SupervisorInputs`; the supervisor
+answers with its next `SupervisorState`. Its transition table and invariants are written in
+`docs/SAFETY.md`; `tests/control/test_supervisor_exhaustive.py` checks them on every reachable
+state. The rules, in the order `supervisor_step` applies them:
+
+1. **Debounce.** The mode switch's position is taken from plausible RC frames. A frame at STOP
+   acts at once; any other position counts only after `debounce_frames` consecutive frames
+   show it. A lost or implausible RC link forgets the position.
+2. **Latch.** Each `Cause` whose condition holds is added to the latched set: always for the
+   ones in `ALWAYS_LATCHING`, and for the CAN-bound ones (`CAN_BOUND`) while the mode is, or is
+   becoming, CAN. A remote stop that *arrives* (first frame with the request set) latches in
+   any mode; one that is merely still held only stops CAN mode, so the RC operator can always
+   take over (R-MUX).
+3. **Stop.** Any latched cause, or the switch at STOP, means STOP. While the switch is held at
+   STOP (debounced), every cause whose condition is gone is cleared: the operator's
+   acknowledgement (a watchdog trip and the power-up latch need nothing more).
+4. **Arm.** STOP is left only by an arming event, which either succeeds at that instant or is
+   forgotten (nothing cleared, and the switch must pass through STOP again): (a) the operator's
+   switch leaves STOP after it was held there; or (b) a CAN re-enable edge while the switch is
+   at CAN, which clears only the causes CAN may clear (`CAN_CLEARABLE`) once their conditions are
+   gone. Either needs nothing latched, CAN's conditions included when arming into CAN, and the
+   commanding source's throttle at zero.
+5. **Handover.** Moving the switch between RC and CAN while armed changes the source at once,
+   but the new source may apply throttle only after it was seen at zero (bumpless transfer).
+"""
+
+from __future__ import annotations
+
+import enum
+from dataclasses import dataclass
+
+from bywire.control.error_flags import ErrorFlag
+from bywire.model import ControlMode
+
+DEFAULT_DEBOUNCE_FRAMES = 3
+
+
+class Cause(enum.Enum):
+    """Why STOP is latched; each has its own error flag and its own clearing rule."""
+
+    POWER_UP = "power-up: move the mode switch through STOP to arm"
+    RC_LOST = "RC frames stopped arriving"
+    RC_IMPLAUSIBLE = "RC frame implausible or failsafe"
+    CAN_LOST = "CAN movement commands stale while in CAN mode"
+    CAN_UNTRUSTED = "a CAN command id carries frames from a second sender or a replay"
+    REMOTE_STOP = "remote stop requested over CAN"
+    DAC_FAULT = "DAC writes failing: motors disabled"
+    WATCHDOG = "the control loop stalled: watchdog tripped"
+    HYDRO_PRESSURE = "hydraulic brake builds no pressure"
+    STEERING_ENCODER = "steering does not follow its command"
+
+
+CAUSE_FLAGS: dict[Cause, ErrorFlag] = {
+    Cause.POWER_UP: ErrorFlag.NOT_ARMED,
+    Cause.RC_LOST: ErrorFlag.RC_TIMEOUT,
+    Cause.RC_IMPLAUSIBLE: ErrorFlag.RC_FAILSAFE,
+    Cause.CAN_LOST: ErrorFlag.CAN_COMMAND_TIMEOUT,
+    Cause.CAN_UNTRUSTED: ErrorFlag.CAN_UNTRUSTED,
+    Cause.REMOTE_STOP: ErrorFlag.REMOTE_STOP,
+    Cause.DAC_FAULT: ErrorFlag.DAC_FAULT_STOP,
+    Cause.WATCHDOG: ErrorFlag.WATCHDOG_TRIPPED,
+    Cause.HYDRO_PRESSURE: ErrorFlag.HYDRO_PRESSURE_FAULT,
+    Cause.STEERING_ENCODER: ErrorFlag.STEERING_ENCODER_FAULT,
+}
+"""The flag each latched cause keeps up, so a latched STOP always names its cause."""
+
+CAN_BOUND = frozenset({Cause.CAN_LOST, Cause.CAN_UNTRUSTED, Cause.REMOTE_STOP})
+"""Conditions that matter only to CAN mode: they latch there and never block arming into RC."""
+
+ALWAYS_LATCHING = frozenset(Cause) - CAN_BOUND - {Cause.POWER_UP}
+"""Conditions that latch STOP in every mode."""
+
+CAN_CLEARABLE = frozenset({Cause.CAN_LOST, Cause.REMOTE_STOP})
+"""What a CAN re-enable edge may clear; everything else needs the operator's switch."""
+
+ACKNOWLEDGED_BY_ARMING = frozenset({Cause.POWER_UP, Cause.WATCHDOG})
+"""Causes with no condition of their own to wait for: the arming event itself clears them."""
+
+DRIVING_MODES = (ControlMode.RC, ControlMode.CAN)
+
+
+@dataclass(frozen=True, slots=True)
+class SupervisorConfig:
+    """How many consecutive RC frames a switch position needs before it counts (≥ 1)."""
+
+    debounce_frames: int = DEFAULT_DEBOUNCE_FRAMES
+
+    def __post_init__(self) -> None:
+        if not 1 <= self.debounce_frames <= 50:
+            raise ValueError(f"debounce_frames must be 1..50, got {self.debounce_frames}")
+
+
+@dataclass(frozen=True, slots=True)
+class SupervisorInputs:
+    """What the supervisor sees at one step, as levels and edges; no times.
+
+    `conditions`: every cause whose condition holds now (for the CAN-bound ones: CAN movement
+    stale, a command id untrusted, a fresh remote stop request). `switch`: the mode switch in the
+    newest plausible RC frame (None while the link is lost or implausible); `rc_frame`: that frame
+    is new at this step. `*_throttle_zero`: the source's requested throttle is zero (False when the
+    source is missing). The two edges are pulses of a new ControlCommand frame.
+    """
+
+    conditions: frozenset[Cause] = frozenset()
+    switch: ControlMode | None = None
+    rc_frame: bool = False
+    rc_throttle_zero: bool = True
+    can_throttle_zero: bool = False
+    remote_stop_rising: bool = False
+    re_enable_edge: bool = False
+
+    def throttle_zero(self, source: ControlMode) -> bool:
+        """Whether `source` (RC or CAN) requests zero throttle now."""
+        return self.rc_throttle_zero if source is ControlMode.RC else self.can_throttle_zero
+
+
+@dataclass(frozen=True, slots=True)
+class SupervisorState:
+    """Mode, latched causes, the debounced switch and the arming and handover gates.
+
+    `switch` is the debounced position (None until known); `candidate` the position of the newest
+    frames and `run_frames` how many in a row showed it (capped at the debounce count). `ready`:
+    the switch was held at STOP since the last arming attempt. `throttle_open`: the commanding
+    source has been seen at zero throttle since it took over.
+    """
+
+    mode: ControlMode = ControlMode.STOP
+    latched: frozenset[Cause] = frozenset({Cause.POWER_UP})
+    switch: ControlMode | None = None
+    candidate: ControlMode | None = None
+    run_frames: int = 0
+    ready: bool = False
+    throttle_open: bool = False
+
+    @property
+    def throttle_allowed(self) -> bool:
+        """The commanding source may apply throttle."""
+        return self.mode is not ControlMode.STOP and self.throttle_open
+
+    @property
+    def flags(self) -> ErrorFlag:
+        """The error flags of every latched cause."""
+        flags = ErrorFlag(0)
+        for cause in self.latched:
+            flags |= CAUSE_FLAGS[cause]
+        return flags
+
+
+INITIAL = SupervisorState()
+
+
+def _debounced(
+    state: SupervisorState, inputs: SupervisorInputs, frames: int
+) -> tuple[ControlMode | None, ControlMode | None, int]:
+    """Rule 1: the new (switch, candidate, run_frames)."""
+    if inputs.switch is None:
+        if inputs.conditions & {Cause.RC_LOST, Cause.RC_IMPLAUSIBLE}:
+            return None, None, 0
+        return state.switch, state.candidate, state.run_frames
+    if not inputs.rc_frame:
+        return state.switch, state.candidate, state.run_frames
+    position = inputs.switch
+    run = min(state.run_frames + 1, frames) if position is state.candidate else 1
+    if position is ControlMode.STOP or run >= frames:
+        return position, position, run
+    return state.switch, position, run
+
+
+def _latching(target: ControlMode, inputs: SupervisorInputs) -> frozenset[Cause]:
+    """Rule 2: the causes that latch at this step when the mode is, or becomes, `target`."""
+    causes = inputs.conditions & ALWAYS_LATCHING
+    if target is ControlMode.CAN:
+        causes |= inputs.conditions & CAN_BOUND
+    if inputs.remote_stop_rising:
+        causes |= {Cause.REMOTE_STOP}
+    return causes
+
+
+def _cleared(
+    latched: frozenset[Cause],
+    clearable: frozenset[Cause],
+    target: ControlMode,
+    now: frozenset[Cause],
+) -> frozenset[Cause]:
+    """What stays latched after an act that may clear `clearable` towards `target`: a cause goes
+    when its condition is gone (CAN-bound conditions matter only to CAN) or it needs no more than
+    the act itself (`ACKNOWLEDGED_BY_ARMING`)."""
+    relevant = now if target is ControlMode.CAN else now - CAN_BOUND
+    gone = {
+        cause
+        for cause in latched & clearable
+        if cause in ACKNOWLEDGED_BY_ARMING or cause not in relevant
+    }
+    return latched - gone
+
+
+def _arming_target(
+    state: SupervisorState, inputs: SupervisorInputs, switch: ControlMode | None
+) -> tuple[ControlMode, bool] | None:
+    """Rule 4: (target, made by the operator) for an arming event at this step, or None."""
+    if state.switch is ControlMode.STOP and switch in DRIVING_MODES and state.ready:
+        return switch, True
+    if inputs.re_enable_edge and switch is ControlMode.CAN:
+        return ControlMode.CAN, False
+    return None
+
+
+def _from_stop(
+    state: SupervisorState,
+    inputs: SupervisorInputs,
+    switch: ControlMode | None,
+    held_at_stop: bool,
+    debounce: tuple[ControlMode | None, int],
+) -> SupervisorState:
+    """STOP now: the switch held at STOP clears what is gone; leaving arms, or is forgotten."""
+    candidate, run = debounce
+    ready = (state.ready or held_at_stop) and switch is not None
+    latched = state.latched | _latching(ControlMode.STOP, inputs)
+    if held_at_stop:
+        latched = _cleared(latched, latched, ControlMode.STOP, inputs.conditions)
+    arming = _arming_target(state, inputs, switch)
+    if arming is None:
+        return SupervisorState(ControlMode.STOP, latched, switch, candidate, run, ready)
+    target, by_operator = arming
+    latched |= _latching(target, inputs)
+    remaining = (
+        latched if by_operator else _cleared(latched, CAN_CLEARABLE, target, inputs.conditions)
+    )
+    if not remaining and inputs.throttle_zero(target):
+        return SupervisorState(target, frozenset(), switch, candidate, run, False, True)
+    # Refused: forgotten, nothing cleared, and the switch must pass through STOP again.
+    return SupervisorState(ControlMode.STOP, latched, switch, candidate, run, ready=False)
+
+
+def supervisor_step(
+    state: SupervisorState, inputs: SupervisorInputs, config: SupervisorConfig
+) -> SupervisorState:
+    """The next state. Pure, and with no clock: evaluated on every decision of the controller."""
+    switch, candidate, run = _debounced(state, inputs, config.debounce_frames)
+    held_at_stop = candidate is ControlMode.STOP and run >= config.debounce_frames
+    if state.mode is ControlMode.STOP:
+        return _from_stop(state, inputs, switch, held_at_stop, (candidate, run))
+    target = switch if switch in DRIVING_MODES else ControlMode.STOP
+    latched = state.latched | _latching(
+        state.mode if target is ControlMode.STOP else target, inputs
+    )
+    if latched or target is ControlMode.STOP:
+        return SupervisorState(ControlMode.STOP, latched, switch, candidate, run, held_at_stop)
+    handover = target is not state.mode
+    throttle_open = (state.throttle_open and not handover) or inputs.throttle_zero(target)
+    return SupervisorState(target, latched, switch, candidate, run, False, throttle_open)
