@@ -30,7 +30,7 @@ state. The rules, in the order `supervisor_step` applies them:
 from __future__ import annotations
 
 import enum
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 from bywire.control.error_flags import ErrorFlag
 from bywire.model import ControlMode
@@ -198,12 +198,16 @@ def _cleared(
 
 
 def _arming_target(
-    state: SupervisorState, inputs: SupervisorInputs, switch: ControlMode | None
+    state: SupervisorState,
+    inputs: SupervisorInputs,
+    switch: ControlMode | None,
+    settled: bool,
 ) -> tuple[ControlMode, bool] | None:
-    """Rule 4: (target, made by the operator) for an arming event at this step, or None."""
+    """Rule 4: (target, made by the operator) for an arming event at this step, or None. A CAN
+    re-enable counts only while the newest frames show the switch settled at CAN."""
     if state.switch is ControlMode.STOP and switch in DRIVING_MODES and state.ready:
         return switch, True
-    if inputs.re_enable_edge and switch is ControlMode.CAN:
+    if inputs.re_enable_edge and switch is ControlMode.CAN and settled:
         return ControlMode.CAN, False
     return None
 
@@ -213,15 +217,15 @@ def _from_stop(
     inputs: SupervisorInputs,
     switch: ControlMode | None,
     held_at_stop: bool,
-    debounce: tuple[ControlMode | None, int],
+    debounce: tuple[ControlMode | None, int, bool],
 ) -> SupervisorState:
     """STOP now: the switch held at STOP clears what is gone; leaving arms, or is forgotten."""
-    candidate, run = debounce
+    candidate, run, settled = debounce
     ready = (state.ready or held_at_stop) and switch is not None
     latched = state.latched | _latching(ControlMode.STOP, inputs)
     if held_at_stop:
         latched = _cleared(latched, latched, ControlMode.STOP, inputs.conditions)
-    arming = _arming_target(state, inputs, switch)
+    arming = _arming_target(state, inputs, switch, settled)
     if arming is None:
         return SupervisorState(ControlMode.STOP, latched, switch, candidate, run, ready)
     target, by_operator = arming
@@ -239,10 +243,13 @@ def supervisor_step(
     state: SupervisorState, inputs: SupervisorInputs, config: SupervisorConfig
 ) -> SupervisorState:
     """The next state. Pure, and with no clock: evaluated on every decision of the controller."""
+    if inputs.remote_stop_rising:  # a frame that asks for both: the stop wins
+        inputs = replace(inputs, conditions=inputs.conditions | {Cause.REMOTE_STOP})
     switch, candidate, run = _debounced(state, inputs, config.debounce_frames)
-    held_at_stop = candidate is ControlMode.STOP and run >= config.debounce_frames
+    settled = candidate is switch and run >= config.debounce_frames
+    held_at_stop = settled and switch is ControlMode.STOP
     if state.mode is ControlMode.STOP:
-        return _from_stop(state, inputs, switch, held_at_stop, (candidate, run))
+        return _from_stop(state, inputs, switch, held_at_stop, (candidate, run, settled))
     target = switch if switch in DRIVING_MODES else ControlMode.STOP
     latched = state.latched | _latching(
         state.mode if target is ControlMode.STOP else target, inputs
