@@ -7,7 +7,6 @@ where expectations are checked (to the instant the outputs changed) and the reco
 
 from __future__ import annotations
 
-import dataclasses
 import functools
 import random
 import time
@@ -19,10 +18,12 @@ from bywire.config import RobotConfig
 from bywire.hal.sim.can_bus import LoggedFrame
 from bywire.hal.sim.clock import RealtimeClock, VirtualClock
 from bywire.hal.sim.hlc import Corruption
+from bywire.hal.sim.timers import PeriodicTimer
 from bywire.hal.sim.world import SimWorld
 from bywire.model import ControlMode, Gear
 from bywire.runtime.app import Runtime
 from bywire.runtime.settings import RuntimeConfig
+from bywire.runtime.watchdog import POLL_S as WATCHDOG_POLL_S
 from bywire.sim.observe import Observation, conditions_hold, observe
 from bywire.sim.scenario import Event, Expectation, Scenario
 
@@ -98,11 +99,17 @@ class SimRun:
         clock = RealtimeClock() if realtime else VirtualClock()
         self.world = SimWorld.from_robot(clock, robot)
         config = RuntimeConfig.from_robot(robot)
-        if not realtime:
-            # Virtual time never stalls the wall clock's way; a watchdog thread would only
-            # watch the simulator's speed.
-            config = dataclasses.replace(config, watchdog_s=None)
-        self.runtime = Runtime(self.world.hardware, config)
+        # On virtual time the watchdog runs on the simulated clock, checked by a timer where the
+        # thread would poll: a write stalled in simulated time trips it exactly, and the wall
+        # clock's speed never does.
+        self.runtime = Runtime(self.world.hardware, config, watchdog_thread=realtime)
+        watchdog = self.runtime.watchdog
+        if watchdog is not None and not realtime:
+
+            def check(_tick_s: float) -> None:
+                watchdog.check()
+
+            PeriodicTimer(clock, WATCHDOG_POLL_S, check).start()
         self.record = RunRecord(verdicts=[Verdict(e) for e in scenario.expectations])
         self.started_at = clock.now()
         self._random = random.Random(robot.sim.seed)
@@ -152,9 +159,10 @@ class SimRun:
             already_safe = observation is None or observation.safe
             self.record.fault_timings.append(FaultTiming(event, now, already_safe))
             for verdict in self.record.verdicts:
-                if verdict.expectation.after == event.label and verdict.window is None:
-                    within_s = verdict.expectation.within_s or 0.0
-                    verdict.window = (now, now + within_s)
+                expectation = verdict.expectation
+                if expectation.after == event.label and verdict.window is None:
+                    length_s = expectation.during_s or expectation.within_s or 0.0
+                    verdict.window = (now, now + length_s)
         getattr(self, f"_apply_{event.kind}")(event.values)
 
     def _apply_rc(self, values: dict[str, Any]) -> None:
@@ -207,6 +215,13 @@ class SimRun:
             "can_plug": world.bus.plug,
             "can_flood": lambda: world.bus.flood(float(values["load"])),
             "can_flood_off": world.bus.stop_flood,
+            "switch_chatter": lambda: world.rc.chatter_next_frames(count),
+            "rc_implausible": lambda: world.rc.implausible_next_frames(count),
+            "can_impostor": lambda: world.impostor.start(count),
+            "dac_nak_alternate": lambda: world.dac.fail_pattern((True, False)),
+            "dac_stall": lambda: world.dac.stall_next_write(float(values["stall_s"])),
+            "wheel_sensor_dead": world.wheel_sensor.die,
+            "wheel_sensor_restore": world.wheel_sensor.restore,
         }
         actions.update(self._actuator_faults(values))
         if fault in CORRUPTIONS:
@@ -307,6 +322,12 @@ class SimRun:
         if verdict.window is None:
             return
         start_s, end_s = verdict.window
+        if expectation.during_s is not None:
+            if not conditions_hold(observation, expectation.conditions) and now <= end_s:
+                verdict.passed, verdict.measured_s = False, now - start_s  # when it broke
+            elif now > end_s and verdict.passed is None:
+                verdict.passed, verdict.measured_s = True, expectation.during_s
+            return
         if conditions_hold(observation, expectation.conditions):
             if verdict.passed is None:
                 verdict.passed = now <= end_s

@@ -17,7 +17,8 @@ A scenario file::
     label = "unplugged"
     fault = "rc_link_lost"          # see FAULTS; some take `count` or `load`
 
-    [[expect]]                      # within_s of a labelled event, or at a time (at_s)
+    [[expect]]                      # within_s of a labelled event, throughout during_s after
+                                    # it, or at a time (at_s)
     after = "unplugged"
     within_s = 0.110
     mode = "stop"
@@ -76,6 +77,15 @@ FAULTS = {
     "encoder_fail": "the steering encoder gives no reading",
     "loop_stall": "the control loop hangs for `stall_s` (needs realtime = true: the watchdog's "
     "limit is wall-clock time)",
+    "dac_stall": "the next DAC write hangs inside the I2C driver for `stall_s` (virtual time too)",
+    "dac_nak_alternate": "every other DAC write is NAKed from now on (dac_restore ends it)",
+    "switch_chatter": "the mode switch bounces: of the next `count` IBUS frames every other one "
+    "reads STOP",
+    "rc_implausible": "the next `count` IBUS frames are intact but carry a pulse no stick gives",
+    "can_impostor": "a second node sends `count` movement commands on the computer's id, each "
+    "with the counter the computer will use next, asking for throttle 0.8",
+    "wheel_sensor_dead": "the wheel-speed sensor reads 0 m/s from now on, whatever the wheels do",
+    "wheel_sensor_restore": "the wheel-speed sensor tells the truth again",
 }
 CONDITIONS = {
     "mode": "control mode: stop, rc or can",
@@ -93,7 +103,7 @@ CONDITIONS = {
     "hydrobrake_duty_min": "hydraulic brake PWM duty at least this",
 }
 EVENT_KEYS = {"at_s", "label", "fault", "count", "load", "stall_s", *ACTIONS}
-EXPECT_KEYS = {"after", "within_s", "at_s", "label", *CONDITIONS}
+EXPECT_KEYS = {"after", "within_s", "during_s", "at_s", "label", *CONDITIONS}
 
 
 @dataclass(frozen=True, slots=True)
@@ -115,11 +125,14 @@ class Expectation:
     within_s: float | None = None
     at_s: float | None = None
     label: str | None = None
+    during_s: float | None = None  # hold at every pass for this long after `after`
 
     def describe(self) -> str:
         if self.label:
             return self.label
-        if self.after is not None and self.within_s is not None:
+        if self.after is not None and self.during_s is not None:
+            when = f"throughout {self.during_s * 1000:.0f} ms after '{self.after}'"
+        elif self.after is not None and self.within_s is not None:
             when = f"within {self.within_s * 1000:.0f} ms of '{self.after}'"
         else:
             when = f"at {self.at_s} s"
@@ -206,8 +219,14 @@ def _expectation(table: dict[str, Any], origin: str, where: str, labels: set[str
             raise _refuse(
                 origin, f"{where}.after", f"no event is labelled {after!r}", labels, after
             )
+        label = table.get("label")
+        if ("within_s" in table) == ("during_s" in table):
+            raise _refuse(origin, where, "with `after`, give exactly one of within_s, during_s")
+        if "during_s" in table:
+            during_s = _time(table, "during_s", origin, where)
+            return Expectation(conditions, after=after, during_s=during_s, label=label)
         within_s = _time(table, "within_s", origin, where)
-        return Expectation(conditions, after=after, within_s=within_s, label=table.get("label"))
+        return Expectation(conditions, after=after, within_s=within_s, label=label)
     at_s = _time(table, "at_s", origin, where)
     return Expectation(conditions, at_s=at_s, label=table.get("label"))
 

@@ -163,7 +163,7 @@ def _decided_at_s(verdict: Verdict, scenario: Scenario) -> float:
     if expectation.at_s is not None:
         return expectation.at_s
     starts = [e.at_s for e in scenario.events if e.label == expectation.after]
-    return min(starts, default=0.0) + (expectation.within_s or 0.0)
+    return min(starts, default=0.0) + (expectation.within_s or expectation.during_s or 0.0)
 
 
 def _result(verdict: Verdict, run: SimRun, simulated_s: float) -> ExpectationResult:

@@ -139,6 +139,10 @@ class SimHigherLevelComputer:
         }
         return current[message]
 
+    def next_counter(self, message: type[Command]) -> int:
+        """The counter the next frame of ``message`` will carry."""
+        return self._counters[message]
+
     def _send_commands(self, _tick_s: float) -> None:
         for command in (self.control, self.movement, self.lights):
             self._send(command)

@@ -49,6 +49,9 @@ def idle_channels(mapping: RcMapping) -> tuple[int, ...]:
     return tuple(channels)
 
 
+IMPLAUSIBLE_RAW = 2300  # µs: above any stick, below the 16-bit field's end
+
+
 class SimRcTransmitter:
     """The RC link, from the operator's sticks to IBUS bytes on ``uart``."""
 
@@ -71,6 +74,8 @@ class SimRcTransmitter:
         self._random = random.Random(seed)
         self._failsafe: dict[int, int] | None = None
         self._corrupt_pending = 0
+        self._chatter_pending = 0
+        self._implausible_pending = 0
         self.link_up = True
         self.frames_sent = 0
         self.corrupted_frames_sent = 0
@@ -180,6 +185,16 @@ class SimRcTransmitter:
         """Flip one bit in the channel bytes of each of the next ``count`` frames."""
         self._corrupt_pending += count
 
+    def chatter_next_frames(self, count: int) -> None:
+        """A bouncing mode switch: of the next ``count`` frames, every other one reads STOP
+        (starting with the first), the others the position it is set to."""
+        self._chatter_pending = count
+
+    def implausible_next_frames(self, count: int) -> None:
+        """The next ``count`` frames carry an intact checksum but a steering pulse of 2300 µs,
+        outside what any stick gives (a receiver glitch)."""
+        self._implausible_pending = count
+
     # --- the receiver's frame ----------------------------------------------------------------
 
     def _send_frame(self, tick_s: float) -> None:
@@ -188,6 +203,15 @@ class SimRcTransmitter:
         channels = list(self._channels)
         for index, raw in (self._failsafe or {}).items():
             channels[index] = raw
+        if self._chatter_pending > 0:
+            if self._chatter_pending % 2 == 1:
+                switch = self.mapping.mode_switch
+                stop = self.mapping.mode_positions.index(ControlMode.STOP)
+                channels[switch.channel] = raw_for_switch(stop, switch)
+            self._chatter_pending -= 1
+        if self._implausible_pending > 0:
+            self._implausible_pending -= 1
+            channels[self.mapping.steering.channel] = IMPLAUSIBLE_RAW
         frame = bytearray(ibus.encode_frame(channels))
         if self._corrupt_pending > 0:
             self._corrupt_pending -= 1

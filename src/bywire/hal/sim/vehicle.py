@@ -102,22 +102,30 @@ class SimVehicle:
 
 
 class SimWheelSpeedSensor:
-    """A ``WheelSpeedSensor`` on the simulated vehicle; ``fail()`` makes it read None."""
+    """A ``WheelSpeedSensor`` on the simulated vehicle; ``fail()`` makes it read None, ``die()``
+    makes it read 0 while the wheels turn (a sensor that dies quietly)."""
 
     def __init__(self, vehicle: SimVehicle) -> None:
         self._vehicle = vehicle
         self.failed = False
+        self.dead = False
 
     def read(self) -> tuple[float, float] | None:
-        return None if self.failed else self._vehicle.wheel_speeds()
+        if self.failed:
+            return None
+        return (0.0, 0.0) if self.dead else self._vehicle.wheel_speeds()
 
     def fail(self) -> None:
         """The sensor stops answering."""
         self.failed = True
 
+    def die(self) -> None:
+        """The sensor answers 0 m/s from now on, whatever the wheels do."""
+        self.dead = True
+
     def restore(self) -> None:
-        """The sensor answers again."""
-        self.failed = False
+        """The sensor answers again, and tells the truth."""
+        self.failed = self.dead = False
 
 
 class SimPressureSensor:

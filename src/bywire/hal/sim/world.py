@@ -19,6 +19,7 @@ from bywire.hal.sim.can_port import SimCanPort
 from bywire.hal.sim.dac import SimDac6574
 from bywire.hal.sim.gpio_pwm import SimDigitalOut, SimPwmChannel
 from bywire.hal.sim.hlc import SimHigherLevelComputer
+from bywire.hal.sim.impostor import IMPOSTOR_NODE, SimImpostor
 from bywire.hal.sim.rc_transmitter import SimRcTransmitter
 from bywire.hal.sim.timers import SimClock
 from bywire.hal.sim.uart import SimUart
@@ -76,6 +77,7 @@ class SimWorld:
     wheel_sensor: SimWheelSpeedSensor
     pressure_sensor: SimPressureSensor
     steering_encoder: SimSteeringEncoder
+    impostor: SimImpostor
 
     @classmethod
     def create(
@@ -105,6 +107,7 @@ class SimWorld:
             tx_mailboxes=SOCKETCAN_TX_QUEUE,
         )
         hlc = SimHigherLevelComputer(clock, bus.attach(HLC_NODE, accept_ids=dbc.report_ids()))
+        impostor = SimImpostor(clock, bus.attach(IMPOSTOR_NODE, accept_ids=()), hlc)
         uart = SimUart(clock)
         rc = SimRcTransmitter(clock, uart, mapping=rc_mapping, seed=seed)
         dac = SimDac6574(clock)
@@ -156,6 +159,7 @@ class SimWorld:
             wheel_sensor,
             pressure_sensor,
             steering_encoder,
+            impostor,
         )
 
     @classmethod
@@ -189,4 +193,5 @@ class SimWorld:
         self.rc.stop()
         self.hlc.silence()
         self.vehicle.stop()
+        self.impostor.stop()
         self.bus.stop_flood()
