@@ -152,12 +152,21 @@ def test_first_direction_without_history_is_granted(speed_mps: float | None) -> 
 
 @pytest.mark.parametrize("speed_mps", [None, NAN])
 @pytest.mark.parametrize(("now", "gear"), [(0.5, F), (1.4999, F), (1.5, R)])
-def test_unknown_speed_needs_the_longer_dwell(
+def test_unknown_speed_needs_the_longer_dwell_with_the_brake_on(
     speed_mps: float | None, now: float, gear: Gear
 ) -> None:
-    steps = [(0.0, _drive(R), speed_mps), (now, _drive(R), speed_mps)]
+    braking = _drive(R, brake_norm=CONFIG.unknown_speed_brake_norm)
+    steps = [(0.0, braking, speed_mps), (now, braking, speed_mps)]
     _, out, _ = _run(_state(F), steps)
     assert out.gear is gear
+
+
+def test_unknown_speed_and_no_brake_never_settles_a_coasting_robot() -> None:
+    """Hazard 10: waiting proves nothing without a speed; a robot may coast for seconds."""
+    coasting = _drive(R, brake_norm=CONFIG.unknown_speed_brake_norm - 0.01)
+    steps = [(0.0, coasting, None), (10.0, coasting, None)]
+    _, out, held = _run(_state(F), steps)
+    assert (out.gear, held) == (F, True)
 
 
 def test_sensor_dropout_falls_back_to_the_longer_dwell() -> None:
@@ -271,10 +280,15 @@ def _measured(record: Record) -> float | None:
     return None if speed is None or math.isnan(speed) else speed
 
 
+def _braking(requested: Movement) -> bool:
+    brake = requested.brake_norm
+    return not math.isfinite(brake) or brake >= CONFIG.unknown_speed_brake_norm
+
+
 def _still(record: Record, speed_known: bool) -> bool:
     speed = _measured(record)
     slow = speed is not None and abs(speed) <= CONFIG.standstill_speed_mps
-    unknown = speed is None
+    unknown = speed is None and _braking(record.requested)
     return _zero_throttle(record.requested) and (slow if speed_known else slow or unknown)
 
 

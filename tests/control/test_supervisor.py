@@ -7,6 +7,7 @@ from dataclasses import replace
 
 import pytest
 
+from bywire.config.limits import DEBOUNCE_FRAMES
 from bywire.control.error_flags import ErrorFlag
 from bywire.control.supervisor import (
     CAUSE_FLAGS,
@@ -36,14 +37,21 @@ def lost(*causes: Cause) -> SupervisorInputs:
     return SupervisorInputs(frozenset(causes) | {Cause.RC_LOST})
 
 
-def run(state: SupervisorState, *steps: SupervisorInputs) -> SupervisorState:
+def run(
+    state: SupervisorState, *steps: SupervisorInputs, config: SupervisorConfig = CONFIG
+) -> SupervisorState:
     for inputs in steps:
-        state = supervisor_step(state, inputs, CONFIG)
+        state = supervisor_step(state, inputs, config)
     return state
 
 
 def frames(count: int, switch: ControlMode, **changes: bool) -> list[SupervisorInputs]:
     return [frame(switch, **changes)] * count
+
+
+def between_frames(switch: ControlMode, **changes: bool) -> SupervisorInputs:
+    """A step with no new RC frame: the newest frame still shows `switch`."""
+    return replace(frame(switch, **changes), rc_frame=False)
 
 
 def armed(mode: ControlMode = RC) -> SupervisorState:
@@ -196,3 +204,70 @@ def test_the_debounce_is_configuration() -> None:
     one = SupervisorConfig(debounce_frames=1)
     state = supervisor_step(SupervisorState(), frame(STOP), one)
     assert supervisor_step(state, frame(RC), one).mode is RC
+
+
+def test_the_debounce_takes_1_to_50_frames_the_range_the_configuration_file_allows() -> None:
+    def accepted(count: int) -> bool:
+        try:
+            SupervisorConfig(debounce_frames=count)
+        except ValueError:
+            return False
+        return True
+
+    assert [count for count in range(-1, 60) if accepted(count)] == list(range(1, 51))
+    assert list(DEBOUNCE_FRAMES) == list(range(1, 51))
+    fifty = SupervisorConfig(debounce_frames=50)
+    state = run(SupervisorState(), *frames(50, STOP), *frames(49, RC), config=fifty)
+    assert state.mode is STOP  # 49 frames are not yet a position
+    assert run(state, frame(RC), config=fifty).mode is RC
+
+
+def test_with_a_one_frame_debounce_one_frame_at_stop_is_a_hold_when_driving_too() -> None:
+    """Rule 4a with `debounce_frames=1`: a single frame at STOP is the switch held there, whether
+    the mode was STOP or a driving one, so the next frame at RC arms."""
+    one = SupervisorConfig(debounce_frames=1)
+    state = run(SupervisorState(), frame(STOP), frame(RC), frame(STOP), config=one)
+    assert (state.mode, state.ready) == (STOP, True)
+    assert run(state, frame(RC), config=one).mode is RC
+
+
+@pytest.mark.parametrize("cause", [Cause.CAN_LOST, Cause.CAN_UNTRUSTED])
+@pytest.mark.parametrize("ending", ["switch to STOP", "RC link lost"])
+def test_a_can_fault_in_the_step_that_ends_can_mode_is_latched_with_the_rest(
+    cause: Cause, ending: str
+) -> None:
+    """Rule 2: a CAN-bound cause latches while the mode is CAN, and it still is CAN in the step
+    that stops it; a latched STOP names every cause (hazard row 1: the causes are a set)."""
+    fault = frozenset({cause})
+    stopping = frame(STOP, fault) if ending == "switch to STOP" else lost(cause)
+    state = run(armed(CAN), stopping)
+    expected = {cause} if ending == "switch to STOP" else {cause, Cause.RC_LOST}
+    assert (state.mode, state.latched) == (STOP, expected)
+    assert state.flags & CAUSE_FLAGS[cause]
+
+
+def test_an_untrusted_id_seen_as_the_switch_flicks_to_stop_still_needs_the_operator() -> None:
+    """Only the operator clears CAN_UNTRUSTED, even when it latched in the step the switch left
+    CAN: back at CAN without a hold at STOP, a CAN re-enable edge does not arm."""
+    state = run(armed(CAN), frame(STOP, frozenset({Cause.CAN_UNTRUSTED})), *frames(3, CAN))
+    assert run(state, frame(CAN, re_enable_edge=True)).mode is STOP
+    assert run(state, *frames(3, STOP), *frames(3, CAN)).mode is CAN
+
+
+def test_a_latched_stop_keeps_the_switch_so_a_re_enable_between_rc_frames_arms() -> None:
+    """Rule 1: only RC frames (or a lost link) move the debounced switch, not a latch; rule 4b:
+    a re-enable edge counts while the newest frames show the switch settled at CAN, whether or
+    not an RC frame arrived in the same step (CAN and RC frames are not synchronised)."""
+    state = run(armed(CAN), frame(CAN, frozenset({Cause.CAN_LOST})))
+    assert (state.mode, state.switch) == (STOP, CAN)
+    assert run(state, between_frames(CAN, re_enable_edge=True)).mode is CAN
+
+
+def test_after_a_refused_re_enable_a_new_edge_arms_without_a_new_debounce() -> None:
+    """Rule 4b: the refused edge is forgotten, but the switch is still settled at CAN, so the
+    computer's next deliberate edge (throttle now at zero) arms, with or without an RC frame."""
+    state = run(armed(CAN), frame(CAN, frozenset({Cause.CAN_LOST}), can_throttle_zero=False))
+    refused = run(state, frame(CAN, re_enable_edge=True, can_throttle_zero=False))
+    assert (refused.mode, refused.latched, refused.switch) == (STOP, {Cause.CAN_LOST}, CAN)
+    assert run(refused, between_frames(CAN, re_enable_edge=True)).mode is CAN
+    assert run(refused, frame(CAN, re_enable_edge=True)).mode is CAN

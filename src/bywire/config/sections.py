@@ -209,6 +209,9 @@ def interlocks_section(table: Table) -> InterlockConfig:
         unknown_speed_dwell_s=table.number(
             "unknown_speed_dwell_s", default.unknown_speed_dwell_s, DWELL_S
         ),
+        unknown_speed_brake_norm=table.number(
+            "unknown_speed_brake_norm", default.unknown_speed_brake_norm, DUTY
+        ),
         throttle_slew_up_per_s=table.number(
             "throttle_slew_up_per_s", default.throttle_slew_up_per_s, SLEW_PER_S
         ),

@@ -10,9 +10,12 @@
    says the robot moves the other way faster than the standstill threshold. A reversal is held
    back — the applied gear stays as it was, throttle 0 — until the robot has been *settled* for
    the dwell: requested throttle zero and |speed| ≤ `standstill_speed_mps`, both continuously,
-   for `direction_dwell_s`. Without a speed measurement (None or NaN) the robot counts as settled
-   only after zero requested throttle for `unknown_speed_dwell_s`. NEUTRAL is always granted at
-   once: it only removes drive. In NEUTRAL the throttle is zero.
+   for `direction_dwell_s`. Without a speed measurement (None, NaN, or a sensor the speed check
+   distrusts) the robot counts as settled only after zero requested throttle *with the brake at
+   `unknown_speed_brake_norm` or more* for `unknown_speed_dwell_s`: waiting alone proves nothing
+   of a robot that coasts (rolling drag stops it from 2 m/s in ~13 s), braking does (at 0.8 the
+   regenerative and hydraulic brakes give ~3.6 m/s², 5 m/s in the 1.5 s). NEUTRAL is always
+   granted at once: it only removes drive. In NEUTRAL the throttle is zero.
 4. Throttle slew: the applied throttle rises by at most `throttle_slew_up_per_s` per second of
    `now` and may always fall at once (falling is the safe direction). Steering slew is
    steering.py's, not repeated here.
@@ -41,6 +44,7 @@ class InterlockConfig:
     standstill_speed_mps: float = 0.05
     direction_dwell_s: float = 0.5
     unknown_speed_dwell_s: float = UNKNOWN_SPEED_DWELL_S
+    unknown_speed_brake_norm: float = 0.8
     throttle_slew_up_per_s: float = 1.0
     # Plausibility of the speed sensor (`bywire.control.speed_check`): the robot brakes at most
     # ~11.7 m/s² with every brake on and accelerates at 1.2 m/s², so 15 m/s² is never real.
@@ -54,6 +58,7 @@ class InterlockConfig:
             self.standstill_speed_mps,
             self.direction_dwell_s,
             self.unknown_speed_dwell_s,
+            self.unknown_speed_brake_norm,
             self.speed_max_change_mps2,
             self.speed_step_tolerance_mps,
             self.speed_stuck_throttle_norm,
@@ -70,8 +75,8 @@ class InterlockState:
     """What the interlocks remember: the applied command and since when the robot is settled.
 
     `direction` is the last FORWARD or REVERSE applied (NEUTRAL if none yet). `quiet_since` starts
-    a run of zero requested throttle with speed at standstill or unknown; `standstill_since` a run
-    of zero requested throttle with a *measured* speed at standstill.
+    a run of zero requested throttle with speed at standstill, or unknown and the brake applied;
+    `standstill_since` a run of zero requested throttle with a *measured* speed at standstill.
     """
 
     gear: Gear = Gear.NEUTRAL
@@ -114,11 +119,16 @@ def _settled(
 
 
 def _timers(
-    state: InterlockState, throttle_norm: float, speed_mps: float | None, now: float, limit: float
+    state: InterlockState,
+    wanted: Movement,
+    speed_mps: float | None,
+    now: float,
+    config: InterlockConfig,
 ) -> tuple[float | None, float | None]:
-    slow = speed_mps is not None and abs(speed_mps) <= limit
-    quiet = throttle_norm == 0.0 and (slow or speed_mps is None)
-    standstill = throttle_norm == 0.0 and slow
+    slow = speed_mps is not None and abs(speed_mps) <= config.standstill_speed_mps
+    braking = wanted.brake_norm >= config.unknown_speed_brake_norm
+    quiet = wanted.throttle_norm == 0.0 and (slow or (speed_mps is None and braking))
+    standstill = wanted.throttle_norm == 0.0 and slow
     return _since(state.quiet_since, quiet, now), _since(state.standstill_since, standstill, now)
 
 
@@ -160,7 +170,7 @@ def interlock_step(
     wanted = _sanitised(requested, state.steering_norm)
     speed = None if speed_mps is None or math.isnan(speed_mps) else speed_mps
     limit = config.standstill_speed_mps
-    quiet_since, standstill_since = _timers(state, wanted.throttle_norm, speed, now, limit)
+    quiet_since, standstill_since = _timers(state, wanted, speed, now, config)
     settled = _settled(quiet_since, standstill_since, now, config)
     held = _reverses(state, wanted.gear, speed, limit) and not settled
     gear = state.gear if held else wanted.gear
