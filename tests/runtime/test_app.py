@@ -1,0 +1,107 @@
+"""The runtime's pass: one clock reading, one decision, at most one write per output; bounded
+memory; reports that carry what the sensors measured (issue 10, rows 13-15)."""
+
+from __future__ import annotations
+
+from dataclasses import replace
+
+import pytest
+
+from bywire.control import controller
+from bywire.hal.sim.clock import VirtualClock
+from bywire.hal.sim.world import SimWorld
+from bywire.model import ControlMode, Gear, SteeringReport
+from bywire.runtime import app
+from bywire.runtime.app import MODE_LOG_LENGTH, Runtime
+from bywire.runtime.settings import RuntimeConfig
+from tests.system.harness import Robot
+
+
+class CreepingClock(VirtualClock):
+    """Virtual time that moves on by a microsecond at every reading, as a real clock does
+    between two reads: a shell that reads it once per task decides once per task."""
+
+    def now(self) -> float:
+        self._now_s += 1e-6
+        return self._now_s
+
+
+def test_one_pass_reads_the_clock_once_and_decides_once_even_as_time_moves(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """Row 15: the 100 Hz tasks fall due together; the robot must run what the simulator ran."""
+    clock = CreepingClock()
+    world = SimWorld.create(clock)
+    runtime = Runtime(world.hardware, RuntimeConfig())
+    decisions: list[float] = []
+    original = controller.controller_step
+
+    def counted(*args: object) -> object:
+        decisions.append(args[2])  # type: ignore[arg-type]
+        return original(*args)  # type: ignore[arg-type]
+
+    monkeypatch.setattr(app, "controller_step", counted)
+    per_pass: list[int] = []
+
+    def passed(_now: float) -> None:
+        per_pass.append(len(decisions))
+        decisions.clear()
+
+    runtime.on_cycle.append(passed)
+    world.start()
+    runtime.run(until_s=0.5)
+    assert sum(per_pass) > 40  # the 100 Hz tasks ran
+    assert max(per_pass) == 1
+
+
+def test_writes_go_out_once_per_pass() -> None:
+    robot = Robot.build()
+    robot.arm_rc()
+    robot.at(0.3, lambda: robot.world.rc.set_pedal(0.4))
+    writes: list[int] = []
+    dac = robot.world.dac
+
+    def count(_now: float) -> None:
+        writes.append(dac.writes)
+
+    robot.runtime.on_cycle.append(count)
+    robot.run(1.0)
+    per_pass = [b - a for a, b in zip(writes, writes[1:], strict=False)]
+    assert max(per_pass) == 2  # throttle and regen, once each
+
+
+def test_nothing_in_the_running_controller_grows_with_mode_changes() -> None:
+    """Row 13: the mode log was a list; a flapping switch grew it without bound."""
+    robot = Robot.build(replace(RuntimeConfig()))
+    rc = robot.world.rc
+    robot.arm_rc()
+    for index in range(400):
+        at_s = 0.4 + index * 0.1
+        robot.at(at_s, lambda: rc.set_mode(ControlMode.STOP))
+        robot.at(at_s + 0.05, lambda: rc.set_mode(ControlMode.RC))
+    robot.run(0.4 + 400 * 0.1)
+    assert len(robot.runtime.mode_log) == MODE_LOG_LENGTH
+    assert robot.runtime.mode_log[-1][1] is ControlMode.RC
+
+
+def test_the_steering_report_carries_the_encoders_angle() -> None:
+    """Row 14: with an encoder fitted the report said 'not measured' every time."""
+    robot = Robot.build()
+    robot.arm_rc()
+    robot.at(0.3, lambda: robot.world.rc.set_steering(0.5))
+    robot.at(0.3, lambda: robot.world.rc.set_gear(Gear.FORWARD))
+    robot.run(1.5)
+    report = robot.world.hlc.latest(SteeringReport)
+    assert isinstance(report, SteeringReport)
+    assert report.measured_valid
+    assert report.measured_norm == pytest.approx(robot.world.vehicle.state.steering_norm, abs=0.02)
+    assert report.measured_norm == pytest.approx(0.5, abs=0.02)
+
+
+def test_without_an_encoder_the_report_says_so() -> None:
+    robot = Robot.build()
+    robot.world.steering_encoder.failed = True
+    robot.run(0.5)
+    report = robot.world.hlc.latest(SteeringReport)
+    assert isinstance(report, SteeringReport)
+    assert (report.measured_valid, report.measured_norm) == (False, 0.0)
