@@ -3,6 +3,7 @@ memory; reports that carry what the sensors measured (issue 10, rows 13-15)."""
 
 from __future__ import annotations
 
+import itertools
 from dataclasses import replace
 
 import pytest
@@ -66,7 +67,7 @@ def test_writes_go_out_once_per_pass() -> None:
 
     robot.runtime.on_cycle.append(count)
     robot.run(1.0)
-    per_pass = [b - a for a, b in zip(writes, writes[1:], strict=False)]
+    per_pass = [b - a for a, b in itertools.pairwise(writes)]
     assert max(per_pass) == 2  # throttle and regen, once each
 
 

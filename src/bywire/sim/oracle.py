@@ -61,6 +61,9 @@ UNNOTICED_S = {
 }
 
 
+RC_BORNE = frozenset({"switch_stop", "rc_implausible", "rc_failsafe"})
+
+
 @dataclass(slots=True)
 class Violation:
     """One broken invariant: which, when, and what the hardware showed."""
@@ -110,9 +113,10 @@ class HazardOracle:
     # --- what was done ----------------------------------------------------------------------------
 
     def stop_event(self, kind: str, now: float) -> None:
-        """Something that demands STOP happened at `now` (the switch only counts if frames
-        can show it)."""
-        if kind == "switch_stop" and self.faults & {"rc_link_lost", "rc_failsafe"}:
+        """Something that demands STOP happened at `now` (what IBUS frames carry only counts
+        while frames arrive: a lost link has its own, longer deadline)."""
+        silenced = {"rc_link_lost"} if kind != "switch_stop" else {"rc_link_lost", "rc_failsafe"}
+        if kind in RC_BORNE and self.faults & silenced:
             return
         if self.armed_ok:
             self.armed_ok = False
@@ -121,7 +125,10 @@ class HazardOracle:
             self.drive_allowed_until = min(self.drive_allowed_until, now + DEADLINES_S[kind])
 
     def fault(self, kind: str, active: bool, now: float) -> None:
-        """A fault condition begins (and stops the robot) or ends."""
+        """A fault condition begins (and stops the robot) or ends; saying it again changes
+        nothing (a remote stop already requested does not arrive again)."""
+        if active == (kind in self.faults):
+            return
         self.fault_changed_at = now
         if active:
             self.faults.add(kind)
