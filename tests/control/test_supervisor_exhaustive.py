@@ -14,7 +14,7 @@ from dataclasses import replace
 
 import pytest
 
-from bywire.control import supervisor
+from bywire.control import supervisor, supervisor_check
 from bywire.control.supervisor import Cause, SupervisorConfig, SupervisorState
 from bywire.control.supervisor_check import (
     INVARIANTS,
@@ -64,13 +64,18 @@ def _found(monkeypatch: pytest.MonkeyPatch, name: str, fake: Callable[..., objec
 def test_a_single_latch_reason_that_a_later_one_overwrites_is_found(
     monkeypatch: pytest.MonkeyPatch,
 ) -> None:
-    original = supervisor._latching
+    original = supervisor.supervisor_step
 
-    def overwriting(target: ControlMode, inputs: supervisor.SupervisorInputs) -> frozenset[Cause]:
-        new = original(target, inputs)
-        return frozenset(list(new)[:1])  # one reason at a time, as the old mux had
+    def overwriting(
+        state: SupervisorState, inputs: supervisor.SupervisorInputs, config: SupervisorConfig
+    ) -> SupervisorState:
+        after = original(state, inputs, config)
+        new = sorted(after.latched - state.latched, key=lambda cause: cause.name)
+        return replace(after, latched=frozenset(new[:1])) if new else after  # the old mux
 
-    assert _found(monkeypatch, "_latching", overwriting)
+    monkeypatch.setattr(supervisor_check, "supervisor_step", overwriting)
+    result = explore(alphabet(reduced_causes()), SMALL, max_violations=1)
+    assert {name for name, _ in result.violations}
 
 
 def test_a_refused_arming_that_clears_the_latch_anyway_is_found(
