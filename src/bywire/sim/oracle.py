@@ -109,6 +109,7 @@ class HazardOracle:
     armed_before_stop: bool = False
     source_before_stop: ControlMode = ControlMode.STOP
     began: dict[str, tuple[float, bool]] = field(default_factory=dict)
+    left_at: dict[ControlMode, float] = field(default_factory=dict)
 
     # --- what was done ----------------------------------------------------------------------------
 
@@ -154,11 +155,14 @@ class HazardOracle:
             self.stop_event("switch_stop", now)
             self.tripped_at = None  # the operator's acknowledgement begins
             return
+        self.left_at[was] = now
         source = self.sources[mode]
+        # Back to a source within the debounce: the controller may never have left it.
+        returning = now - self.left_at.get(mode, -1.0) < SETTLE_S and was is not ControlMode.STOP
         unseen = was is ControlMode.STOP and held_s < UNSEEN_S
         if unseen and self.armed_before_stop:
             self.armed_ok, self.drive_allowed_until = True, None  # no frame may have shown it
-        if not (unseen and mode is self.source_before_stop):
+        if not returning and not (unseen and mode is self.source_before_stop):
             recently_zero = now - source.left_zero_at <= STALE_S[mode]  # may still be seen
             source.seen_zero = source.throttle_norm == 0.0 or recently_zero
         leaving = was is ControlMode.STOP and held_s >= STOP_HOLD_S
