@@ -271,3 +271,11 @@ def test_after_a_refused_re_enable_a_new_edge_arms_without_a_new_debounce() -> N
     assert (refused.mode, refused.latched, refused.switch) == (STOP, {Cause.CAN_LOST}, CAN)
     assert run(refused, between_frames(CAN, re_enable_edge=True)).mode is CAN
     assert run(refused, frame(CAN, re_enable_edge=True)).mode is CAN
+
+
+def test_a_re_enable_in_the_step_of_a_refused_operator_arming_still_counts() -> None:
+    """Both arming events in one step: the operator's is refused, the computer's succeeds."""
+    at_can = run(SupervisorState(), *frames(3, STOP), *frames(1, CAN))
+    stopped = run(at_can, frame(CAN, frozenset({Cause.REMOTE_STOP}), remote_stop_rising=True))
+    state = run(stopped, frame(CAN, re_enable_edge=True))
+    assert (state.mode, state.latched) == (CAN, frozenset())

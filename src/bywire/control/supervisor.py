@@ -197,19 +197,20 @@ def _cleared(
     return latched - gone
 
 
-def _arming_target(
+def _arming_targets(
     state: SupervisorState,
     inputs: SupervisorInputs,
     switch: ControlMode | None,
     settled: bool,
-) -> tuple[ControlMode, bool] | None:
-    """Rule 4: (target, made by the operator) for an arming event at this step, or None. A CAN
-    re-enable counts only while the newest frames show the switch settled at CAN."""
+) -> list[tuple[ControlMode, bool]]:
+    """Rule 4: the arming events at this step, as (target, made by the operator), the
+    operator's first. A CAN re-enable counts only while the switch is settled at CAN."""
+    events = []
     if state.switch is ControlMode.STOP and switch in DRIVING_MODES and state.ready:
-        return switch, True
+        events.append((switch, True))
     if inputs.re_enable_edge and switch is ControlMode.CAN and settled:
-        return ControlMode.CAN, False
-    return None
+        events.append((ControlMode.CAN, False))
+    return events
 
 
 def _from_stop(
@@ -225,18 +226,17 @@ def _from_stop(
     latched = state.latched | _latching(ControlMode.STOP, inputs)
     if held_at_stop:
         latched = _cleared(latched, latched, ControlMode.STOP, inputs.conditions)
-    arming = _arming_target(state, inputs, switch, settled)
-    if arming is None:
-        return SupervisorState(ControlMode.STOP, latched, switch, candidate, run, ready)
-    target, by_operator = arming
-    latched |= _latching(target, inputs)
-    remaining = (
-        latched if by_operator else _cleared(latched, CAN_CLEARABLE, target, inputs.conditions)
-    )
-    if not remaining and inputs.throttle_zero(target):
-        return SupervisorState(target, frozenset(), switch, candidate, run, False, True)
-    # Refused: forgotten, nothing cleared, and the switch must pass through STOP again.
-    return SupervisorState(ControlMode.STOP, latched, switch, candidate, run, ready=False)
+    events = _arming_targets(state, inputs, switch, settled)
+    for target, by_operator in events:
+        ready = ready and not by_operator  # the operator's attempt is used up either way
+        latched |= _latching(target, inputs)
+        remaining = (
+            latched if by_operator else _cleared(latched, CAN_CLEARABLE, target, inputs.conditions)
+        )
+        if not remaining and inputs.throttle_zero(target):
+            return SupervisorState(target, frozenset(), switch, candidate, run, False, True)
+    # None, or every one refused: forgotten, nothing cleared, the switch must pass through STOP.
+    return SupervisorState(ControlMode.STOP, latched, switch, candidate, run, ready)
 
 
 def supervisor_step(

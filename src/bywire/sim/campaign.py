@@ -26,6 +26,7 @@ from bywire.sim.oracle import HazardOracle
 
 WATCHDOG_S = 0.200
 ARM_HOLD_S = 0.060  # how long `arm` holds the switch at STOP: eight frames
+HANDOVER_LEAD_S = 0.045  # the computer's new set-point is on the bus before the switch moves
 
 
 @dataclass(frozen=True, slots=True)
@@ -161,13 +162,15 @@ class Campaign:
 
     def _do_handover(self, value: object) -> None:
         """The switch from one driving source to the other (from STOP to RC), the incoming
-        source asking for throttle `value` as it takes over."""
+        source asking for throttle `value` since a little before (the computer already
+        commanding when the operator hands over; the stick moved with the switch)."""
         other = ControlMode.CAN if self.oracle.switch is ControlMode.RC else ControlMode.RC
         if other is ControlMode.RC:
             self._do_rc_throttle(value)
-        else:
-            self._do_can_throttle(value)
-        self._do_switch(other)
+            self._do_switch(other)
+            return
+        self._do_can_throttle(value)
+        self.clock.call_at(self._now + HANDOVER_LEAD_S, lambda: self._do_switch(other))
 
     def _do_chatter(self, value: object) -> None:
         self.world.rc.chatter_next_frames(cast(int, value))
@@ -211,6 +214,8 @@ class Campaign:
         else:
             self.world.hlc.silence()
         self._can_fault("can_lost", not up)
+        if up and self._remote_stop:  # a request made while silent arrives now
+            self.oracle.fault("remote_stop", True, self._now)
 
     def _can_fault(self, kind: str, active: bool) -> None:
         oracle, now = self.oracle, self._now
@@ -226,7 +231,8 @@ class Campaign:
     def _do_remote_stop(self, on: object) -> None:
         self._remote_stop = bool(on)
         self.world.hlc.set_control(self._remote_stop, re_enable=False)
-        self.oracle.fault("remote_stop", self._remote_stop, self._now)  # arriving: every mode
+        if not self._remote_stop or "can_lost" not in self.oracle.faults:
+            self.oracle.fault("remote_stop", self._remote_stop, self._now)  # arriving: every mode
 
     def _do_re_enable(self, _value: object) -> None:
         """Re-enable requested: 0 in the frames now, 1 from two command periods later."""

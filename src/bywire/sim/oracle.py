@@ -74,8 +74,8 @@ class Violation:
 
 
 # How long a source's old value may still be what the controller sees after it changed: one
-# command period plus wire time for CAN, one frame for RC.
-STALE_S = {ControlMode.RC: 0.012, ControlMode.CAN: 0.025}
+# command period plus wire time for CAN; none for RC, whose switch and sticks share each frame.
+STALE_S = {ControlMode.RC: 0.0, ControlMode.CAN: 0.025}
 
 
 @dataclass(slots=True)
@@ -163,7 +163,7 @@ class HazardOracle:
         if unseen and self.armed_before_stop:
             self.armed_ok, self.drive_allowed_until = True, None  # no frame may have shown it
         if not returning and not (unseen and mode is self.source_before_stop):
-            recently_zero = now - source.left_zero_at <= STALE_S[mode]  # may still be seen
+            recently_zero = now - source.left_zero_at < STALE_S[mode]  # may still be seen
             source.seen_zero = source.throttle_norm == 0.0 or recently_zero
         leaving = was is ControlMode.STOP and held_s >= STOP_HOLD_S
         if leaving or self.pending_arm is not None:  # still within the debounce: it may count
