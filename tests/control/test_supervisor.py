@@ -279,3 +279,12 @@ def test_a_re_enable_in_the_step_of_a_refused_operator_arming_still_counts() -> 
     stopped = run(at_can, frame(CAN, frozenset({Cause.REMOTE_STOP}), remote_stop_rising=True))
     state = run(stopped, frame(CAN, re_enable_edge=True))
     assert (state.mode, state.latched) == (CAN, frozenset())
+
+
+def test_a_hold_at_stop_is_forgotten_by_a_later_bounce_through_stop() -> None:
+    """The long sequence search: held at STOP, then the switch bounced on its way to RC; once
+    it settled at RC the robot armed on the old hold. Only the latest stay at STOP counts."""
+    held = run(SupervisorState(), *frames(3, STOP))
+    bounced = run(held, frame(RC), frame(STOP), frame(RC), frame(STOP))
+    assert run(bounced, *frames(3, RC)).mode is STOP
+    assert run(bounced, *frames(3, STOP), *frames(3, RC)).mode is RC

@@ -47,7 +47,7 @@ ACTIONS = st.one_of(
     st.tuples(st.just("remote_stop"), st.booleans()),
     st.tuples(st.just("re_enable"), st.none()),
     st.tuples(st.just("impostor"), st.integers(5, 40)),
-    st.tuples(st.just("dac"), st.sampled_from(["fail", "alternate", "restore", "restore"])),
+    st.tuples(st.just("dac"), st.sampled_from(["fail", "alternate", "alternate", "restore"])),
     st.tuples(st.just("stall"), st.sampled_from([0.05, 0.3])),
     st.tuples(st.just("wheel_sensor"), st.booleans()),
 )

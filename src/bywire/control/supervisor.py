@@ -222,7 +222,9 @@ def _from_stop(
 ) -> SupervisorState:
     """STOP now: the switch held at STOP clears what is gone; leaving arms, or is forgotten."""
     candidate, run, settled = debounce
-    ready = (state.ready or held_at_stop) and switch is not None
+    # `ready` belongs to the latest stay at STOP: a new one (a glitch, a bounce) starts it afresh.
+    new_stay = inputs.rc_frame and candidate is ControlMode.STOP and run == 1
+    ready = ((state.ready and not new_stay) or held_at_stop) and switch is not None
     latched = state.latched | _latching(ControlMode.STOP, inputs)
     if held_at_stop:
         latched = _cleared(latched, latched, ControlMode.STOP, inputs.conditions)
