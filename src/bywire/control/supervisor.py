@@ -123,8 +123,8 @@ class SupervisorState:
 
     `switch` is the debounced position (None until known); `candidate` the position of the newest
     frames and `run_frames` how many in a row showed it (capped at the debounce count). `ready`:
-    the switch was held at STOP since the last arming attempt. `throttle_open`: the commanding
-    source has been seen at zero throttle since it took over.
+    the switch's latest stay at STOP lasted the debounce, and no arming attempt since.
+    `throttle_open`: the commanding source has been seen at zero throttle since it took over.
     """
 
     mode: ControlMode = ControlMode.STOP
