@@ -149,8 +149,8 @@ class HazardOracle:
         self.switch, self.switch_at = mode, now
         if mode is ControlMode.STOP:
             if self.pending_arm is not None:  # cut short: it may have armed meanwhile
+                self._arm_now(now, self.pending_arm[1])
                 self.pending_arm = None
-                self._arm_now(now)
             self.armed_before_stop, self.source_before_stop = self.armed_ok, was
             self.stop_event("switch_stop", now)
             self.tripped_at = None  # the operator's acknowledgement begins
@@ -178,12 +178,12 @@ class HazardOracle:
             state.seen_zero = True
         if self.pending_arm is not None and self.pending_arm[1] is source:
             self.pending_arm = None  # changed within the debounce: whether it armed is timing
-            self._arm_now(now)
+            self._arm_now(now, source)
 
     def re_enable(self, now: float) -> None:
         """A CAN re-enable request (a 0→1 change) was sent."""
         if self.switch is ControlMode.CAN:
-            self._arm_now(now)
+            self._arm_now(now, ControlMode.CAN)
 
     def stall(self, started_s: float, trips_at_s: float) -> None:
         """A write hangs from `started_s` past the watchdog's limit: it trips at `trips_at_s`."""
@@ -214,12 +214,13 @@ class HazardOracle:
         _, mode = self.pending_arm
         self.pending_arm = None
         if self.switch is mode and self.sources[mode].throttle_norm == 0.0:
-            self._arm_now(now)
+            self._arm_now(now, mode)
 
-    def _arm_now(self, now: float) -> None:
-        """A deliberate act, unless a fault that must refuse it has been in force a while."""
+    def _arm_now(self, now: float, target: ControlMode) -> None:
+        """A deliberate act into `target`, unless a fault that must refuse it has been in
+        force a while."""
         can_only = {"can_lost", "can_impostor", "remote_stop"}
-        blocking = self.faults - (can_only if self.switch is ControlMode.RC else set())
+        blocking = self.faults - (can_only if target is ControlMode.RC else set())
         settled = now - self.fault_changed_at > 0.3
         if not (blocking and settled):
             self.armed_ok, self.drive_allowed_until = True, None
