@@ -249,7 +249,9 @@ class Campaign:
         frames = cast(int, value)
         self.world.impostor.start(frames)
         self._can_fault("can_impostor", True)
-        end_s = self._now + frames * 0.020 + 0.35  # then a window of good frames
+        # Over when its last frame is sent: the controller may trust the id again soon after
+        # (a window of good frames), and the oracle must never think a fault lasts longer.
+        end_s = self._now + frames * 0.020
         self.clock.call_at(end_s, lambda: self._can_fault("can_impostor", False))
 
     def _do_dac(self, how: object) -> None:
