@@ -149,9 +149,6 @@ class SupervisorState:
         return flags
 
 
-INITIAL = SupervisorState()
-
-
 def _debounced(
     state: SupervisorState, inputs: SupervisorInputs, frames: int
 ) -> tuple[ControlMode | None, ControlMode | None, int]:
