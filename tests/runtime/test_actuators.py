@@ -183,18 +183,32 @@ def test_a_watchdog_trip_makes_every_output_safe_holds_the_steering_and_lights_t
 def test_after_a_trip_no_loop_write_reaches_a_port_until_it_is_acknowledged() -> None:
     world, actuators = rig()
     actuators.watchdog_trip()
-    writes = {name: line.writes for name, line in world.gpio.items()}
+    levels = {name: line.level for name, line in world.gpio.items()}
     actuators.write_drive(DRIVING, 0.1)
     actuators.write_brakes(0.0, ebrake_engaged=False)
     actuators.write_steering(0.0018)
     actuators.write_lights(LightOutputs(brake=True))
-    assert {name: line.writes for name, line in world.gpio.items()} == writes
+    assert {name: line.level for name, line in world.gpio.items()} == levels  # only safe ones
     assert world.dac.volts(0) == 0.0
     assert world.pwm.steering.pulse_s == 0.0  # never written: held
     actuators.gate.reset()
     actuators.write_drive(DRIVING, 0.2)
     assert enabled(world)
     assert world.dac.volts(0) == pytest.approx(2.0, abs=0.01)
+
+
+def test_a_safe_level_that_failed_at_the_trip_lands_once_the_port_works_again() -> None:
+    # Found by `bywire verify`: the DAC NAKed every write, held 1.5 V, then the watchdog tripped
+    # (its 0 V failed too) and the DAC recovered; nothing wrote 0 V again until acknowledged.
+    world, actuators = rig()
+    actuators.write_drive(DRIVING, 0.0)
+    world.dac.fail_writes()
+    actuators.watchdog_trip()
+    assert world.dac.volts(0) == pytest.approx(2.0, abs=0.01)  # its 0 V could not land
+    world.dac.stop_failing()
+    actuators.write_drive(DRIVING, 0.1)  # the loop's next pass, still tripped
+    assert world.dac.volts(0) == 0.0
+    assert not enabled(world)
 
 
 def test_a_write_in_flight_when_the_watchdog_trips_is_undone_before_the_port_is_let_go() -> None:

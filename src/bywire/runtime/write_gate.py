@@ -6,7 +6,8 @@ then writes each port's safe level under its lock; a port whose lock is held is 
 flight, perhaps stalled inside the driver. The watchdog does not wait for it before making the
 other ports safe: the loop, on leaving that write, sees the trip and writes the safe level itself
 before it lets the port go, and the watchdog's own thread writes it again once it gets the lock.
-So after a trip no port keeps a level the loop wrote, and no loop write starts, until reset.
+So after a trip no port keeps a level the loop wrote, and no loop write starts, until reset;
+the loop's writes meanwhile re-assert each port's safe level (one that failed may land later).
 
 A port's safe action may be None: the steering holds where it is (centring at speed is a swerve).
 """
@@ -34,9 +35,13 @@ class WriteGate:
         return self._tripped
 
     def write(self, port: str, action: Action) -> bool:
-        """The loop's write: run `action` on `port` unless tripped. True when it ran and stands."""
+        """The loop's write: run `action` on `port` unless tripped. True when it ran and stands.
+
+        While tripped the port's safe level is written instead, every time: a safe write that
+        failed at the trip (a DAC that NAKed) lands once the port works again."""
         with self._held(port):
             if self._tripped:
+                self._write_safe(port)
                 return False
             action()
             if not self._tripped:
