@@ -19,7 +19,9 @@ from bywire.control.supervisor import Cause, SupervisorConfig, SupervisorState
 from bywire.control.supervisor_check import (
     INVARIANTS,
     SAME_RULES,
+    TRANSITIONS,
     alphabet,
+    expand_same_rules,
     explore,
     reduced_causes,
     same_rules,
@@ -48,6 +50,10 @@ def test_every_reachable_state_keeps_every_invariant(capsys: pytest.CaptureFixtu
     assert result.states > 1000
     every_mode_change = {(a, b) for a in ControlMode for b in ControlMode}
     assert result.mode_changes == every_mode_change
+    # The transition table `bywire verify` reports coverage of is exactly what is reachable.
+    reached = result.labels if FULL else expand_same_rules(result.labels)
+    assert reached == set(TRANSITIONS)
+    assert len(TRANSITIONS) == len(set(TRANSITIONS))
 
 
 # --- teeth: the old behaviours, put back, are found ------------------------------------------
@@ -120,3 +126,16 @@ def test_no_debounce_is_found() -> None:
     inputs = alphabet(reduced_causes())
     result = explore(inputs, SMALL, max_violations=1, checked_against=SupervisorConfig())
     assert {name for name, _ in result.violations} & {"S8", "S9"}  # cleared or armed too soon
+
+
+def test_transitions_are_named_from_the_states_alone() -> None:
+    powered = SupervisorState()
+    armed = SupervisorState(ControlMode.RC, frozenset(), ControlMode.RC, ControlMode.RC, 3)
+    assert supervisor_check.transition_labels(powered, powered) == ()
+    at_stop = replace(powered, switch=ControlMode.STOP)
+    assert supervisor_check.transition_labels(at_stop, armed) == (
+        "STOP->RC: armed by the switch",
+        "POWER_UP cleared by arming",
+    )
+    lost = SupervisorState(ControlMode.STOP, frozenset({Cause.RC_LOST}))
+    assert supervisor_check.transition_labels(armed, lost) == ("RC->STOP: RC_LOST latched",)

@@ -2,16 +2,19 @@
 
 The output is the whole resolved configuration as TOML (defaults filled in), which loads back to
 the same values, or as JSON with `--json`. A bad file exits 2 with every problem, each naming its
-key and the allowed range.
+key and the allowed range. Combinations of valid numbers that are unsafe together (see
+`bywire.config.hazards`) are warned about on stderr; `bywire verify` refuses them.
 """
 
 from __future__ import annotations
 
 import argparse
 import json
+import sys
 from pathlib import Path
 
 from bywire.config import as_dict, describe, load_config
+from bywire.config.hazards import unsafe_combinations
 
 
 def configure(parser: argparse.ArgumentParser) -> None:
@@ -27,6 +30,8 @@ def configure(parser: argparse.ArgumentParser) -> None:
 
 def run(args: argparse.Namespace) -> int:
     config = load_config(args.file)
+    for combination in unsafe_combinations(config):
+        print(f"warning: unsafe by construction: {combination}", file=sys.stderr)
     if args.json:
         print(json.dumps(as_dict(config), indent=2))
         return 0

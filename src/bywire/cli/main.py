@@ -25,6 +25,10 @@ COMMANDS: dict[str, tuple[str, str]] = {
         "CAN bit timing: bxCAN CAN_BTR values and ip-link settings",
     ),
     "dbc": ("bywire.cli.dbc", "the CAN database: show messages and signals, generate C code"),
+    "verify": (
+        "bywire.cli.verify",
+        "random fault campaigns on your robot configuration, checked against docs/SAFETY.md",
+    ),
     "bench": ("bywire.cli.bench", "measure latency, jitter, CPU, memory and speed-up (§8)"),
     "run": ("bywire.cli.run", "run the controller on the robot's hardware (until SIGINT/SIGTERM)"),
     "config": ("bywire.cli.config", "robot configuration: check a file, print what it resolves to"),

@@ -33,6 +33,63 @@ SAME_RULES = frozenset({Cause.DAC_FAULT, Cause.HYDRO_PRESSURE, Cause.STEERING_EN
 """Causes the supervisor treats alike (latch in any mode, cleared at STOP once gone): the
 default search lets DAC_FAULT stand for all three; `same_rules` proves they are alike."""
 
+TRANSITIONS: tuple[str, ...] = (
+    "CAN->RC: handover",
+    "CAN->STOP: CAN_LOST latched",
+    "CAN->STOP: CAN_UNTRUSTED latched",
+    "CAN->STOP: DAC_FAULT latched",
+    "CAN->STOP: HYDRO_PRESSURE latched",
+    "CAN->STOP: RC_IMPLAUSIBLE latched",
+    "CAN->STOP: RC_LOST latched",
+    "CAN->STOP: REMOTE_STOP latched",
+    "CAN->STOP: STEERING_ENCODER latched",
+    "CAN->STOP: WATCHDOG latched",
+    "CAN->STOP: the switch at STOP",
+    "CAN: throttle opened at zero",
+    "CAN_LOST cleared by arming",
+    "RC->CAN: handover",
+    "RC->STOP: CAN_LOST latched",
+    "RC->STOP: CAN_UNTRUSTED latched",
+    "RC->STOP: DAC_FAULT latched",
+    "RC->STOP: HYDRO_PRESSURE latched",
+    "RC->STOP: RC_IMPLAUSIBLE latched",
+    "RC->STOP: RC_LOST latched",
+    "RC->STOP: REMOTE_STOP latched",
+    "RC->STOP: STEERING_ENCODER latched",
+    "RC->STOP: WATCHDOG latched",
+    "RC->STOP: the switch at STOP",
+    "RC: throttle opened at zero",
+    "REMOTE_STOP cleared by arming",
+    "STOP->CAN: armed by a CAN re-enable",
+    "STOP->CAN: armed by the switch",
+    "STOP->RC: armed by the switch",
+    "STOP: CAN_LOST cleared at STOP",
+    "STOP: CAN_LOST latched",
+    "STOP: CAN_UNTRUSTED cleared at STOP",
+    "STOP: CAN_UNTRUSTED latched",
+    "STOP: DAC_FAULT cleared at STOP",
+    "STOP: DAC_FAULT latched",
+    "STOP: HYDRO_PRESSURE cleared at STOP",
+    "STOP: HYDRO_PRESSURE latched",
+    "STOP: POWER_UP cleared at STOP",
+    "STOP: RC_IMPLAUSIBLE cleared at STOP",
+    "STOP: RC_IMPLAUSIBLE latched",
+    "STOP: RC_LOST cleared at STOP",
+    "STOP: RC_LOST latched",
+    "STOP: REMOTE_STOP cleared at STOP",
+    "STOP: REMOTE_STOP latched",
+    "STOP: STEERING_ENCODER cleared at STOP",
+    "STOP: STEERING_ENCODER latched",
+    "STOP: WATCHDOG cleared at STOP",
+    "STOP: WATCHDOG latched",
+    "STOP: arming refused, a cause latched",
+    "STOP: arming refused, throttle",
+)
+"""Every row of the transition table (as `transition_labels` names them) that a step from a
+reachable state can take; `tests/control/test_supervisor_exhaustive.py` proves the list is
+exactly what the search reaches. `bywire verify` reports which of them its campaigns took."""
+
+
 Invariant = Callable[[SupervisorState, SupervisorInputs, SupervisorState, int], bool]
 
 
@@ -187,13 +244,56 @@ def same_rules(causes: Iterable[Cause]) -> bool:
     return len(signatures) == 1
 
 
+def transition_labels(before: SupervisorState, after: SupervisorState) -> tuple[str, ...]:
+    """The rows of `docs/SAFETY.md`'s transition table one step took, named from the states
+    alone (so a running controller's steps can be named too); none when nothing it names
+    changed. `TRANSITIONS` lists every one the exhaustive search reaches."""
+    source, target = before.mode, after.mode
+    new, gone = after.latched - before.latched, before.latched - after.latched
+    if source is STOP and target is not STOP:
+        how = "the switch" if before.switch is STOP else "a CAN re-enable"
+        cleared = tuple(f"{cause.name} cleared by arming" for cause in _ordered(gone))
+        return (f"STOP->{target.name}: armed by {how}", *cleared)
+    if source is not STOP and target is STOP:
+        latched = tuple(f"{source.name}->STOP: {cause.name} latched" for cause in _ordered(new))
+        return latched or (f"{source.name}->STOP: the switch at STOP",)
+    if source is not target:
+        return (f"{source.name}->{target.name}: handover",)
+    if source is not STOP:
+        opened = after.throttle_open and not before.throttle_open
+        return (f"{source.name}: throttle opened at zero",) if opened else ()
+    labels = [f"STOP: {cause.name} latched" for cause in _ordered(new)]
+    labels += [f"STOP: {cause.name} cleared at STOP" for cause in _ordered(gone)]
+    tried = before.ready and before.switch is STOP and after.switch in DRIVING_MODES
+    if tried:
+        labels.append(
+            "STOP: arming refused, " + ("a cause latched" if after.latched else "throttle")
+        )
+    return tuple(labels)
+
+
+def _ordered(causes: frozenset[Cause]) -> list[Cause]:
+    return [cause for cause in Cause if cause in causes]
+
+
+def expand_same_rules(labels: Iterable[str]) -> set[str]:
+    """`labels` with DAC_FAULT's standing for each of `SAME_RULES` (the reduced search)."""
+    expanded = set()
+    for label in labels:
+        names = [cause.name for cause in SAME_RULES] if "DAC_FAULT" in label else ["DAC_FAULT"]
+        expanded |= {label.replace("DAC_FAULT", name) for name in names}
+    return expanded
+
+
 @dataclass(slots=True)
 class Exploration:
-    """What the search saw: states, transitions, and every violation with the path to it."""
+    """What the search saw: states, transitions, the table's rows they took, and every
+    violation with the path to it."""
 
     states: int = 0
     transitions: int = 0
     mode_changes: set[tuple[ControlMode, ControlMode]] = field(default_factory=set)
+    labels: set[str] = field(default_factory=set)
     violations: list[tuple[str, list[SupervisorInputs]]] = field(default_factory=list)
 
 
@@ -227,6 +327,8 @@ def explore(
             after = supervisor_step(before, step_inputs, config)
             result.transitions += 1
             result.mode_changes.add((before.mode, after.mode))
+            if after != before:
+                result.labels.update(transition_labels(before, after))
             for name in violated(before, step_inputs, after, promised):
                 path = [*reversed(list(_path(parents, before))), step_inputs]
                 result.violations.append((name, path))

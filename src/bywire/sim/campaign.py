@@ -1,41 +1,394 @@
 """A fault campaign: a sequence of timed actions on the simulated robot, judged by the oracle.
 
 Each step waits its delay, then does one thing an operator, the higher-level computer or the
-world can do: move a stick or a switch (or arm deliberately), bounce the switch, lose or corrupt
-the RC link, send or stop CAN commands, ask for a remote stop or a re-enable, let a second node
-send on the computer's id, make DAC writes fail or hang, kill the wheel-speed sensor. The real
-controller runs on virtual time with its watchdog on the simulated clock; the `HazardOracle`
-checks the hardware after every pass of its loop.
+world can do (`VOCABULARY`): move a stick or a switch (or arm deliberately), bounce the switch,
+lose, garble or fake the RC link, send, corrupt or stop CAN commands, pull the CAN cable or flood
+the bus, ask for a remote stop or a re-enable, let a second node send on the computer's id, make
+DAC writes fail or hang, kill the wheel-speed sensor, break a brake or the steering.
+
+A campaign is compiled into a scenario (`compile_steps`): the same events `bywire sim
+--scenario` plays, so any campaign can be written to a TOML file and replayed exactly. The real
+controller runs it on virtual time with its watchdog on the simulated clock; an `OracleWitness`
+tells the `HazardOracle` what each event did, and the oracle checks the hardware after every pass
+of the loop. Which rows of the supervisor's transition table the campaign took is recorded too.
 """
 
 from __future__ import annotations
 
-from collections.abc import Callable
-from dataclasses import dataclass, replace
-from typing import cast
+import heapq
+from collections.abc import Callable, Iterable, Sequence
+from dataclasses import dataclass, field
+from typing import Any, cast
 
+from bywire.config import RobotConfig, default_sim_config
+from bywire.control.supervisor import SupervisorState
+from bywire.control.supervisor_check import transition_labels
 from bywire.hal.sim.clock import VirtualClock
-from bywire.hal.sim.hlc import Corruption
-from bywire.hal.sim.timers import PeriodicTimer
-from bywire.hal.sim.world import SimWorld
-from bywire.model import ControlMode, Gear, MovementCommand
-from bywire.runtime.app import Runtime
-from bywire.runtime.settings import RuntimeConfig
-from bywire.runtime.watchdog import POLL_S
-from bywire.sim.oracle import HazardOracle
+from bywire.model import ControlMode, Gear
+from bywire.runtime.watchdog import POLL_S as WATCHDOG_POLL_S
+from bywire.sim.oracle import CAN_SILENT, HazardOracle, OracleTiming
+from bywire.sim.runner import SimRun
+from bywire.sim.scenario import Event, Scenario
 
-WATCHDOG_S = 0.200
+RC, CAN, STOP = ControlMode.RC, ControlMode.CAN, ControlMode.STOP
 ARM_HOLD_S = 0.060  # how long `arm` holds the switch at STOP: eight frames
 HANDOVER_LEAD_S = 0.045  # the computer's new set-point is on the bus before the switch moves
+RE_ENABLE_RISE_S = 0.045  # a re-enable: 0 in the frames now, 1 two command periods later
+IMPOSTOR_PERIOD_S = 0.020  # the impostor sends one frame per command period
+STALL_OF_WATCHDOG = {"short": 0.25, "long": 1.5}  # a stall inside a DAC write, in watchdogs
+TAIL_S = 0.5
+
+VOCABULARY: dict[str, Sequence[object]] = {
+    # what the operator does
+    "arm": (RC, RC, CAN),  # switch to STOP, hold it, the source at zero, switch over
+    "flick": (0.005, 0.02, 0.05, 0.1),  # through STOP and straight back after this long
+    "handover": (0.0, 0.2, 0.6),  # to the other source, which asks for this throttle
+    "rc_throttle": (0.0, 0.0, 0.3, 0.8, -0.6),
+    "can_throttle": (0.0, 0.0, 0.2, 0.6),
+    # sticks, switches and set-points
+    "switch": tuple(ControlMode),
+    "rc_gear": tuple(Gear),
+    "rc_steer": (-0.6, 0.0, 0.5),
+    "rc_lights": (False, True),
+    "can_gear": tuple(Gear),
+    "can_steer": (-0.5, 0.0, 0.5),
+    "can_brake": (0.0, 0.0, 0.5, 1.0),
+    "can_lights": (False, True),
+    # the RC link
+    "chatter": range(4, 41),  # of the next frames every other one reads STOP
+    "rc_link": (False, True),
+    "rc_failsafe": (False, True),
+    "rc_implausible": range(1, 4),
+    "rc_corrupt": (1, 3, 10),  # frames with a damaged byte
+    "rc_garbage": (10, 40, 200),  # random bytes on the line
+    # the CAN link
+    "can_link": (False, True),  # the computer silent, or sending again
+    "can_repeat": range(1, 5),  # movement frames repeating their counter
+    "can_corrupt": ("crc", "length", "range"),  # the next three movement frames damaged
+    "can_cable": (False, True),  # unplugged, or plugged again
+    "can_flood": (0.0, 0.5, 1.0),  # other nodes' share of the bus (0: they stop)
+    "remote_stop": (False, True),
+    "re_enable": (None,),
+    "impostor": range(5, 41),  # frames a second node sends on the computer's id
+    # the actuators and sensors
+    "dac": ("fail", "alternate", "alternate", "restore"),
+    "stall": ("short", "long"),  # a DAC write hangs for a quarter or 1.5 watchdog periods
+    "wheel_sensor": (False, True),
+    "hydrobrake": (False, True),  # builds no pressure, or works again
+    "ebrake": (False,),  # the spring brake fails to engage
+    "servo": (False, True),  # stuck, or free again
+    "encoder": (False,),  # the steering encoder gives no reading
+}
+"""Every action a step may name, with the values it may take (a range: any whole number in it)."""
+
+OPERATOR = frozenset({"arm", "flick", "handover", "rc_throttle", "can_throttle"})
+"""What an operator does: drawn more often than any fault, so the robot is mostly driving."""
 
 
 @dataclass(frozen=True, slots=True)
 class Step:
-    """Wait `delay_s`, then do `action` with `value`."""
+    """Wait `delay_s`, then do `action` with `value` (one of `VOCABULARY[action]`)."""
 
     delay_s: float
     action: str
     value: object = None
+
+
+# --- compiling steps into scenario events ----------------------------------------------------
+
+
+@dataclass(slots=True)
+class _Compiler:
+    """Turns steps into timed scenario events, following what they do to the switch and the
+    remote stop request (a flick returns to where the switch was, a re-enable repeats the
+    request, a handover goes to the other source)."""
+
+    robot: RobotConfig
+    events: list[Event] = field(default_factory=list)
+    switch: ControlMode = STOP
+    remote_stop: bool = False
+    pending: list[tuple[float, int, Event]] = field(default_factory=list)
+    _order: int = 0
+
+    def compile(self, steps: Iterable[Step]) -> tuple[Event, ...]:
+        self._emit(Event(0.0, "rc", {"gear": "forward"}))
+        start = {"steering": 0.0, "throttle": 0.0, "brake": 0.0, "gear": "forward"}
+        self._emit(Event(0.0, "hlc", start))
+        at_s = 0.0
+        for step in steps:
+            at_s = round(at_s + step.delay_s, 6)
+            self._flush(at_s)
+            handler: Callable[[float, Any], None] = getattr(self, f"_{step.action}")
+            handler(at_s, step.value)
+        self._flush(float("inf"))
+        return tuple(self.events)
+
+    def _flush(self, until_s: float) -> None:
+        while self.pending and self.pending[0][0] <= until_s:
+            self._emit(heapq.heappop(self.pending)[2])
+
+    def _emit(self, event: Event) -> None:
+        if event.kind == "rc" and "mode" in event.values:
+            self.switch = ControlMode[event.values["mode"].upper()]
+        if event.kind == "hlc_control":
+            self.remote_stop = event.values["remote_stop"]
+        self.events.append(event)
+
+    def _later(self, at_s: float, kind: str, values: dict[str, Any]) -> None:
+        self._order += 1
+        heapq.heappush(
+            self.pending, (round(at_s, 6), self._order, Event(round(at_s, 6), kind, values))
+        )
+
+    def _fault(self, at_s: float, fault: str, **values: Any) -> None:
+        self._emit(Event(at_s, "fault", {"fault": fault, "count": 1, **values}))
+
+    # one method per action of VOCABULARY
+
+    def _switch(self, at_s: float, mode: ControlMode) -> None:
+        self._emit(Event(at_s, "rc", {"mode": mode.name.lower()}))
+
+    def _arm(self, at_s: float, mode: ControlMode) -> None:
+        self._switch(at_s, STOP)
+        if mode is RC:
+            self._later(at_s + ARM_HOLD_S, "rc", {"throttle": 0.0, "mode": "rc"})
+        else:
+            self._later(at_s + ARM_HOLD_S, "hlc", {"throttle": 0.0})
+            self._later(at_s + ARM_HOLD_S, "rc", {"mode": "can"})
+
+    def _flick(self, at_s: float, back_after_s: float) -> None:
+        back = self.switch
+        self._switch(at_s, STOP)
+        if back is not STOP:
+            self._later(at_s + back_after_s, "rc", {"mode": back.name.lower()})
+
+    def _handover(self, at_s: float, throttle: float) -> None:
+        if self.switch is not RC:
+            self._emit(Event(at_s, "rc", {"throttle": throttle, "mode": "rc"}))
+            return
+        self._emit(Event(at_s, "hlc", {"throttle": throttle}))
+        self._later(at_s + HANDOVER_LEAD_S, "rc", {"mode": "can"})
+
+    def _rc_throttle(self, at_s: float, value: float) -> None:
+        self._emit(Event(at_s, "rc", {"throttle": value}))
+
+    def _can_throttle(self, at_s: float, value: float) -> None:
+        self._emit(Event(at_s, "hlc", {"throttle": value}))
+
+    def _rc_gear(self, at_s: float, gear: Gear) -> None:
+        self._emit(Event(at_s, "rc", {"gear": gear.name.lower()}))
+
+    def _rc_steer(self, at_s: float, value: float) -> None:
+        self._emit(Event(at_s, "rc", {"steering": value}))
+
+    def _rc_lights(self, at_s: float, on: bool) -> None:
+        self._emit(Event(at_s, "rc", {"low_beam": on, "hazard": on}))
+
+    def _can_gear(self, at_s: float, gear: Gear) -> None:
+        self._emit(Event(at_s, "hlc", {"gear": gear.name.lower()}))
+
+    def _can_steer(self, at_s: float, value: float) -> None:
+        self._emit(Event(at_s, "hlc", {"steering": value}))
+
+    def _can_brake(self, at_s: float, value: float) -> None:
+        self._emit(Event(at_s, "hlc", {"brake": value}))
+
+    def _can_lights(self, at_s: float, on: bool) -> None:
+        self._emit(Event(at_s, "hlc_lights", {"turn_left": on, "low_beam": on}))
+
+    def _chatter(self, at_s: float, frames: int) -> None:
+        self._fault(at_s, "switch_chatter", count=frames)
+
+    def _rc_link(self, at_s: float, up: bool) -> None:
+        self._fault(at_s, "rc_link_restored" if up else "rc_link_lost")
+
+    def _rc_failsafe(self, at_s: float, on: bool) -> None:
+        self._fault(at_s, "rc_failsafe" if on else "rc_failsafe_off")
+
+    def _rc_implausible(self, at_s: float, frames: int) -> None:
+        self._fault(at_s, "rc_implausible", count=frames)
+
+    def _rc_corrupt(self, at_s: float, frames: int) -> None:
+        self._fault(at_s, "ibus_corrupt", count=frames)
+
+    def _rc_garbage(self, at_s: float, size: int) -> None:
+        self._fault(at_s, "ibus_garbage", count=size)
+
+    def _can_link(self, at_s: float, up: bool) -> None:
+        self._fault(at_s, "can_resume" if up else "can_silence")
+
+    def _can_repeat(self, at_s: float, frames: int) -> None:
+        self._fault(at_s, "can_corrupt_counter", count=frames)
+
+    def _can_corrupt(self, at_s: float, how: str) -> None:
+        self._fault(at_s, f"can_corrupt_{how}", count=3)
+
+    def _can_cable(self, at_s: float, plugged: bool) -> None:
+        self._fault(at_s, "can_plug" if plugged else "can_unplug")
+
+    def _can_flood(self, at_s: float, load: float) -> None:
+        if load:
+            self._fault(at_s, "can_flood", load=load)
+        else:
+            self._fault(at_s, "can_flood_off")
+
+    def _remote_stop(self, at_s: float, on: bool) -> None:
+        self._emit(Event(at_s, "hlc_control", {"remote_stop": on, "re_enable": False}))
+
+    def _re_enable(self, at_s: float, _value: None) -> None:
+        self._emit(
+            Event(at_s, "hlc_control", {"remote_stop": self.remote_stop, "re_enable": False})
+        )
+        self._later(
+            at_s + RE_ENABLE_RISE_S,
+            "hlc_control",
+            {"remote_stop": self.remote_stop, "re_enable": True},
+        )
+
+    def _impostor(self, at_s: float, frames: int) -> None:
+        self._fault(at_s, "can_impostor", count=frames)
+
+    def _dac(self, at_s: float, how: str) -> None:
+        faults = {"fail": "dac_fail", "alternate": "dac_nak_alternate", "restore": "dac_restore"}
+        self._fault(at_s, faults[how])
+
+    def _stall(self, at_s: float, length: str) -> None:
+        stall_s = round(STALL_OF_WATCHDOG[length] * self.robot.timeouts.watchdog_s, 6)
+        self._fault(at_s, "dac_stall", stall_s=stall_s)
+
+    def _wheel_sensor(self, at_s: float, alive: bool) -> None:
+        self._fault(at_s, "wheel_sensor_restore" if alive else "wheel_sensor_dead")
+
+    def _hydrobrake(self, at_s: float, works: bool) -> None:
+        self._fault(at_s, "hydrobrake_restore" if works else "hydrobrake_fail")
+
+    def _ebrake(self, at_s: float, _works: bool) -> None:
+        self._fault(at_s, "ebrake_fail")
+
+    def _servo(self, at_s: float, free: bool) -> None:
+        self._fault(at_s, "servo_free" if free else "servo_stuck")
+
+    def _encoder(self, at_s: float, _works: bool) -> None:
+        self._fault(at_s, "encoder_fail")
+
+
+def compile_steps(steps: Iterable[Step], robot: RobotConfig, name: str = "campaign") -> Scenario:
+    """The scenario that does what `steps` do, ending `TAIL_S` after the last of them."""
+    steps = list(steps)
+    events = _Compiler(robot).compile(steps)
+    end_s = max((event.at_s for event in events), default=0.0)
+    end_s = max(end_s, sum(step.delay_s for step in steps))
+    return Scenario(
+        name=name,
+        description=f"a fault campaign of {len(steps)} steps",
+        duration_s=round(end_s + TAIL_S, 6),
+        events=events,
+        expectations=(),
+    )
+
+
+# --- telling the oracle what each event did --------------------------------------------------
+
+
+@dataclass(slots=True)
+class OracleWitness:
+    """Tells the oracle what an event applied to the world means for the outputs: which faults
+    began or ended, where the switch went, what each source asks for."""
+
+    oracle: HazardOracle
+    clock: VirtualClock
+    remote_stop: bool = False
+    re_enable: bool = False
+
+    def __call__(self, event: Event, now: float) -> None:
+        getattr(self, f"_{event.kind}")(event.values, now)
+
+    def _rc(self, values: dict[str, Any], now: float) -> None:
+        oracle = self.oracle
+        if "throttle" in values:
+            oracle.set_throttle(RC, max(float(values["throttle"]), 0.0), now)
+        if "mode" in values:
+            mode = ControlMode[str(values["mode"]).upper()]
+            oracle.set_switch(mode, now)
+            if mode is CAN and oracle.faults & {*CAN_SILENT, "can_impostor", "remote_stop"}:
+                oracle.stop_event("can_lost", now)
+
+    def _hlc(self, values: dict[str, Any], now: float) -> None:
+        if "throttle" in values:
+            self.oracle.set_throttle(CAN, float(values["throttle"]), now)
+
+    def _hlc_lights(self, _values: dict[str, Any], _now: float) -> None:
+        return
+
+    def _hlc_control(self, values: dict[str, Any], now: float) -> None:
+        remote_stop, re_enable = bool(values["remote_stop"]), bool(values["re_enable"])
+        if remote_stop != self.remote_stop:
+            self.remote_stop = remote_stop
+            if not remote_stop or not self.oracle.faults & CAN_SILENT:
+                self.oracle.fault("remote_stop", remote_stop, now)  # arriving: every mode
+        if re_enable and not self.re_enable and self.oracle.switch is CAN:
+            self.oracle.re_enable(now)
+        self.re_enable = re_enable
+
+    def _can_fault(self, kind: str, active: bool, now: float) -> None:
+        oracle = self.oracle
+        if oracle.switch is CAN or not active:
+            oracle.fault(kind, active, now)
+        else:
+            oracle.faults.add(kind)  # blocks arming into CAN; RC drives on
+            oracle.fault_changed_at = now
+
+    def _can_back(self, kind: str, now: float) -> None:
+        self._can_fault(kind, False, now)
+        if self.remote_stop and not self.oracle.faults & CAN_SILENT:
+            self.oracle.fault("remote_stop", True, now)  # a request made while silent arrives
+
+    def _fault(self, values: dict[str, Any], now: float) -> None:
+        oracle, fault, count = self.oracle, str(values["fault"]), int(values.get("count", 1))
+        frame_s = oracle.timing.frame_s
+        actions: dict[str, Callable[[], None]] = {
+            "switch_chatter": lambda: oracle.stop_event("switch_stop", now),
+            "rc_link_lost": lambda: oracle.fault("rc_link_lost", True, now),
+            "rc_link_restored": lambda: oracle.fault("rc_link_lost", False, now),
+            "rc_failsafe": lambda: oracle.fault("rc_failsafe", True, now),
+            "rc_failsafe_off": lambda: oracle.fault("rc_failsafe", False, now),
+            "rc_implausible": lambda: oracle.stop_event("rc_implausible", now),
+            "ibus_corrupt": lambda: oracle.blind(RC, now + (count + 1) * frame_s),
+            "ibus_garbage": lambda: oracle.blind(RC, now + (count // 32 + 2) * frame_s),
+            "can_silence": lambda: self._can_fault("can_lost", True, now),
+            "can_resume": lambda: self._can_back("can_lost", now),
+            "can_unplug": lambda: self._can_fault("can_unplugged", True, now),
+            "can_plug": lambda: self._can_back("can_unplugged", now),
+            "can_impostor": lambda: self._impostor(count, now),
+            "dac_fail": lambda: oracle.fault("dac_fail", True, now),
+            "dac_nak_alternate": lambda: oracle.fault("dac_fail", True, now),
+            "dac_restore": lambda: oracle.fault("dac_fail", False, now),
+            "dac_stall": lambda: self._stall(float(values["stall_s"]), now),
+            "wheel_sensor_dead": lambda: setattr(oracle, "sensor_dead", True),
+        }
+        if fault.startswith("can_corrupt_"):
+            oracle.blind(CAN, now + (count + 1) * IMPOSTOR_PERIOD_S)
+        elif fault in actions:
+            actions[fault]()
+        # Anything else (a flood, a brake or the steering failing, an encoder dead) may stop the
+        # robot or not: the oracle never needs to know that it did.
+
+    def _impostor(self, frames: int, now: float) -> None:
+        self._can_fault("can_impostor", True, now)
+        # Over when its last frame is sent: the controller may trust the id again soon after
+        # (a window of good frames), and the oracle must never think a fault lasts longer.
+        end_s = now + frames * IMPOSTOR_PERIOD_S
+        self.clock.call_at(end_s, lambda: self._can_fault("can_impostor", False, end_s))
+
+    def _stall(self, stall_s: float, now: float) -> None:
+        timing = self.oracle.timing
+        if stall_s > timing.watchdog_s:
+            # The next DAC write (within one control period) hangs; the watchdog's poll trips.
+            trips_s = now + timing.control_period_s + timing.watchdog_s + 2 * WATCHDOG_POLL_S
+            self.oracle.stall(now, trips_s)
+
+
+# --- running a campaign ------------------------------------------------------------------------
 
 
 @dataclass(slots=True)
@@ -44,238 +397,46 @@ class CampaignResult:
 
     oracle: HazardOracle
     simulated_s: float
-    runtime: Runtime
+    events: int
+    transitions: set[str]
+    scenario: Scenario
 
 
 class Campaign:
-    """One robot, one sequence of steps, one oracle."""
+    """One robot (the simulator's, or the one a robot file describes), one sequence of steps,
+    one oracle."""
 
-    def __init__(self, config: RuntimeConfig | None = None) -> None:
-        self.clock = VirtualClock()
-        self.world = SimWorld.create(self.clock)
-        base = config or RuntimeConfig()
-        self.runtime = Runtime(
-            self.world.hardware, replace(base, watchdog_s=WATCHDOG_S), watchdog_thread=False
-        )
-        self.oracle = HazardOracle(self.world)
-        self.runtime.on_cycle.append(self.oracle.observe)
-        self._remote_stop = False
-        self._can_throttle = 0.0
-        self._can_gear = Gear.FORWARD
-        self.world.rc.set_gear(Gear.FORWARD)
-        self._send_movement()
-        watchdog = self.runtime.watchdog
-        if watchdog is not None:
+    def __init__(self, robot: RobotConfig | None = None) -> None:
+        self.robot = robot or default_sim_config()
 
-            def check(_tick_s: float) -> None:
-                watchdog.check()
+    def run(self, steps: Iterable[Step]) -> CampaignResult:
+        """Play the steps, then `TAIL_S` more; the oracle has seen every pass."""
+        return self.run_scenario(compile_steps(steps, self.robot))
 
-            PeriodicTimer(self.clock, POLL_S, check).start()
-        self._handlers: dict[str, Callable[[object], None]] = {
-            "switch": self._do_switch,
-            "rc_throttle": self._do_rc_throttle,
-            "rc_gear": self._do_rc_gear,
-            "rc_steer": self._do_rc_steer,
-            "arm": self._do_arm,
-            "flick": self._do_flick,
-            "handover": self._do_handover,
-            "chatter": self._do_chatter,
-            "rc_link": self._do_rc_link,
-            "rc_failsafe": self._do_rc_failsafe,
-            "rc_implausible": self._do_rc_implausible,
-            "can_throttle": self._do_can_throttle,
-            "can_gear": self._do_can_gear,
-            "can_link": self._do_can_link,
-            "can_repeat": self._do_can_repeat,
-            "remote_stop": self._do_remote_stop,
-            "re_enable": self._do_re_enable,
-            "impostor": self._do_impostor,
-            "dac": self._do_dac,
-            "stall": self._do_stall,
-            "wheel_sensor": self._do_wheel_sensor,
-        }
-        """Every action a step may name, with what it does."""
+    def run_scenario(self, scenario: Scenario) -> CampaignResult:
+        """Play a compiled campaign (or any scenario) with the oracle watching."""
+        run = SimRun(self.robot, scenario)
+        clock = cast(VirtualClock, run.world.clock)
+        timing = OracleTiming.for_robot(self.robot)
+        oracle = HazardOracle(run.world, self.robot.drive.dac.throttle_channel, timing=timing)
+        run.on_event.append(OracleWitness(oracle, clock))
+        log = TransitionLog(run)
+        run.runtime.on_cycle.append(oracle.observe)
+        run.runtime.on_cycle.append(log.observe)
+        run.run()
+        return CampaignResult(oracle, run.duration_s, len(scenario.events), log.seen, scenario)
 
-    def run(self, steps: list[Step], tail_s: float = 0.5) -> CampaignResult:
-        """Play the steps, then `tail_s` more; the oracle has seen every pass."""
-        at_s = 0.0
-        for step in steps:
-            at_s += step.delay_s
-            self.clock.call_at(at_s, self._action(step))
-        self.world.start()
-        self.runtime.run(until_s=at_s + tail_s)
-        self.world.stop()
-        return CampaignResult(self.oracle, at_s + tail_s, self.runtime)
 
-    # --- the actions ------------------------------------------------------------------------------
+@dataclass(slots=True)
+class TransitionLog:
+    """The rows of the supervisor's transition table a running controller took."""
 
-    def _action(self, step: Step) -> Callable[[], None]:
-        handler = self._handlers[step.action]
-        return lambda: handler(step.value)
+    run: SimRun
+    seen: set[str] = field(default_factory=set)
+    previous: SupervisorState = field(default_factory=SupervisorState)
 
-    @property
-    def _now(self) -> float:
-        return self.clock.now()
-
-    def _do_switch(self, value: object) -> None:
-        mode = cast(ControlMode, value)
-        self.world.rc.set_mode(mode)
-        self._note_switch(mode)
-
-    def _note_switch(self, mode: ControlMode) -> None:
-        oracle, now = self.oracle, self._now
-        oracle.set_switch(mode, now)
-        if mode is ControlMode.CAN and oracle.faults & {"can_lost", "can_impostor", "remote_stop"}:
-            oracle.stop_event("can_lost", now)
-
-    def _do_rc_throttle(self, value: object) -> None:
-        pedal = cast(float, value)
-        self.world.rc.set_pedal(pedal)
-        self.oracle.set_throttle(ControlMode.RC, max(pedal, 0.0), self._now)
-
-    def _do_rc_steer(self, value: object) -> None:
-        self.world.rc.set_steering(cast(float, value))
-
-    def _do_rc_gear(self, value: object) -> None:
-        self.world.rc.set_gear(cast(Gear, value))
-
-    def _do_arm(self, value: object) -> None:
-        """A deliberate act: switch to STOP, hold it, source at zero throttle, switch over."""
-        mode = cast(ControlMode, value)
-        self._do_switch(ControlMode.STOP)
-
-        def move() -> None:
-            if mode is ControlMode.RC:
-                self._do_rc_throttle(0.0)
-            else:
-                self._do_can_throttle(0.0)
-            self._do_switch(mode)
-
-        self.clock.call_at(self._now + ARM_HOLD_S, move)
-
-    def _do_flick(self, value: object) -> None:
-        """The switch through STOP and straight back after `value` seconds (sticks as they are)."""
-        back = self.oracle.switch
-        self._do_switch(ControlMode.STOP)
-        if back is not ControlMode.STOP:
-            self.clock.call_at(self._now + cast(float, value), lambda: self._do_switch(back))
-
-    def _do_handover(self, value: object) -> None:
-        """The switch from one driving source to the other (from STOP to RC), the incoming
-        source asking for throttle `value` since a little before (the computer already
-        commanding when the operator hands over; the stick moved with the switch)."""
-        other = ControlMode.CAN if self.oracle.switch is ControlMode.RC else ControlMode.RC
-        if other is ControlMode.RC:
-            self._do_rc_throttle(value)
-            self._do_switch(other)
-            return
-        self._do_can_throttle(value)
-        self.clock.call_at(self._now + HANDOVER_LEAD_S, lambda: self._do_switch(other))
-
-    def _do_chatter(self, value: object) -> None:
-        self.world.rc.chatter_next_frames(cast(int, value))
-        self.oracle.stop_event("switch_stop", self._now)
-
-    def _do_rc_link(self, up: object) -> None:
-        if up:
-            self.world.rc.link_restored()
-        else:
-            self.world.rc.link_lost()
-        self.oracle.fault("rc_link_lost", not up, self._now)
-
-    def _do_rc_failsafe(self, on: object) -> None:
-        rc = self.world.rc
-        if on:
-            mapping = rc.mapping
-            rc.failsafe({mapping.failsafe.channel: mapping.failsafe.below_raw - 50})
-        else:
-            rc.failsafe_off()
-        self.oracle.fault("rc_failsafe", bool(on), self._now)
-
-    def _do_rc_implausible(self, value: object) -> None:
-        self.world.rc.implausible_next_frames(cast(int, value))
-        self.oracle.stop_event("rc_implausible", self._now)
-
-    def _send_movement(self) -> None:
-        self.world.hlc.set_movement(0.0, self._can_throttle, 0.0, self._can_gear)
-
-    def _do_can_throttle(self, value: object) -> None:
-        self._can_throttle = cast(float, value)
-        self._send_movement()
-        self.oracle.set_throttle(ControlMode.CAN, self._can_throttle, self._now)
-
-    def _do_can_gear(self, value: object) -> None:
-        self._can_gear = cast(Gear, value)
-        self._send_movement()
-
-    def _do_can_link(self, up: object) -> None:
-        if up:
-            self.world.hlc.start()
-        else:
-            self.world.hlc.silence()
-        self._can_fault("can_lost", not up)
-        if up and self._remote_stop:  # a request made while silent arrives now
-            self.oracle.fault("remote_stop", True, self._now)
-
-    def _can_fault(self, kind: str, active: bool) -> None:
-        oracle, now = self.oracle, self._now
-        if oracle.switch is ControlMode.CAN or not active:
-            oracle.fault(kind, active, now)
-        else:
-            oracle.faults.add(kind)  # blocks arming into CAN; RC drives on
-            oracle.fault_changed_at = now
-
-    def _do_can_repeat(self, value: object) -> None:
-        self.world.hlc.corrupt_next(cast(int, value), Corruption.REPEATED_COUNTER, MovementCommand)
-
-    def _do_remote_stop(self, on: object) -> None:
-        self._remote_stop = bool(on)
-        self.world.hlc.set_control(self._remote_stop, re_enable=False)
-        if not self._remote_stop or "can_lost" not in self.oracle.faults:
-            self.oracle.fault("remote_stop", self._remote_stop, self._now)  # arriving: every mode
-
-    def _do_re_enable(self, _value: object) -> None:
-        """Re-enable requested: 0 in the frames now, 1 from two command periods later."""
-        hlc = self.world.hlc
-        hlc.set_control(self._remote_stop, re_enable=False)
-
-        def rise() -> None:
-            hlc.set_control(self._remote_stop, re_enable=True)
-            self.oracle.re_enable(self._now)
-
-        self.clock.call_at(self._now + 0.045, rise)
-
-    def _do_impostor(self, value: object) -> None:
-        frames = cast(int, value)
-        self.world.impostor.start(frames)
-        self._can_fault("can_impostor", True)
-        # Over when its last frame is sent: the controller may trust the id again soon after
-        # (a window of good frames), and the oracle must never think a fault lasts longer.
-        end_s = self._now + frames * 0.020
-        self.clock.call_at(end_s, lambda: self._can_fault("can_impostor", False))
-
-    def _do_dac(self, how: object) -> None:
-        dac = self.world.dac
-        if how == "restore":
-            dac.stop_failing()
-            self.oracle.fault("dac_fail", False, self._now)
-            return
-        if how == "fail":
-            dac.fail_writes()
-        else:
-            dac.fail_pattern((True, False))
-        self.oracle.fault("dac_fail", True, self._now)
-
-    def _do_stall(self, value: object) -> None:
-        stall_s = cast(float, value)
-        self.world.dac.stall_next_write(stall_s)
-        if stall_s > WATCHDOG_S:
-            # The next DAC write (within one control period) hangs; the watchdog's poll trips.
-            self.oracle.stall(self._now, self._now + 0.010 + WATCHDOG_S + 2 * POLL_S)
-
-    def _do_wheel_sensor(self, alive: object) -> None:
-        if alive:
-            self.world.wheel_sensor.restore()
-        else:
-            self.world.wheel_sensor.die()
-            self.oracle.sensor_dead = True
+    def observe(self, _now: float) -> None:
+        state = self.run.runtime.state.supervisor
+        if state is not self.previous:
+            self.seen.update(transition_labels(self.previous, state))
+            self.previous = state

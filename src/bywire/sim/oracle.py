@@ -26,42 +26,99 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 
+from bywire.config.model import RobotConfig
 from bywire.hal.sim.world import SimWorld
 from bywire.model import ControlMode
 
-FRAME_S = 0.0077
-SETTLE_S = 0.045  # a switch position counts after 3 frames; then one control period
-STOP_HOLD_S = 2 * FRAME_S  # the least hold at STOP in which 3 frames can show it
-UNSEEN_S = FRAME_S + 0.004  # a position held less than a frame (and its wire time) may be missed
-STANDSTILL_MPS = 0.05
-
-# How long after each kind of event the outputs may still drive (detection + frame + period).
-DEADLINES_S = {
-    "switch_stop": 0.030,
-    "rc_link_lost": 0.125,
-    "rc_failsafe": 0.030,
-    "rc_implausible": 0.030,
-    "remote_stop": 0.045,
-    "can_lost": 0.150,
-    "can_impostor": 0.200,
-    "dac_fail": 0.060,
-    "watchdog": 0.230,
-}
+CAN_PERIOD_S = 0.020  # the simulated computer's movement commands
+CAN_STALE_S = CAN_PERIOD_S + 0.005  # a CAN value may still be seen a period (and wire time) late
 
 
-# How long a fault must last before the controller can have noticed it at all: one that ends
-# sooner may have passed unseen (a link back before its timeout, a request never sent).
-UNNOTICED_S = {
-    "rc_link_lost": 0.110,
-    "rc_failsafe": 0.010,
-    "remote_stop": 0.025,
-    "can_lost": 0.125,
-    "can_impostor": 0.080,
-    "dac_fail": 0.030,
-}
+@dataclass(frozen=True, slots=True)
+class OracleTiming:
+    """How long the controller may take for each thing, from the robot's own numbers.
+
+    Every allowance is the configured timeout (or debounce) plus the frame, command period and
+    control periods in which the controller may notice it and act: the defaults reproduce the
+    figures `docs/SAFETY.md` gives, and a robot file with other timeouts gets other deadlines.
+    """
+
+    frame_s: float = 0.0077  # the RC receiver's frame period
+    debounce_frames: int = 3
+    rc_timeout_s: float = 0.100
+    can_timeout_s: float = 0.100
+    watchdog_s: float = 0.200
+    control_period_s: float = 0.010
+    standstill_mps: float = 0.05
+
+    @classmethod
+    def for_robot(cls, robot: RobotConfig) -> OracleTiming:
+        tasks = robot.tasks
+        slowest_hz = min(tasks.steering_rate_hz, tasks.driving_rate_hz, tasks.hydrobrake_rate_hz)
+        return cls(
+            frame_s=robot.sim.rc_frame_period_s,
+            debounce_frames=robot.supervisor.debounce_frames,
+            rc_timeout_s=robot.timeouts.rc_timeout_s,
+            can_timeout_s=robot.timeouts.can_command_timeout_s,
+            watchdog_s=robot.timeouts.watchdog_s,
+            control_period_s=1.0 / slowest_hz,
+            standstill_mps=robot.interlocks.standstill_speed_mps,
+        )
+
+    @property
+    def settle_s(self) -> float:
+        """A switch position counts after the debounce's frames; then one control period (and
+        slack for the frame's wire time)."""
+        return self.debounce_frames * self.frame_s + self.control_period_s + 0.012
+
+    @property
+    def stop_hold_s(self) -> float:
+        """The least hold at STOP in which the debounce's frames can show it."""
+        return (self.debounce_frames - 1) * self.frame_s
+
+    @property
+    def unseen_s(self) -> float:
+        """A position held less than a frame (and its wire time) may be missed."""
+        return self.frame_s + 0.004
+
+    def deadline_s(self, kind: str) -> float:
+        """How long after an event of `kind` the outputs may still drive: detection, then a
+        frame or command period, then the control periods that act on it."""
+        frame, period = self.frame_s, self.control_period_s
+        return {
+            "switch_stop": frame + 2 * period + 0.0023,
+            "rc_failsafe": frame + 2 * period + 0.0023,
+            "rc_implausible": frame + 2 * period + 0.0023,
+            "rc_link_lost": self.rc_timeout_s + frame + period + 0.0073,
+            "remote_stop": CAN_PERIOD_S + 2 * period + 0.005,
+            "can_lost": self.can_timeout_s + 2 * CAN_PERIOD_S + period,
+            "can_unplugged": self.can_timeout_s + 2 * CAN_PERIOD_S + period,
+            "can_impostor": 0.200,  # its frames are judged over a window of 16 counters
+            "dac_fail": 0.060,  # the leaky failure count (three failed writes) and a period
+            "watchdog": self.watchdog_s + 3 * period,
+        }[kind]
+
+    def unnoticed_s(self, kind: str) -> float:
+        """How long a fault must last before the controller can have noticed it at all: one
+        that ends sooner may have passed unseen (a link back before its timeout)."""
+        return {
+            "rc_link_lost": self.rc_timeout_s + 0.010,
+            "rc_failsafe": 0.010,
+            "remote_stop": 0.025,
+            "can_lost": self.can_timeout_s + 0.025,
+            "can_unplugged": self.can_timeout_s + 0.025,
+            "can_impostor": 0.080,
+            "dac_fail": 0.030,
+        }.get(kind, 0.0)
 
 
 RC_BORNE = frozenset({"switch_stop", "rc_implausible", "rc_failsafe"})
+BORNE_BY = dict.fromkeys(RC_BORNE, "rc")
+"""Events that frames carry, by the link that carries them (corrupted frames delay them)."""
+CAN_SILENT = frozenset({"can_lost", "can_unplugged"})
+"""Faults in which nothing the computer sends arrives."""
+CAN_ONLY = frozenset({*CAN_SILENT, "can_impostor", "remote_stop"})
+"""Faults that stop CAN mode and refuse arming into CAN, never RC."""
 
 
 @dataclass(slots=True)
@@ -75,7 +132,7 @@ class Violation:
 
 # How long a source's old value may still be what the controller sees after it changed: one
 # command period plus wire time for CAN; none for RC, whose switch and sticks share each frame.
-STALE_S = {ControlMode.RC: 0.0, ControlMode.CAN: 0.025}
+STALE_S = {ControlMode.RC: 0.0, ControlMode.CAN: CAN_STALE_S}
 
 
 @dataclass(slots=True)
@@ -91,6 +148,7 @@ class HazardOracle:
 
     world: SimWorld
     throttle_channel: int = 0
+    timing: OracleTiming = field(default_factory=OracleTiming)
     violations: list[Violation] = field(default_factory=list)
     checks: int = 0
     switch: ControlMode = ControlMode.STOP
@@ -110,6 +168,9 @@ class HazardOracle:
     source_before_stop: ControlMode = ControlMode.STOP
     began: dict[str, tuple[float, bool]] = field(default_factory=dict)
     left_at: dict[ControlMode, float] = field(default_factory=dict)
+    dac_back_at: float = -1.0  # when DAC writes last began to succeed again
+    rc_blind_until: float = -1.0  # IBUS frames may be lost to corruption until then
+    can_blind_until: float = -1.0  # the computer's frames may be dropped until then
 
     # --- what was done ----------------------------------------------------------------------------
 
@@ -119,11 +180,16 @@ class HazardOracle:
         silenced = {"rc_link_lost"} if kind != "switch_stop" else {"rc_link_lost", "rc_failsafe"}
         if kind in RC_BORNE and self.faults & silenced:
             return
+        # Frames being corrupted may hide the event until they are over.
+        blind_until = {"rc": self.rc_blind_until, "can": self.can_blind_until}.get(
+            BORNE_BY.get(kind, ""), now
+        )
+        deadline = max(now, blind_until) + self.timing.deadline_s(kind)
         if self.armed_ok:
             self.armed_ok = False
-            self.drive_allowed_until = now + DEADLINES_S[kind]
+            self.drive_allowed_until = deadline
         elif self.drive_allowed_until is not None:
-            self.drive_allowed_until = min(self.drive_allowed_until, now + DEADLINES_S[kind])
+            self.drive_allowed_until = min(self.drive_allowed_until, deadline)
 
     def fault(self, kind: str, active: bool, now: float) -> None:
         """A fault condition begins (and stops the robot) or ends; saying it again changes
@@ -137,9 +203,22 @@ class HazardOracle:
             self.stop_event(kind, now)
             return
         self.faults.discard(kind)
+        if kind == "dac_fail":
+            self.dac_back_at = now
         began_s, armed_before = self.began.pop(kind, (now, False))
-        if armed_before and now - began_s < UNNOTICED_S.get(kind, 0.0):
+        if armed_before and now - began_s < self.timing.unnoticed_s(kind):
             self.armed_ok, self.drive_allowed_until = True, None  # it may have passed unseen
+
+    def blind(self, source: ControlMode, until_s: float) -> None:
+        """Frames of `source` may be lost (corrupted, garbled) until `until_s`: what they carry
+        may reach the controller that much later."""
+        if source is ControlMode.RC:
+            self.rc_blind_until = max(self.rc_blind_until, until_s)
+        else:
+            self.can_blind_until = max(self.can_blind_until, until_s)
+
+    def _blind_until(self, source: ControlMode) -> float:
+        return self.rc_blind_until if source is ControlMode.RC else self.can_blind_until
 
     def set_switch(self, mode: ControlMode, now: float) -> None:
         if mode is self.switch:
@@ -158,14 +237,16 @@ class HazardOracle:
         self.left_at[was] = now
         source = self.sources[mode]
         # Back to a source within the debounce: the controller may never have left it.
-        returning = now - self.left_at.get(mode, -1.0) < SETTLE_S and was is not ControlMode.STOP
-        unseen = was is ControlMode.STOP and held_s < UNSEEN_S
+        since_left_s = now - self.left_at.get(mode, -1.0)
+        returning = since_left_s < self.timing.settle_s and was is not ControlMode.STOP
+        unseen = was is ControlMode.STOP and held_s < self.timing.unseen_s
         if unseen and self.armed_before_stop:
             self.armed_ok, self.drive_allowed_until = True, None  # no frame may have shown it
         if not returning and not (unseen and mode is self.source_before_stop):
-            recently_zero = now - source.left_zero_at < STALE_S[mode]  # may still be seen
+            stale_s = STALE_S[mode] + max(0.0, self._blind_until(mode) - source.left_zero_at)
+            recently_zero = now - source.left_zero_at < stale_s  # may still be seen
             source.seen_zero = source.throttle_norm == 0.0 or recently_zero
-        leaving = was is ControlMode.STOP and held_s >= STOP_HOLD_S
+        leaving = was is ControlMode.STOP and held_s >= self.timing.stop_hold_s
         if leaving or self.pending_arm is not None:  # still within the debounce: it may count
             self.pending_arm = (now, mode)
 
@@ -186,9 +267,12 @@ class HazardOracle:
             self._arm_now(now, ControlMode.CAN)
 
     def stall(self, started_s: float, trips_at_s: float) -> None:
-        """A write hangs from `started_s` past the watchdog's limit: it trips at `trips_at_s`."""
-        self.tripped_at = trips_at_s
-        self.held_pulse_s = None
+        """A write hangs from `started_s` past the watchdog's limit: it trips at `trips_at_s`.
+        With the switch already at STOP the trip is acknowledged as it happens (S2): H3 has
+        nothing to hold, and leaving STOP is an arming like any other."""
+        if self.switch is not ControlMode.STOP:
+            self.tripped_at = trips_at_s
+            self.held_pulse_s = None
         self.stop_event("watchdog", started_s)
 
     # --- what the hardware shows -----------------------------------------------------------------
@@ -209,7 +293,7 @@ class HazardOracle:
         self._h4(now, enable, volts)
 
     def _resolve_arming(self, now: float) -> None:
-        if self.pending_arm is None or now < self.pending_arm[0] + SETTLE_S:
+        if self.pending_arm is None or now < self.pending_arm[0] + self.timing.settle_s:
             return
         _, mode = self.pending_arm
         self.pending_arm = None
@@ -219,8 +303,7 @@ class HazardOracle:
     def _arm_now(self, now: float, target: ControlMode) -> None:
         """A deliberate act into `target`, unless a fault that must refuse it has been in
         force a while."""
-        can_only = {"can_lost", "can_impostor", "remote_stop"}
-        blocking = self.faults - (can_only if target is ControlMode.RC else set())
+        blocking = self.faults - (CAN_ONLY if target is ControlMode.RC else set())
         settled = now - self.fault_changed_at > 0.3
         if not (blocking and settled):
             self.armed_ok, self.drive_allowed_until = True, None
@@ -242,7 +325,7 @@ class HazardOracle:
 
     def _h2(self, now: float, volts: float) -> None:
         mode = self.switch
-        if volts <= 0.0 or mode is ControlMode.STOP or now < self.switch_at + SETTLE_S:
+        if volts <= 0.0 or mode is ControlMode.STOP or now < self.switch_at + self.timing.settle_s:
             return
         if not self.sources[mode].seen_zero:
             self._flag("H2", now, f"{mode.name} never at zero throttle; throttle={volts:.2f} V")
@@ -253,7 +336,9 @@ class HazardOracle:
         pulse = self.world.pwm.steering.pulse_s
         if self.held_pulse_s is None:
             self.held_pulse_s = pulse
-        stuck_dac = "dac_fail" in self.faults
+        # A DAC that failed may still hold its old voltage until the next period rewrites it.
+        rewrite_s = self.dac_back_at + 2 * self.timing.control_period_s
+        stuck_dac = "dac_fail" in self.faults or now <= rewrite_s
         if enable or released or (volts > 0.0 and not stuck_dac) or pulse != self.held_pulse_s:
             self._flag(
                 "H3",
@@ -265,9 +350,9 @@ class HazardOracle:
     def _h4(self, now: float, enable: bool, volts: float) -> None:
         if self.sensor_dead or not enable or volts <= 0.0:
             return
-        speed = self.world.vehicle.state.speed_mps
+        speed, standstill = self.world.vehicle.state.speed_mps, self.timing.standstill_mps
         forward = self.world.gpio["motors_forward"].level
         reverse = self.world.gpio["motors_reverse"].level
-        if (reverse and speed > STANDSTILL_MPS) or (forward and speed < -STANDSTILL_MPS):
+        if (reverse and speed > standstill) or (forward and speed < -standstill):
             direction = "reverse" if reverse else "forward"
             self._flag("H4", now, f"driven {direction} at {speed:.2f} m/s")

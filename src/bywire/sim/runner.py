@@ -121,6 +121,8 @@ class SimRun:
         }
         self._next_record_s = self.started_at
         self.runtime.on_cycle.append(self._observe)
+        self.on_event: list[Callable[[Event, float], None]] = []
+        """Called with each event just applied and the time (the hazard oracle's witness)."""
 
     def add_can_monitor(self, monitor: Callable[[LoggedFrame], None]) -> None:
         """Called with every frame that crosses the bus (the CAN log writer)."""
@@ -164,6 +166,8 @@ class SimRun:
                     length_s = expectation.during_s or expectation.within_s or 0.0
                     verdict.window = (now, now + length_s)
         getattr(self, f"_apply_{event.kind}")(event.values)
+        for listener in self.on_event:
+            listener(event, now)
 
     def _apply_rc(self, values: dict[str, Any]) -> None:
         rc = self.world.rc

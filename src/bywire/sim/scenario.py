@@ -38,6 +38,8 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+import tomli_w
+
 from bywire.errors import ConfigError
 
 RC_KEYS = {"steering", "throttle", "mode", "gear", "low_beam", "hazard"}
@@ -265,6 +267,47 @@ def _realtime(document: dict[str, Any], events: list[Event], origin: str) -> boo
     if not realtime and any(event.values.get("fault") == "loop_stall" for event in events):
         raise _refuse(origin, "realtime", "a loop_stall needs realtime = true")
     return realtime
+
+
+def scenario_toml(scenario: Scenario, header: str = "") -> str:
+    """The TOML text `parse_scenario` reads back as `scenario` (`header`: comment lines)."""
+    events = []
+    for event in scenario.events:
+        table: dict[str, Any] = {"at_s": event.at_s}
+        if event.label:
+            table["label"] = event.label
+        if event.kind == "fault":
+            table.update((k, v) for k, v in event.values.items() if k in _FAULT_VALUE_KEYS)
+        else:
+            table[event.kind] = dict(event.values)
+        events.append(table)
+    expectations = []
+    for expectation in scenario.expectations:
+        timing = {
+            key: value
+            for key, value in (
+                ("after", expectation.after),
+                ("within_s", expectation.within_s),
+                ("during_s", expectation.during_s),
+                ("at_s", expectation.at_s),
+                ("label", expectation.label),
+            )
+            if value is not None
+        }
+        expectations.append({**timing, **expectation.conditions})
+    document: dict[str, Any] = {
+        "name": scenario.name,
+        "description": scenario.description,
+        "duration_s": scenario.duration_s,
+    }
+    if scenario.realtime:
+        document["realtime"] = True
+    document.update(event=events, expect=expectations)
+    comments = "".join(f"# {line}\n" if line else "#\n" for line in header.splitlines())
+    return comments + tomli_w.dumps(document)
+
+
+_FAULT_VALUE_KEYS = ("fault", "count", "load", "stall_s")
 
 
 def load_scenario(path: Path) -> Scenario:

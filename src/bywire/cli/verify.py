@@ -1,0 +1,363 @@
+"""`bywire verify`: an adversarial safety campaign on your own robot configuration.
+
+Random fault campaigns (every action and fault the scenarios know: sticks, switches and their
+chatter, RC loss, failsafe, implausible and garbled frames, CAN silence, corruption, a second
+sender, a pulled cable and a flooded bus, remote stops and re-enables, DAC NAKs and stalls inside
+a write, dead sensors, failing brakes and steering) run on the simulated robot built from the
+configuration, in virtual time, on every core. After every pass of the control loop the hazard
+oracle checks the output invariants H1–H4 of docs/SAFETY.md on the simulated hardware.
+
+A violation is shrunk to a short scenario written to --out; `bywire sim --scenario FILE` replays
+it and fails. Exit status: 0 clean, 1 a violation or an unsafe combination of numbers, 2 a bad
+configuration or argument.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import multiprocessing
+import os
+import sys
+import time
+from collections import Counter
+from collections.abc import Iterable, Iterator
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+from rich.console import Console
+from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
+
+from bywire.cli.arguments import positive_seconds
+from bywire.config import RobotConfig, default_sim_config, load_config
+from bywire.config.hazards import unsafe_combinations
+from bywire.control.supervisor_check import TRANSITIONS
+from bywire.sim.scenario import scenario_toml
+from bywire.sim.verify import (
+    CAMPAIGN_S,
+    INVARIANTS,
+    Outcome,
+    Reproduction,
+    draw_campaign,
+    run_campaign,
+    shrink_failure,
+)
+
+DEFAULT_BUDGET = 200
+DEFAULT_OUT = Path("verify-failures")
+BATCH_PER_JOB = 8  # campaigns handed out at a time per process when running for a duration
+
+
+def _positive_int(text: str) -> int:
+    try:
+        value = int(text)
+    except ValueError:
+        value = 0
+    if value < 1:
+        raise argparse.ArgumentTypeError(f"must be a whole number >= 1, got {text!r}")
+    return value
+
+
+def _seed(text: str) -> int:
+    try:
+        value = int(text)
+    except ValueError:
+        value = -1
+    if value < 0:
+        raise argparse.ArgumentTypeError(f"must be a whole number >= 0, got {text!r}")
+    return value
+
+
+def configure(parser: argparse.ArgumentParser) -> None:
+    parser.formatter_class = argparse.RawDescriptionHelpFormatter
+    parser.description = "\n\n".join((__doc__ or "").split("\n\n")[1:]).strip()
+    parser.epilog = (
+        "Examples: `bywire verify` (the simulator's configuration, 200 campaigns); "
+        "`bywire verify --config robot.toml --duration 600` (ten minutes on every core). "
+        "The same --seed and --budget give the same campaigns and the same result."
+    )
+    parser.add_argument(
+        "--config",
+        type=Path,
+        metavar="FILE",
+        help="robot configuration TOML to verify (default: the packaged simulator defaults)",
+    )
+    amount = parser.add_mutually_exclusive_group()
+    amount.add_argument(
+        "--budget",
+        type=_positive_int,
+        metavar="N",
+        help=f"run N campaigns (default {DEFAULT_BUDGET})",
+    )
+    amount.add_argument(
+        "--duration",
+        type=positive_seconds,
+        metavar="S",
+        help="run campaigns for S seconds of wall time instead of a fixed number",
+    )
+    parser.add_argument(
+        "--jobs",
+        type=_positive_int,
+        metavar="N",
+        default=os.cpu_count() or 1,
+        help="processes to run campaigns in (default: every core, %(default)s here)",
+    )
+    parser.add_argument(
+        "--seed", type=_seed, default=0, metavar="S", help="random seed (default 0)"
+    )
+    parser.add_argument(
+        "--campaign-s",
+        type=positive_seconds,
+        default=CAMPAIGN_S,
+        metavar="S",
+        help=f"simulated seconds per campaign (default {CAMPAIGN_S:g})",
+    )
+    parser.add_argument(
+        "--out",
+        type=Path,
+        default=DEFAULT_OUT,
+        metavar="DIR",
+        help=f"where a failure's scenario TOML is written (default ./{DEFAULT_OUT})",
+    )
+    parser.add_argument(
+        "--keep-going",
+        action="store_true",
+        help="run the campaigns even when the configuration is unsafe by construction",
+    )
+    parser.add_argument("--json", action="store_true", help="print the summary as JSON")
+
+
+# --- running campaigns on every core -----------------------------------------------------------
+
+_ROBOT: RobotConfig | None = None  # each worker's robot, set before the pool forks
+
+
+@dataclass(frozen=True, slots=True)
+class _Job:
+    seed: int
+    campaign_s: float
+
+
+def _run_one(job: _Job, index: int) -> Outcome:
+    robot = _ROBOT if _ROBOT is not None else default_sim_config()
+    return run_campaign(robot, draw_campaign(job.seed, index, job.campaign_s), index)
+
+
+def _run_index(arguments: tuple[_Job, int]) -> Outcome:
+    return _run_one(*arguments)
+
+
+def _outcomes(
+    robot: RobotConfig, job: _Job, jobs: int, budget: int | None, until: float | None
+) -> Iterator[Outcome]:
+    """Every campaign's outcome as it finishes: `budget` of them, or as many as fit before the
+    wall-clock time `until`."""
+    global _ROBOT  # noqa: PLW0603 - read by the forked workers
+    _ROBOT = robot
+    if jobs == 1:
+        yield from _serial(job, budget, until)
+        return
+    with multiprocessing.get_context("fork").Pool(jobs) as pool:
+        if budget is not None:
+            yield from pool.imap_unordered(_run_index, ((job, i) for i in range(budget)), 2)
+            return
+        start = 0
+        while until is None or time.monotonic() < until:
+            batch = range(start, start + jobs * BATCH_PER_JOB)
+            yield from pool.imap_unordered(_run_index, ((job, i) for i in batch))
+            start = batch.stop
+
+
+def _serial(job: _Job, budget: int | None, until: float | None) -> Iterator[Outcome]:
+    index = 0
+    while (budget is None or index < budget) and (until is None or time.monotonic() < until):
+        yield _run_one(job, index)
+        index += 1
+
+
+@dataclass(slots=True)
+class Tally:
+    """What the campaigns did, added up."""
+
+    campaigns: int = 0
+    simulated_s: float = 0.0
+    events: int = 0
+    checks: int = 0
+    violations: Counter[str] = field(default_factory=Counter)
+    transitions: set[str] = field(default_factory=set)
+    failing: dict[str, Outcome] = field(default_factory=dict)  # the first campaign per invariant
+
+    def add(self, outcome: Outcome) -> None:
+        self.campaigns += 1
+        self.simulated_s += outcome.simulated_s
+        self.events += outcome.events
+        self.checks += outcome.checks
+        self.transitions |= outcome.transitions
+        for invariant in {finding.invariant for finding in outcome.findings}:
+            self.violations[invariant] += 1
+            first = self.failing.get(invariant)
+            if first is None or outcome.index < first.index:
+                self.failing[invariant] = outcome
+
+
+def _progress(console: Console, show: bool) -> Progress:
+    return Progress(
+        TextColumn("[bold]{task.description}"),
+        BarColumn(),
+        MofNCompleteColumn(),
+        TextColumn("{task.fields[status]}"),
+        TimeElapsedColumn(),
+        console=console,
+        disable=not show,
+        transient=True,
+    )
+
+
+def run(args: argparse.Namespace) -> int:
+    robot = default_sim_config() if args.config is None else load_config(args.config)
+    source = str(args.config) if args.config is not None else "the simulator's defaults"
+    console = Console(stderr=True)
+    show = sys.stderr.isatty() and not args.json
+    unsafe = unsafe_combinations(robot)
+    if unsafe and not args.keep_going:
+        _report_unsafe(source, unsafe, as_json=args.json)
+        return 1
+    for combination in unsafe:
+        console.print(f"warning: unsafe by construction: {combination}")
+    budget = args.budget if args.budget is not None or args.duration else DEFAULT_BUDGET
+    until = None if args.duration is None else time.monotonic() + args.duration
+    job = _Job(args.seed, args.campaign_s)
+    tally = Tally()
+    started = time.perf_counter()
+    with _progress(console, show) as progress:
+        task = progress.add_task("campaigns", total=budget, status="")
+        for outcome in _outcomes(robot, job, args.jobs, budget, until):
+            tally.add(outcome)
+            status = ", ".join(f"{k} {n}" for k, n in sorted(tally.violations.items()))
+            progress.update(task, advance=1, status=status or "0 violations")
+    wall_s = time.perf_counter() - started
+    reproductions = _shrink_all(robot, tally, args, console, show)
+    summary = _summary(source, args, tally, wall_s, reproductions)
+    if args.json:
+        print(json.dumps(summary, indent=2))
+    else:
+        _print_summary(Console(), summary)
+    return 1 if tally.violations else 0
+
+
+def _report_unsafe(source: str, unsafe: Iterable[Any], *, as_json: bool) -> None:
+    problems = [{"keys": list(c.keys), "problem": c.problem, "fix": c.fix} for c in unsafe]
+    if as_json:
+        print(json.dumps({"config": source, "unsafe_combinations": problems}, indent=2))
+        return
+    print(f"{source}: unsafe by construction; no campaign was run (--keep-going runs them):")
+    for problem in problems:
+        print(f"  {' + '.join(problem['keys'])}: {problem['problem']}; {problem['fix']}")
+
+
+def _shrink_all(
+    robot: RobotConfig,
+    tally: Tally,
+    args: argparse.Namespace,
+    console: Console,
+    show: bool,
+) -> list[Reproduction]:
+    """Shrink the first failing campaign of each broken invariant and write its scenario."""
+    reproductions = []
+    if tally.failing:
+        args.out.mkdir(parents=True, exist_ok=True)
+    for invariant, outcome in sorted(tally.failing.items()):
+        name = f"verify-seed{args.seed}-campaign{outcome.index}-{invariant}"
+        with _progress(console, show) as progress:
+            task = progress.add_task(f"shrinking {invariant}", total=None, status="")
+
+            def ran(runs: int, task: Any = task, progress: Progress = progress) -> None:
+                progress.update(task, status=f"{runs} runs")
+
+            found = shrink_failure(robot, outcome, invariant, name, on_run=ran)
+        path = args.out / f"{name}.toml"
+        replay = f"bywire sim --scenario {path}"
+        if args.config is not None:
+            replay += f" --config {args.config}"
+        header = (
+            f"Found by `bywire verify --seed {args.seed}` (campaign {outcome.index}),"
+            f" shrunk from {found.original_steps} steps to {len(found.steps)}"
+            f" in {found.shrink_runs} runs.\nReplay: {replay}\n"
+            f"The expectation fails: {found.finding.invariant} of docs/SAFETY.md broke there."
+        )
+        path.write_text(scenario_toml(found.scenario, header), encoding="utf-8")
+        found.notes.append(str(path))
+        reproductions.append(found)
+    return reproductions
+
+
+def _summary(
+    source: str,
+    args: argparse.Namespace,
+    tally: Tally,
+    wall_s: float,
+    reproductions: list[Reproduction],
+) -> dict[str, Any]:
+    never = [label for label in TRANSITIONS if label not in tally.transitions]
+    return {
+        "config": source,
+        "seed": args.seed,
+        "jobs": args.jobs,
+        "campaigns": tally.campaigns,
+        "simulated_s": round(tally.simulated_s, 3),
+        "wall_s": round(wall_s, 3),
+        "campaigns_per_minute": round(tally.campaigns / wall_s * 60, 1) if wall_s else None,
+        "speed_up": round(tally.simulated_s / wall_s, 1) if wall_s else None,
+        "events_injected": tally.events,
+        "invariant_checks": tally.checks * len(INVARIANTS),
+        "passes_checked": tally.checks,
+        "violations": {invariant: tally.violations[invariant] for invariant in INVARIANTS},
+        "transitions": {
+            "exercised": len(TRANSITIONS) - len(never),
+            "of": len(TRANSITIONS),
+            "never": never,
+        },
+        "failures": [
+            {
+                "invariant": r.finding.invariant,
+                "time_s": r.finding.time_s,
+                "detail": r.finding.detail,
+                "steps": len(r.steps),
+                "shrunk_from": r.original_steps,
+                "scenario": r.notes[0] if r.notes else None,
+            }
+            for r in reproductions
+        ],
+    }
+
+
+def _print_summary(console: Console, summary: dict[str, Any]) -> None:
+    violations = summary["violations"]
+    transitions = summary["transitions"]
+    console.print(f"[bold]bywire verify[/bold] on {summary['config']} (seed {summary['seed']})")
+    console.print(
+        f"  {summary['campaigns']} campaigns, {summary['simulated_s']:.0f} s simulated in"
+        f" {summary['wall_s']:.1f} s on {summary['jobs']} processes"
+        f" ({summary['campaigns_per_minute']} campaigns/min, {summary['speed_up']}x real time)"
+    )
+    console.print(
+        f"  {summary['events_injected']} events injected, {summary['passes_checked']} passes"
+        f" checked ({summary['invariant_checks']} invariant checks)"
+    )
+    shown = ", ".join(f"{name} {count}" for name, count in violations.items())
+    console.print(f"  campaigns violating: {shown}")
+    console.print(
+        f"  supervisor transitions exercised: {transitions['exercised']} of {transitions['of']}"
+    )
+    for label in transitions["never"]:
+        console.print(f"    never: {label}", highlight=False)
+    for failure in summary["failures"]:
+        console.print(
+            f"[red]  {failure['invariant']} broken at {failure['time_s']:.3f} s:"
+            f" {failure['detail']}[/red]; shrunk from {failure['shrunk_from']} steps to"
+            f" {failure['steps']}: {failure['scenario']}",
+            highlight=False,
+        )
+    verdict = "[red]VIOLATIONS[/red]" if any(violations.values()) else "[green]clean[/green]"
+    console.print(f"  result: {verdict}")

@@ -1,0 +1,249 @@
+"""`bywire verify`'s engine: random fault campaigns on one robot configuration, each judged by
+the hazard oracle; a failing one shrunk to a short scenario that replays the failure.
+
+Campaign `index` of seed `seed` is drawn from its own random source (`draw_campaign`), so a run
+is the same for a given seed and budget however many processes share it, and any one campaign
+can be drawn again alone. A campaign starts armed and driving (by RC or by CAN), then goes on
+at random over every action of `campaign.VOCABULARY` until `campaign_s` of simulated time.
+"""
+
+from __future__ import annotations
+
+import random
+from collections.abc import Callable, Iterator
+from dataclasses import dataclass, field, replace
+from typing import Any
+
+from bywire.config import RobotConfig
+from bywire.model import ControlMode
+from bywire.sim.campaign import OPERATOR, TAIL_S, VOCABULARY, Campaign, Step, compile_steps
+from bywire.sim.scenario import Expectation, Scenario
+
+CAMPAIGN_S = 10.0
+DELAY_S = (0.005, 0.6)  # the wait before each step, drawn uniformly, to the millisecond
+WEIGHTS = {action: 4.0 if action in OPERATOR else 1.0 for action in VOCABULARY}
+WEIGHTS.update(ebrake=0.25, encoder=0.25)  # lasting faults: rarer, or the robot stays stopped
+SHRINK_RUNS = 300  # at most this many campaigns to shrink one failure
+INVARIANTS = ("H1", "H2", "H3", "H4")
+# What the hardware should have shown where each invariant broke: the expectation of the
+# scenario a failure is written as (it fails when replayed, at the instant the oracle flagged).
+SAFE_LEVELS: dict[str, dict[str, Any]] = {
+    "H1": {"motors_enabled": False, "ebrake_engaged": True},
+    "H2": {"throttle_volts_max": 0.0},
+    "H3": {"motors_enabled": False, "ebrake_engaged": True, "throttle_volts_max": 0.0},
+    "H4": {"throttle_volts_max": 0.0},
+}
+
+
+@dataclass(frozen=True, slots=True)
+class Finding:
+    """One invariant broken: which, when (simulated seconds from the start) and what showed."""
+
+    invariant: str
+    time_s: float
+    detail: str
+
+
+@dataclass(slots=True)
+class Outcome:
+    """One campaign's result, small enough to send between processes."""
+
+    index: int
+    steps: list[Step]
+    simulated_s: float
+    events: int
+    checks: int
+    findings: list[Finding]
+    transitions: set[str]
+
+
+def draw_campaign(seed: int, index: int, campaign_s: float = CAMPAIGN_S) -> list[Step]:
+    """Campaign `index` of `seed`: armed and driving first, then random steps to `campaign_s`."""
+    rng = random.Random(f"bywire-verify:{seed}:{index}")
+    mode = rng.choice([ControlMode.RC, ControlMode.CAN])
+    throttle = rng.choice([0.0, 0.3, 0.6, 0.6])
+    source = "rc_throttle" if mode is ControlMode.RC else "can_throttle"
+    steps = [Step(0.2, "arm", mode), Step(0.15, source, throttle)]
+    actions, weights = list(WEIGHTS), list(WEIGHTS.values())
+    at_s = sum(step.delay_s for step in steps)
+    while True:
+        delay_s = round(rng.uniform(*DELAY_S), 3)
+        if at_s + delay_s > campaign_s - TAIL_S:
+            return steps
+        at_s += delay_s
+        action = rng.choices(actions, weights)[0]
+        steps.append(Step(delay_s, action, rng.choice(VOCABULARY[action])))
+
+
+def run_campaign(robot: RobotConfig, steps: list[Step], index: int = 0) -> Outcome:
+    """Play `steps` on `robot` with the oracle watching every pass."""
+    result = Campaign(robot).run(steps)
+    oracle = result.oracle
+    findings = [Finding(v.invariant, v.time_s, v.detail) for v in oracle.violations]
+    return Outcome(
+        index,
+        steps,
+        result.simulated_s,
+        result.events,
+        oracle.checks,
+        findings,
+        result.transitions,
+    )
+
+
+# --- shrinking ---------------------------------------------------------------------------------
+
+
+@dataclass(slots=True)
+class Shrinker:
+    """Makes a failing campaign shorter and simpler while it still breaks `invariant`: first
+    what follows the failure goes, then chunks of steps (halves, quarters, … single ones; a
+    dropped step's wait is added to the next, so the others keep their times), then each value
+    is replaced by a simpler one of its action's vocabulary, then waits are rounded."""
+
+    robot: RobotConfig
+    invariant: str
+    max_runs: int = SHRINK_RUNS
+    runs: int = 0
+    on_run: Callable[[int], None] | None = None
+
+    def fails(self, steps: list[Step]) -> Outcome | None:
+        """The outcome when `steps` still break the invariant, else None."""
+        if self.runs >= self.max_runs or not steps:
+            return None
+        self.runs += 1
+        if self.on_run is not None:
+            self.on_run(self.runs)
+        outcome = run_campaign(self.robot, steps)
+        broken = any(f.invariant == self.invariant for f in outcome.findings)
+        return outcome if broken else None
+
+    def shrink(self, steps: list[Step], failure_s: float) -> list[Step]:
+        """The shortest, simplest steps found that still fail (at worst `steps` themselves)."""
+        best = _until(steps, failure_s)
+        if self.fails(best) is None:
+            best = steps
+        best = self._drop_chunks(best)
+        best = self._simplify(best, _simpler_values)
+        return self._simplify(best, _rounder_waits)
+
+    def _drop_chunks(self, steps: list[Step]) -> list[Step]:
+        size = max(1, len(steps) // 2)
+        while True:
+            start = 0
+            while start < len(steps):
+                candidate = _without(steps, start, size)
+                if self.fails(candidate) is not None:
+                    steps = candidate
+                else:
+                    start += size
+            if size == 1:
+                return steps
+            size = max(1, size // 2)
+
+    def _simplify(self, steps: list[Step], options: Callable[[Step], Iterator[Step]]) -> list[Step]:
+        for position in range(len(steps)):
+            for simpler in options(steps[position]):
+                candidate = [*steps[:position], simpler, *steps[position + 1 :]]
+                if self.fails(candidate) is not None:
+                    steps = candidate
+                    break
+        return steps
+
+
+def _until(steps: list[Step], failure_s: float) -> list[Step]:
+    """The steps that happen no later than `failure_s`."""
+    kept, at_s = [], 0.0
+    for step in steps:
+        at_s += step.delay_s
+        if at_s > failure_s:
+            break
+        kept.append(step)
+    return kept
+
+
+def _without(steps: list[Step], start: int, size: int) -> list[Step]:
+    """`steps` with `size` of them from `start` dropped; their waits go to the next one."""
+    dropped = steps[start : start + size]
+    rest = steps[start + size :]
+    if rest:
+        wait_s = round(sum(step.delay_s for step in dropped) + rest[0].delay_s, 6)
+        rest = [replace(rest[0], delay_s=wait_s), *rest[1:]]
+    return [*steps[:start], *rest]
+
+
+def _simpler_values(step: Step) -> Iterator[Step]:
+    values = VOCABULARY[step.action]
+    if isinstance(values, range):
+        value = int(step.value)  # type: ignore[call-overload]
+        candidates: list[object] = [values.start, (values.start + value) // 2]
+    else:
+        candidates = list(values[: list(values).index(step.value)])
+    for value in dict.fromkeys(candidates):
+        if value != step.value:
+            yield replace(step, value=value)
+
+
+def _rounder_waits(step: Step) -> Iterator[Step]:
+    for grid_s in (0.1, 0.01):
+        rounded = round(round(step.delay_s / grid_s) * grid_s, 6)
+        if rounded != step.delay_s and rounded > 0:
+            yield replace(step, delay_s=rounded)
+
+
+# --- a failure as a scenario -------------------------------------------------------------------
+
+
+@dataclass(slots=True)
+class Reproduction:
+    """A shrunk failure: its steps, the scenario that replays it, and what broke."""
+
+    steps: list[Step]
+    scenario: Scenario
+    finding: Finding
+    shrink_runs: int = 0
+    original_steps: int = 0
+    notes: list[str] = field(default_factory=list)
+
+
+def reproduction(
+    robot: RobotConfig, steps: list[Step], finding: Finding, name: str
+) -> Reproduction:
+    """The scenario of `steps` with one expectation: the safe levels `finding.invariant` asks
+    for, at the instant the oracle found them broken (so replaying it fails there)."""
+    compiled = compile_steps(steps, robot, name=name)
+    label = f"{finding.invariant} at {finding.time_s:.4f} s: {finding.detail}"
+    expectation = Expectation(
+        conditions=dict(SAFE_LEVELS[finding.invariant]), at_s=finding.time_s, label=label
+    )
+    description = (
+        f"found by bywire verify: {finding.invariant} broken ({finding.detail}); {len(steps)} steps"
+    )
+    scenario = replace(
+        compiled,
+        description=description,
+        duration_s=max(compiled.duration_s, round(finding.time_s + TAIL_S, 6)),
+        expectations=(expectation,),
+    )
+    return Reproduction(steps, scenario, finding)
+
+
+def shrink_failure(
+    robot: RobotConfig,
+    outcome: Outcome,
+    invariant: str,
+    name: str,
+    on_run: Callable[[int], None] | None = None,
+) -> Reproduction:
+    """Shrink the failing campaign `outcome` for `invariant` and make it a scenario."""
+    first = next(f for f in outcome.findings if f.invariant == invariant)
+    shrinker = Shrinker(robot, invariant, on_run=on_run)
+    steps = shrinker.shrink(outcome.steps, first.time_s)
+    final = run_campaign(robot, steps)
+    found = next((f for f in final.findings if f.invariant == invariant), None)
+    if found is None:  # shrinking ran out of runs before it failed again: keep the original
+        steps, found = outcome.steps, first
+    result = reproduction(robot, steps, found, name)
+    result.shrink_runs = shrinker.runs
+    result.original_steps = len(outcome.steps)
+    return result

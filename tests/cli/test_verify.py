@@ -1,0 +1,102 @@
+"""`bywire verify` from the command line: the default budget is clean on the default robot, the
+same seed gives the same run on any number of processes, an unsafe configuration is reported
+before anything runs, and a failure is written where `bywire sim --scenario` replays it."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import pytest
+
+from bywire.cli.main import main
+from bywire.control.supervisor_check import TRANSITIONS
+from tests.system.old_bugs import OLD_BUGS
+
+
+def _verify(capsys: pytest.CaptureFixture[str], *args: str) -> tuple[int, dict[str, object]]:
+    status = main(["verify", "--json", *args])
+    output = capsys.readouterr().out
+    return status, json.loads(output)
+
+
+def test_the_default_budget_on_the_default_robot_is_clean(
+    capsys: pytest.CaptureFixture[str], tmp_path: Path
+) -> None:
+    status, summary = _verify(capsys, "--jobs", "2", "--out", str(tmp_path))
+    with capsys.disabled():
+        print(
+            f"\nbywire verify: {summary['campaigns']} campaigns, {summary['simulated_s']} s"
+            f" simulated in {summary['wall_s']} s, transitions {summary['transitions']}"
+        )
+    assert status == 0
+    assert summary["campaigns"] == 200
+    assert summary["violations"] == {"H1": 0, "H2": 0, "H3": 0, "H4": 0}
+    assert summary["failures"] == []
+    assert list(tmp_path.iterdir()) == []  # nothing written when clean
+    transitions = summary["transitions"]
+    assert isinstance(transitions, dict)
+    assert transitions["of"] == len(TRANSITIONS)
+    assert transitions["exercised"] >= 0.7 * len(TRANSITIONS)
+
+
+def test_the_same_seed_gives_the_same_run_on_any_number_of_processes(
+    capsys: pytest.CaptureFixture[str],
+) -> None:
+    runs = [
+        _verify(capsys, "--budget", "4", "--campaign-s", "3", "--seed", "9", "--jobs", jobs)[1]
+        for jobs in ("1", "2")
+    ]
+    keys = ("campaigns", "simulated_s", "events_injected", "passes_checked", "transitions")
+    assert {key: runs[0][key] for key in keys} == {key: runs[1][key] for key in keys}
+    other = _verify(capsys, "--budget", "4", "--campaign-s", "3", "--seed", "10", "--jobs", "1")
+    assert other[1]["events_injected"] != runs[0]["events_injected"]
+
+
+def test_an_unsafe_configuration_is_reported_with_its_keys_before_any_campaign(
+    capsys: pytest.CaptureFixture[str], tmp_path: Path
+) -> None:
+    robot = tmp_path / "robot.toml"
+    robot.write_text("[timeouts]\ncan_command_timeout_s = 0.5\nwatchdog_s = 0.2\n")
+    status = main(["verify", "--config", str(robot)])
+    output = capsys.readouterr().out
+    assert status == 1
+    assert "timeouts.can_command_timeout_s" in output
+    assert "timeouts.watchdog_s" in output
+    assert "no campaign was run" in output
+
+
+@pytest.mark.parametrize("bad", [["--budget", "0"], ["--jobs", "x"], ["--seed", "-1"]])
+def test_bad_arguments_are_refused(bad: list[str], capsys: pytest.CaptureFixture[str]) -> None:
+    with pytest.raises(SystemExit) as caught:
+        main(["verify", *bad])
+    assert caught.value.code == 2
+    assert bad[0] in capsys.readouterr().err
+
+
+def test_a_failure_is_shrunk_and_written_as_a_scenario_sim_replays(
+    capsys: pytest.CaptureFixture[str], monkeypatch: pytest.MonkeyPatch, tmp_path: Path
+) -> None:
+    OLD_BUGS["row_3_a_refused_arming_is_remembered"](monkeypatch)
+    status, summary = _verify(
+        capsys, "--budget", "10", "--jobs", "1", "--seed", "0", "--out", str(tmp_path)
+    )
+    assert status == 1
+    failures = summary["failures"]
+    assert isinstance(failures, list)
+    assert failures
+    written = Path(failures[0]["scenario"])
+    assert written.parent == tmp_path
+    text = written.read_text()
+    assert text.startswith("# Found by `bywire verify --seed 0`")
+    assert "Replay: bywire sim --scenario" in text
+    assert main(["sim", "--scenario", str(written), "--json"]) == 1
+
+
+def test_a_duration_runs_campaigns_until_the_time_is_up(
+    capsys: pytest.CaptureFixture[str],
+) -> None:
+    status, summary = _verify(capsys, "--duration", "1", "--campaign-s", "1", "--jobs", "1")
+    assert status == 0
+    assert isinstance(summary["campaigns"], int)
+    assert summary["campaigns"] >= 1

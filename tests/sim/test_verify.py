@@ -1,0 +1,88 @@
+"""`bywire verify`'s engine: campaigns drawn the same way every time, over the whole vocabulary,
+compiled to scenarios that replay exactly; and teeth: old safety bugs put back are found, shrunk
+and written as a scenario that `bywire sim --scenario` fails on (and passes on once fixed)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+
+from bywire.cli.main import main
+from bywire.config import default_sim_config
+from bywire.sim.campaign import VOCABULARY, Campaign, compile_steps
+from bywire.sim.scenario import parse_scenario, scenario_toml
+from bywire.sim.verify import Outcome, draw_campaign, run_campaign, shrink_failure
+from tests.system.old_bugs import OLD_BUGS
+
+ROBOT = default_sim_config()
+SEARCH_LIMIT = 40  # campaigns to look through for a re-introduced bug
+
+
+def test_a_campaign_is_drawn_the_same_for_its_seed_and_index() -> None:
+    assert draw_campaign(3, 7) == draw_campaign(3, 7)
+    assert draw_campaign(3, 7) != draw_campaign(3, 8)
+    assert draw_campaign(3, 7) != draw_campaign(4, 7)
+
+
+def test_campaigns_last_their_length_and_start_armed_and_driving() -> None:
+    steps = draw_campaign(0, 0, campaign_s=10.0)
+    assert steps[0].action == "arm"
+    assert steps[1].action in {"rc_throttle", "can_throttle"}
+    assert 9.0 < sum(step.delay_s for step in steps) <= 9.5
+
+
+def test_campaigns_draw_every_action_and_value_of_the_vocabulary() -> None:
+    drawn = [step for index in range(300) for step in draw_campaign(0, index)[2:]]
+    assert {step.action for step in drawn} == set(VOCABULARY)
+    for action, values in VOCABULARY.items():
+        seen = {step.value for step in drawn if step.action == action}
+        assert seen <= set(values)
+        if not isinstance(values, range):
+            assert seen == set(values), action
+
+
+def test_a_campaign_written_as_toml_replays_to_the_same_run() -> None:
+    steps = draw_campaign(0, 5, campaign_s=4.0)
+    compiled = compile_steps(steps, ROBOT)
+    replayed = parse_scenario(scenario_toml(compiled, "a comment"), "campaign.toml")
+    assert [(e.at_s, e.kind) for e in replayed.events] == [
+        (e.at_s, e.kind) for e in compiled.events
+    ]
+    first = Campaign(ROBOT).run_scenario(compiled)
+    second = Campaign(ROBOT).run_scenario(replayed)
+    assert first.oracle.checks == second.oracle.checks > 0
+    assert first.transitions == second.transitions
+    assert first.simulated_s == second.simulated_s
+
+
+def _first_failure(limit: int = SEARCH_LIMIT) -> Outcome:
+    for index in range(limit):
+        outcome = run_campaign(ROBOT, draw_campaign(0, index), index)
+        if outcome.findings:
+            return outcome
+    raise AssertionError(f"no violation in {limit} campaigns")
+
+
+@pytest.mark.parametrize(
+    "bug",
+    [
+        "row_4_a_handover_without_the_throttle_gate",
+        "row_6_no_debounce",
+        "row_7_only_consecutive_dac_failures_count",
+        "row_8_a_write_in_flight_lands_after_the_trip",
+    ],
+)
+def test_a_reintroduced_bug_is_found_shrunk_and_replayed(
+    bug: str, monkeypatch: pytest.MonkeyPatch, tmp_path: Path
+) -> None:
+    OLD_BUGS[bug](monkeypatch)
+    outcome = _first_failure()
+    invariant = outcome.findings[0].invariant
+    found = shrink_failure(ROBOT, outcome, invariant, name=bug)
+    assert len(found.steps) < len(outcome.steps)
+    path = tmp_path / f"{bug}.toml"
+    path.write_text(scenario_toml(found.scenario), encoding="utf-8")
+    assert main(["sim", "--scenario", str(path), "--json"]) == 1  # the bug: replay fails
+    monkeypatch.undo()
+    assert main(["sim", "--scenario", str(path), "--json"]) == 0  # fixed: the same scenario passes
