@@ -2,10 +2,12 @@
 
 from __future__ import annotations
 
+import re
 from pathlib import Path
 
 import pytest
 
+from bywire.cli.main import main
 from bywire.errors import ConfigError
 from bywire.sim.scenario import load_scenario, parse_scenario
 
@@ -70,6 +72,37 @@ def test_bad_scenarios_are_refused_naming_the_key(text: str, message: str) -> No
         parse_scenario(text, "bad.toml")
 
 
+EVENT = "[[event]]\nat_s = 1\n"
+# (TOML, what the one-line refusal must say: the key, the value, what is allowed)
+BAD_VALUES = [
+    (EVENT + "rc = { mode = 'stpo' }", "event[0].rc.mode: got 'stpo'; allowed: one of \"stop\""),
+    (EVENT + "rc = { gear = 'fwd' }", "event[0].rc.gear: got 'fwd'; allowed: one of \"forward\""),
+    (EVENT + "hlc = { throttle = 'half' }", "event[0].hlc.throttle: got 'half'; allowed: a number"),
+    (
+        EVENT + "fault = 'ibus_corrupt'\ncount = 'many'",
+        "event[0].count: got 'many'; allowed: a whole",
+    ),
+    (
+        EVENT + "rc = { throttle = 1.7 }",
+        "event[0].rc.throttle: got 1.7; allowed: a number in -1..1",
+    ),
+    (EVENT + "rc = { steering = -3 }", "event[0].rc.steering: got -3; allowed: a number in -1..1"),
+    (EVENT + "hlc_control = { remote_stop = 1 }", "remote_stop: got 1; allowed: true or false"),
+    ("[[expect]]\nat_s = 1\nmode = 'drive'", "expect[0].mode: got 'drive'; allowed: one of"),
+    (
+        "duration_s = 5\n" + EVENT.replace("1", "6") + "rc = { mode = 'rc' }",
+        "event[0].at_s: 6 s is after",
+    ),
+    ("duration_s = 5\n[[expect]]\nat_s = 7\nmode = 'rc'", "expect[0].at_s: 7 s is after the end"),
+]
+
+
+@pytest.mark.parametrize(("text", "message"), BAD_VALUES)
+def test_bad_values_are_refused_at_load_naming_key_value_and_range(text: str, message: str) -> None:
+    with pytest.raises(ConfigError, match=re.escape(message)):
+        parse_scenario(text, "bad.toml")
+
+
 def test_missing_file_names_the_path(tmp_path: Path) -> None:
     with pytest.raises(ConfigError, match=r"nothing\.toml"):
         load_scenario(tmp_path / "nothing.toml")
@@ -82,3 +115,15 @@ def test_a_loop_stall_needs_real_time() -> None:
     scenario = parse_scenario("realtime = true\n" + text, "stall.toml")
     assert scenario.realtime
     assert scenario.events[0].values["stall_s"] == 0.3
+
+
+def test_a_bad_value_stops_bywire_sim_before_the_run_with_one_line(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    path = tmp_path / "bad.toml"
+    path.write_text("duration_s = 2\n[[event]]\nat_s = 1\nrc = { mode = 'stpo' }\n")
+    assert main(["sim", "--scenario", str(path)]) == 2
+    error = capsys.readouterr().err
+    assert error.count("\n") == 1
+    assert "event[0].rc.mode: got 'stpo'" in error
+    assert "Traceback" not in error

@@ -41,6 +41,7 @@ from typing import Any
 import tomli_w
 
 from bywire.errors import ConfigError
+from bywire.sim.scenario_values import ACTION_VALUES, CONDITION_VALUES, FAULT_VALUES, Check
 
 RC_KEYS = {"steering", "throttle", "mode", "gear", "low_beam", "hazard"}
 HLC_KEYS = {"steering", "throttle", "brake", "gear"}
@@ -204,10 +205,19 @@ def _event(table: dict[str, Any], origin: str, where: str) -> Event:
             "load": table.get("load", 1.0),
             "stall_s": table.get("stall_s", 0.5),
         }
+        _check_values(values, FAULT_VALUES, origin, where)
     else:
         values = dict(table[kind])
         _check_keys(values, ACTIONS[kind], origin, f"{where}.{kind}")
+        _check_values(values, ACTION_VALUES[kind], origin, f"{where}.{kind}")
     return Event(_time(table, "at_s", origin, where), kind, values, table.get("label"))
+
+
+def _check_values(table: dict[str, Any], checks: dict[str, Check], origin: str, where: str) -> None:
+    for key, value in table.items():
+        allowed = checks[key](value) if key in checks else None
+        if allowed is not None:
+            raise _refuse(origin, _key(where, key), f"got {value!r}; allowed: {allowed}")
 
 
 def _expectation(table: dict[str, Any], origin: str, where: str, labels: set[str]) -> Expectation:
@@ -215,6 +225,7 @@ def _expectation(table: dict[str, Any], origin: str, where: str, labels: set[str
     conditions = {key: value for key, value in table.items() if key in CONDITIONS}
     if not conditions:
         raise _refuse(origin, where, "needs at least one condition", set(CONDITIONS))
+    _check_values(conditions, CONDITION_VALUES, origin, where)
     after = table.get("after")
     if after is not None:
         if after not in labels:
@@ -250,14 +261,36 @@ def parse_scenario(text: str, origin: str) -> Scenario:
         _expectation(table, origin, f"expect[{index}]", labels)
         for index, table in enumerate(document.get("expect", []))
     ]
+    duration_s = _time(document, "duration_s", origin, "") if "duration_s" in document else 30.0
+    _within_duration(events, expectations, duration_s, origin)
     return Scenario(
         name=str(document.get("name", Path(origin).stem)),
         description=str(document.get("description", "")),
-        duration_s=_time(document, "duration_s", origin, "") if "duration_s" in document else 30.0,
+        duration_s=duration_s,
         events=tuple(sorted(events, key=lambda event: event.at_s)),
         expectations=tuple(expectations),
         realtime=_realtime(document, events, origin),
     )
+
+
+def _within_duration(
+    events: list[Event], expectations: list[Expectation], duration_s: float, origin: str
+) -> None:
+    """An event or a timed expectation after the end would silently never happen."""
+    late = [(f"event[{i}].at_s", e.at_s) for i, e in enumerate(events) if e.at_s > duration_s]
+    late += [
+        (f"expect[{i}].at_s", e.at_s)
+        for i, e in enumerate(expectations)
+        if e.at_s is not None and e.at_s > duration_s
+    ]
+    if late:
+        key, at_s = late[0]
+        raise _refuse(
+            origin,
+            key,
+            f"{at_s:g} s is after the end of the scenario (duration_s = {duration_s:g}):"
+            " it would never happen; raise duration_s or move it",
+        )
 
 
 def _realtime(document: dict[str, Any], events: list[Event], origin: str) -> bool:

@@ -1,0 +1,93 @@
+"""What each value in a scenario may be: checked at load, so a bad one is refused before the run
+starts (naming the key, the value and what is allowed) instead of failing halfway through it."""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from typing import Any
+
+Check = Callable[[Any], str | None]
+"""A value's check: None when it is allowed, else what is allowed."""
+
+MODES = ("stop", "rc", "can")
+GEARS = ("forward", "neutral", "reverse")
+
+
+def number(low: float, high: float, unit: str = "") -> Check:
+    """A number (not a bool) in low..high."""
+    allowed = f"a number in {low:g}..{high:g}{' ' + unit if unit else ''}"
+
+    def check(value: Any) -> str | None:
+        if isinstance(value, bool) or not isinstance(value, int | float):
+            return allowed
+        return None if low <= value <= high else allowed
+
+    return check
+
+
+def whole(low: int, high: int) -> Check:
+    """A whole number (not a bool) in low..high."""
+    allowed = f"a whole number in {low}..{high}"
+
+    def check(value: Any) -> str | None:
+        if isinstance(value, bool) or not isinstance(value, int):
+            return allowed
+        return None if low <= value <= high else allowed
+
+    return check
+
+
+def one_of(names: tuple[str, ...]) -> Check:
+    """One of `names` (any case)."""
+    allowed = "one of " + ", ".join(f'"{name}"' for name in names)
+
+    def check(value: Any) -> str | None:
+        return None if isinstance(value, str) and value.lower() in names else allowed
+
+    return check
+
+
+def flag(value: Any) -> str | None:
+    return None if isinstance(value, bool) else "true or false"
+
+
+NORM = number(-1.0, 1.0)
+UNIT = number(0.0, 1.0)
+
+ACTION_VALUES: dict[str, dict[str, Check]] = {
+    "rc": {
+        "steering": NORM,
+        "throttle": NORM,  # below zero: the stick pulled back, braking
+        "mode": one_of(MODES),
+        "gear": one_of(GEARS),
+        "low_beam": flag,
+        "hazard": flag,
+    },
+    "hlc": {"steering": NORM, "throttle": UNIT, "brake": UNIT, "gear": one_of(GEARS)},
+    "hlc_lights": dict.fromkeys(("turn_left", "turn_right", "hazard", "low_beam"), flag),
+    "hlc_control": {"remote_stop": flag, "re_enable": flag},
+}
+"""Every key of every action, with what its value may be."""
+
+FAULT_VALUES: dict[str, Check] = {
+    "count": whole(1, 100_000),
+    "load": UNIT,
+    "stall_s": number(0.001, 10.0, "s"),
+}
+
+CONDITION_VALUES: dict[str, Check] = {
+    "mode": one_of(MODES),
+    "latched": flag,
+    "throttle_volts_max": number(0.0, 5.5, "V"),
+    "throttle_volts_min": number(0.0, 5.5, "V"),
+    "motors_enabled": flag,
+    "ebrake_engaged": flag,
+    "speed_min_mps": number(-30.0, 30.0, "m/s"),
+    "speed_max_mps": number(-30.0, 30.0, "m/s"),
+    "brake_light": flag,
+    "reverse_light": flag,
+    "error_led": flag,
+    "low_beam": flag,
+    "hydrobrake_duty_min": UNIT,
+}
+"""Every expectation condition, with what its value may be."""
