@@ -15,6 +15,7 @@ from dataclasses import dataclass, field
 from typing import Any
 
 from bywire.config import RobotConfig
+from bywire.control.supervisor import Cause
 from bywire.hal.sim.can_bus import LoggedFrame
 from bywire.hal.sim.clock import RealtimeClock, VirtualClock
 from bywire.hal.sim.hlc import Corruption
@@ -78,7 +79,8 @@ class RunRecord:
     verdicts: list[Verdict] = field(default_factory=list)
     fault_timings: list[FaultTiming] = field(default_factory=list)
     top_speed_mps: float = 0.0
-    error_flags_seen: int = 0
+    error_flags_seen: int = 0  # once the robot had been armed (or had left power-up)
+    power_up_flags: int = 0  # while still in the power-up state, before the first arming
 
 
 class SimRun:
@@ -281,7 +283,10 @@ class SimRun:
         outputs = self.runtime.outputs
         if outputs is None:
             return
-        self.record.error_flags_seen |= outputs.error_flags
+        if Cause.POWER_UP in outputs.causes:
+            self.record.power_up_flags |= outputs.error_flags
+        else:
+            self.record.error_flags_seen |= outputs.error_flags
         recording = now >= self._next_record_s
         if not (recording or self._watching(now)):
             return

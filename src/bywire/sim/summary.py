@@ -82,7 +82,8 @@ class Summary:
     mode_changes: tuple[ModeChange, ...]
     events: tuple[LabelledEvent, ...]
     expectations: tuple[ExpectationResult, ...]
-    error_flags_seen: tuple[str, ...]
+    error_flags_seen: tuple[str, ...]  # after power-up: the faults of the run
+    power_up_flags: tuple[str, ...]  # before the first arming (no frame yet, not armed)
     inputs: InputStats
     tasks: tuple[TaskRow, ...]
 
@@ -131,6 +132,7 @@ def build_summary(run: SimRun, wall_s: float, bus: BusTally | None = None) -> Su
         events=_labelled_events(run),
         expectations=tuple(_result(v, run, simulated_s) for v in run.record.verdicts),
         error_flags_seen=tuple(flag_names(run.record.error_flags_seen)),
+        power_up_flags=tuple(flag_names(run.record.power_up_flags)),
         inputs=_inputs(run, bus),
         tasks=tuple(task_row(task, simulated_s, wall_s) for task in run.runtime.tasks),
     )
@@ -308,6 +310,11 @@ def render(summary: Summary, console: Console) -> None:
     for stop in summary.stop_times:
         say(f"Time to STOP: {_stop_text(stop)}", soft_wrap=True)
     say(f"Error flags seen: {', '.join(summary.error_flags_seen) or 'none'}", soft_wrap=True)
+    if summary.power_up_flags:
+        say(
+            f"  before the first arming (power-up): {', '.join(summary.power_up_flags)}",
+            soft_wrap=True,
+        )
     for line in _input_lines(summary.inputs):
         say(line, soft_wrap=True)
     for table in (_events_table(summary), _expectations_table(summary), _task_table(summary)):
