@@ -14,9 +14,10 @@ from bywire.errors import ConfigError, HardwareError
 from bywire.hal.ports import CanFrame
 from bywire.hal.sim.clock import VirtualClock
 from bywire.hal.sim.gpio_pwm import SimPwmChannel
+from bywire.protocol import dac6574
 from bywire.sim.catalog import find_scenario
 from bywire.sim.runner import SimRun
-from bywire.tools.divergence import first_divergence
+from bywire.tools.divergence import dac_volts, first_divergence
 from bywire.tools.port_tape import Tape, TapedCanPort, TapedPwm, TapedSensor
 from bywire.tools.replay import (
     ReplayByteStream,
@@ -272,3 +273,14 @@ def test_the_replayed_dac_refuses_exactly_the_recorded_writes() -> None:
         dac.write(b"b")
     dac.write(b"c")
     assert written == [b"a", b"c"]
+
+
+def test_a_dac_write_is_shown_in_volts_beside_its_i2c_frame() -> None:
+    frame = dac6574.encode_write(0, 256).hex()
+    other = dac6574.encode_write(0, 512).hex()
+    divergence = first_divergence([Output(0.0, "dac.0", frame)], [Output(0.0, "dac.0", other)])
+    assert divergence is not None
+    text = divergence.describe()
+    assert f"dac.0 recorded 1.250 V (I2C {frame}), replayed 2.500 V (I2C {other})" in text
+    assert "recorded 0.625 V" in divergence.describe(dac_vref_volts=2.5)  # the robot's Vref
+    assert dac_volts("not hex") is None

@@ -12,8 +12,9 @@ from pathlib import Path
 
 from bywire.config import load_config
 from bywire.errors import ConfigError
+from bywire.tools.divergence import dac_volts
 from bywire.tools.log_decode import SUFFIXES
-from bywire.tools.replay import replay
+from bywire.tools.replay import recorded_robot, replay
 from bywire.tools.run_record import read_record
 
 
@@ -41,18 +42,23 @@ def run(args: argparse.Namespace) -> int:
     record = read_record(path)
     result = replay(record, robot)
     divergence, start_s = result.divergence, record.header.start_s
+    vref_volts = (robot or recorded_robot(record)).drive.dac.vref_volts
     if args.json:
         verdict: dict[str, object] = {
             "identical": divergence is None,
             "outputs": len(result.recorded),
         }
         if divergence is not None:
-            verdict["divergence"] = {
+            diverged: dict[str, object] = {
                 "time_s": divergence.time_s - start_s,
                 "output": divergence.name,
                 "recorded": divergence.recorded,
                 "replayed": divergence.replayed,
             }
+            if divergence.name.startswith("dac."):
+                diverged["recorded_volts"] = dac_volts(divergence.recorded or "", vref_volts)
+                diverged["replayed_volts"] = dac_volts(divergence.replayed or "", vref_volts)
+            verdict["divergence"] = diverged
         print(json.dumps(verdict, indent=2))
     elif divergence is None:
         span_s = record.header.end_s - start_s
@@ -61,5 +67,5 @@ def run(args: argparse.Namespace) -> int:
             f" ({record.header.scenario}, {span_s:g} s replayed)"
         )
     else:
-        print(f"replay of {path.name}: {divergence.describe(start_s)}")
+        print(f"replay of {path.name}: {divergence.describe(start_s, vref_volts)}")
     return 0 if divergence is None else 1

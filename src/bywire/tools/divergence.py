@@ -5,6 +5,8 @@ from __future__ import annotations
 from collections.abc import Sequence
 from dataclasses import dataclass
 
+from bywire.protocol import dac6574
+from bywire.protocol.dac6574 import DEFAULT_VREF_VOLTS
 from bywire.tools.run_record import Output, OutputValue
 
 Instant = tuple[float, list[Output]]
@@ -20,20 +22,35 @@ class Divergence:
     recorded: OutputValue | None
     replayed: OutputValue | None
 
-    def describe(self, start_s: float = 0.0) -> str:
+    def describe(self, start_s: float = 0.0, dac_vref_volts: float = DEFAULT_VREF_VOLTS) -> str:
+        recorded = show(self.recorded, self.name, dac_vref_volts)
+        replayed = show(self.replayed, self.name, dac_vref_volts)
         return (
             f"first divergence at {self.time_s - start_s:.6f} s: {self.name}"
-            f" recorded {show(self.recorded)}, replayed {show(self.replayed)}"
+            f" recorded {recorded}, replayed {replayed}"
         )
 
 
-def show(value: OutputValue | None) -> str:
-    """A value as the divergence message shows it."""
+def show(
+    value: OutputValue | None, name: str = "", dac_vref_volts: float = DEFAULT_VREF_VOLTS
+) -> str:
+    """A value as the divergence message shows it: a DAC write (`dac.<channel>`, recorded as its
+    I2C frame) in volts, with the frame beside it."""
     if value is None:
         return "(not written)"
     if isinstance(value, float):
         return f"{value:.9g}"
-    return str(value)
+    volts = dac_volts(value, dac_vref_volts) if name.startswith("dac.") else None
+    return str(value) if volts is None else f"{volts:.3f} V (I2C {value})"
+
+
+def dac_volts(value: OutputValue, vref_volts: float = DEFAULT_VREF_VOLTS) -> float | None:
+    """The volts a recorded DAC6574 write frame (hex) sets; None if it is not one."""
+    try:
+        _channel, code = dac6574.decode_write(bytes.fromhex(str(value)))
+    except ValueError:  # FrameError is one; so is a value that is not hex
+        return None
+    return dac6574.volts_from_code(code, vref_volts)
 
 
 def _instants(outputs: Sequence[Output]) -> list[Instant]:
