@@ -16,6 +16,7 @@ from collections.abc import Iterator
 from pathlib import Path
 
 from rich.console import Console
+from rich.markup import escape
 from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 from rich.table import Table
 
@@ -27,6 +28,7 @@ from bywire.sim.canlog import BusTally, CanLog, check_log_path
 from bywire.sim.catalog import DEFAULT_SCENARIO, find_scenario, packaged_scenarios
 from bywire.sim.plot import check_plot_path, write_plot
 from bywire.sim.runner import SimRun
+from bywire.sim.suite import collect, junit_xml, run_case
 from bywire.sim.summary import build_summary, render
 from bywire.tools.loopback import Endpoint, parse_endpoint
 from bywire.tools.sim_bridge import serve_bus
@@ -58,6 +60,20 @@ def configure(parser: argparse.ArgumentParser) -> None:
         help=f"packaged scenario (see --list) or scenario TOML file (default: {DEFAULT_SCENARIO})",
     )
     parser.add_argument("--list", action="store_true", help="list the packaged scenarios and exit")
+    parser.add_argument(
+        "--all",
+        nargs="?",
+        const="",
+        metavar="DIR",
+        help="run every packaged scenario (or every *.toml in DIR) and give a verdict for each;"
+        " exit 1 if any failed",
+    )
+    parser.add_argument(
+        "--junit",
+        type=Path,
+        metavar="FILE.xml",
+        help="with --all: write a JUnit XML report for CI systems",
+    )
     parser.add_argument(
         "--duration",
         type=positive_seconds,
@@ -102,10 +118,9 @@ def run(args: argparse.Namespace) -> int:
     if args.list:
         _list(as_json=args.json)
         return 0
-    if args.plot is not None:
-        check_plot_path(args.plot)
-    if args.log is not None:
-        check_log_path(args.log)
+    if args.all is not None:
+        return _run_all(args)
+    _check_one_run(args)
     robot = default_sim_config() if args.config is None else load_config(args.config)
     sim = SimRun(
         robot, find_scenario(args.scenario), realtime=args.realtime, duration_s=args.duration
@@ -137,6 +152,16 @@ def run(args: argparse.Namespace) -> int:
         if args.record is not None:
             console.print(f"Run record: {args.record} (for bywire replay)", soft_wrap=True)
     return 0 if summary.passed else 1
+
+
+def _check_one_run(args: argparse.Namespace) -> None:
+    """Refuse what cannot work before the run starts, not after it."""
+    if args.junit is not None:
+        raise ConfigError("--junit needs --all: the report is of several scenarios")
+    if args.plot is not None:
+        check_plot_path(args.plot)
+    if args.log is not None:
+        check_log_path(args.log)
 
 
 def _name(path: Path | None) -> str | None:
@@ -215,3 +240,47 @@ def _list(*, as_json: bool) -> None:
     for name, scenario in scenarios.items():
         table.add_row(name, f"{scenario.duration_s:g} s", scenario.description)
     _Console().print(table)
+
+
+ONE_RUN_OPTIONS = ("duration", "realtime", "plot", "log", "record", "serve")
+
+
+def _run_all(args: argparse.Namespace) -> int:
+    """Every scenario, one verdict line each (or JSON), the JUnit report; 1 if any failed."""
+    given = [f"--{name}" for name in ONE_RUN_OPTIONS if getattr(args, name)]
+    if given:
+        raise ConfigError(f"{', '.join(given)}: for one scenario; --all runs each as written")
+    robot = default_sim_config() if args.config is None else load_config(args.config)
+    found = collect(Path(args.all) if args.all else None)
+    console = _Console()
+    cases = []
+    for name, origin, load in found:
+        case = run_case(robot, name, origin, load)
+        cases.append(case)
+        if not args.json:
+            verdict = "[green]PASS[/]" if case.passed else "[red]FAIL[/]"
+            console.print(f"{verdict} {name} ({case.wall_s:.1f} s)", highlight=False)
+            for reason in case.reasons:
+                console.print(f"     {escape(reason)}", highlight=False)
+    if args.junit is not None:
+        args.junit.write_text(junit_xml(cases), encoding="utf-8")
+    failed = [case.name for case in cases if not case.passed]
+    if args.json:
+        rows = [
+            {
+                "name": case.name,
+                "origin": case.origin,
+                "passed": case.passed,
+                "reasons": case.reasons,
+                "wall_s": round(case.wall_s, 3),
+            }
+            for case in cases
+        ]
+        print(json.dumps({"scenarios": rows, "failed": failed}, indent=2))
+    else:
+        colour = "red" if failed else "green"
+        console.print(
+            f"[bold {colour}]{len(cases) - len(failed)} of {len(cases)} scenarios passed[/]"
+            + (f"; JUnit report: {args.junit}" if args.junit is not None else "")
+        )
+    return 1 if failed else 0
