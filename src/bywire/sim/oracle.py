@@ -247,7 +247,18 @@ class HazardOracle:
             recently_zero = now - source.left_zero_at < stale_s  # may still be seen
             source.seen_zero = source.throttle_norm == 0.0 or recently_zero
         leaving = was is ControlMode.STOP and held_s >= self.timing.stop_hold_s
-        if leaving or self.pending_arm is not None:  # still within the debounce: it may count
+        pending = self.pending_arm
+        # Held long enough for the debounce's frames, the position before this move may have
+        # armed into its source (at zero throttle): this move is then a handover.
+        may_have_armed = (
+            pending is not None
+            and was is not ControlMode.STOP
+            and held_s >= self.timing.stop_hold_s
+            and self.sources[pending[1]].throttle_norm == 0.0
+        )
+        if may_have_armed and pending is not None:
+            self._arm_now(now, pending[1])
+        if leaving or pending is not None:  # still within the debounce: it may count
             self.pending_arm = (now, mode)
 
     def set_throttle(self, source: ControlMode, throttle_norm: float, now: float) -> None:
