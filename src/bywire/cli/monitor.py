@@ -10,12 +10,11 @@ import argparse
 import time
 from pathlib import Path
 
-import can
 from rich.console import Console
 
 from bywire.cli.arguments import positive_seconds
-from bywire.tools.can_feed import CanFeed, open_bus
-from bywire.tools.loopback import DEFAULT_HOST, DEFAULT_PORT
+from bywire.cli.bus_options import add_bus_options, bus_from_args, bus_source
+from bywire.tools.can_feed import CanFeed
 from bywire.tools.monitor_model import BusModel
 from bywire.tools.monitor_view import snapshot_table
 
@@ -23,21 +22,7 @@ SNAPSHOT_S = 1.0
 
 
 def configure(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument(
-        "-i",
-        "--interface",
-        default="socketcand",
-        choices=sorted(can.VALID_INTERFACES),
-        metavar="NAME",
-        help="python-can interface: socketcand (default), socketcan, virtual, pcan, …",
-    )
-    parser.add_argument("-c", "--channel", default="can0", help="CAN channel (default: can0)")
-    parser.add_argument(
-        "--host", default=DEFAULT_HOST, help=f"socketcand host (default: {DEFAULT_HOST})"
-    )
-    parser.add_argument(
-        "--port", type=int, default=DEFAULT_PORT, help=f"socketcand port (default: {DEFAULT_PORT})"
-    )
+    add_bus_options(parser)
     parser.add_argument(
         "--record",
         type=Path,
@@ -56,10 +41,8 @@ def configure(parser: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    feed = CanFeed(open_bus(args.interface, args.channel, args.host, args.port), args.record)
-    source = f"{args.interface} {args.channel}"
-    if args.interface == "socketcand":
-        source += f" @ {args.host}:{args.port}"
+    feed = CanFeed(bus_from_args(args), args.record)
+    source = bus_source(args)
     if args.once or args.duration is not None:
         return _snapshot(feed, source, args.duration or SNAPSHOT_S)
     from bywire.tools.monitor_app import MonitorApp  # noqa: PLC0415 -- textual: live view only
