@@ -5,12 +5,14 @@ from __future__ import annotations
 import asyncio
 import threading
 import time
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 
 import pytest
 from textual.widgets import DataTable
 
 from bywire.config import default_sim_config
+from bywire.hal.sim.can_bus import SimCanBus
+from bywire.hal.sim.clock import VirtualClock
 from bywire.sim.catalog import find_scenario
 from bywire.sim.runner import SimRun
 from bywire.tools.can_feed import CanFeed, open_bus
@@ -72,3 +74,31 @@ def test_the_monitor_shows_the_decoded_frames_of_a_running_simulation(
     assert "steering_norm=" in movement[7]
     assert movement[6] == "-"  # the simulated computer's commands pass the CRC and counter checks
     assert "control_mode=" in rows["ModeReport"][7]
+
+
+def _wait_for(condition: Callable[[], bool], what: str) -> None:
+    deadline = time.monotonic() + TIMEOUT_S
+    while not condition():
+        assert time.monotonic() < deadline, what
+        time.sleep(0.05)
+
+
+def test_the_feed_notices_a_dead_server_and_reconnects_when_it_is_back() -> None:
+    bus = SimCanBus(VirtualClock())
+    endpoint = Endpoint("127.0.0.1", 0)
+    with serve_bus(bus, endpoint, 0.0) as bridge:
+        host, port = bridge.server.address
+        feed = CanFeed(
+            open_bus("socketcand", "can0", host, port),
+            reopen=lambda: open_bus("socketcand", "can0", host, port),
+        )
+        feed.start()
+        assert feed.connection == "connected"
+    try:
+        _wait_for(lambda: feed.connection.startswith("lost ("), "the lost server never noticed")
+        assert "every 1 s" in feed.connection  # reconnecting, or retrying while nothing answers
+        with serve_bus(bus, Endpoint("127.0.0.1", port), 0.0):
+            _wait_for(lambda: feed.reconnects == 1, "never reconnected")
+            assert feed.connection == "connected (reconnected 1×)"
+    finally:
+        feed.stop()

@@ -7,6 +7,7 @@ Connects with any python-can interface; by default to the simulator's transport
 from __future__ import annotations
 
 import argparse
+import logging
 import time
 from pathlib import Path
 
@@ -41,7 +42,10 @@ def configure(parser: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    feed = CanFeed(bus_from_args(args), args.record)
+    # python-can logs what it skips ("Got incomplete message") over the screen: the feed shows
+    # what matters (a lost connection) in the title instead.
+    logging.getLogger("can").setLevel(logging.ERROR)
+    feed = CanFeed(bus_from_args(args), args.record, reopen=lambda: bus_from_args(args))
     source = bus_source(args)
     if args.once or args.duration is not None:
         return _snapshot(feed, source, args.duration or SNAPSHOT_S)
@@ -64,6 +68,6 @@ def _snapshot(feed: CanFeed, source: str, duration_s: float) -> int:
         feed.stop()
     for message in feed.drain():
         model.add(message.arbitration_id, bytes(message.data), message.timestamp)
-    title = f"{source}: {model.frames} frames in {duration_s:g} s"
+    title = f"{source} ({feed.connection}): {model.frames} frames in {duration_s:g} s"
     Console().print(snapshot_table(model.rows(time.time()), title), soft_wrap=True)
     return 0 if model.frames else 1

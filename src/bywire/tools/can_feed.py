@@ -6,9 +6,12 @@ socketcand it first checks that something listens, instead of python-can's 10 s 
 
 from __future__ import annotations
 
+import contextlib
 import queue
 import socket
 import threading
+import time
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
@@ -18,6 +21,8 @@ from bywire.errors import ConfigError, HardwareError
 from bywire.sim.canlog import WRITERS, check_log_path
 
 RECEIVE_TIMEOUT_S = 0.1  # how often the reader looks at its stop flag
+SILENT_S = 3.0  # no frame for this long: the connection is opened again
+RETRY_S = 1.0  # how often a lost bus is opened again
 CONNECT_TIMEOUT_S = 2.0
 
 
@@ -51,9 +56,18 @@ class CanFeed:
     suffix, python-can's writers as ``bywire sim --log`` uses them), closed by ``stop()``.
     """
 
-    def __init__(self, bus: can.BusABC, record: Path | None = None) -> None:
+    def __init__(
+        self,
+        bus: can.BusABC,
+        record: Path | None = None,
+        reopen: Callable[[], can.BusABC] | None = None,
+    ) -> None:
         self.bus = bus
         self.recorded = 0
+        self.connection = "connected"
+        """What the user is shown: connected, or lost (why) and reconnecting."""
+        self.reconnects = 0
+        self._reopen = reopen
         self._frames: queue.SimpleQueue[can.Message] = queue.SimpleQueue()
         self._stopping = threading.Event()
         self._writer: Any = None
@@ -76,7 +90,8 @@ class CanFeed:
             self._thread.join()
         if self._writer is not None:
             self._writer.stop()
-        self.bus.shutdown()
+        with contextlib.suppress(Exception):  # already closed when the connection was lost
+            self.bus.shutdown()
 
     def drain(self) -> list[can.Message]:
         """Every frame received since the last call, oldest first."""
@@ -88,14 +103,46 @@ class CanFeed:
                 return frames
 
     def _read(self) -> None:
+        last_frame_s = time.monotonic()
         while not self._stopping.is_set():
             try:
                 message = self.bus.recv(RECEIVE_TIMEOUT_S)
-            except can.CanError:
-                return  # the far end went away; what arrived so far stays
-            if message is None or message.is_error_frame:
+            except can.CanError as error:
+                self._lost(" ".join(str(error).split())[:80] or type(error).__name__)
+                last_frame_s = time.monotonic()
+                continue
+            if message is None:
+                # A socketcand server that died leaves python-can returning nothing, forever:
+                # silence this long (the robot reports at 50 Hz) means the link is to be redone.
+                silent_s = time.monotonic() - last_frame_s
+                if self._reopen is not None and silent_s >= SILENT_S:
+                    self._lost(f"no frame for {silent_s:.0f} s")
+                    last_frame_s = time.monotonic()
+                continue
+            last_frame_s = time.monotonic()
+            if message.is_error_frame:
                 continue
             self._frames.put(message)
             if self._writer is not None:
                 self._writer.on_message_received(message)
                 self.recorded += 1
+
+    def _lost(self, reason: str) -> None:
+        """The bus went away: say so, and (with `reopen`) open it again until it comes back or
+        the feed stops. What arrived so far stays; the recording goes on after the gap."""
+        if self._reopen is None:
+            self.connection = f"lost ({reason})"
+            self._stopping.wait()
+            return
+        self.connection = f"lost ({reason}); reconnecting every {RETRY_S:g} s"
+        with contextlib.suppress(Exception):  # a dead bus may fail to close, too
+            self.bus.shutdown()
+        while not self._stopping.wait(RETRY_S):
+            try:
+                self.bus = self._reopen()
+            except HardwareError as error:
+                self.connection = f"lost ({error}); retrying every {RETRY_S:g} s"
+                continue
+            self.reconnects += 1
+            self.connection = f"connected (reconnected {self.reconnects}×)"
+            return

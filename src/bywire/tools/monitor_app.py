@@ -60,4 +60,4 @@ class MonitorApp(App[None]):
                 continue
             for column, cell in zip(COLUMNS, cells(row), strict=True):
                 table.update_cell(key, column, cell)
-        self.sub_title = f"{self.source} · {self.model.frames} frames"
+        self.sub_title = f"{self.source} · {self.feed.connection} · {self.model.frames} frames"
