@@ -277,9 +277,11 @@ EXPECTED_KEYS = {
         *(
             f"{path}_latency_{stat}_ms"
             for path in ("can", "ibus")
-            for stat in ("p50", "p99", "max")
+            for stat in ("p50", "p99", "p999", "max")
         ),
+        *(f"{path}_latency_samples" for path in ("can", "ibus")),
         "jitter_p99_ms",
+        "jitter_p999_ms",
         "jitter_max_ms",
         "overruns",
         "cpu_percent",
@@ -376,3 +378,20 @@ def test_bench_refuses_bad_options_with_one_line(
 ) -> None:
     assert main(["bench", *option]) == 2
     assert message in capsys.readouterr().err
+
+
+def test_every_latency_and_jitter_figure_has_its_p999_and_max_and_says_on_how_many_samples(
+    bench_result: BenchResult,
+) -> None:
+    figures = {figure.key: figure for figure in all_figures(bench_result)}
+    for phase in bench_result.realtime.phases:
+        for path, summary in (("can", phase.can_latency), ("ibus", phase.ibus_latency)):
+            key = f"{phase.name}_{path}_latency"
+            assert summary.p999_s is not None
+            assert figures[f"{key}_p999_ms"].value == pytest.approx(summary.p999_s * 1000)
+            assert figures[f"{key}_samples"].value == summary.samples
+            assert f"n={summary.samples}" in figures[f"{key}_p999_ms"].note
+        runs = min(task.runs for task in phase.control_tasks)
+        jitter = figures[f"{phase.name}_jitter_p999_ms"]
+        assert f"n={runs}" in jitter.note
+        assert (runs < 1000) == ("p99.9 is the max" in jitter.note)

@@ -70,6 +70,7 @@ class TaskFigures:
     overruns: int
     budget_exceeded: int
     jitter_p99_s: float
+    jitter_p999_s: float
     jitter_max_s: float
     spent_s: float
 
@@ -82,6 +83,7 @@ class TaskFigures:
             overruns=stats.overruns,
             budget_exceeded=stats.budget_exceeded,
             jitter_p99_s=stats.jitter_percentile_s(0.99),
+            jitter_p999_s=stats.jitter_percentile_s(0.999),
             jitter_max_s=stats.max_jitter_s,
             spent_s=stats.spent_s,
         )
