@@ -233,4 +233,7 @@ def as_json(result: BenchResult) -> dict[str, Any]:
         "virtual_time": {**asdict(speedup), "speedup": speedup.speedup},
         "machine": result.machine,
         "settings": result.settings,
+        "tail": None
+        if result.realtime.tail is None
+        else [asdict(phase) for phase in result.realtime.tail],
     }

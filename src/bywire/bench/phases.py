@@ -12,7 +12,7 @@ from collections.abc import Sequence
 from dataclasses import dataclass, field
 
 from bywire.bench.clocks import MeteredClock
-from bywire.bench.latency import DacWrite, SentCommand, pair_writes
+from bywire.bench.latency import DacWrite, Pairing, SentCommand, pair_writes
 from bywire.bench.stats import LatencySummary, summarise
 from bywire.hal.sim.can_bus import SimCanBus
 from bywire.model import ControlMode
@@ -131,9 +131,24 @@ def latency_in(
     tolerance_volts: float,
 ) -> LatencySummary:
     """Latency summary of the commands completed within ``span``."""
-    chosen = [command for command in commands if in_span(command.completed_s, span)]
-    pairing = pair_writes(chosen, writes, tolerance_volts=tolerance_volts)
+    pairing = pairing_in(commands, writes, span, tolerance_volts)
     return summarise(pairing.latencies_s, pairing.unpaired)
+
+
+def pairing_in(
+    commands: Sequence[SentCommand],
+    writes: Sequence[DacWrite],
+    span: tuple[float, float],
+    tolerance_volts: float,
+) -> Pairing:
+    """The commands completed within ``span``, each with its write."""
+    chosen = [command for command in commands if in_span(command.completed_s, span)]
+    return pair_writes(chosen, writes, tolerance_volts=tolerance_volts)
+
+
+def latency_intervals(pairing: Pairing) -> list[tuple[float, float]]:
+    """(completed, written) of every paired command."""
+    return [(command.completed_s, write.time_s) for command, write in pairing.pairs if write]
 
 
 def stops_in(mode_log: Sequence[tuple[float, ControlMode]], span: tuple[float, float]) -> int:
