@@ -6,6 +6,7 @@ that run the tests are shared and noisy. What is checked is the logic that produ
 
 from __future__ import annotations
 
+import gc
 import itertools
 import json
 import math
@@ -367,6 +368,8 @@ def test_bench_quick_json_runs_end_to_end_and_gives_every_figure(
     assert set(figures) == EXPECTED_KEYS
     assert all(isinstance(figure["value"], float) for figure in figures.values())
     assert document["settings"]["quick"] is True
+    assert document["settings"]["realtime"] is None  # no --realtime: the process as it was
+    assert document["tail"] is None  # no --probe
 
 
 @pytest.mark.parametrize(
@@ -395,3 +398,17 @@ def test_every_latency_and_jitter_figure_has_its_p999_and_max_and_says_on_how_ma
         jitter = figures[f"{phase.name}_jitter_p999_ms"]
         assert f"n={runs}" in jitter.note
         assert (runs < 1000) == ("p99.9 is the max" in jitter.note)
+
+
+def test_bench_realtime_applies_the_configurations_settings_and_gives_the_collector_back(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    config = tmp_path / "robot.toml"
+    config.write_text('[realtime]\ngc_freeze = false\ngc_mode = "idle"\n', encoding="utf-8")
+    args = ["bench", "--quick", "--json", "--realtime", "--config", str(config)]
+    assert main(args) == 0
+    captured = capsys.readouterr()
+    realtime = json.loads(captured.out)["settings"]["realtime"]
+    assert realtime == {"applied": ["gc between passes (>= 2 ms idle)"], "refused": []}
+    assert "real-time: applied gc between passes" in captured.err
+    assert gc.isenabled()  # the virtual-time course and everything after collect as usual
