@@ -288,6 +288,7 @@ EXPECTED_KEYS = {
         "cpu_percent",
         "process_cpu_percent",
         "bus_load_percent",
+        "steal_percent",
     )
 } | {"peak_rss_mb", "virtual_speedup"}
 

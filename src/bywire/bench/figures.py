@@ -181,6 +181,16 @@ def phase_figures(phase: PhaseResult) -> list[Figure]:
             note=f"{phase.stops} falls to STOP",
         )
     )
+    rows.append(
+        Figure(
+            f"{phase.name}_steal_percent",
+            phase.name,
+            "Machine: CPU stolen by the host",
+            phase.steal_share * 100.0,
+            "%",
+            note=f"some task waited for a CPU {phase.cpu_pressure_share * 100:.0f} % of the time",
+        )
+    )
     return rows
 
 

@@ -13,6 +13,7 @@ from dataclasses import dataclass, field
 
 from bywire.bench.clocks import MeteredClock
 from bywire.bench.latency import DacWrite, Pairing, SentCommand, pair_writes
+from bywire.bench.machine import cpu_pressure_s, steal_s
 from bywire.bench.stats import LatencySummary, summarise
 from bywire.hal.sim.can_bus import SimCanBus
 from bywire.model import ControlMode
@@ -23,16 +24,26 @@ CONTROL_RATE_HZ = 100.0  # the rate of the tasks §8's jitter figure is about
 
 @dataclass(frozen=True, slots=True)
 class Marks:
-    """Process and simulator CPU time, wall time and bits on the bus at one instant."""
+    """Process and simulator CPU time, wall time, bits on the bus, and the machine's stolen CPU
+    time and CPU pressure at one instant."""
 
     cpu_s: float
     sim_cpu_s: float
     wall_s: float
     bus_bits: int
+    steal_s: float = 0.0
+    pressure_s: float = 0.0
 
     @classmethod
     def take(cls, clock: MeteredClock, bus: SimCanBus) -> Marks:
-        return cls(time.process_time(), clock.waiting_cpu_s, time.perf_counter(), bus.bits_sent())
+        return cls(
+            time.process_time(),
+            clock.waiting_cpu_s,
+            time.perf_counter(),
+            bus.bits_sent(),
+            steal_s(),
+            cpu_pressure_s(),
+        )
 
 
 @dataclass(slots=True)
@@ -103,6 +114,10 @@ class PhaseResult:
     ibus_latency: LatencySummary
     tasks: tuple[TaskFigures, ...]
     stops: int
+    steal_share: float = 0.0
+    """CPU time the hypervisor took, as a share of one CPU (the machine's, not this process's)."""
+    cpu_pressure_share: float = 0.0
+    """Share of the time some task on the machine waited for a CPU (PSI "some")."""
 
     @property
     def control_tasks(self) -> tuple[TaskFigures, ...]:

@@ -258,6 +258,8 @@ class RealtimeSession:
             ibus_latency=latency_in(rc_commands, self.writes, window.rc_span(), tolerance_volts),
             tasks=tuple(TaskFigures.of(task, stats) for task, stats in window.task_stats),
             stops=stops_in(self.runtime.mode_log, (window.start_s + window.settle_s, window.end_s)),
+            steal_share=(ended.steal_s - started.steal_s) / wall_s,
+            cpu_pressure_share=(ended.pressure_s - started.pressure_s) / wall_s,
         )
 
     def _tail(
@@ -279,9 +281,8 @@ class RealtimeSession:
             )
             for path, commands, span in paths
         ]
-        settled = (window.start_s + window.settle_s, window.end_s)
-        tails.append(explain_tail(timeline, "wake", timeline.late_wakes(settled), TAIL_THRESHOLD_S))
-        span = (window.start_s, window.end_s)
+        span = (window.start_s, window.end_s)  # the whole phase, as the tasks' jitter figures
+        tails.append(explain_tail(timeline, "wake", timeline.late_wakes(span), TAIL_THRESHOLD_S))
         return PhaseTail(window.name, tuple(gc_figures(timeline, span)), tuple(tails))
 
 

@@ -82,7 +82,7 @@ def render_tail(tails: tuple[PhaseTail, ...]) -> Table:
         for tail in phase.tails:
             worst = ""
             if tail.worst:
-                length_s, parts = tail.worst[0]
+                length_s, _start_s, parts = tail.worst[0]
                 main = sorted(parts.items(), key=lambda item: item[1], reverse=True)[:2]
                 shares = ", ".join(f"{name} {seconds * 1e3:.2f}" for name, seconds in main)
                 worst = f"{length_s * 1e3:.2f} ms: {shares}"

@@ -230,7 +230,8 @@ class TailFigures:
     late: int
     parts_s: dict[str, float]
     dominant: dict[str, int]
-    worst: tuple[tuple[float, dict[str, float]], ...]
+    worst: tuple[tuple[float, float, dict[str, float]], ...]
+    """The longest late intervals: (length, start on the simulation clock, parts)."""
 
 
 def gc_figures(timeline: Timeline, span: tuple[float, float]) -> list[GcFigures]:
@@ -259,13 +260,13 @@ def explain_tail(
     late = [(start, end) for start, end in intervals if end - start > threshold_s]
     totals = dict.fromkeys(PARTS, 0.0)
     dominant = dict.fromkeys(PARTS, 0)
-    explained: list[tuple[float, dict[str, float]]] = []
+    explained: list[tuple[float, float, dict[str, float]]] = []
     for start, end in late:
         parts = timeline.explain(start, end)
         for name, seconds in parts.items():
             totals[name] += seconds
         dominant[max(parts, key=parts.__getitem__)] += 1
-        explained.append((end - start, parts))
+        explained.append((end - start, start, parts))
     explained.sort(key=lambda item: item[0], reverse=True)
     return TailFigures(
         path, threshold_s, len(intervals), len(late), totals, dominant, tuple(explained[:worst])
