@@ -63,6 +63,7 @@ print(json.dumps({{
     "priority": os.sched_getparam(0).sched_priority,
     "cpus": sorted(os.sched_getaffinity(0)),
     "locked_kb": int(status["VmLck"].split()[0]),
+    "stack_bytes": threading.stack_size(),
 }}))
 """
 
@@ -126,6 +127,7 @@ def test_mlockall_under_a_finite_limit_is_refused_naming_limitmemlock() -> None:
     assert "LimitMEMLOCK=infinity" in fix
     assert "cap_ipc_lock" in fix
     assert seen["locked_kb"] == 0
+    assert seen["stack_bytes"] == 0  # the platform's default
 
 
 def test_cpus_the_process_may_not_use_are_refused_naming_those_it_may() -> None:
@@ -167,6 +169,7 @@ def test_mlockall_locks_the_process_memory() -> None:
     assert seen["applied"] == ["mlockall"]
     assert isinstance(seen["locked_kb"], int)
     assert seen["locked_kb"] > 1000
+    assert seen["stack_bytes"] == 1 << 20  # each new thread locks 1 MiB of stack, not 8
 
 
 def test_the_start_up_line_says_what_was_applied_and_what_was_refused() -> None:
