@@ -6,6 +6,7 @@ that run the tests are shared and noisy. What is checked is the logic that produ
 
 from __future__ import annotations
 
+import gc
 import itertools
 import json
 import math
@@ -277,14 +278,17 @@ EXPECTED_KEYS = {
         *(
             f"{path}_latency_{stat}_ms"
             for path in ("can", "ibus")
-            for stat in ("p50", "p99", "max")
+            for stat in ("p50", "p99", "p999", "max")
         ),
+        *(f"{path}_latency_samples" for path in ("can", "ibus")),
         "jitter_p99_ms",
+        "jitter_p999_ms",
         "jitter_max_ms",
         "overruns",
         "cpu_percent",
         "process_cpu_percent",
         "bus_load_percent",
+        "steal_percent",
     )
 } | {"peak_rss_mb", "virtual_speedup"}
 
@@ -365,6 +369,8 @@ def test_bench_quick_json_runs_end_to_end_and_gives_every_figure(
     assert set(figures) == EXPECTED_KEYS
     assert all(isinstance(figure["value"], float) for figure in figures.values())
     assert document["settings"]["quick"] is True
+    assert document["settings"]["realtime"] is None  # no --realtime: the process as it was
+    assert document["tail"] is None  # no --probe
 
 
 @pytest.mark.parametrize(
@@ -376,3 +382,34 @@ def test_bench_refuses_bad_options_with_one_line(
 ) -> None:
     assert main(["bench", *option]) == 2
     assert message in capsys.readouterr().err
+
+
+def test_every_latency_and_jitter_figure_has_its_p999_and_max_and_says_on_how_many_samples(
+    bench_result: BenchResult,
+) -> None:
+    figures = {figure.key: figure for figure in all_figures(bench_result)}
+    for phase in bench_result.realtime.phases:
+        for path, summary in (("can", phase.can_latency), ("ibus", phase.ibus_latency)):
+            key = f"{phase.name}_{path}_latency"
+            assert summary.p999_s is not None
+            assert figures[f"{key}_p999_ms"].value == pytest.approx(summary.p999_s * 1000)
+            assert figures[f"{key}_samples"].value == summary.samples
+            assert f"n={summary.samples}" in figures[f"{key}_p999_ms"].note
+        runs = min(task.runs for task in phase.control_tasks)
+        jitter = figures[f"{phase.name}_jitter_p999_ms"]
+        assert f"n={runs}" in jitter.note
+        assert (runs < 1000) == ("p99.9 is the max" in jitter.note)
+
+
+def test_bench_realtime_applies_the_configurations_settings_and_gives_the_collector_back(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    config = tmp_path / "robot.toml"
+    config.write_text('[realtime]\ngc_freeze = false\ngc_mode = "idle"\n', encoding="utf-8")
+    args = ["bench", "--quick", "--json", "--realtime", "--config", str(config)]
+    assert main(args) == 0
+    captured = capsys.readouterr()
+    realtime = json.loads(captured.out)["settings"]["realtime"]
+    assert realtime == {"applied": ["gc between passes (>= 2 ms idle)"], "refused": []}
+    assert "real-time: applied gc between passes" in captured.err
+    assert gc.isenabled()  # the virtual-time course and everything after collect as usual

@@ -111,6 +111,16 @@ BAD_VALUES = [
     ('[tasks]\ncan_tx_rate_hz = "50"', "tasks.can_tx_rate_hz", "a number in 1..1000 Hz"),
     ("[tasks]\nlights_rate_hz = true", "tasks.lights_rate_hz", "got a boolean"),
     ("[tasks]\nhydrobrake_rate_hz = 0", "tasks.hydrobrake_rate_hz", "1..1000 Hz"),
+    ('[realtime]\nscheduler = "rr"', "realtime.scheduler", '"other", "fifo"'),
+    ("[realtime]\npriority = 99", "realtime.priority", "1..98"),
+    ("[realtime]\nlock_memory = 1", "realtime.lock_memory", "true or false"),
+    ('[realtime]\ncpus = "1-"', "realtime.cpus", "not a CPU list"),
+    ('[realtime]\ncpus = "3-1"', "realtime.cpus", "not a CPU list"),
+    ('[realtime]\ncpus = ""', "realtime.cpus", '"all" or a CPU list'),
+    ('[realtime]\ncpus = "1024"', "realtime.cpus", "CPUs 0..1023"),
+    ("[realtime]\ncpus = 1", "realtime.cpus", "got an integer"),
+    ('[realtime]\ngc_mode = "off"', "realtime.gc_mode", '"automatic", "idle"'),
+    ("[realtime]\ngc_freeze = 0", "realtime.gc_freeze", "true or false"),
     ("[sim]\nseed = -1", "sim.seed", "0..4294967295"),
     ("[sim]\nrc_frame_period_s = 0.5", "sim.rc_frame_period_s", "0.001..0.1 s"),
     ("[sim]\ntop_speed_mps = 0", "sim.top_speed_mps", "0.1..30 m/s"),
@@ -248,3 +258,21 @@ def _toml_float(value: float) -> str:
     return {math.inf: "inf", -math.inf: "-inf"}.get(
         value, "nan" if math.isnan(value) else repr(value)
     )
+
+
+@pytest.mark.parametrize(
+    ("text", "cpus"),
+    [("all", None), ("1", {1}), ("0-1", {0, 1}), ("0, 2-3", {0, 2, 3}), ("5-5", {5})],
+)
+def test_realtime_cpus_are_a_cpu_list_as_taskset_writes_it(
+    text: str, cpus: set[int] | None
+) -> None:
+    config = parse_config(f'[realtime]\ncpus = "{text}"')
+    assert config.realtime.cpus == text
+    assert config.realtime.cpu_set == (None if cpus is None else frozenset(cpus))
+
+
+def test_realtime_defaults_need_no_privilege() -> None:
+    realtime = RobotConfig().realtime
+    assert (realtime.scheduler, realtime.lock_memory, realtime.cpu_set) == ("other", False, None)
+    assert realtime.gc_freeze

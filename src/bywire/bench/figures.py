@@ -7,7 +7,7 @@ from typing import Any
 
 from bywire.bench.phases import PhaseResult
 from bywire.bench.realtime import RealtimeResult
-from bywire.bench.stats import LatencySummary
+from bywire.bench.stats import LatencySummary, tail_note
 from bywire.bench.virtual import SpeedupResult
 
 LATENCY_P99_LIMIT_MS = 1.0
@@ -80,7 +80,7 @@ def _ms(seconds: float | None) -> float | None:
 def latency_figures(
     phase: PhaseResult, path: str, label: str, summary: LatencySummary
 ) -> list[Figure]:
-    """p50, p99 and max of one command path in one phase."""
+    """p50, p99, p99.9 and max of one command path in one phase, and how many samples."""
     key, section = f"{phase.name}_{path}_latency", phase.name
     note = f"n={summary.samples}, {summary.unpaired} unpaired"
     return [
@@ -88,15 +88,25 @@ def latency_figures(
         Figure(
             f"{key}_p99_ms", section, f"{label} p99", _ms(summary.p99_s), "ms", LATENCY_P99_LIMIT_MS
         ),
+        Figure(
+            f"{key}_p999_ms",
+            section,
+            f"{label} p99.9",
+            _ms(summary.p999_s),
+            "ms",
+            note=tail_note(summary.samples),
+        ),
         Figure(f"{key}_max_ms", section, f"{label} max", _ms(summary.max_s), "ms"),
+        Figure(f"{key}_samples", section, f"{label} samples", float(summary.samples), ""),
     ]
 
 
 def task_figures(phase: PhaseResult) -> list[Figure]:
-    """The 100 Hz tasks' worst p99 jitter and their overruns in one phase."""
+    """The 100 Hz tasks' worst p99, p99.9 and max jitter and their overruns in one phase."""
     tasks = phase.control_tasks
     worst_s = max((task.jitter_p99_s for task in tasks), default=None)
     budget = sum(task.budget_exceeded for task in tasks)
+    fewest_runs = min((task.runs for task in tasks), default=0)
     return [
         Figure(
             f"{phase.name}_jitter_p99_ms",
@@ -106,6 +116,14 @@ def task_figures(phase: PhaseResult) -> list[Figure]:
             "ms",
             JITTER_P99_LIMIT_MS,
             note=f"worst of {len(tasks)}, 10 µs bins",
+        ),
+        Figure(
+            f"{phase.name}_jitter_p999_ms",
+            phase.name,
+            "100 Hz jitter p99.9",
+            _ms(max((task.jitter_p999_s for task in tasks), default=None)),
+            "ms",
+            note=f"worst of {len(tasks)}, {tail_note(fewest_runs)} each",
         ),
         Figure(
             f"{phase.name}_jitter_max_ms",
@@ -163,6 +181,16 @@ def phase_figures(phase: PhaseResult) -> list[Figure]:
             note=f"{phase.stops} falls to STOP",
         )
     )
+    rows.append(
+        Figure(
+            f"{phase.name}_steal_percent",
+            phase.name,
+            "Machine: CPU stolen by the host",
+            phase.steal_share * 100.0,
+            "%",
+            note=f"some task waited for a CPU {phase.cpu_pressure_share * 100:.0f} % of the time",
+        )
+    )
     return rows
 
 
@@ -215,4 +243,7 @@ def as_json(result: BenchResult) -> dict[str, Any]:
         "virtual_time": {**asdict(speedup), "speedup": speedup.speedup},
         "machine": result.machine,
         "settings": result.settings,
+        "tail": None
+        if result.realtime.tail is None
+        else [asdict(phase) for phase in result.realtime.tail],
     }

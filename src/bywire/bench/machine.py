@@ -10,6 +10,9 @@ import sys
 from pathlib import Path
 
 CPUINFO = Path("/proc/cpuinfo")
+PROC_STAT = Path("/proc/stat")
+CPU_PRESSURE = Path("/proc/pressure/cpu")
+STEAL_FIELD = 8  # "cpu user nice system idle iowait irq softirq steal ..." in /proc/stat
 
 
 def peak_rss_bytes() -> int:
@@ -44,3 +47,32 @@ def machine_info() -> dict[str, object]:
         "platform": platform.platform(),
         "date_utc": datetime.datetime.now(datetime.UTC).isoformat(timespec="seconds"),
     }
+
+
+def steal_s(stat: Path = PROC_STAT) -> float:
+    """CPU seconds the hypervisor took from this machine's CPUs since boot (all CPUs added up).
+
+    On a virtual machine this is time the guest wanted to run and the host ran something else;
+    the guest's scheduler cannot see it (0 on bare metal, or where /proc/stat is unreadable).
+    """
+    try:
+        for line in stat.read_text(encoding="ascii").splitlines():
+            fields = line.split()
+            if fields and fields[0] == "cpu" and len(fields) > STEAL_FIELD:
+                return int(fields[STEAL_FIELD]) / os.sysconf("SC_CLK_TCK")
+    except (OSError, ValueError):
+        pass
+    return 0.0
+
+
+def cpu_pressure_s(pressure: Path = CPU_PRESSURE) -> float:
+    """Seconds during which at least one task waited for a CPU since boot (Linux PSI, "some");
+    0 where the kernel does not report pressure."""
+    try:
+        for line in pressure.read_text(encoding="ascii").splitlines():
+            if line.startswith("some "):
+                total = dict(item.split("=") for item in line.split()[1:])["total"]
+                return int(total) * 1e-6
+    except (OSError, ValueError, KeyError):
+        pass
+    return 0.0

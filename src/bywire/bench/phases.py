@@ -12,7 +12,8 @@ from collections.abc import Sequence
 from dataclasses import dataclass, field
 
 from bywire.bench.clocks import MeteredClock
-from bywire.bench.latency import DacWrite, SentCommand, pair_writes
+from bywire.bench.latency import DacWrite, Pairing, SentCommand, pair_writes
+from bywire.bench.machine import cpu_pressure_s, steal_s
 from bywire.bench.stats import LatencySummary, summarise
 from bywire.hal.sim.can_bus import SimCanBus
 from bywire.model import ControlMode
@@ -23,16 +24,26 @@ CONTROL_RATE_HZ = 100.0  # the rate of the tasks §8's jitter figure is about
 
 @dataclass(frozen=True, slots=True)
 class Marks:
-    """Process and simulator CPU time, wall time and bits on the bus at one instant."""
+    """Process and simulator CPU time, wall time, bits on the bus, and the machine's stolen CPU
+    time and CPU pressure at one instant."""
 
     cpu_s: float
     sim_cpu_s: float
     wall_s: float
     bus_bits: int
+    steal_s: float = 0.0
+    pressure_s: float = 0.0
 
     @classmethod
     def take(cls, clock: MeteredClock, bus: SimCanBus) -> Marks:
-        return cls(time.process_time(), clock.waiting_cpu_s, time.perf_counter(), bus.bits_sent())
+        return cls(
+            time.process_time(),
+            clock.waiting_cpu_s,
+            time.perf_counter(),
+            bus.bits_sent(),
+            steal_s(),
+            cpu_pressure_s(),
+        )
 
 
 @dataclass(slots=True)
@@ -70,6 +81,7 @@ class TaskFigures:
     overruns: int
     budget_exceeded: int
     jitter_p99_s: float
+    jitter_p999_s: float
     jitter_max_s: float
     spent_s: float
 
@@ -82,6 +94,7 @@ class TaskFigures:
             overruns=stats.overruns,
             budget_exceeded=stats.budget_exceeded,
             jitter_p99_s=stats.jitter_percentile_s(0.99),
+            jitter_p999_s=stats.jitter_percentile_s(0.999),
             jitter_max_s=stats.max_jitter_s,
             spent_s=stats.spent_s,
         )
@@ -101,6 +114,10 @@ class PhaseResult:
     ibus_latency: LatencySummary
     tasks: tuple[TaskFigures, ...]
     stops: int
+    steal_share: float = 0.0
+    """CPU time the hypervisor took, as a share of one CPU (the machine's, not this process's)."""
+    cpu_pressure_share: float = 0.0
+    """Share of the time some task on the machine waited for a CPU (PSI "some")."""
 
     @property
     def control_tasks(self) -> tuple[TaskFigures, ...]:
@@ -129,9 +146,24 @@ def latency_in(
     tolerance_volts: float,
 ) -> LatencySummary:
     """Latency summary of the commands completed within ``span``."""
-    chosen = [command for command in commands if in_span(command.completed_s, span)]
-    pairing = pair_writes(chosen, writes, tolerance_volts=tolerance_volts)
+    pairing = pairing_in(commands, writes, span, tolerance_volts)
     return summarise(pairing.latencies_s, pairing.unpaired)
+
+
+def pairing_in(
+    commands: Sequence[SentCommand],
+    writes: Sequence[DacWrite],
+    span: tuple[float, float],
+    tolerance_volts: float,
+) -> Pairing:
+    """The commands completed within ``span``, each with its write."""
+    chosen = [command for command in commands if in_span(command.completed_s, span)]
+    return pair_writes(chosen, writes, tolerance_volts=tolerance_volts)
+
+
+def latency_intervals(pairing: Pairing) -> list[tuple[float, float]]:
+    """(completed, written) of every paired command."""
+    return [(command.completed_s, write.time_s) for command, write in pairing.pairs if write]
 
 
 def stops_in(mode_log: Sequence[tuple[float, ControlMode]], span: tuple[float, float]) -> int:

@@ -35,9 +35,12 @@ from bywire.bench.phases import (
     PhaseWindow,
     TaskFigures,
     latency_in,
+    latency_intervals,
+    pairing_in,
     stops_in,
 )
 from bywire.bench.sweeps import CanSweep, MovementLog, RcSweep
+from bywire.bench.tail import PhaseTail, ProbedClock, explain_tail, gc_figures
 from bywire.config import RobotConfig
 from bywire.hal.sim.hlc import COMMAND_PERIOD_S
 from bywire.hal.sim.world import SimWorld
@@ -52,6 +55,8 @@ HANDOVER_S = 0.06  # the switch counts after 3 IBUS frames (23 ms); well inside 
 FIRST_PHASE_AT_S = 1.0
 GRID_OFFSET_S = 0.004
 PROGRESS_PERIOD_S = 1.0
+TAIL_THRESHOLD_S = 0.0005
+"""A latency or a wake-up later than this is the tail `bywire bench --probe` explains."""
 
 Progress = Callable[[str, float, float], None]
 """Called with the phase's name, seconds done and seconds in all (about once a second)."""
@@ -80,10 +85,12 @@ class BenchSettings:
 
 @dataclass(frozen=True, slots=True)
 class RealtimeResult:
-    """Both phases' results and the process's peak resident memory at the end."""
+    """Both phases' results and the process's peak resident memory at the end; on a
+    `ProbedClock`, where each phase's tail came from."""
 
     phases: tuple[PhaseResult, ...]
     peak_rss_bytes: int
+    tail: tuple[PhaseTail, ...] | None = None
 
 
 class RealtimeSession:
@@ -126,7 +133,10 @@ class RealtimeSession:
         rss_bytes = peak_rss_bytes()
         commands = self.commands()
         phases = tuple(self._result(window, *commands) for window in self.windows)
-        return RealtimeResult(phases, rss_bytes)
+        tail = None
+        if isinstance(self.clock, ProbedClock):
+            tail = tuple(self._tail(self.clock, window, *commands) for window in self.windows)
+        return RealtimeResult(phases, rss_bytes, tail)
 
     # --- the timeline -------------------------------------------------------------------------
 
@@ -248,7 +258,32 @@ class RealtimeSession:
             ibus_latency=latency_in(rc_commands, self.writes, window.rc_span(), tolerance_volts),
             tasks=tuple(TaskFigures.of(task, stats) for task, stats in window.task_stats),
             stops=stops_in(self.runtime.mode_log, (window.start_s + window.settle_s, window.end_s)),
+            steal_share=(ended.steal_s - started.steal_s) / wall_s,
+            cpu_pressure_share=(ended.pressure_s - started.pressure_s) / wall_s,
         )
+
+    def _tail(
+        self,
+        clock: ProbedClock,
+        window: PhaseWindow,
+        can_commands: list[SentCommand],
+        rc_commands: list[SentCommand],
+    ) -> PhaseTail:
+        tolerance_volts = self._output().tolerance_volts
+        timeline = clock.timeline
+        paths = (("can", can_commands, window.can_span()), ("ibus", rc_commands, window.rc_span()))
+        tails = [
+            explain_tail(
+                timeline,
+                path,
+                latency_intervals(pairing_in(commands, self.writes, span, tolerance_volts)),
+                TAIL_THRESHOLD_S,
+            )
+            for path, commands, span in paths
+        ]
+        span = (window.start_s, window.end_s)  # the whole phase, as the tasks' jitter figures
+        tails.append(explain_tail(timeline, "wake", timeline.late_wakes(span), TAIL_THRESHOLD_S))
+        return PhaseTail(window.name, tuple(gc_figures(timeline, span)), tuple(tails))
 
 
 def run_realtime(

@@ -6,6 +6,7 @@ from rich import box
 from rich.table import Table
 
 from bywire.bench.figures import BenchResult, Figure, all_figures
+from bywire.bench.tail import PARTS, PhaseTail
 
 _VERDICTS = {True: "[green]met[/]", False: "[bold red]MISSED[/]", None: ""}
 
@@ -64,3 +65,36 @@ def summary_line(result: BenchResult) -> str:
     if not missed:
         return "Every target of REQUIREMENTS §8 measured here was met."
     return "Targets missed: " + "; ".join(missed) + "."
+
+
+def render_tail(tails: tuple[PhaseTail, ...]) -> Table:
+    """`--probe`: per phase and path, the late intervals' time by cause; the collections."""
+    table = Table(
+        title="where the tail comes from (intervals over 0.5 ms, time summed by cause)",
+        box=box.SIMPLE_HEAD,
+    )
+    table.add_column("phase / path")
+    table.add_column("late", justify="right")
+    for part in PARTS:
+        table.add_column(part, justify="right")
+    table.add_column("worst, by cause")
+    for phase in tails:
+        for tail in phase.tails:
+            worst = ""
+            if tail.worst:
+                length_s, _start_s, parts = tail.worst[0]
+                main = sorted(parts.items(), key=lambda item: item[1], reverse=True)[:2]
+                shares = ", ".join(f"{name} {seconds * 1e3:.2f}" for name, seconds in main)
+                worst = f"{length_s * 1e3:.2f} ms: {shares}"
+            table.add_row(
+                f"{phase.name} {tail.path}",
+                f"{tail.late}/{tail.samples}",
+                *(f"{tail.parts_s[part] * 1e3:.2f}" for part in PARTS),
+                worst,
+            )
+        collections = "; ".join(
+            f"gen{gc.generation}: {gc.count}, max {gc.max_s * 1e3:.2f} ms" for gc in phase.gc
+        )
+        table.add_row(f"{phase.name} gc", "", *([""] * len(PARTS)), collections)
+        table.add_section()
+    return table

@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 import json
 import math
+import sys
 from collections.abc import Callable, Iterator
 from contextlib import contextmanager
 from pathlib import Path
@@ -15,12 +16,14 @@ from rich.progress import BarColumn, Progress, TextColumn
 from bywire.bench.clocks import MeteredRealtimeClock
 from bywire.bench.figures import BenchResult, as_json
 from bywire.bench.machine import machine_info
-from bywire.bench.realtime import BenchSettings, run_realtime
+from bywire.bench.realtime import BenchSettings, RealtimeSession
 from bywire.bench.realtime import Progress as ProgressCallback
-from bywire.bench.table import render, summary_line
+from bywire.bench.table import render, render_tail, summary_line
+from bywire.bench.tail import ProbedClock
 from bywire.bench.virtual import measure_speedup
 from bywire.config import RobotConfig, default_sim_config, load_config
 from bywire.errors import ConfigError
+from bywire.runtime.realtime import RealtimeReport, apply_collector, apply_process
 from bywire.sim.catalog import DEFAULT_SCENARIO
 
 QUICK_PHASE_S = 1.0
@@ -56,6 +59,19 @@ def configure(parser: argparse.ArgumentParser) -> None:
     )
     parser.add_argument("--config", type=Path, metavar="FILE", help="robot TOML (default: sim)")
     parser.add_argument("--json", action="store_true", help="print the figures as JSON")
+    parser.add_argument(
+        "--realtime",
+        action="store_true",
+        help="apply the configuration's [realtime] settings (SCHED_FIFO, mlockall, CPUs, gc) to"
+        " the benchmark's process first, as `bywire run` does; bench/realtime.toml turns each on",
+    )
+    parser.add_argument(
+        "--probe",
+        action="store_true",
+        help="also find where the tail comes from: time every garbage collection and sample the"
+        " controller thread's CPU time and run-queue delay at each wait and sleep (costs CPU and"
+        " memory: the probed run's CPU and memory figures are not the benchmark's)",
+    )
 
 
 def _settings(args: argparse.Namespace) -> BenchSettings:
@@ -74,8 +90,28 @@ def run(args: argparse.Namespace) -> int:
     course_s = QUICK_COURSE_S if args.quick else None
     machine = machine_info()
     console = Console(stderr=True)
+    clock = ProbedClock() if args.probe else MeteredRealtimeClock()
+    applied = RealtimeReport()
+    if args.realtime:
+        applied = apply_process(robot.realtime, python=sys.executable)
     with _progress(console, 2 * settings.phase_s) as progress:
-        realtime = run_realtime(robot, settings, MeteredRealtimeClock(), progress)
+        session = RealtimeSession(robot, settings, clock, progress)
+        collector = apply_collector(robot.realtime, session.runtime) if args.realtime else None
+        if collector is not None:
+            applied.extend(collector.report)
+        for refusal in applied.refused:
+            console.print(f"bywire bench: warning: {refusal}", highlight=False)
+        if args.realtime:
+            console.print(f"bywire bench: {applied.line()}", highlight=False)
+        if isinstance(clock, ProbedClock):
+            clock.start()
+        try:
+            realtime = session.run()
+        finally:
+            if isinstance(clock, ProbedClock):
+                clock.stop()
+            if collector is not None:
+                collector.release()  # the virtual-time course runs with Python's own collector
         progress("virtual-time course", 2 * settings.phase_s, 2 * settings.phase_s)
         speedup = measure_speedup(robot, DEFAULT_SCENARIO, course_s)
     result = BenchResult(
@@ -89,6 +125,8 @@ def run(args: argparse.Namespace) -> int:
             "quick": bool(args.quick),
             "config": None if args.config is None else str(args.config),
             "course_duration_s": speedup.simulated_s,
+            "probe": bool(args.probe),
+            "realtime": applied.as_json() if args.realtime else None,
         },
     )
     if args.json:
@@ -97,6 +135,8 @@ def run(args: argparse.Namespace) -> int:
         out = Console()
         out.print(render(result))
         out.print(summary_line(result))
+        if realtime.tail is not None:
+            out.print(render_tail(realtime.tail))
     return 0
 
 

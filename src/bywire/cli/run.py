@@ -28,6 +28,7 @@ from bywire.hal.linux.device_errors import reason
 from bywire.hal.linux.systemd import notify
 from bywire.hal.opening import LinuxPaths, open_hardware
 from bywire.runtime.app import Runtime
+from bywire.runtime.realtime import RealtimeReport, apply_collector, apply_process
 from bywire.runtime.settings import RuntimeConfig
 
 STOP_SIGNALS = (signal.SIGINT, signal.SIGTERM)
@@ -73,16 +74,27 @@ def run(args: argparse.Namespace) -> int:
     robot = load_config(args.config)
     paths = LinuxPaths(args.sysfs_root, args.dev_root)
     status = 0
+    # Before the hardware opens: its reader threads and the watchdog inherit scheduler and CPUs.
+    realtime = apply_process(robot.realtime, python=sys.executable)
     with _device_errors(), open_hardware(robot, paths) as hardware:
         runtime = Runtime(hardware, RuntimeConfig.from_robot(robot), notify=notify)
-        log.info("running %s (%s backend)", robot.name, robot.backend)
+        realtime.extend(apply_collector(robot.realtime, runtime).report)
+        _report_realtime(realtime)
         with _stop_on_signals(runtime):
+            log.info("running %s (%s backend)", robot.name, robot.backend)  # signals handled
             if args.dashboard:
                 status = _with_dashboard(runtime, f"{robot.name} ({robot.backend} backend)")
             else:
                 runtime.run()
     log.info("stopped; outputs de-energised")
     return status
+
+
+def _report_realtime(report: RealtimeReport) -> None:
+    """A warning naming the fix for each refused setting, then the one-line summary."""
+    for refusal in report.refused:
+        log.warning("%s", refusal)
+    log.info("%s", report.line())
 
 
 def _with_dashboard(runtime: Runtime, source: str) -> int:

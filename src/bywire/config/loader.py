@@ -21,6 +21,7 @@ from bywire.config.sections import (
     interlocks_section,
     monitors_section,
     rc_section,
+    realtime_section,
     sim_section,
     steering_section,
     supervisor_section,
@@ -95,6 +96,7 @@ def build_robot(data: Mapping[str, object], problems: Problems) -> RobotConfig:
         monitors=monitors_section(root.table("monitors")),
         supervisor=supervisor_section(root.table("supervisor")),
         tasks=tasks_section(root.table("tasks")),
+        realtime=realtime_section(root.table("realtime")),
         sim=sim_section(root.table("sim")),
     )
     root.close()

@@ -21,6 +21,11 @@ from bywire.control.supervisor import SupervisorConfig
 
 Backend = Literal["sim", "linux"]
 BACKENDS: tuple[Backend, ...] = ("sim", "linux")
+Scheduler = Literal["other", "fifo"]
+SCHEDULERS: tuple[Scheduler, ...] = ("other", "fifo")
+GcMode = Literal["automatic", "idle"]
+GC_MODES: tuple[GcMode, ...] = ("automatic", "idle")
+ALL_CPUS = "all"
 DEFAULT_GPIO_CHIP = "gpiochip0"
 
 
@@ -153,6 +158,41 @@ class SimSection:
 
 
 @dataclass(frozen=True, slots=True)
+class RealtimeSection:
+    """Process settings `bywire run` applies when permitted (`bywire.runtime.realtime`).
+
+    The defaults change nothing that needs a privilege: the kernel's normal scheduler, memory
+    not locked, every CPU; only the collector is told to leave start-up objects alone.
+    """
+
+    scheduler: Scheduler = "other"
+    priority: int = 40  # SCHED_FIFO priority, used with scheduler = "fifo"
+    lock_memory: bool = False
+    cpus: str = ALL_CPUS  # a CPU list as taskset -c and systemd's CPUAffinity= write it
+    gc_freeze: bool = True
+    gc_mode: GcMode = "automatic"
+
+    @property
+    def cpu_set(self) -> frozenset[int] | None:
+        """The CPUs to run on; None: wherever the kernel likes (no affinity set)."""
+        return None if self.cpus == ALL_CPUS else parse_cpu_list(self.cpus)
+
+
+def parse_cpu_list(text: str) -> frozenset[int]:
+    """ "1", "0-1", "0,2-3" as a set of CPU numbers; ValueError for anything else."""
+    cpus: set[int] = set()
+    for item in text.split(","):
+        first, dash, last = item.strip().partition("-")
+        if not first.isdigit() or (dash and not last.isdigit()):
+            raise ValueError(f"not a CPU list: {text!r}")
+        low, high = int(first), int(last) if dash else int(first)
+        if high < low:
+            raise ValueError(f"descending range {item.strip()!r}")
+        cpus.update(range(low, high + 1))
+    return frozenset(cpus)
+
+
+@dataclass(frozen=True, slots=True)
 class RobotConfig:
     """Everything one robot needs: buses, addresses, lines, calibration, limits and rates."""
 
@@ -171,6 +211,7 @@ class RobotConfig:
     monitors: MonitorConfig = field(default_factory=MonitorConfig)
     supervisor: SupervisorConfig = field(default_factory=SupervisorConfig)
     tasks: TasksSection = field(default_factory=TasksSection)
+    realtime: RealtimeSection = field(default_factory=RealtimeSection)
     sim: SimSection = field(default_factory=SimSection)
 
 

@@ -6,10 +6,12 @@ from bywire.config.limits import (
     BITRATES_BPS,
     BOOST_GAIN,
     CLOCKS_HZ,
+    CPU_NUMBERS,
     DEADBAND_NORM,
     DEBOUNCE_FRAMES,
     DUTY,
     DWELL_S,
+    FIFO_PRIORITY,
     IBUS_BAUD,
     INPUT_TIMEOUT_S,
     POSITIVE_NORM_PER_S,
@@ -33,15 +35,20 @@ from bywire.config.limits import (
     WATCHDOG_S,
 )
 from bywire.config.model import (
+    ALL_CPUS,
+    GC_MODES,
+    SCHEDULERS,
     CanSection,
     PwmOutput,
     RcSection,
+    RealtimeSection,
     SimSection,
     SteeringSection,
     TasksSection,
     TimeoutsSection,
+    parse_cpu_list,
 )
-from bywire.config.reader import MISSING, Interval, Table
+from bywire.config.reader import MISSING, Interval, Table, toml_type
 from bywire.control.interlocks import InterlockConfig
 from bywire.control.monitors import MonitorConfig
 from bywire.control.rc_mapping import (
@@ -256,3 +263,44 @@ def supervisor_section(table: Table) -> SupervisorConfig:
     )
     table.close()
     return section
+
+
+def realtime_section(table: Table) -> RealtimeSection:
+    default = RealtimeSection()
+    scheduler = table.text("scheduler", default.scheduler, SCHEDULERS)
+    gc_mode = table.text("gc_mode", default.gc_mode, GC_MODES)
+    section = RealtimeSection(
+        scheduler="fifo" if scheduler == "fifo" else "other",
+        priority=table.integer("priority", default.priority, FIFO_PRIORITY),
+        lock_memory=table.flag("lock_memory", default.lock_memory),
+        cpus=cpu_list(table, "cpus", default.cpus),
+        gc_freeze=table.flag("gc_freeze", default.gc_freeze),
+        gc_mode="idle" if gc_mode == "idle" else "automatic",
+    )
+    table.close()
+    return section
+
+
+def cpu_list(table: Table, name: str, default: str) -> str:
+    """A CPU list ("1", "2-3", "0,2") of CPUs in CPU_NUMBERS, or "all"."""
+    allowed = (
+        f'"{ALL_CPUS}" or a CPU list such as "1" or "0,2-3"'
+        f" (CPUs {CPU_NUMBERS.start}..{CPU_NUMBERS[-1]})"
+    )
+    value = table.get(name)
+    if value is MISSING:
+        return default
+    if not isinstance(value, str):
+        table.refuse(name, value, f"expected {allowed}, got {toml_type(value)}")
+        return default
+    if value == ALL_CPUS:
+        return value
+    try:
+        cpus = parse_cpu_list(value)
+    except ValueError:
+        table.refuse(name, value, f"not a CPU list; expected {allowed}")
+        return default
+    if not cpus <= set(CPU_NUMBERS):
+        table.refuse(name, value, f"out of range; allowed {allowed}")
+        return default
+    return value
