@@ -1,4 +1,5 @@
-"""Virtual-time speed-up: a scenario's simulated duration over the wall time it took to run."""
+"""Virtual time: the test course's speed-up (simulated over wall time), and how many of `bywire
+verify`'s campaigns run per minute on every core."""
 
 from __future__ import annotations
 
@@ -8,6 +9,7 @@ from dataclasses import dataclass
 from bywire.config import RobotConfig
 from bywire.sim.catalog import DEFAULT_SCENARIO, packaged_scenario
 from bywire.sim.runner import SimRun
+from bywire.sim.verify import CAMPAIGN_S, CampaignJob, campaign_outcomes
 
 
 @dataclass(frozen=True, slots=True)
@@ -43,3 +45,29 @@ def measure_speedup(
         expectations_passed=sum(verdict.passed is True for verdict in record.verdicts),
         expectations_total=len(record.verdicts),
     )
+
+
+@dataclass(frozen=True, slots=True)
+class VerifyRateResult:
+    """How many `bywire verify` campaigns ran in how long, on how many processes."""
+
+    campaigns: int
+    campaign_s: float
+    jobs: int
+    wall_s: float
+    simulated_s: float
+
+    @property
+    def per_minute(self) -> float:
+        return self.campaigns / self.wall_s * 60.0
+
+
+def measure_verify_rate(
+    robot: RobotConfig, campaigns: int, jobs: int, campaign_s: float = CAMPAIGN_S
+) -> VerifyRateResult:
+    """Run `campaigns` of `bywire verify`'s campaigns (seed 0) on `jobs` processes, timed."""
+    started_s = time.perf_counter()
+    outcomes = list(campaign_outcomes(robot, CampaignJob(0, campaign_s), jobs, campaigns, None))
+    wall_s = time.perf_counter() - started_s
+    simulated_s = sum(outcome.simulated_s for outcome in outcomes)
+    return VerifyRateResult(len(outcomes), campaign_s, jobs, wall_s, simulated_s)

@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 import json
 import math
+import os
 import sys
 from collections.abc import Callable, Iterator
 from contextlib import contextmanager
@@ -20,7 +21,7 @@ from bywire.bench.realtime import BenchSettings, RealtimeSession
 from bywire.bench.realtime import Progress as ProgressCallback
 from bywire.bench.table import render, render_tail, summary_line
 from bywire.bench.tail import ProbedClock
-from bywire.bench.virtual import measure_speedup
+from bywire.bench.virtual import measure_speedup, measure_verify_rate
 from bywire.config import RobotConfig, default_sim_config, load_config
 from bywire.errors import ConfigError
 from bywire.runtime.realtime import RealtimeReport, apply_collector, apply_process
@@ -28,6 +29,8 @@ from bywire.sim.catalog import DEFAULT_SCENARIO
 
 QUICK_PHASE_S = 1.0
 QUICK_COURSE_S = 10.0
+VERIFY_CAMPAIGNS = 100  # bywire verify's ten-second campaigns timed on every core
+QUICK_CAMPAIGNS = 8
 MAX_PHASE_S = 3600.0
 
 
@@ -114,9 +117,13 @@ def run(args: argparse.Namespace) -> int:
                 collector.release()  # the virtual-time course runs with Python's own collector
         progress("virtual-time course", 2 * settings.phase_s, 2 * settings.phase_s)
         speedup = measure_speedup(robot, DEFAULT_SCENARIO, course_s)
+        campaigns = QUICK_CAMPAIGNS if args.quick else VERIFY_CAMPAIGNS
+        progress("verify campaigns", 2 * settings.phase_s, 2 * settings.phase_s)
+        verify_rate = measure_verify_rate(robot, campaigns, os.cpu_count() or 1)
     result = BenchResult(
         realtime=realtime,
         speedup=speedup,
+        verify_rate=verify_rate,
         machine=machine,
         settings={
             "phase_s": settings.phase_s,

@@ -16,12 +16,11 @@ from __future__ import annotations
 
 import argparse
 import json
-import multiprocessing
 import os
 import sys
 import time
 from collections import Counter
-from collections.abc import Iterable, Iterator
+from collections.abc import Iterable
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -37,16 +36,15 @@ from bywire.sim.scenario import scenario_toml
 from bywire.sim.verify import (
     CAMPAIGN_S,
     INVARIANTS,
+    CampaignJob,
     Outcome,
     Reproduction,
-    draw_campaign,
-    run_campaign,
+    campaign_outcomes,
     shrink_failure,
 )
 
 DEFAULT_BUDGET = 200
 DEFAULT_OUT = Path("verify-failures")
-BATCH_PER_JOB = 8  # campaigns handed out at a time per process when running for a duration
 
 
 def _positive_int(text: str) -> int:
@@ -128,54 +126,6 @@ def configure(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--json", action="store_true", help="print the summary as JSON")
 
 
-# --- running campaigns on every core -----------------------------------------------------------
-
-_ROBOT: RobotConfig | None = None  # each worker's robot, set before the pool forks
-
-
-@dataclass(frozen=True, slots=True)
-class _Job:
-    seed: int
-    campaign_s: float
-
-
-def _run_one(job: _Job, index: int) -> Outcome:
-    robot = _ROBOT if _ROBOT is not None else default_sim_config()
-    return run_campaign(robot, draw_campaign(job.seed, index, job.campaign_s), index)
-
-
-def _run_index(arguments: tuple[_Job, int]) -> Outcome:
-    return _run_one(*arguments)
-
-
-def _outcomes(
-    robot: RobotConfig, job: _Job, jobs: int, budget: int | None, until: float | None
-) -> Iterator[Outcome]:
-    """Every campaign's outcome as it finishes: `budget` of them, or as many as fit before the
-    wall-clock time `until`."""
-    global _ROBOT  # noqa: PLW0603 - read by the forked workers
-    _ROBOT = robot
-    if jobs == 1:
-        yield from _serial(job, budget, until)
-        return
-    with multiprocessing.get_context("fork").Pool(jobs) as pool:
-        if budget is not None:
-            yield from pool.imap_unordered(_run_index, ((job, i) for i in range(budget)), 2)
-            return
-        start = 0
-        while until is None or time.monotonic() < until:
-            batch = range(start, start + jobs * BATCH_PER_JOB)
-            yield from pool.imap_unordered(_run_index, ((job, i) for i in batch))
-            start = batch.stop
-
-
-def _serial(job: _Job, budget: int | None, until: float | None) -> Iterator[Outcome]:
-    index = 0
-    while (budget is None or index < budget) and (until is None or time.monotonic() < until):
-        yield _run_one(job, index)
-        index += 1
-
-
 @dataclass(slots=True)
 class Tally:
     """What the campaigns did, added up."""
@@ -227,12 +177,12 @@ def run(args: argparse.Namespace) -> int:
         console.print(f"warning: unsafe by construction: {combination}")
     budget = args.budget if args.budget is not None or args.duration else DEFAULT_BUDGET
     until = None if args.duration is None else time.monotonic() + args.duration
-    job = _Job(args.seed, args.campaign_s)
+    job = CampaignJob(args.seed, args.campaign_s)
     tally = Tally()
     started = time.perf_counter()
     with _progress(console, show) as progress:
         task = progress.add_task("campaigns", total=budget, status="")
-        for outcome in _outcomes(robot, job, args.jobs, budget, until):
+        for outcome in campaign_outcomes(robot, job, args.jobs, budget, until):
             tally.add(outcome)
             status = ", ".join(f"{k} {n}" for k, n in sorted(tally.violations.items()))
             progress.update(task, advance=1, status=status or "0 violations")

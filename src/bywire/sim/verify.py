@@ -9,12 +9,14 @@ at random over every action of `campaign.VOCABULARY` until `campaign_s` of simul
 
 from __future__ import annotations
 
+import multiprocessing
 import random
+import time
 from collections.abc import Callable, Iterator
 from dataclasses import dataclass, field, replace
 from typing import Any
 
-from bywire.config import RobotConfig
+from bywire.config import RobotConfig, default_sim_config
 from bywire.model import ControlMode
 from bywire.sim.campaign import OPERATOR, TAIL_S, VOCABULARY, Campaign, Step, compile_steps
 from bywire.sim.scenario import Expectation, Scenario
@@ -89,6 +91,58 @@ def run_campaign(robot: RobotConfig, steps: list[Step], index: int = 0) -> Outco
         findings,
         result.transitions,
     )
+
+
+# --- running campaigns on every core ---------------------------------------------------------
+
+BATCH_PER_JOB = 8  # campaigns handed out at a time per process when running for a duration
+
+_ROBOT: RobotConfig | None = None  # each worker's robot, set before the pool forks
+
+
+@dataclass(frozen=True, slots=True)
+class CampaignJob:
+    """Which campaigns: those of `seed`, each `campaign_s` simulated seconds long."""
+
+    seed: int
+    campaign_s: float
+
+
+def _run_one(job: CampaignJob, index: int) -> Outcome:
+    robot = _ROBOT if _ROBOT is not None else default_sim_config()
+    return run_campaign(robot, draw_campaign(job.seed, index, job.campaign_s), index)
+
+
+def _run_index(arguments: tuple[CampaignJob, int]) -> Outcome:
+    return _run_one(*arguments)
+
+
+def campaign_outcomes(
+    robot: RobotConfig, job: CampaignJob, jobs: int, budget: int | None, until: float | None
+) -> Iterator[Outcome]:
+    """Every campaign's outcome as it finishes: `budget` of them, or as many as fit before the
+    wall-clock time `until`."""
+    global _ROBOT  # noqa: PLW0603 - read by the forked workers
+    _ROBOT = robot
+    if jobs == 1:
+        yield from _serial(job, budget, until)
+        return
+    with multiprocessing.get_context("fork").Pool(jobs) as pool:
+        if budget is not None:
+            yield from pool.imap_unordered(_run_index, ((job, i) for i in range(budget)), 2)
+            return
+        start = 0
+        while until is None or time.monotonic() < until:
+            batch = range(start, start + jobs * BATCH_PER_JOB)
+            yield from pool.imap_unordered(_run_index, ((job, i) for i in batch))
+            start = batch.stop
+
+
+def _serial(job: CampaignJob, budget: int | None, until: float | None) -> Iterator[Outcome]:
+    index = 0
+    while (budget is None or index < budget) and (until is None or time.monotonic() < until):
+        yield _run_one(job, index)
+        index += 1
 
 
 # --- shrinking ---------------------------------------------------------------------------------
