@@ -254,7 +254,7 @@ class Runtime:
             control_edges=slots.control_edges,
             rc_frames=slots.rc_frames,
             control_frames=slots.control_frames,
-            fault_flags=int(active_flags(self._flag_sources, now)),
+            fault_flags=active_flags(self._flag_sources, now),
             dac_failing=self.actuators.dac_failing,
             watchdog_tripped=watchdog_tripped,
             can_untrusted=self.can.untrusted,
