@@ -136,6 +136,7 @@ def _conditions(
     inputs: ControlInputs, sources: _Sources, now: float, config: ControlConfig, monitor: int
 ) -> frozenset[Cause]:
     """Every cause whose condition holds now, whatever the mode."""
+    stopping = int(monitor) & int(config.monitors.stop_flags)  # plain ints: see controller_step
     held = (
         (not is_fresh(inputs.rc, now, config.rc_timeout_s), Cause.RC_LOST),
         (
@@ -147,10 +148,7 @@ def _conditions(
         (sources.control is not None and sources.control.remote_stop, Cause.REMOTE_STOP),
         (inputs.dac_failing, Cause.DAC_FAULT),
         (inputs.watchdog_tripped, Cause.WATCHDOG),
-        *(
-            (bool(monitor & flag & config.monitors.stop_flags), cause)
-            for flag, cause in MONITOR_CAUSES
-        ),
+        *((bool(stopping & int(flag)), cause) for flag, cause in MONITOR_CAUSES),
     )
     return frozenset(cause for holds, cause in held if holds)
 
@@ -262,11 +260,15 @@ def controller_step(
     steering, pulse_s = steering_step(
         state.steering, target_norm, now, config.steering, inputs.steering_measured_norm
     )
+    # Combined as plain ints: every operator on an IntFlag builds a new enum value, which costs
+    # more than the rest of this line; the bits are the same.
     flags = (
-        inputs.fault_flags | monitor_flags | _input_flags(inputs, sources, supervisor, now, config)
+        inputs.fault_flags
+        | int(monitor_flags)
+        | int(_input_flags(inputs, sources, supervisor, now, config))
     )
     if speed_check.faulted:
-        flags |= ErrorFlag.SPEED_SENSOR_FAULT
+        flags |= int(ErrorFlag.SPEED_SENSOR_FAULT)
     light_request = _light_request(supervisor.mode, sources, movement, flags)
     duty = hydrobrake_duty(movement.brake_norm, config.hydrobrake_threshold_norm)
     drive = drive_outputs(movement, enabled=driving, config=config.drive)

@@ -19,12 +19,16 @@ another id fails the check. ``decode_command`` checks, in this order: known comm
 (= DBC length), CRC, counter (previous + 1 mod 16 once a previous one is known), raw value ranges.
 Any failure raises ``CommandRejected`` and nothing is returned: no partial update. Reports carry
 no counter or CRC; their encoder saturates every value at the signal's range.
+
+The codec is a pure function of immutable values, so it remembers its latest results: a robot
+sends and receives the same few frames over and over (the counter wraps at 16; the values change
+far more slowly than 50 times a second), and cantools' encode and decode are the costly part.
 """
 
 from __future__ import annotations
 
 import enum
-from functools import cache
+from functools import cache, lru_cache
 from importlib import resources
 from pathlib import Path
 from typing import cast
@@ -39,6 +43,7 @@ from bywire.protocol.crc8 import crc8
 
 COUNTER_MODULUS = 16
 DBC_RESOURCE = "albert.dbc"
+CODEC_CACHE_SIZE = 512  # frames remembered per direction: every counter value of a few commands
 
 
 class DbcError(BywireError, ValueError):
@@ -173,6 +178,7 @@ def _kind_of(frame: int) -> type[Command] | type[Report] | None:
 # --- commands ---------------------------------------------------------------------------------
 
 
+@lru_cache(maxsize=CODEC_CACHE_SIZE)
 def encode_command(command: Command) -> tuple[int, bytes]:
     """Frame id and payload of a command, counter and CRC included.
 
@@ -193,6 +199,18 @@ def command_crc(frame: int, payload: bytes | bytearray) -> int:
 
 def decode_command(frame: int, data: bytes | bytearray, previous_counter: int | None) -> Command:
     """The command in a frame, or CommandRejected; see the module docstring for the checks."""
+    counter, command, out_of_range = _unpacked_command(frame, bytes(data))
+    _check_counter(frame, counter, previous_counter)
+    if command is None:
+        raise CommandRejected(RejectReason.RANGE, frame, counter, out_of_range)
+    return command
+
+
+@lru_cache(maxsize=CODEC_CACHE_SIZE)
+def _unpacked_command(frame: int, data: bytes) -> tuple[int, Command | None, str]:
+    """Everything `decode_command` checks that depends on the frame alone: its counter and
+    command, or (command None) why a value is out of range. CommandRejected for an unknown id, a
+    wrong length or a bad CRC (not remembered: those frames are rare)."""
     kind = _kind_of(frame)
     if kind not in COMMAND_TYPES:
         raise CommandRejected(RejectReason.UNKNOWN_ID, frame)
@@ -202,8 +220,11 @@ def decode_command(frame: int, data: bytes | bytearray, previous_counter: int | 
     if data[-1] != command_crc(frame, data):
         raise CommandRejected(RejectReason.CHECKSUM, frame)
     raw = dbc_values.raw_decode(message, data)
-    _check_counter(frame, raw["counter"], previous_counter)
-    return _build_command(kind, message, raw)
+    try:
+        command = cast(Command, dbc_values.build(kind, message, raw, check_range=True))
+    except ValueError as error:
+        return raw["counter"], None, str(error)
+    return raw["counter"], command, ""
 
 
 def _check_counter(frame: int, counter: int, previous_counter: int | None) -> None:
@@ -213,18 +234,10 @@ def _check_counter(frame: int, counter: int, previous_counter: int | None) -> No
     raise CommandRejected(RejectReason.COUNTER, frame, counter, detail)
 
 
-def _build_command(kind: type[Command], message: Message, raw: dict[str, int]) -> Command:
-    try:
-        return cast(Command, dbc_values.build(kind, message, raw, check_range=True))
-    except ValueError as error:
-        raise CommandRejected(
-            RejectReason.RANGE, message.frame_id, raw["counter"], str(error)
-        ) from error
-
-
 # --- reports ----------------------------------------------------------------------------------
 
 
+@lru_cache(maxsize=CODEC_CACHE_SIZE)
 def encode_report(report: Report) -> tuple[int, bytes]:
     """Frame id and payload of a report; values outside a signal's range are saturated.
 
@@ -238,6 +251,11 @@ def encode_report(report: Report) -> tuple[int, bytes]:
 
 def decode_report(frame: int, data: bytes | bytearray) -> Report:
     """The report in a frame; FrameError for a non-report id, a wrong length or a bad enum value."""
+    return _decoded_report(frame, bytes(data))
+
+
+@lru_cache(maxsize=CODEC_CACHE_SIZE)
+def _decoded_report(frame: int, data: bytes) -> Report:
     kind = _kind_of(frame)
     if kind not in REPORT_TYPES:
         raise FrameError(f"CAN frame id 0x{frame:03X} is not a report")

@@ -14,8 +14,9 @@ import gc
 import time
 from collections import deque
 from collections.abc import Callable
-from dataclasses import replace
+from dataclasses import dataclass
 
+from bywire.control.command_edges import NO_EDGES, CommandEdges
 from bywire.control.controller import (
     ControlInputs,
     ControlOutputs,
@@ -23,6 +24,7 @@ from bywire.control.controller import (
     controller_step,
 )
 from bywire.control.error_flags import ErrorFlag
+from bywire.control.rc_mapping import RcRequest
 from bywire.control.supervisor import Cause
 from bywire.control.validity import Stamped, age_s
 from bywire.hal.hardware import Hardware
@@ -40,6 +42,20 @@ from bywire.runtime.watchdog import Watchdog
 
 CycleObserver = Callable[[float], None]
 MODE_LOG_LENGTH = 256  # mode changes kept for tools and tests; nothing grows with run time
+
+
+@dataclass(slots=True)
+class _InputSlots:
+    """The newest stamped input of each kind as the readers deliver it, and arrival counts: the
+    shell's own, updated in place; each decision copies them into one frozen ControlInputs."""
+
+    rc: Stamped[RcRequest | None] | None = None
+    movement: Stamped[MovementCommand] | None = None
+    lights: Stamped[LightsCommand] | None = None
+    control: Stamped[ControlCommand] | None = None
+    control_edges: CommandEdges = NO_EDGES
+    rc_frames: int = 0
+    control_frames: int = 0
 
 
 class Runtime:
@@ -68,6 +84,8 @@ class Runtime:
         self.tasks = [PeriodicTask(spec, self.started_at) for spec in config.schedule]
         self.state = ControlState()
         self.inputs = ControlInputs()
+        """What the latest decision was taken on."""
+        self._slots = _InputSlots()
         self.outputs: ControlOutputs | None = None
         self.sensors = SensorReadings()
         self.mode_log: deque[tuple[float, ControlMode]] = deque(maxlen=MODE_LOG_LENGTH)
@@ -199,44 +217,50 @@ class Runtime:
     # --- inputs -------------------------------------------------------------------------------
 
     def _poll_inputs(self, now: float) -> bool:
-        """Read every input port; True when a new RC frame or CAN command arrived."""
+        """Read every input port into the slots; True when a new RC frame or CAN command arrived."""
         rc = self.ibus.poll(now)
         commands = self.can.poll(now)
+        slots = self._slots
         if rc is not None:
-            self.inputs = replace(self.inputs, rc=rc, rc_frames=self.inputs.rc_frames + 1)
+            slots.rc = rc
+            slots.rc_frames += 1
         for command in commands:
             self._store(command)
         return rc is not None or bool(commands)
 
     def _store(self, command: Stamped[Command]) -> None:
-        value = command.value
+        value, slots = command.value, self._slots
         if isinstance(value, MovementCommand):
-            self.inputs = replace(self.inputs, movement=Stamped(value, command.received_at))
+            slots.movement = Stamped(value, command.received_at)
         elif isinstance(value, LightsCommand):
-            self.inputs = replace(self.inputs, lights=Stamped(value, command.received_at))
+            slots.lights = Stamped(value, command.received_at)
         elif isinstance(value, ControlCommand):
-            self.inputs = replace(
-                self.inputs,
-                control=Stamped(value, command.received_at),
-                control_edges=self.can.control_edges,
-                control_frames=self.inputs.control_frames + 1,
-            )
+            slots.control = Stamped(value, command.received_at)
+            slots.control_edges = self.can.control_edges
+            slots.control_frames += 1
 
     # --- the decision -------------------------------------------------------------------------
 
     def _decide(self, now: float) -> ControlOutputs:
         """Take the decision at `now`: once per pass, on the sensors read once."""
-        self.sensors = read_sensors(self.hardware)
+        self.sensors = sensors = read_sensors(self.hardware)
         watchdog_tripped = self.watchdog is not None and self.watchdog.tripped
-        self.inputs = replace(
-            self.inputs,
-            fault_flags=int(active_flags(self._flag_sources, now)),
+        slots = self._slots
+        self.inputs = ControlInputs(
+            rc=slots.rc,
+            movement=slots.movement,
+            lights=slots.lights,
+            control=slots.control,
+            control_edges=slots.control_edges,
+            rc_frames=slots.rc_frames,
+            control_frames=slots.control_frames,
+            fault_flags=active_flags(self._flag_sources, now),
             dac_failing=self.actuators.dac_failing,
             watchdog_tripped=watchdog_tripped,
             can_untrusted=self.can.untrusted,
-            speed_mps=self.sensors.speed_mps,
-            hydrobrake_pressure_bar=self.sensors.hydrobrake_pressure_bar,
-            steering_measured_norm=self.sensors.steering_measured_norm,
+            speed_mps=sensors.speed_mps,
+            hydrobrake_pressure_bar=sensors.hydrobrake_pressure_bar,
+            steering_measured_norm=sensors.steering_measured_norm,
         )
         self.state, outputs = controller_step(self.state, self.inputs, now, self.config.control)
         if self.outputs is None or outputs.mode is not self.outputs.mode:

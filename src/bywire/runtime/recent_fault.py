@@ -25,10 +25,10 @@ class RecentFault:
         return self.last_at is not None and now - self.last_at <= FAULT_HOLD_S
 
 
-def active_flags(sources: Iterable[tuple[RecentFault, ErrorFlag]], now: float) -> ErrorFlag:
-    """The flags of every source whose fault happened recently."""
-    flags = ErrorFlag(0)
+def active_flags(sources: Iterable[tuple[RecentFault, ErrorFlag]], now: float) -> int:
+    """The flags of every source whose fault happened recently (as an int: the decision's type)."""
+    flags = 0
     for fault, flag in sources:
         if fault.active(now):
-            flags |= flag
+            flags |= int(flag)
     return flags
