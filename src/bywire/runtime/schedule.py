@@ -72,20 +72,32 @@ class TaskStats:
 
 @dataclass(slots=True)
 class PeriodicTask:
-    """A task's place in time: its spec, next absolute deadline and statistics."""
+    """A task's place in time: its spec, next absolute deadline and statistics.
+
+    The deadline is counted in whole periods from the first one (`first + ticks / rate`), never
+    summed period by period: tasks whose rates divide each other then share their deadlines to
+    the last bit (the 50 Hz task's every deadline is exactly a 100 Hz one), so they run in one
+    pass of the loop, as on the robot, instead of a rounding error apart."""
 
     spec: TaskSpec
     next_deadline_s: float
     stats: TaskStats = field(default_factory=TaskStats)
+    ticks: int = 0
+    first_deadline_s: float = field(init=False)
+
+    def __post_init__(self) -> None:
+        self.first_deadline_s = self.next_deadline_s
 
     def due(self, now: float) -> bool:
         return now >= self.next_deadline_s
 
     def advance(self, now: float) -> None:
         """Move to the next deadline after `now`, counting each skipped one as an overrun."""
-        period_s = self.spec.period_s
-        self.next_deadline_s += period_s
+        rate_hz = self.spec.rate_hz
+        self.ticks += 1
+        self.next_deadline_s = self.first_deadline_s + self.ticks / rate_hz
         if now >= self.next_deadline_s:
-            missed = math.floor((now - self.next_deadline_s) / period_s) + 1
+            missed = math.floor((now - self.next_deadline_s) * rate_hz) + 1
             self.stats.overruns += missed
-            self.next_deadline_s += missed * period_s
+            self.ticks += missed
+            self.next_deadline_s = self.first_deadline_s + self.ticks / rate_hz
