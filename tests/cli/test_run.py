@@ -8,10 +8,12 @@ for the process polls the files it writes, with generous limits; nothing sleeps 
 
 from __future__ import annotations
 
+import contextlib
 import json
 import os
 import shutil
 import signal
+import socket
 import subprocess
 import sys
 import tempfile
@@ -36,7 +38,14 @@ LIMIT_S = 30.0  # generous: a loaded CI machine may be slow to start python-can 
 class Robot:
     """A running `bywire run` on a bench, with its RC line and higher-level computer."""
 
-    def __init__(self, bench: Bench, line: PtyRcLine | None, *, user: int | None = None) -> None:
+    def __init__(
+        self,
+        bench: Bench,
+        line: PtyRcLine | None,
+        *,
+        user: int | None = None,
+        notify_socket: Path | None = None,
+    ) -> None:
         self.bench, self.line = bench, line
         self.hlc = bench.root / "hlc"
         self.hlc.mkdir(exist_ok=True)
@@ -48,8 +57,11 @@ class Robot:
         command = [sys.executable, str(LAUNCHER), str(self.hlc), bench.can_channel, "--", *args]
         if user is not None:
             command = ["setpriv", f"--reuid={user}", f"--regid={user}", "--clear-groups", *command]
+        env = dict(os.environ)
+        if notify_socket is not None:
+            env["NOTIFY_SOCKET"] = str(notify_socket)
         self.process = subprocess.Popen(
-            command, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True
+            command, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=env
         )
 
     def wait_for(self, what: str, condition: Callable[[], bool]) -> None:
@@ -116,7 +128,11 @@ def _steering_ns(bench: Bench) -> int:
     return bench.pwm(0)[1]
 
 
-@pytest.mark.parametrize("stop_signal", [signal.SIGINT, signal.SIGTERM], ids=["SIGINT", "SIGTERM"])
+@pytest.mark.parametrize(
+    "stop_signal",
+    [signal.SIGINT, signal.SIGTERM, signal.SIGHUP],
+    ids=["SIGINT", "SIGTERM", "SIGHUP"],
+)
 def test_ibus_and_can_drive_the_outputs_and_a_signal_ends_safe(
     tmp_path: Path, line: PtyRcLine, stop_signal: signal.Signals
 ) -> None:
@@ -145,6 +161,52 @@ def test_ibus_and_can_drive_the_outputs_and_a_signal_ends_safe(
         robot.kill()
     _assert_de_energised(bench)
     assert "Traceback" not in robot.errors()
+
+
+@pytest.fixture
+def notify_socket(tmp_path: Path) -> Iterator[tuple[Path, socket.socket]]:
+    """A service manager's notification socket, as systemd gives one in NOTIFY_SOCKET."""
+    path = tmp_path / "notify.sock"
+    with socket.socket(socket.AF_UNIX, socket.SOCK_DGRAM) as sock:
+        sock.bind(str(path))
+        sock.settimeout(0.0)
+        yield path, sock
+
+
+def _notifications(sock: socket.socket) -> list[str]:
+    received = []
+    with contextlib.suppress(BlockingIOError):
+        while True:
+            received.append(sock.recv(256).decode())
+    return received
+
+
+def test_a_second_signal_while_stopping_still_ends_safe_and_tells_systemd(
+    tmp_path: Path, line: PtyRcLine, notify_socket: tuple[Path, socket.socket]
+) -> None:
+    bench = make_bench(tmp_path)
+    path, sock = notify_socket
+    robot = Robot(bench, line, notify_socket=path)
+    try:
+        robot.command(steering=0.0, throttle=0.0, brake=0.5, gear="forward")
+        robot.wait_for("armed in STOP", lambda: robot.reports() == _stop_armed(robot))
+        line.transmitter.set_mode(ControlMode.RC)
+        robot.wait_for("RC mode in the reports", lambda: robot.reports()["mode"] == "RC")
+        line.transmitter.set_throttle(0.5)
+        robot.wait_for("RC throttle", lambda: bench.dac_code(0) > 0)
+        robot.process.send_signal(signal.SIGTERM)
+        started = time.monotonic()
+        while robot.process.poll() is None and time.monotonic() - started < LIMIT_S:
+            robot.process.send_signal(signal.SIGINT)  # impatient: again and again while it stops
+            time.sleep(0.002)
+        assert robot.finish() == 0, robot.errors()
+    finally:
+        robot.kill()
+    _assert_de_energised(bench)
+    assert "Traceback" not in robot.errors()
+    messages = _notifications(sock)
+    assert "READY=1" in messages
+    assert messages[-1] == "STOPPING=1"
 
 
 def _assert_de_energised(bench: Bench) -> None:

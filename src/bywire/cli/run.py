@@ -1,8 +1,9 @@
-"""`bywire run --config FILE`: the controller on the robot's hardware until SIGINT or SIGTERM.
+"""`bywire run --config FILE`: the controller on the robot's hardware until a stop signal.
 
 Opens the hardware from the configuration (`bywire.hal.opening`) and runs the control loop, which
-tells systemd READY=1, WATCHDOG=1 and STOPPING=1 through `hal.linux.systemd.notify`. SIGINT and
-SIGTERM end the loop at its next wake-up; whatever ends the run (a signal, a device error, a
+tells systemd READY=1, WATCHDOG=1 and STOPPING=1 through `hal.linux.systemd.notify`. SIGINT,
+SIGTERM and SIGHUP (the terminal closed, an SSH session dropped) end the loop at its next wake-up,
+and a second one while it stops changes nothing; whatever ends the run (a signal, a device error, a
 bug), the runtime writes the safe outputs and the hardware's exit de-energises them. Device
 problems are one line and exit 2.
 
@@ -31,7 +32,7 @@ from bywire.runtime.app import Runtime
 from bywire.runtime.realtime import RealtimeReport, apply_collector, apply_process
 from bywire.runtime.settings import RuntimeConfig
 
-STOP_SIGNALS = (signal.SIGINT, signal.SIGTERM)
+STOP_SIGNALS = (signal.SIGINT, signal.SIGTERM, signal.SIGHUP)  # SIGHUP: the terminal closed
 log = logging.getLogger(__name__)
 
 
@@ -76,16 +77,21 @@ def run(args: argparse.Namespace) -> int:
     status = 0
     # Before the hardware opens: its reader threads and the watchdog inherit scheduler and CPUs.
     realtime = apply_process(robot.realtime, python=sys.executable)
-    with _device_errors(), open_hardware(robot, paths) as hardware:
+    # The stop signals are ours until the hardware is closed: a second SIGINT or SIGTERM while
+    # the safe outputs are written only asks again, it never cuts the shutdown short.
+    requests = _StopRequests()
+    with _stop_on_signals(requests), _device_errors(), open_hardware(robot, paths) as hardware:
         runtime = Runtime(hardware, RuntimeConfig.from_robot(robot), notify=notify)
+        requests.runtime = runtime
         realtime.extend(apply_collector(robot.realtime, runtime).report)
         _report_realtime(realtime)
-        with _stop_on_signals(runtime):
-            log.info("running %s (%s backend)", robot.name, robot.backend)  # signals handled
-            if args.dashboard:
-                status = _with_dashboard(runtime, f"{robot.name} ({robot.backend} backend)")
-            else:
-                runtime.run()
+        if requests.signals:  # one came while the hardware opened: stop before driving
+            runtime.request_stop()
+        log.info("running %s (%s backend)", robot.name, robot.backend)  # signals handled
+        if args.dashboard:
+            status = _with_dashboard(runtime, f"{robot.name} ({robot.backend} backend)")
+        else:
+            runtime.run()
     log.info("stopped; outputs de-energised")
     return status
 
@@ -104,17 +110,31 @@ def _with_dashboard(runtime: Runtime, source: str) -> int:
     return run_with_dashboard(runtime, source=source)
 
 
-@contextlib.contextmanager
-def _stop_on_signals(runtime: Runtime) -> Iterator[None]:
-    def stop(signal_number: int, _frame: FrameType | None) -> None:
-        runtime.request_stop()
+class _StopRequests:
+    """The stop signals received, and the runtime they stop once there is one."""
 
-    previous = {number: signal.signal(number, stop) for number in STOP_SIGNALS}
+    def __init__(self) -> None:
+        self.signals: list[int] = []
+        self.runtime: Runtime | None = None
+
+    def __call__(self, signal_number: int, _frame: FrameType | None) -> None:
+        self.signals.append(signal_number)
+        if self.runtime is not None:
+            self.runtime.request_stop()
+
+
+@contextlib.contextmanager
+def _stop_on_signals(requests: _StopRequests) -> Iterator[None]:
+    """The stop signals go to `requests` while the block runs; after it (the hardware closed,
+    the process ending) they are ignored: a late one must not turn a clean exit into a
+    traceback or a kill. Only `bywire run`, which ends the process, uses this."""
+    for number in STOP_SIGNALS:
+        signal.signal(number, requests)
     try:
         yield
     finally:
-        for number, handler in previous.items():
-            signal.signal(number, handler)
+        for number in STOP_SIGNALS:
+            signal.signal(number, signal.SIG_IGN)
 
 
 @contextlib.contextmanager
