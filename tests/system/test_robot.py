@@ -177,7 +177,11 @@ def test_reports_arrive_at_50_hz() -> None:
         arrivals = [stamp for stamp in robot.world.hlc.arrivals(kind) if stamp > 1.0]
         periods = [later - earlier for earlier, later in itertools.pairwise(arrivals)]
         assert len(arrivals) == pytest.approx(100, abs=1)
-        assert all(period == pytest.approx(0.020, abs=1e-6) for period in periods)
+        # Sent in the same pass as the 100 Hz writes, after them: within the task jitter of
+        # their deadline, never drifting from it.
+        assert all(period == pytest.approx(0.020, abs=0.001) for period in periods)
+        mean_period_s = (arrivals[-1] - arrivals[0]) / (len(arrivals) - 1)
+        assert mean_period_s == pytest.approx(0.020, abs=1e-5)
     latest = robot.world.hlc.latest(ModeReport)
     assert isinstance(latest, ModeReport)
     assert latest.control_mode is ControlMode.RC
