@@ -48,6 +48,15 @@ class Link:
         now = self.clock.now()
         return now, [stamped.value.counter for stamped in self.reader.poll(now)]
 
+    def settle(self, first: int = 0) -> int:
+        """ControlCommand frames (no request) for one command timeout: the link is established.
+        The next counter."""
+        counter = first
+        while self.clock.now() < 0.1 or counter - first < 6:
+            self.control(counter)
+            counter += 1
+        return counter
+
     def control(self, counter: int, *, re_enable: bool = False, stop: bool = False) -> CommandEdges:
         """One ControlCommand frame after 20 ms; the edges the reader took from it."""
         frame_id, payload = dbc.encode_command(ControlCommand(stop, re_enable, counter))
@@ -149,20 +158,35 @@ def test_a_frame_with_an_unknown_id_is_skipped_and_the_rest_of_the_batch_still_r
 
 def test_a_re_enable_edge_is_a_change_between_consecutive_accepted_frames() -> None:
     link = Link()
-    assert link.control(0) == CommandEdges()
-    assert link.control(1, re_enable=True) == CommandEdges(re_enable=True)
-    assert link.control(2, re_enable=True) == CommandEdges()  # held: no edge
+    n = link.settle()
+    assert link.control(n) == CommandEdges()
+    assert link.control(n + 1, re_enable=True) == CommandEdges(re_enable=True)
+    assert link.control(n + 2, re_enable=True) == CommandEdges()  # held: no edge
 
 
 def test_a_re_enable_held_across_a_gap_is_not_an_edge() -> None:
     """Hazard row 2: 1, a 150 ms gap, 1 again: the first frame after the gap has no reference."""
     link = Link()
-    link.control(0)
-    link.control(1, re_enable=True)
+    n = link.settle()
+    link.control(n + 1, re_enable=True)
     link.clock.advance(0.15)
-    assert link.control(2, re_enable=True) == CommandEdges()
-    link.control(3)
-    assert link.control(4, re_enable=True) == CommandEdges(re_enable=True)
+    assert link.control(n + 2, re_enable=True) == CommandEdges()
+    n = link.settle(n + 3)
+    assert link.control(n, re_enable=True) == CommandEdges(re_enable=True)
+
+
+def test_a_re_enable_in_the_burst_after_a_gap_is_not_an_edge() -> None:
+    """Found by bywire verify: with the cable out, the computer's frames wait in its transmit
+    queue (a 0, then the 1 it asked for); plugged in again, they arrive back to back. A request
+    that old is no deliberate act: edges count once the link has been back a command timeout."""
+    link = Link()
+    n = link.settle()
+    link.clock.advance(0.5)  # the cable out
+    assert link.control(n) == CommandEdges()
+    assert link.control(n + 1, re_enable=True) == CommandEdges()  # 20 ms after the link is back
+    for counter in range(n + 2, n + 6):
+        assert link.control(counter) == CommandEdges()
+    assert link.control(n + 6, re_enable=True) == CommandEdges(re_enable=True)  # asked again
 
 
 def test_a_re_enable_after_a_rejected_frame_is_not_an_edge() -> None:

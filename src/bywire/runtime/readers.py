@@ -81,7 +81,8 @@ class CanReader:
 
     ControlCommand edges (`control_edges`, see `bywire.control.command_edges`) are taken between
     consecutive accepted frames: a rejected or dropped frame, or a gap longer than `gap_s`,
-    leaves no previous frame to compare with.
+    leaves no previous frame to compare with; and after a gap a re-enable counts only once the
+    frames have been arriving for `gap_s` again (a burst of queued frames is no request).
     """
 
     def __init__(self, port: CanPort, gap_s: float = 0.100) -> None:
@@ -98,6 +99,7 @@ class CanReader:
         self.control_edges = NO_EDGES
         """The edges of the ControlCommand frames accepted by the latest poll (any of them)."""
         self._previous_control: Stamped[ControlCommand] | None = None
+        self._control_back_at = 0.0  # when ControlCommand frames resumed after a gap
 
     @property
     def untrusted(self) -> bool:
@@ -142,9 +144,15 @@ class CanReader:
     def _edges(self, command: ControlCommand, now: float) -> None:
         previous = self._previous_control
         recent = previous is not None and now - previous.received_at <= self._gap_s
+        if not recent:
+            self._control_back_at = now
         edges = command_edges(previous.value if previous is not None and recent else None, command)
+        # Frames that waited in a transmit queue while the link was down arrive in a burst when
+        # it is back: a request among them is stale. A re-enable counts once the link has been
+        # back for one command timeout.
+        settled = now - self._control_back_at >= self._gap_s
         self.control_edges = CommandEdges(
-            re_enable=self.control_edges.re_enable or edges.re_enable,
+            re_enable=self.control_edges.re_enable or (edges.re_enable and settled),
             remote_stop=self.control_edges.remote_stop or edges.remote_stop,
         )
         self._previous_control = Stamped(command, now)
