@@ -168,6 +168,7 @@ class HazardOracle:
     source_before_stop: ControlMode = ControlMode.STOP
     began: dict[str, tuple[float, bool]] = field(default_factory=dict)
     left_at: dict[ControlMode, float] = field(default_factory=dict)
+    rc_borne_at: float = -1.0  # when an event the IBUS frames carry last happened
     dac_back_at: float = -1.0  # when DAC writes last began to succeed again
     rc_blind_until: float = -1.0  # IBUS frames may be lost to corruption until then
     can_blind_until: float = -1.0  # the computer's frames may be dropped until then
@@ -185,6 +186,8 @@ class HazardOracle:
             BORNE_BY.get(kind, ""), now
         )
         deadline = max(now, blind_until) + self.timing.deadline_s(kind)
+        if kind in RC_BORNE:
+            self.rc_borne_at = now
         if self.armed_ok:
             self.armed_ok = False
             self.drive_allowed_until = deadline
@@ -201,6 +204,12 @@ class HazardOracle:
             self.faults.add(kind)
             self.began[kind] = (now, self.armed_ok)
             self.stop_event(kind, now)
+            unseen = now - self.rc_borne_at < self.timing.unseen_s
+            if kind == "rc_link_lost" and unseen and self.drive_allowed_until is not None:
+                # No frame may have carried what the link said just before it died: only the
+                # link's own timeout stops the robot then.
+                lost_s = now + self.timing.deadline_s(kind)
+                self.drive_allowed_until = max(self.drive_allowed_until, lost_s)
             return
         self.faults.discard(kind)
         if kind == "dac_fail":
