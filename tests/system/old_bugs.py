@@ -1,8 +1,8 @@
 """Old behaviours of issue 10, each put back by monkeypatch: the checks must find every one.
 
 Each function takes pytest's `monkeypatch` and re-introduces one safety bug that the hazard
-table (docs/SAFETY.md) names by its row; the checks that use them are the sequence check
-(`test_sequences_teeth.py`) and `bywire verify` (`tests/sim/test_verify.py`).
+table (docs/SAFETY.md) names by its row; `bywire verify`'s tests (`tests/sim/test_verify.py`,
+`tests/cli/test_verify.py`) put each back and find it.
 """
 
 from __future__ import annotations
