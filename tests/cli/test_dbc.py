@@ -63,7 +63,9 @@ def test_codegen_writes_header_and_source(
     outdir = tmp_path / "new" / "dir"
     assert main(["dbc", "codegen", str(outdir), "--name", "robot"]) == 0
     written = capsys.readouterr().out.split()
-    assert written == [str(outdir / "robot.h"), str(outdir / "robot.c")]
+    names = ["robot.h", "robot.c", "robot_protection.h", "robot_protection.c"]
+    assert written == [str(outdir / name) for name in names]
+    assert "uint8_t robot_command_crc(" in (outdir / "robot_protection.h").read_text("utf-8")
     assert "ROBOT_MOVEMENT_COMMAND_FRAME_ID" in (outdir / "robot.h").read_text(encoding="utf-8")
     assert '#include "robot.h"' in (outdir / "robot.c").read_text(encoding="utf-8")
 

@@ -12,6 +12,7 @@ from cantools.database.can import Database, Message, Signal
 from cantools.database.can.c_source import generate
 
 from bywire.errors import BywireError
+from bywire.protocol import protection_c
 from bywire.protocol.dbc import database, load_user_database
 
 
@@ -23,7 +24,9 @@ def configure(parser: argparse.ArgumentParser) -> None:
     """Add the `show` and `codegen` sub-commands."""
     commands = parser.add_subparsers(dest="dbc_command", metavar="ACTION", required=True)
     show = commands.add_parser("show", help="list messages and signals")
-    codegen = commands.add_parser("codegen", help="write cantools-generated C (.h and .c)")
+    codegen = commands.add_parser(
+        "codegen", help="write cantools-generated C (.h and .c) and the CRC-8/counter helper"
+    )
     codegen.add_argument("outdir", type=Path, metavar="OUTDIR", help="created if missing")
     codegen.add_argument(
         "--name", type=_c_identifier, default="albert", help="C prefix and file name (albert)"
@@ -148,7 +151,8 @@ def _number(value: float | None) -> str:
 
 
 def write_c_sources(loaded: Database, outdir: Path, name: str) -> list[Path]:
-    """Write ``<name>.h`` and ``<name>.c`` (cantools' C generator) into outdir; their paths.
+    """Write ``<name>.h`` and ``<name>.c`` (cantools' C generator) into outdir, and beside them
+    ``<name>_protection.h``/``.c`` (the commands' CRC-8 and rolling counter); their paths.
 
     The encoders round to nearest (``use_round``; link with -lm) instead of cantools' default
     truncation, which would turn 0.1234 into 1233 steps where the Python codec sends 1234.
@@ -156,10 +160,16 @@ def write_c_sources(loaded: Database, outdir: Path, name: str) -> list[Path]:
     header, source, _fuzzer, _makefile = generate(
         loaded, name, f"{name}.h", f"{name}.c", f"{name}_fuzzer.c", use_round=True
     )
-    paths = [outdir / f"{name}.h", outdir / f"{name}.c"]
+    texts = {
+        f"{name}.h": header,
+        f"{name}.c": source,
+        f"{name}_protection.h": protection_c.header(name),
+        f"{name}_protection.c": protection_c.source(name),
+    }
+    paths = [outdir / file_name for file_name in texts]
     try:
         outdir.mkdir(parents=True, exist_ok=True)
-        for path, text in zip(paths, (header, source), strict=True):
+        for path, text in zip(paths, texts.values(), strict=True):
             path.write_text(text, encoding="utf-8")
     except OSError as error:
         raise OutputError(f"cannot write into {outdir}: {error}") from error
