@@ -30,7 +30,7 @@ FIGURE_20 = [
 ROW = re.compile(
     r"(\*?)\s+(\S+)\s+(\S+)\s+(\d+)\s+(\d+)\s+(\d+)\s+(\d+)\s+(\S+)\s+(0x[0-9a-f]{8})\s.*"
 )
-IP_LINK_BITRATE = "ip link set can0 type can bitrate 500000 sample-point 0.875"
+IP_LINK_BITRATE = "ip link set can0 type can bitrate 500000 sample-point 0.875 sjw 1"
 IP_LINK_TQ = "ip link set can0 type can tq 125 prop-seg 6 phase-seg1 7 phase-seg2 2 sjw 1"
 
 
@@ -75,13 +75,59 @@ def test_channel_option_names_the_interface(capsys: pytest.CaptureFixture[str]) 
     assert "can0" not in out
 
 
-@pytest.mark.parametrize("clock", ["48MHz", "48M", "48000000", "48 MHz", "48mhz", "48000k"])
+@pytest.mark.parametrize("clock", ["48MHz", "48M", "48000000", "48 MHz", "48mhz", "48000k", "48"])
 @pytest.mark.parametrize("bitrate", ["500k", "500000", "0.5M", "500kbit/s"])
 def test_accepted_clock_and_bitrate_forms(
     capsys: pytest.CaptureFixture[str], clock: str, bitrate: str
 ) -> None:
     _status, out, _err = _run(capsys, "--clock", clock, "--bitrate", bitrate)
     assert IP_LINK_TQ in out
+
+
+@pytest.mark.parametrize(
+    ("text", "value"),
+    [("48", 48_000_000), ("8", 8_000_000), ("42.5", 42_500_000), ("999", 999_000_000),
+     ("1000", 1000), ("16000000", 16_000_000), ("48Hz", 48), ("48 hz", 48), ("48k", 48_000)],
+)  # fmt: skip
+def test_a_bare_clock_below_1000_is_mhz(text: str, value: int) -> None:
+    assert cli.parse_clock_hz(text) == value
+
+
+def test_a_clock_that_reaches_no_bitrate_exits_1(capsys: pytest.CaptureFixture[str]) -> None:
+    status, out, err = _run(capsys, "--clock", "48Hz")
+    assert (status, err) == (1, "")
+    assert _rows(out) == []
+    assert "no exact setting for 1000000 bit/s with a 48 Hz clock (reachable: 1..6 bit/s)" in out
+
+
+def test_sjw_2_is_in_both_ip_link_lines(capsys: pytest.CaptureFixture[str]) -> None:
+    status, out, _err = _run(capsys, "--clock", "48", "--bitrate", "500k", "--sjw", "2")
+    assert status == 0
+    assert IP_LINK_BITRATE.replace("sjw 1", "sjw 2") in out.splitlines()[-2]
+    assert IP_LINK_TQ.replace("sjw 1", "sjw 2") in out.splitlines()[-1]
+
+
+def test_an_sjw_linux_would_refuse_with_bitrate_gets_only_the_tq_line(
+    capsys: pytest.CaptureFixture[str],
+) -> None:
+    args = ("--clock", "48MHz", "--bitrate", "500k", "--sample-point", "60", "--sjw", "4")
+    status, out, _err = _run(capsys, *args)
+    assert status == 0
+    assert "sample-point" not in out
+    assert "phase-seg1 3 < sjw 4" in out
+    assert out.splitlines()[-1] == (
+        "  ip link set can0 type can tq 167 prop-seg 2 phase-seg1 4 phase-seg2 5 sjw 4"
+    )
+
+
+def test_nearest_names_an_exact_bitrate_at_another_sample_point(
+    capsys: pytest.CaptureFixture[str],
+) -> None:
+    args = ("--clock", "25MHz", "--bitrate", "1M", "--sample-point", "50")
+    status, out, _err = _run(capsys, *args)
+    assert status == 1
+    assert "at sample point 50 % +- 5 and SJW 1" in out
+    assert "nearest: prescaler 1 x 25 tq = 1000000 bit/s (+0.0000 %) at sample point 68.0 %" in out
 
 
 @pytest.mark.parametrize(
@@ -100,7 +146,7 @@ def test_parse_sample_point_percent_or_fraction(text: str, value: float) -> None
     assert cli.parse_sample_point(text) == pytest.approx(value)
 
 
-@pytest.mark.parametrize("text", ["48GHz", "fast", "48.5", "-48M", "48Mbps", "", "48 M Hz x"])
+@pytest.mark.parametrize("text", ["48GHz", "fast", "48.5Hz", "-48M", "48Mbps", "", "48 M Hz x"])
 def test_bad_clock_names_the_accepted_forms(text: str) -> None:
     with pytest.raises(ConfigError, match="48MHz, 48M"):
         cli.parse_clock_hz(text)

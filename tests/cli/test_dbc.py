@@ -63,7 +63,9 @@ def test_codegen_writes_header_and_source(
     outdir = tmp_path / "new" / "dir"
     assert main(["dbc", "codegen", str(outdir), "--name", "robot"]) == 0
     written = capsys.readouterr().out.split()
-    assert written == [str(outdir / "robot.h"), str(outdir / "robot.c")]
+    names = ["robot.h", "robot.c", "robot_protection.h", "robot_protection.c"]
+    assert written == [str(outdir / name) for name in names]
+    assert "uint8_t robot_command_crc(" in (outdir / "robot_protection.h").read_text("utf-8")
     assert "ROBOT_MOVEMENT_COMMAND_FRAME_ID" in (outdir / "robot.h").read_text(encoding="utf-8")
     assert '#include "robot.h"' in (outdir / "robot.c").read_text(encoding="utf-8")
 
@@ -97,3 +99,101 @@ def test_codegen_into_a_file_exits_2_with_one_line(
     blocker.write_text("", encoding="utf-8")
     assert main(["dbc", "codegen", str(blocker)]) == 2
     assert len(capsys.readouterr().err.splitlines()) == 1
+
+
+# --- other people's databases: cantools' and opendbc's files in tests/data ---------------------
+
+DATA = Path(__file__).resolve().parents[1] / "data"
+
+
+def _show(capsys: pytest.CaptureFixture[str], path: Path) -> tuple[list[str], str]:
+    assert main(["dbc", "show", "--dbc", str(path)]) == 0
+    captured = capsys.readouterr()
+    return captured.out.splitlines(), captured.err
+
+
+def _mux_paths(lines: list[str], message: str) -> dict[str, set[tuple[tuple[str, int], ...]]]:
+    """Each signal of one message with the `when MUX = value` conditions it is listed under."""
+    start = next(i for i, line in enumerate(lines) if line.split()[1:2] == [message])
+    paths: dict[str, set[tuple[tuple[str, int], ...]]] = {}
+    stack: list[tuple[int, tuple[str, int]]] = []  # (indent of the when line, condition)
+    for line in lines[start + 3 :]:
+        if not line:
+            break
+        indent = len(line) - len(line.lstrip())
+        while stack and stack[-1][0] >= indent:
+            stack.pop()
+        words = line.split()
+        if words[0] == "when":
+            stack.append((indent, (words[1], int(words[3].rstrip(":")))))
+        else:
+            paths.setdefault(words[0], set()).add(tuple(condition for _, condition in stack))
+    return paths
+
+
+def test_cantools_multiplex_dbc_is_shown_per_mux_value(capsys: pytest.CaptureFixture[str]) -> None:
+    lines, err = _show(capsys, DATA / "cantools/multiplex.dbc")
+    assert err == ""
+    paths = _mux_paths(lines, "Message1")
+    assert paths["Multiplexor"] == {()}
+    # SG_MUL_VAL_ puts these four under 8, 16 and 24; their own SG_ line says only m8
+    for name in ("BIT_J", "BIT_C", "BIT_G", "BIT_L"):
+        assert paths[name] == {(("Multiplexor", value),) for value in (8, 16, 24)}
+    for name in ("BIT_A", "BIT_B", "BIT_D", "BIT_E", "BIT_F", "BIT_H", "BIT_K"):
+        assert paths[name] == {(("Multiplexor", 24),)}
+    multiplexor = next(line for line in lines if line.split()[:1] == ["Multiplexor"])
+    assert multiplexor.split()[1:3] == ["2", "6"]
+    assert multiplexor.endswith("(multiplexer)")
+
+
+def test_cantools_extended_multiplexing_is_shown_as_a_tree(
+    capsys: pytest.CaptureFixture[str],
+) -> None:
+    # SG_MUL_VAL_ of multiplex_2.dbc: S1 under S0 = 0; S2, S3 under S1 = 0; S4 under S1 = 2 ...
+    lines, _err = _show(capsys, DATA / "cantools/multiplex_2.dbc")
+    paths = _mux_paths(lines, "Extended")
+    assert paths["S2"] == paths["S3"] == {(("S0", 0), ("S1", 0))}
+    assert paths["S4"] == {(("S0", 0), ("S1", 2))}
+    assert paths["S5"] == {(("S0", 1),)}
+    assert (paths["S7"], paths["S8"]) == ({(("S6", 1),)}, {(("S6", 2),)})
+    # One signal under several values (S1 m1, m3 of S0 in "Shared") is listed under each.
+    assert _mux_paths(lines, "Shared")["S1"] == {(("S0", 1),), (("S0", 3),)}
+
+
+def test_a_real_car_multiplexer_shows_its_value_names(capsys: pytest.CaptureFixture[str]) -> None:
+    lines, _err = _show(capsys, DATA / "opendbc/tesla_model3_party.dbc")
+    assert "    when VCFRONT_LVPowerStateIndex = 1 (Mux1):" in lines
+    paths = _mux_paths(lines, "VCFRONT_LVPowerState")
+    assert paths["VCFRONT_epasLVState"] == {(("VCFRONT_LVPowerStateIndex", 1),)}
+    assert paths["VCFRONT_parkLVState"] == {(("VCFRONT_LVPowerStateIndex", 0),)}
+    assert paths["VCFRONT_vehiclePowerState"] == {()}
+
+
+def test_signals_of_one_mux_value_never_share_bits(capsys: pytest.CaptureFixture[str]) -> None:
+    lines, _err = _show(capsys, DATA / "opendbc/tesla_model3_party.dbc")
+    paths = _mux_paths(lines, "VCFRONT_LVPowerState")
+    rows = {
+        line.split()[0]: line.split() for line in lines if line.split()[:1] not in ([], ["when"])
+    }
+    for value in (0, 1):
+        listed = [
+            name
+            for name, conditions in paths.items()
+            if () in conditions or (("VCFRONT_LVPowerStateIndex", value),) in conditions
+        ]
+        bits = [bit for name in listed for bit in _bits(int(rows[name][1]), int(rows[name][2]))]
+        assert len(bits) == len(set(bits)), value
+
+
+def _bits(start: int, length: int) -> range:
+    return range(start, start + length)  # little-endian signals: consecutive bits
+
+
+def test_a_dbc_that_fails_the_strict_checks_is_shown_with_a_note(
+    capsys: pytest.CaptureFixture[str],
+) -> None:
+    lines, err = _show(capsys, DATA / "opendbc/vw_mqb.dbc")
+    assert err.startswith("bywire dbc: note: vw_mqb.dbc fails cantools' strict checks (")
+    assert "overlapping" in err
+    assert any(line.startswith("0x6B4  VIN_01  ") for line in lines)
+    assert "    when VIN_01_MUX = 2:" in lines

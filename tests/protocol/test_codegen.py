@@ -156,3 +156,72 @@ def test_generated_encoders_round_like_the_python_codec(generated: Path) -> None
         f"{to_raw(steering, v)} {to_raw(throttle, abs(v))} {to_raw(left, v)}" for v in values
     ]
     assert output == expected
+
+
+# --- the CRC-8 and rolling-counter helper written beside the generated code -------------------
+
+PROTECTION_PROGRAM = """
+#include <stdio.h>
+#include <string.h>
+#include "albert_protection.h"
+
+/* stdin: lines "frame_id counter hex-payload" (CRC byte zeroed); stdout: protected payloads. */
+int main(void) {
+    unsigned int frame_id, counter;
+    char hex[17];
+    while (scanf("%x %u %16s", &frame_id, &counter, hex) == 3) {
+        uint8_t payload[8];
+        size_t length = strlen(hex) / 2u;
+        for (size_t i = 0; i < length; i++) {
+            unsigned int byte;
+            sscanf(hex + 2 * i, "%2x", &byte);
+            payload[i] = (uint8_t)byte;
+        }
+        albert_protect_command(frame_id, payload, length, (uint8_t)counter);
+        for (size_t i = 0; i < length; i++) printf("%02x", payload[i]);
+        printf(" %d %d %d\\n",
+               albert_check_command(frame_id, payload, length, ((int)counter + 15) % 16),
+               albert_check_command(frame_id, payload, length, (int)counter),
+               albert_check_command(frame_id + 1u, payload, length, -1));
+    }
+    printf("%02x\\n", albert_crc8((const uint8_t *)"123456789", 9u));
+    return 0;
+}
+"""
+
+
+def _commands() -> list[MovementCommand | ControlCommand | LightsCommand]:
+    generator = random.Random(13)
+    commands: list[MovementCommand | ControlCommand | LightsCommand] = []
+    for counter in range(16):
+        norm = round(generator.uniform(-1.0, 1.0), 4)
+        commands += [
+            MovementCommand(norm, abs(norm), 1.0 - abs(norm), Gear.FORWARD, counter),
+            ControlCommand(
+                remote_stop=counter % 2 == 0, re_enable=counter % 3 == 0, counter=counter
+            ),
+            LightsCommand(counter % 2 == 1, False, counter % 5 == 0, True, counter),
+        ]
+    return commands
+
+
+def test_the_c_protection_gives_the_python_side_bytes(generated: Path) -> None:
+    (generated / "protect_test.c").write_text(PROTECTION_PROGRAM, encoding="utf-8")
+    _gcc("protect_test.c", "albert_protection.c", "-o", "protect_test", cwd=generated)
+    commands = _commands()
+    frames = [dbc.encode_command(command) for command in commands]
+    # The C side gets the payload with counter nibble and CRC cleared, and fills both in.
+    lines = [
+        f"{frame_id:x} {command.counter} {(payload[:-2] + bytes([payload[-2] & 0xF0, 0])).hex()}"
+        for command, (frame_id, payload) in zip(commands, frames, strict=True)
+    ]
+    output = subprocess.run(
+        [str(generated / "protect_test")],
+        input="\n".join(lines) + "\n",
+        capture_output=True,
+        text=True,
+        check=True,
+    ).stdout.splitlines()
+    assert output[-1] == "4b"  # CRC-8/SAE-J1850's check value
+    # OK after the previous counter, BAD_COUNTER on a repeat, BAD_CRC under another id
+    assert output[:-1] == [f"{payload.hex()} 0 -3 -2" for _frame_id, payload in frames]

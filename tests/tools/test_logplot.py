@@ -12,7 +12,8 @@ from bywire.model import ControlMode, ErrorReport, Gear, ModeReport, MovementCom
 from bywire.protocol import dbc
 from bywire.sim.plot import DPI, SIZE_IN
 from bywire.tools.log_decode import decode_messages, read_can_log, read_messages
-from bywire.tools.logplot import write_log_plot
+from bywire.tools.logplot import choose_signals, is_albert_log, write_log_plot
+from tests.tools import tesla_drive
 
 PNG_SIGNATURE = b"\x89PNG\r\n\x1a\n"
 
@@ -63,10 +64,10 @@ def test_only_png_is_written(name: str, tmp_path: Path) -> None:
 @pytest.mark.parametrize(
     ("name", "content", "message"),
     [
-        ("run.csv", b"", r"suffix must be one of \.blf, \.asc, \.log"),
+        ("run.xyz", b"", r"suffix must be one of \.blf, \.asc, \.trc, \.mf4, \.csv"),
         ("missing.blf", None, "no such CAN log"),
         ("garbage.blf", b"garbage\x00\x01", r"not a readable \.blf CAN log"),
-        ("garbage.log", b"not a candump log\n", r"not a readable \.log CAN log"),
+        ("garbage.log", b"not a candump log\n", r"line 1 is not a CAN frame of candump"),
     ],
 )
 def test_a_file_that_is_no_can_log_is_refused_in_one_line(
@@ -86,3 +87,28 @@ def test_a_log_without_a_single_dbc_frame_has_nothing_to_plot(tmp_path: Path) ->
         writer.on_message_received(_message(1.0, 0x300, bytes(8)))
     with pytest.raises(ConfigError, match="nothing to plot: 1 frames"):
         read_can_log(path, dbc.database())
+
+
+def test_the_default_choice_for_a_real_car_groups_by_unit_and_skips_counters() -> None:
+    log = decode_messages(tesla_drive.frames(), tesla_drive.database())
+    assert not is_albert_log(log)
+    choice = choose_signals(log, tesla_drive.database(), [])
+    names = dict(choice.signals)
+    assert names["DI_speed.DI_vehicleSpeed"] == "kph"
+    assert names["SCCM_steeringAngleSensor.SCCM_steeringAngle"] == "deg"
+    assert names["ESP_wheelSpeeds.ESP_wheelSpeedFrL"] == "km/h"
+    assert not [name for name in names if "Counter" in name or "Checksum" in name]
+    assert len(choice.signals) <= 12
+    assert len(set(names.values())) <= 6
+    assert choice.defaulted
+
+
+def test_globs_without_a_message_match_any_message() -> None:
+    log = decode_messages(tesla_drive.frames(), tesla_drive.database())
+    choice = choose_signals(log, tesla_drive.database(), ["ESP_wheelSpeedFr?"])
+    assert [name for name, _ in choice.signals] == [
+        "ESP_wheelSpeeds.ESP_wheelSpeedFrL",
+        "ESP_wheelSpeeds.ESP_wheelSpeedFrR",
+    ]
+    with pytest.raises(ConfigError, match="none of the 1 signals chosen with --signal"):
+        choose_signals(log, tesla_drive.database(), ["DAS_control.DAS_setSpeed"])

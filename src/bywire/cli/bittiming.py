@@ -17,6 +17,7 @@ _PREFIXES = {"": 1, "k": 1_000, "m": 1_000_000}
 _NUMBER = r"\s*(\d+(?:\.\d*)?|\.\d+)\s*"
 _CLOCK = re.compile(_NUMBER + r"([km]?)(?:hz)?\s*", re.IGNORECASE)
 _BITRATE = re.compile(_NUMBER + r"([km]?)(?:bps|bit/s|b/s)?\s*", re.IGNORECASE)
+_BARE_NUMBER = re.compile(_NUMBER)
 _SAMPLE_POINT = re.compile(_NUMBER + r"(%?)\s*")
 _HEADERS = ["", "Bit Rate", "accuracy", "Pre-scaler", "Number of time quanta", "Seg 1"]
 _HEADERS += ["Seg 2", "Sample Point at", "Register CAN_BTR", "tq", "prop-seg", "phase-seg1"]
@@ -37,13 +38,15 @@ def configure(parser: argparse.ArgumentParser) -> None:
     """Add the options of `bywire bittiming`."""
     parser.epilog = (
         "Rows marked * are recommended (sample point closest to the request, then most quanta)."
-        " Exit status 1 if --bitrate has no exact setting; the nearest one is suggested."
+        " Exit status 1 if --bitrate has no setting within 5 points of the sample point (the"
+        " nearest one is suggested), or if no bitrate of the survey has one."
     )
     parser.add_argument(
         "--clock",
         required=True,
         metavar="FREQ",
-        help="clock of the CAN peripheral (APB1), e.g. 48MHz, 48M, 48000k or 48000000",
+        help="clock of the CAN peripheral (APB1), e.g. 48MHz, 48M, 48000k or 48000000;"
+        " a bare number below 1000 is MHz (48 = 48 MHz)",
     )
     parser.add_argument(
         "--sample-point",
@@ -73,11 +76,18 @@ def run(args: argparse.Namespace) -> int:
         print(json.dumps(_as_json(options, rows), indent=2))
     else:
         print(_render(options, rows))
-    return 1 if args.bitrate is not None and not any(rows.values()) else 0
+    return 0 if any(rows.values()) else 1
 
 
 def parse_clock_hz(text: str) -> int:
-    """'48MHz', '48M', '48000k' or '48000000' -> 48000000."""
+    """'48MHz', '48M', '48000k', '48000000' or '48' -> 48000000.
+
+    A bare number below 1000 is MHz: no CAN controller runs on a clock of a few hundred Hz, and
+    `--clock 48` means the 48 MHz of a datasheet.
+    """
+    bare = _BARE_NUMBER.fullmatch(text)
+    if bare is not None and Decimal(bare[1]) < 1000:
+        text = f"{bare[1]}M"
     return _parse_quantity(text, _CLOCK, "clock", "48MHz, 48M, 48000k or 48000000")
 
 
@@ -175,13 +185,15 @@ def _missing(options: _Options, rate_bps: int) -> str:
     text = f"no exact setting for {rate_bps} bit/s with a {options.clock_hz} Hz clock"
     if rate_bps not in bittiming.bitrate_range_bps(options.clock_hz):
         return f"{text} (reachable: {_range_text(options.clock_hz)})"
+    text += f" at sample point {options.sample_point * 100:g} % +- 5 and SJW {options.sjw}"
     near = bittiming.nearest(options.clock_hz, rate_bps, options.sample_point, sjw=options.sjw)
     if near is None:
         return f"{text}, and none nearby within the bxCAN limits"
     return (
         f"{text}; nearest: prescaler {near.brp} x {near.tq_count} tq ="
-        f" {near.actual_bitrate_bps:.0f} bit/s ({near.bitrate_error * 100:+.4f} %),"
-        f" CAN_BTR {near.btr:#010x}"
+        f" {near.actual_bitrate_bps:.0f} bit/s ({near.bitrate_error * 100:+.4f} %)"
+        f" at sample point {near.sample_point * 100:.1f} %, Seg 1 {near.tseg1}, Seg 2"
+        f" {near.tseg2}, CAN_BTR {near.btr:#010x}"
     )
 
 
@@ -194,13 +206,19 @@ def _ip_link_lines(options: _Options, rows: list[BitTiming]) -> list[str]:
     best = next((row for row in rows if row.recommended), None)
     if best is None:
         return []
-    return [
+    lines = [
         "",
         f"Recommended: prescaler {best.brp}, Seg 1 {best.tseg1}, Seg 2 {best.tseg2},"
         f" CAN_BTR {best.btr:#010x}. On the Linux side:",
-        f"  {best.ip_link_bitrate(options.channel)}",
-        f"  {best.ip_link_segments(options.channel)}",
     ]
+    if best.kernel_splits_alike():
+        lines.append(f"  {best.ip_link_bitrate(options.channel)}")
+    else:
+        lines.append(
+            f"  (not `bitrate {best.bitrate_bps} ... sjw {best.sjw}`: Linux would split Seg 1"
+            f" into phase-seg1 {best.tseg1 - best.tseg1 // 2} < sjw {best.sjw} and refuse it)"
+        )
+    return [*lines, f"  {best.ip_link_segments(options.channel)}"]
 
 
 def _as_json(options: _Options, rows: dict[int, list[BitTiming]]) -> dict[str, Any]:
@@ -221,5 +239,7 @@ def _row_json(row: BitTiming, channel: str) -> dict[str, Any]:
         "bitrate_error": row.bitrate_error,
         "tq_ns": row.tq_ns,
     }
-    ip_link = [row.ip_link_bitrate(channel), row.ip_link_segments(channel)]
+    ip_link = [row.ip_link_segments(channel)]
+    if row.kernel_splits_alike():
+        ip_link.insert(0, row.ip_link_bitrate(channel))
     return {**asdict(row), **derived, "ip_link": ip_link}

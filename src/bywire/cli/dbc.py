@@ -3,13 +3,17 @@
 from __future__ import annotations
 
 import argparse
+import sys
+from collections.abc import Sequence
 from pathlib import Path
+from typing import Any
 
 from cantools.database.can import Database, Message, Signal
 from cantools.database.can.c_source import generate
 
 from bywire.errors import BywireError
-from bywire.protocol.dbc import database, load_database
+from bywire.protocol import protection_c
+from bywire.protocol.dbc import database, load_user_database
 
 
 class OutputError(BywireError, OSError):
@@ -20,13 +24,27 @@ def configure(parser: argparse.ArgumentParser) -> None:
     """Add the `show` and `codegen` sub-commands."""
     commands = parser.add_subparsers(dest="dbc_command", metavar="ACTION", required=True)
     show = commands.add_parser("show", help="list messages and signals")
-    codegen = commands.add_parser("codegen", help="write cantools-generated C (.h and .c)")
+    codegen = commands.add_parser(
+        "codegen", help="write cantools-generated C (.h and .c) and the CRC-8/counter helper"
+    )
     codegen.add_argument("outdir", type=Path, metavar="OUTDIR", help="created if missing")
     codegen.add_argument(
         "--name", type=_c_identifier, default="albert", help="C prefix and file name (albert)"
     )
     for sub in (show, codegen):
         sub.add_argument("--dbc", type=Path, metavar="FILE", help="DBC file (packaged albert.dbc)")
+
+
+def load_user_dbc(path: Path, command: str) -> Database:
+    """The user's DBC; a note on stderr when it only loads without cantools' strict checks."""
+    loaded, lenient_reason = load_user_database(path)
+    if lenient_reason is not None:
+        print(
+            f"bywire {command}: note: {path.name} fails cantools' strict checks"
+            f" ({lenient_reason}); loaded without them",
+            file=sys.stderr,
+        )
+    return loaded
 
 
 def _c_identifier(text: str) -> str:
@@ -37,7 +55,7 @@ def _c_identifier(text: str) -> str:
 
 def run(args: argparse.Namespace) -> int:
     """Run `show` or `codegen`; an unreadable DBC raises DbcError (one line, exit status 2)."""
-    loaded = database() if args.dbc is None else load_database(args.dbc)
+    loaded = database() if args.dbc is None else load_user_dbc(args.dbc, "dbc")
     if args.dbc_command == "show":
         print("\n".join(describe(loaded)))
     else:
@@ -48,10 +66,14 @@ def run(args: argparse.Namespace) -> int:
 
 # --- show -------------------------------------------------------------------------------------
 
-_SIGNAL_HEADER = (
-    f"    {'signal':<20} {'start':>5} {'len':>3}  {'type':<8} {'scale':>8} {'offset':>6}"
-    f"  {'unit':<8} {'range':<24} values"
-)
+_NAME_WIDTH = 20
+
+
+def _signal_header(width: int) -> str:
+    return (
+        f"    {'signal':<{width}} {'start':>5} {'len':>3}  {'type':<8} {'scale':>8} {'offset':>6}"
+        f"  {'unit':<8} {'range':<24} values"
+    )
 
 
 def describe(loaded: Database) -> list[str]:
@@ -73,26 +95,64 @@ def _message_lines(message: Message) -> list[str]:
     period = f"{message.cycle_time} ms" if message.cycle_time else "-"
     head = f"0x{message.frame_id:03X}  {message.name}  sender {senders}  DLC {message.length}"
     lines = [f"{head}  period {period}", f"    {message.comment or '(no comment)'}"]
-    return [*lines, _SIGNAL_HEADER, *(_signal_line(signal) for signal in message.signals)]
+    rows = _tree_rows(message, message.signal_tree, 0)
+    width = max([_NAME_WIDTH, *(len(row[0]) for row in rows if isinstance(row, tuple))])
+    body = [row if isinstance(row, str) else _signal_line(*row, width=width) for row in rows]
+    return [*lines, _signal_header(width), *body]
 
 
-def _signal_line(signal: Signal) -> str:
+# A signal row before alignment: (indented name, signal, suffix); or a finished "when" line.
+_Row = tuple[str, Signal, str] | str
+
+
+def _tree_rows(message: Message, tree: Sequence[Any], depth: int) -> list[_Row]:
+    """Signals in cantools' signal tree order; a multiplexer's signals per mux value, indented.
+
+    Signals of different mux values share bits; grouped under ``when MUX = value`` (as cantools'
+    own ``dump`` groups them) they no longer look like overlapping signals.
+    """
+    indent = "  " * depth
+    lines: list[_Row] = []
+    for node in tree:
+        if isinstance(node, str):
+            lines.append((indent + node, message.get_signal_by_name(node), ""))
+            continue
+        for mux_name, branches in node.items():
+            multiplexer = message.get_signal_by_name(mux_name)
+            lines.append((indent + mux_name, multiplexer, "(multiplexer)"))
+            for value, subtree in sorted(branches.items()):
+                choice = (multiplexer.choices or {}).get(value)
+                label = f"{value} ({choice})" if choice is not None else str(value)
+                lines.append(f"    {indent}when {mux_name} = {label}:")
+                lines += _tree_rows(message, subtree, depth + 1)
+    return lines
+
+
+def _signal_line(name: str, signal: Signal, suffix: str, *, width: int) -> str:
     kind = "float" if signal.is_float else "signed" if signal.is_signed else "unsigned"
     if signal.byte_order == "big_endian":
         kind += " BE"
-    limits = f"[{signal.minimum}|{signal.maximum}]"
-    choices = " ".join(f"{value}={name}" for value, name in (signal.choices or {}).items())
+    limits = "-"
+    if signal.minimum is not None or signal.maximum is not None:
+        limits = f"[{_number(signal.minimum)}|{_number(signal.maximum)}]"
+    choices = " ".join(f"{value}={text}" for value, text in (signal.choices or {}).items())
     return (
-        f"    {signal.name:<20} {signal.start:>5} {signal.length:>3}  {kind:<8}"
-        f" {signal.scale:>8} {signal.offset:>6}  {signal.unit or '-':<8} {limits:<24} {choices}"
+        f"    {name:<{width}} {signal.start:>5} {signal.length:>3}  {kind:<8}"
+        f" {signal.scale:>8} {signal.offset:>6}  {signal.unit or '-':<8} {limits:<24}"
+        f" {' '.join(part for part in (suffix, choices) if part)}"
     ).rstrip()
+
+
+def _number(value: float | None) -> str:
+    return "-" if value is None else str(value)
 
 
 # --- codegen ----------------------------------------------------------------------------------
 
 
 def write_c_sources(loaded: Database, outdir: Path, name: str) -> list[Path]:
-    """Write ``<name>.h`` and ``<name>.c`` (cantools' C generator) into outdir; their paths.
+    """Write ``<name>.h`` and ``<name>.c`` (cantools' C generator) into outdir, and beside them
+    ``<name>_protection.h``/``.c`` (the commands' CRC-8 and rolling counter); their paths.
 
     The encoders round to nearest (``use_round``; link with -lm) instead of cantools' default
     truncation, which would turn 0.1234 into 1233 steps where the Python codec sends 1234.
@@ -100,10 +160,16 @@ def write_c_sources(loaded: Database, outdir: Path, name: str) -> list[Path]:
     header, source, _fuzzer, _makefile = generate(
         loaded, name, f"{name}.h", f"{name}.c", f"{name}_fuzzer.c", use_round=True
     )
-    paths = [outdir / f"{name}.h", outdir / f"{name}.c"]
+    texts = {
+        f"{name}.h": header,
+        f"{name}.c": source,
+        f"{name}_protection.h": protection_c.header(name),
+        f"{name}_protection.c": protection_c.source(name),
+    }
+    paths = [outdir / file_name for file_name in texts]
     try:
         outdir.mkdir(parents=True, exist_ok=True)
-        for path, text in zip(paths, (header, source), strict=True):
+        for path, text in zip(paths, texts.values(), strict=True):
             path.write_text(text, encoding="utf-8")
     except OSError as error:
         raise OutputError(f"cannot write into {outdir}: {error}") from error

@@ -36,7 +36,7 @@ COMMANDS: dict[str, tuple[str, str]] = {
         "bywire.cli.replay",
         "run the controller again on a recorded run's inputs and compare its outputs",
     ),
-    "plot": ("bywire.cli.plot", "PNG of a CAN log (.blf, .asc, .log): commands, speed, mode"),
+    "plot": ("bywire.cli.plot", "PNG of a CAN log (BLF, ASC, TRC, MF4, CSV, candump) with a DBC"),
     "monitor": (
         "bywire.cli.monitor",
         "live view of the CAN bus decoded with the DBC: rates, ages, signals, CRC/counter errors",

@@ -17,10 +17,17 @@ Rows follow Figure 20 (bittiming.can-wiki.info; rule inferred from its rows): fo
 that divides the bit into a whole number N of quanta, the sample point sits at
 round-half-up(sample_point * N) quanta, so TS1 = that - 1 and TS2 = N - that (N = 12 at 87.5 %:
 10.5 -> 11 -> TS1 10, TS2 1, 91.7 %). A row is valid when 8 <= N <= 25 (CiA asks for at least 8
-quanta; 25 = 1 + 16 + 8 is the bxCAN maximum), BRP, TS1, TS2 and SJW <= TS2 fit the bxCAN
-limits, and the sample point lies within SAMPLE_POINT_TOLERANCE of the request. 5 points keeps
+quanta; 25 = 1 + 16 + 8 is the bxCAN maximum), BRP, TS1, TS2 and SJW <= TS1, TS2 fit the bxCAN
+limits, and the sample point lies within SAMPLE_POINT_TOLERANCE of the request, bounds included
+(compared as exact fractions: 80 % is 5 points off 75 %, not 5.000000000000004). 5 points keeps
 Figure 20's 91.7 % rows (4.2 points off 87.5 %) and drops only coarse 8-9 quanta settings whose
-rounding lands further away. Linux splits TS1 as prop-seg = TS1 // 2 (as can_calc_bittiming).
+rounding lands further away.
+
+Linux sees TS1 as prop-seg + phase-seg1 and (since 6.3) rejects SJW > phase-seg1 or > phase-seg2;
+prop-seg is TS1 // 2 as in can_calc_bittiming(), moved into phase-seg1 as far as SJW needs, and a
+setting whose TS1 cannot hold SJW is not offered. When no setting is exact at the requested
+sample point, `nearest` ranks as can_calc_bittiming() does: bitrate error first, then sample
+point error, so an exact bitrate at another sample point beats a bitrate a few per cent off.
 """
 
 from __future__ import annotations
@@ -28,6 +35,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, replace
 from fractions import Fraction
+from functools import cache
 
 from bywire.errors import ConfigError
 
@@ -96,12 +104,13 @@ class BitTiming:
         return self.actual_bitrate_bps / self.bitrate_bps - 1.0
 
     @property
-    def prop_seg(self) -> int:
-        return self.tseg1 // 2
+    def phase_seg1(self) -> int:
+        """Half of TS1 (the larger half), or SJW when SJW needs more: Linux wants SJW <= it."""
+        return min(self.tseg1, max(self.tseg1 - self.tseg1 // 2, self.sjw))
 
     @property
-    def phase_seg1(self) -> int:
-        return self.tseg1 - self.prop_seg
+    def prop_seg(self) -> int:
+        return self.tseg1 - self.phase_seg1
 
     @property
     def phase_seg2(self) -> int:
@@ -113,10 +122,22 @@ class BitTiming:
         clock * tq back to the nearest prescaler, which recovers `brp` on this clock."""
         return (self.brp * _NS_PER_S + self.clock_hz // 2) // self.clock_hz
 
+    def kernel_splits_alike(self) -> bool:
+        """Whether Linux's own split of TS1 (phase-seg1 = TS1 - TS1 // 2) can hold SJW.
+
+        When it cannot, `ip link ... bitrate ... sjw N` is refused (Linux >= 6.3: "sjw greater
+        than phase-seg1") and only the explicit tq form works.
+        """
+        return self.sjw <= self.tseg1 - self.tseg1 // 2
+
     def ip_link_bitrate(self, channel: str = "can0") -> str:
-        """The portable form: the kernel picks its own controller's prescaler."""
+        """The portable form: the kernel picks its own controller's prescaler.
+
+        SJW is always given: left out, Linux < 6.3 uses 1 and Linux >= 6.3 phase-seg2 / 2, so the
+        link would not run with the SJW of this row.
+        """
         sample_point = f"{self.sample_point:.3f}".rstrip("0")
-        bitrate = f"bitrate {self.bitrate_bps} sample-point {sample_point}"
+        bitrate = f"bitrate {self.bitrate_bps} sample-point {sample_point} sjw {self.sjw}"
         return f"ip link set {channel} type can {bitrate}"
 
     def ip_link_segments(self, channel: str = "can0") -> str:
@@ -163,13 +184,17 @@ def table(
 def nearest(
     clock_hz: int, bitrate_bps: int, sample_point: float = 0.875, *, sjw: int = 1
 ) -> BitTiming | None:
-    """The valid setting whose bitrate comes closest to the request (when none is exact)."""
+    """The valid setting closest to the request when `solutions` has none.
+
+    Ranked as Linux's can_calc_bittiming() ranks: bitrate error first, then the sample point's
+    distance from the request (any sample point the limits allow), then more quanta.
+    """
     request = _Request(clock_hz, bitrate_bps, sample_point, sjw)
     candidates = [
         row
         for tq_count in TQ_COUNT_RANGE
         for brp in _nearby_prescalers(clock_hz / (bitrate_bps * tq_count))
-        if (row := request.row(brp, tq_count)) is not None
+        if (row := request.closest_row(brp, tq_count)) is not None
     ]
     ranked = sorted(candidates, key=lambda row: _rank(row, sample_point, exact_first=True))
     return replace(ranked[0], recommended=True) if ranked else None
@@ -197,16 +222,40 @@ class _Request:
         _check_inputs(self.clock_hz, self.bitrate_bps, self.sample_point, self.sjw)
 
     def row(self, brp: int, tq_count: int) -> BitTiming | None:
-        """The setting for this prescaler and N, or None if it breaks a limit or tolerance."""
-        # Exact arithmetic: 0.875 * 12 must round 10.5 up, whatever the float error.
-        position = Fraction(self.sample_point).limit_denominator(10_000) * tq_count
-        sample_quanta = math.floor(position + Fraction(1, 2))
-        tseg1, tseg2 = sample_quanta - 1, tq_count - sample_quanta
-        fits = brp in BRP_RANGE and tseg1 in TSEG1_RANGE and tseg2 in TSEG2_RANGE
-        if not fits or self.sjw > tseg2:
+        """The setting for this prescaler and N, or None if none fits the limits and tolerance."""
+        row = self.closest_row(brp, tq_count)
+        if row is None or abs(_position(row) - _exact(self.sample_point)) > _exact(self.tolerance):
             return None
-        row = BitTiming(self.clock_hz, self.bitrate_bps, brp, tseg1, tseg2, self.sjw)
-        return row if abs(row.sample_point - self.sample_point) <= self.tolerance else None
+        return row
+
+    def closest_row(self, brp: int, tq_count: int) -> BitTiming | None:
+        """The setting for this prescaler and N whose sample point is closest to the request.
+
+        A tie rounds half up (N = 12 at 87.5 %: 10.5 -> 11 quanta, Figure 20's 91.7 %); when SJW
+        or a segment limit rules that split out, the next closest one is taken (83.3 %).
+        """
+        # Exact arithmetic: 0.875 * 12 must be 10.5, whatever the float error.
+        half_up = math.floor(_exact(self.sample_point) * tq_count + Fraction(1, 2))
+        # Sampling after q quanta: Seg 1 = q - 1 and Seg 2 = N - q must fit and hold SJW.
+        lowest = max(TSEG1_RANGE.start, self.sjw) + 1
+        highest = tq_count - max(TSEG2_RANGE.start, self.sjw)
+        lowest = max(lowest, tq_count - TSEG2_RANGE[-1])
+        highest = min(highest, TSEG1_RANGE[-1] + 1)
+        if brp not in BRP_RANGE or lowest > highest:
+            return None
+        sample_quanta = min(max(half_up, lowest), highest)  # the closest allowed split
+        tseg1, tseg2 = sample_quanta - 1, tq_count - sample_quanta
+        return BitTiming(self.clock_hz, self.bitrate_bps, brp, tseg1, tseg2, self.sjw)
+
+
+@cache
+def _exact(value: float) -> Fraction:
+    """A sample point or tolerance as the decimal fraction the user meant (0.875 = 7/8)."""
+    return Fraction(value).limit_denominator(10_000)
+
+
+def _position(row: BitTiming) -> Fraction:
+    return Fraction(1 + row.tseg1, row.tq_count)
 
 
 def _mark_recommended(rows: list[BitTiming], sample_point: float) -> list[BitTiming]:
@@ -216,10 +265,11 @@ def _mark_recommended(rows: list[BitTiming], sample_point: float) -> list[BitTim
     return [replace(row, recommended=row is best) for row in rows]
 
 
-def _rank(row: BitTiming, sample_point: float, *, exact_first: bool) -> tuple[float, ...]:
+def _rank(row: BitTiming, sample_point: float, *, exact_first: bool) -> tuple[Fraction, ...]:
     # Closest sample point first, then more quanta: finer resynchronisation steps.
-    rate_error = abs(row.bitrate_error) if exact_first else 0.0
-    return (rate_error, abs(row.sample_point - sample_point), -row.tq_count)
+    rate_error = abs(Fraction(row.clock_hz, row.brp * row.tq_count) - row.bitrate_bps)
+    distance = abs(_position(row) - _exact(sample_point))
+    return (rate_error if exact_first else Fraction(0), distance, Fraction(-row.tq_count))
 
 
 def _nearby_prescalers(ideal_brp: float) -> set[int]:

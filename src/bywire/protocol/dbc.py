@@ -90,6 +90,23 @@ def load_database(path: Path) -> Database:
     return _as_can_database(loaded, str(path))
 
 
+def load_user_database(path: Path) -> tuple[Database, str | None]:
+    """A DBC a user brings, for the tools that only read it (show, plot): strictly when it can
+    be, else as leniently as cantools loads without ``--strict`` (real-car DBCs such as
+    opendbc's vw_mqb.dbc declare overlapping signals). Returns the database and, when it was
+    loaded leniently, the strict check's reason. DbcError when it cannot be loaded at all.
+    """
+    try:
+        return load_database(path), None
+    except DbcError as strict_error:
+        try:
+            loaded = cantools.database.load_file(path, database_format="dbc", strict=False)
+        except (OSError, UnicodeDecodeError, cantools.errors.Error):
+            raise strict_error from None
+        reason = str(strict_error).removeprefix(f"cannot load {path}: ")
+        return _as_can_database(loaded, str(path)), reason
+
+
 @cache
 def database() -> Database:
     """The packaged CAN database (``albert.dbc``), loaded once, strictly, conventions checked.
