@@ -8,6 +8,9 @@ import bisect
 import contextlib
 import io
 import json
+import re
+import struct
+import threading
 import time
 from collections.abc import Iterator
 from pathlib import Path
@@ -15,6 +18,7 @@ from typing import Any, ClassVar
 
 import pytest
 from mcap.reader import make_reader
+from websockets.sync.client import ClientConnection, connect
 
 from bywire.cli import sim as sim_command
 from bywire.cli.main import main
@@ -24,6 +28,11 @@ from bywire.sim.runner import SimRun
 from bywire.telemetry.schemas import CAN_TOPIC, EVENTS_TOPIC, SCHEMAS, STATE_TOPIC
 
 TOPICS = {STATE_TOPIC, EVENTS_TOPIC, CAN_TOPIC}
+LIMIT_S = 30.0  # generous limits on waiting, never timing assertions
+# The SDK's server speaks protocol v1 under this name; the Foxglove app offers it along with
+# the older "foxglove.websocket.v1" and the server refuses a client that offers neither.
+SUBPROTOCOLS = ["foxglove.sdk.v1", "foxglove.websocket.v1"]
+MESSAGE_DATA = 0x01  # the protocol's binary opcode: u8 op, u32 subscription, u64 time, payload
 
 
 def run_sim(*argv: str) -> tuple[int, str]:
@@ -80,6 +89,22 @@ def hardware_at(world: SimWorld, time_s: float) -> dict[str, Any]:
         "motors_enabled": level_at(world.gpio["motors_enable"].history, time_s),
         "ebrake_engaged": not level_at(world.gpio["ebrake_release"].history, time_s),
         "steering_pulse_ms": level_at(world.pwm.steering.history, time_s) * 1000.0,
+    }
+
+
+def hardware_during(world: SimWorld, start_s: float, end_s: float) -> dict[str, set[Any]]:
+    """Every level each port held from `start_s` to `end_s`. On real time the clock moves on
+    during a pass, so its writes are stamped a little after the `now` the pass was taken at."""
+    dac = [(t, volts) for t, channel, volts in world.dac.history if channel == 0]
+    histories: dict[str, list[tuple[float, Any]]] = {
+        "dac_throttle_volts": dac,
+        "motors_enabled": world.gpio["motors_enable"].history,
+        "ebrake_engaged": [(t, not level) for t, level in world.gpio["ebrake_release"].history],
+        "steering_pulse_ms": [(t, pulse_s * 1000.0) for t, pulse_s in world.pwm.steering.history],
+    }
+    return {
+        name: {level_at(history, start_s)} | {v for t, v in history if start_s < t <= end_s}
+        for name, history in histories.items()
     }
 
 
@@ -169,6 +194,77 @@ def test_a_realtime_mcap_is_stamped_with_wall_clock_time(tmp_path: Path) -> None
     assert max(offsets_ns) - min(offsets_ns) <= 1
     states = [body for topic, _, body in messages if topic == STATE_TOPIC]
     assert states[-1]["time_s"] > 0.5  # the run's whole second, not only its start
+
+
+# --- Foxglove live ------------------------------------------------------------------------------
+
+
+def _wait_for_url(capsys: pytest.CaptureFixture[str]) -> str:
+    """The ws:// address the command prints to stderr once it serves."""
+    seen = ""
+    deadline = time.monotonic() + LIMIT_S
+    while time.monotonic() < deadline:
+        seen += capsys.readouterr().err
+        found = re.search(r"ws://\S+:\d+", seen)
+        if found:
+            return found.group()
+        time.sleep(0.05)
+    raise AssertionError(f"no Foxglove address on stderr: {seen!r}")
+
+
+def _advertised(client: ClientConnection) -> dict[str, dict[str, Any]]:
+    """Read the server's JSON messages up to its channel advertisement: {topic: channel}."""
+    while True:
+        text = client.recv(timeout=LIMIT_S)
+        assert isinstance(text, str)
+        body = json.loads(text)
+        if body["op"] == "advertise":
+            return {channel["topic"]: channel for channel in body["channels"]}
+
+
+def _messages(client: ClientConnection) -> Iterator[tuple[int, dict[str, Any]]]:
+    """(subscription id, decoded JSON payload) of each message the server sends."""
+    while True:
+        data = client.recv(timeout=LIMIT_S)
+        if isinstance(data, bytes) and data[0] == MESSAGE_DATA:
+            _op, subscription, _log_time_ns = struct.unpack_from("<BIQ", data)
+            yield subscription, json.loads(data[13:])
+
+
+def test_a_foxglove_client_sees_the_channels_and_live_values_of_the_simulated_hardware(
+    capsys: pytest.CaptureFixture[str], runs: list[RecordedRun]
+) -> None:
+    argv = ["sim", "--realtime", "--duration", "60", "--foxglove", "127.0.0.1:0"]
+    command = threading.Thread(target=main, args=(argv,), daemon=True)
+    command.start()
+    try:
+        url = _wait_for_url(capsys)
+        with connect(url, subprotocols=SUBPROTOCOLS, open_timeout=LIMIT_S) as client:
+            channels = _advertised(client)
+            assert set(channels) == TOPICS
+            for topic, channel in channels.items():
+                assert (channel["encoding"], channel["schemaEncoding"]) == ("json", "jsonschema")
+                assert json.loads(channel["schema"]) == SCHEMAS[topic]
+            subscribe = [{"id": 7, "channelId": channels[STATE_TOPIC]["id"]}]
+            client.send(json.dumps({"op": "subscribe", "subscriptions": subscribe}))
+            # Under RC the course drives from 1.5 s: wait for a state with throttle on the DAC,
+            # and the next one, which ends the window its pass wrote in.
+            states: list[dict[str, Any]] = []
+            for subscription, state in _messages(client):
+                assert subscription == 7
+                if states or state["outputs"]["dac_throttle_volts"] > 0:
+                    states.append(state)
+                if len(states) == 2:
+                    break
+        driving, after = states
+        held = hardware_during(runs[0].world, driving["time_s"], after["time_s"])
+        for name, value in outputs_of(driving).items():
+            assert value in held[name], (name, value, held[name])
+    finally:
+        if runs:
+            runs[0].runtime.request_stop()
+        command.join(LIMIT_S)
+    assert not command.is_alive()
 
 
 @pytest.mark.parametrize(
