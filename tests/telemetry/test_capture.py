@@ -54,7 +54,7 @@ def test_a_state_capture_holds_the_decision_and_copies_of_the_counters() -> None
     sim, outbox = _tapped(3.0)
     last = [c for c in outbox.take(0.0) if isinstance(c, StateCapture)][-1]
     assert last.outputs is not None
-    assert [task.name for task in last.tasks] == [task.spec.name for task in sim.runtime.tasks]
+    assert [spec.name for spec in last.task_specs] == [task.spec.name for task in sim.runtime.tasks]
     # The loop ran on after the capture: the copies kept the counts of their instant.
     steering = sim.runtime.tasks[0]
     assert 0 < last.tasks[0].runs < steering.stats.runs

@@ -11,22 +11,21 @@ the writer's thread. `can_frame` queues a CAN frame the same way.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import NamedTuple
 
 from bywire.control.controller import ControlInputs, ControlOutputs
 from bywire.control.error_flags import flag_names
 from bywire.runtime.app import Runtime
+from bywire.runtime.schedule import TaskSpec
 from bywire.runtime.sensors import SensorReadings
 from bywire.telemetry.outbox import Outbox
 
 DEFAULT_RATE_HZ = 50.0
 
 
-@dataclass(frozen=True, slots=True)
-class TaskCounters:
+class TaskCounters(NamedTuple):
     """One schedule row's counters at the capture (the loop keeps mutating the originals)."""
 
-    name: str
-    nominal_rate_hz: float
     runs: int
     overruns: int
     budget_exceeded: int
@@ -34,9 +33,12 @@ class TaskCounters:
     spent_s: float
 
 
-@dataclass(frozen=True, slots=True)
-class StateCapture:
-    """The controller at `time_s` (its clock): every value is frozen or a copy."""
+class StateCapture(NamedTuple):
+    """The controller at `time_s` (its clock): every value is frozen or a copy.
+
+    A named tuple, not a dataclass: it is built in the loop 50 times a second, and a tuple is
+    built in a fraction of a frozen dataclass's time (no `object.__setattr__` per field).
+    """
 
     time_s: float
     elapsed_s: float
@@ -45,7 +47,8 @@ class StateCapture:
     sensors: SensorReadings
     dac_throttle_volts: float | None  # acknowledged by the DAC, after quantisation
     dac_regen_volts: float | None
-    tasks: tuple[TaskCounters, ...]
+    task_specs: tuple[TaskSpec, ...]  # the schedule table (the same tuple every time)
+    tasks: tuple[TaskCounters, ...]  # in the table's order
     watchdog_tripped: bool
     reports_sent: int
     telemetry_dropped: int
@@ -91,6 +94,8 @@ class TelemetryTap:
         self._last: ControlOutputs | None = None
         channels = runtime.config.actuators
         self._dac_channels = (channels.dac_throttle_channel, channels.dac_regen_channel)
+        self._task_specs = tuple(task.spec for task in runtime.tasks)
+        self._task_stats = tuple(task.stats for task in runtime.tasks)
 
     def attach(self) -> TelemetryTap:
         """Observe the runtime's loop from its next pass on."""
@@ -129,31 +134,25 @@ class TelemetryTap:
 
     def _capture(self, outputs: ControlOutputs, now: float) -> StateCapture:
         runtime = self._runtime
-        actuators = runtime.actuators
+        acknowledged_volts = runtime.actuators.acknowledged_volts
         throttle_channel, regen_channel = self._dac_channels
+        watchdog = runtime.watchdog
         return StateCapture(
-            time_s=now,
-            elapsed_s=now - runtime.started_at,
-            outputs=outputs,
-            inputs=runtime.inputs,
-            sensors=runtime.sensors,
-            dac_throttle_volts=actuators.acknowledged_volts(throttle_channel),
-            dac_regen_volts=actuators.acknowledged_volts(regen_channel),
-            tasks=tuple(
-                TaskCounters(
-                    task.spec.name,
-                    task.spec.rate_hz,
-                    task.stats.runs,
-                    task.stats.overruns,
-                    task.stats.budget_exceeded,
-                    task.stats.max_jitter_s,
-                    task.stats.spent_s,
-                )
-                for task in runtime.tasks
+            now,
+            now - runtime.started_at,
+            outputs,
+            runtime.inputs,
+            runtime.sensors,
+            acknowledged_volts(throttle_channel),
+            acknowledged_volts(regen_channel),
+            self._task_specs,
+            tuple(
+                TaskCounters(s.runs, s.overruns, s.budget_exceeded, s.max_jitter_s, s.spent_s)
+                for s in self._task_stats
             ),
-            watchdog_tripped=runtime.watchdog is not None and runtime.watchdog.tripped,
-            reports_sent=runtime.reports_sent,
-            telemetry_dropped=self._outbox.dropped,
+            watchdog is not None and watchdog.tripped,
+            runtime.reports_sent,
+            self._outbox.dropped,
         )
 
     def _events(self, before: ControlOutputs | None, after: ControlOutputs, now: float) -> None:

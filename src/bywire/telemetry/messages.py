@@ -13,6 +13,7 @@ from bywire.control.mux import Movement
 from bywire.control.rc_mapping import RcRequest
 from bywire.control.validity import age_s
 from bywire.model import ControlMode, MovementCommand
+from bywire.runtime.schedule import TaskSpec
 from bywire.telemetry.capture import Capture, EventCapture, StateCapture, TaskCounters
 from bywire.telemetry.schemas import CAN_TOPIC, EVENTS_TOPIC, STATE_TOPIC
 
@@ -64,7 +65,10 @@ def state_message(capture: StateCapture) -> Message:
         "watchdog_tripped": capture.watchdog_tripped,
         "reports_sent": capture.reports_sent,
         "telemetry_dropped": capture.telemetry_dropped,
-        "tasks": [_task(task, capture.elapsed_s) for task in capture.tasks],
+        "tasks": [
+            _task(spec, counters, capture.elapsed_s)
+            for spec, counters in zip(capture.task_specs, capture.tasks, strict=True)
+        ],
     }
 
 
@@ -123,10 +127,10 @@ def _inputs(capture: StateCapture) -> Message:
     }
 
 
-def _task(task: TaskCounters, elapsed_s: float) -> Message:
+def _task(spec: TaskSpec, task: TaskCounters, elapsed_s: float) -> Message:
     return {
-        "name": task.name,
-        "nominal_rate_hz": task.nominal_rate_hz,
+        "name": spec.name,
+        "nominal_rate_hz": spec.rate_hz,
         "rate_hz": task.runs / elapsed_s if elapsed_s > 0 else 0.0,
         "runs": task.runs,
         "overruns": task.overruns,
