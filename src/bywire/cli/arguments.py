@@ -14,3 +14,14 @@ def positive_seconds(text: str) -> float:
     if not value > 0:  # also refuses NaN
         raise argparse.ArgumentTypeError(f"must be a number of seconds > 0, got {text!r}")
     return value
+
+
+def positive_hertz(text: str) -> float:
+    """A rate in hertz, > 0; argparse turns the error into one line and exit 2."""
+    try:
+        value = float(text)
+    except ValueError:
+        value = -1.0
+    if not 0 < value < float("inf"):  # also refuses NaN
+        raise argparse.ArgumentTypeError(f"must be a rate in Hz > 0, got {text!r}")
+    return value

@@ -20,7 +20,7 @@ from rich.markup import escape
 from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 from rich.table import Table
 
-from bywire.cli.arguments import positive_seconds
+from bywire.cli.arguments import positive_hertz, positive_seconds
 from bywire.config import default_sim_config, load_config
 from bywire.errors import ConfigError
 from bywire.hal.sim.clock import RealtimeClock
@@ -30,6 +30,8 @@ from bywire.sim.plot import check_plot_path, write_plot
 from bywire.sim.runner import SimRun
 from bywire.sim.suite import collect, junit_xml, run_case
 from bywire.sim.summary import build_summary, render
+from bywire.telemetry.capture import DEFAULT_RATE_HZ
+from bywire.telemetry.feed import FeedOptions, check_mcap_path, open_feed
 from bywire.tools.loopback import Endpoint, parse_endpoint
 from bywire.tools.sim_bridge import serve_bus
 from bywire.tools.sim_record import SimRunRecorder
@@ -107,6 +109,27 @@ def configure(parser: argparse.ArgumentParser) -> None:
         " cantools, bywire monitor) on this loopback port (host 127.0.0.1, ::1 or localhost)",
     )
     parser.add_argument(
+        "--mcap",
+        type=Path,
+        metavar="FILE.mcap",
+        help="record the telemetry feed (state, events, CAN frames) to an MCAP file for"
+        " Foxglove, PlotJuggler or the mcap tools; log times are the run's clock",
+    )
+    parser.add_argument(
+        "--foxglove",
+        type=_endpoint,
+        metavar="[HOST:]PORT",
+        help="with --realtime: serve the telemetry feed to Foxglove (WebSocket) on this loopback"
+        " port (host 127.0.0.1, ::1 or localhost; port 0: any free port)",
+    )
+    parser.add_argument(
+        "--telemetry-rate",
+        type=positive_hertz,
+        default=DEFAULT_RATE_HZ,
+        metavar="HZ",
+        help=f"state messages per second of the feed (default: {DEFAULT_RATE_HZ:g})",
+    )
+    parser.add_argument(
         "--config",
         type=Path,
         metavar="FILE",
@@ -127,11 +150,18 @@ def run(args: argparse.Namespace) -> int:
     )
     if args.serve is not None and not isinstance(sim.world.clock, RealtimeClock):
         raise ConfigError("--serve needs --realtime: virtual time outruns any client")
+    if args.foxglove is not None and not isinstance(sim.world.clock, RealtimeClock):
+        raise ConfigError("--foxglove needs --realtime: virtual time outruns any client")
+    feed = FeedOptions(args.mcap, args.foxglove, args.telemetry_rate)
     recorder = None if args.record is None else SimRunRecorder.attach(sim, args.record)
     tally = BusTally()
     sim.add_can_monitor(tally)
     wall_s, frames_logged = _play(
-        sim, args.log, show_progress=sys.stderr.isatty() and not args.json, serve=args.serve
+        sim,
+        args.log,
+        show_progress=sys.stderr.isatty() and not args.json,
+        serve=args.serve,
+        feed=feed,
     )
     if recorder is not None:
         recorder.write()
@@ -140,6 +170,7 @@ def run(args: argparse.Namespace) -> int:
         write_plot(sim, args.plot)
     files = {"plot": _name(args.plot), "can_log": _name(args.log)}
     files.update({} if recorder is None else {"record": str(recorder.path)})
+    files.update({} if args.mcap is None else {"mcap": str(args.mcap)})
     if args.json:
         print(json.dumps({**summary.as_json(), "files": files}, indent=2))
     else:
@@ -151,6 +182,8 @@ def run(args: argparse.Namespace) -> int:
             console.print(f"CAN log: {args.log} ({frames_logged} frames)", soft_wrap=True)
         if args.record is not None:
             console.print(f"Run record: {args.record} (for bywire replay)", soft_wrap=True)
+        if args.mcap is not None:
+            console.print(f"MCAP: {args.mcap} (open it in Foxglove)", soft_wrap=True)
     return 0 if summary.passed else 1
 
 
@@ -162,6 +195,8 @@ def _check_one_run(args: argparse.Namespace) -> None:
         check_plot_path(args.plot)
     if args.log is not None:
         check_log_path(args.log)
+    if args.mcap is not None:
+        check_mcap_path(args.mcap)
 
 
 def _name(path: Path | None) -> str | None:
@@ -169,7 +204,12 @@ def _name(path: Path | None) -> str | None:
 
 
 def _play(
-    sim: SimRun, log_path: Path | None, *, show_progress: bool, serve: Endpoint | None = None
+    sim: SimRun,
+    log_path: Path | None,
+    *,
+    show_progress: bool,
+    serve: Endpoint | None = None,
+    feed: FeedOptions | None = None,
 ) -> tuple[float, int]:
     """Run to the end; (wall seconds, frames logged). The log is closed even if the run fails."""
     with contextlib.ExitStack() as stack:
@@ -179,6 +219,8 @@ def _play(
             sim.add_can_monitor(log)
         if serve is not None:
             _serve(stack, sim, serve)
+        if feed is not None and feed.wanted:
+            _feed(stack, sim, feed)
         if show_progress:
             stack.enter_context(_progress(sim))
         started = time.perf_counter()
@@ -196,6 +238,25 @@ def _serve(stack: contextlib.ExitStack, sim: SimRun, endpoint: Endpoint) -> None
         file=sys.stderr,
         flush=True,
     )
+
+
+def _feed(stack: contextlib.ExitStack, sim: SimRun, options: FeedOptions) -> None:
+    """The telemetry feed for the run, with every frame on the bus; the port goes to stderr."""
+    virtual_time = not isinstance(sim.world.clock, RealtimeClock)
+    feed = stack.enter_context(open_feed(sim.runtime, options, virtual_time=virtual_time))
+    sim.add_can_monitor(
+        lambda frame: feed.tap.can_frame(
+            frame.time_s, frame.arbitration_id, frame.data, frame.sender
+        )
+    )
+    if options.foxglove is not None:
+        host = options.foxglove.host
+        url_host = f"[{host}]" if ":" in host else host
+        print(
+            f"serving telemetry to Foxglove on ws://{url_host}:{feed.port}",
+            file=sys.stderr,
+            flush=True,
+        )
 
 
 @contextlib.contextmanager
@@ -242,7 +303,7 @@ def _list(*, as_json: bool) -> None:
     _Console().print(table)
 
 
-ONE_RUN_OPTIONS = ("duration", "realtime", "plot", "log", "record", "serve")
+ONE_RUN_OPTIONS = ("duration", "realtime", "plot", "log", "record", "serve", "mcap", "foxglove")
 
 
 def _run_all(args: argparse.Namespace) -> int:

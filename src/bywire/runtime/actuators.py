@@ -71,6 +71,10 @@ class Actuators:
         """The DAC cannot be trusted to drive what it was told (see the module's rules)."""
         return self._dac_escalated or bool(self._dac_lowering_failed)
 
+    def acknowledged_volts(self, channel: int) -> float | None:
+        """What `channel` was last told and acknowledged (None before its first good write)."""
+        return self._dac_volts.get(channel)
+
     def write_steering(self, pulse_s: float) -> None:
         self.gate.write("steering", lambda: self._hardware.steering_pwm.set_pulse(pulse_s))
 

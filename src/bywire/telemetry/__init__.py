@@ -1,0 +1,1 @@
+"""One telemetry feed out of the controller: snapshots in the loop, encoding and I/O elsewhere."""

@@ -1,0 +1,78 @@
+"""One telemetry feed for a run: the loop's tap, the outbox, the writer and its sinks, together.
+
+`open_feed` is what a command uses: it attaches to a `Runtime` before the run, and on leaving
+writes what is queued and closes the file and the server, whatever ended the run.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import time
+from collections.abc import Iterator
+from dataclasses import dataclass
+from pathlib import Path
+
+from bywire.errors import ConfigError
+from bywire.runtime.app import Runtime
+from bywire.telemetry.capture import DEFAULT_RATE_HZ, Capture, TelemetryTap
+from bywire.telemetry.outbox import DEFAULT_CAPACITY, Outbox
+from bywire.telemetry.writer import TelemetryWriter
+from bywire.tools.loopback import Endpoint
+
+
+@dataclass(frozen=True, slots=True)
+class FeedOptions:
+    """Where the feed goes and how often the state is sampled."""
+
+    mcap_path: Path | None = None
+    foxglove: Endpoint | None = None
+    rate_hz: float = DEFAULT_RATE_HZ
+    capacity: int = DEFAULT_CAPACITY
+
+    @property
+    def wanted(self) -> bool:
+        return self.mcap_path is not None or self.foxglove is not None
+
+
+@dataclass(frozen=True, slots=True)
+class TelemetryFeed:
+    """A running feed: `tap` for the loop (and bus monitors), `port` the server listens on."""
+
+    tap: TelemetryTap
+    outbox: Outbox[Capture]
+    writer: TelemetryWriter
+    port: int | None
+
+
+def check_mcap_path(path: Path) -> None:
+    """ConfigError unless `path` ends in .mcap and its folder exists (checked before a run)."""
+    if path.suffix.lower() != ".mcap":
+        raise ConfigError(f"cannot record to {path.name!r}: an MCAP file's name ends in .mcap")
+    if not path.parent.is_dir():
+        raise ConfigError(f"cannot write {path}: folder {path.parent} does not exist")
+
+
+@contextlib.contextmanager
+def open_feed(
+    runtime: Runtime, options: FeedOptions, *, virtual_time: bool
+) -> Iterator[TelemetryFeed]:
+    """Attach a feed to `runtime` for the duration of the block.
+
+    On virtual time the log times are the simulated clock's and the outbox waits for room rather
+    than drop (no loop time exists to protect there); on real time the log times are wall-clock
+    (epoch) times and a full outbox drops its oldest capture.
+    """
+    outbox: Outbox[Capture] = Outbox(options.capacity, wait_when_full=virtual_time)
+    offset_s = 0.0 if virtual_time else time.time() - runtime.clock.now()
+    writer = TelemetryWriter(outbox, log_offset_s=offset_s)
+    tap = TelemetryTap(runtime, outbox, rate_hz=options.rate_hz)
+    try:
+        if options.mcap_path is not None:
+            writer.record(options.mcap_path)
+        port = None if options.foxglove is None else writer.serve(options.foxglove)
+        tap.attach()
+        writer.start()
+        yield TelemetryFeed(tap, outbox, writer, port)
+    finally:
+        tap.detach()
+        writer.close()

@@ -1,0 +1,98 @@
+"""The consumer of the feed: a thread that turns captures into messages and hands them to sinks.
+
+Sinks are foxglove-sdk's: an MCAP file (`open_mcap`) and the Foxglove WebSocket server
+(`start_server`), both bound to one `foxglove.Context` that holds a channel per topic with its
+JSON Schema. The SDK writes files and serves clients in its own threads, outside the interpreter
+lock; this thread only encodes. It yields the lock after each message, so the loop waits at most
+one message's encoding (tens of µs) for it, not the interpreter's 5 ms switch interval.
+"""
+
+from __future__ import annotations
+
+import json
+import threading
+import time
+from pathlib import Path
+
+import foxglove
+from foxglove.websocket import WebSocketServer
+
+from bywire.errors import ConfigError
+from bywire.telemetry.capture import Capture
+from bywire.telemetry.messages import message
+from bywire.telemetry.outbox import Outbox
+from bywire.telemetry.schemas import SCHEMAS
+from bywire.tools.loopback import Endpoint
+
+POLL_S = 0.05  # how long the writer waits for a capture before looking at `closed` again
+
+
+class TelemetryWriter:
+    """Encodes every capture of `outbox` onto the channels of its own foxglove Context.
+
+    `log_offset_s` is added to the controller's clock for the log times: 0 on virtual time (the
+    log is in simulated seconds), the epoch offset on real time (so Foxglove shows wall time).
+    """
+
+    def __init__(self, outbox: Outbox[Capture], *, log_offset_s: float = 0.0) -> None:
+        self._outbox = outbox
+        # In whole nanoseconds: an epoch time in float seconds is only good to ~0.2 µs.
+        self._log_offset_ns = round(log_offset_s * 1e9)
+        self.context = foxglove.Context()
+        self._channels = {
+            topic: foxglove.Channel(topic, schema=schema, context=self.context)
+            for topic, schema in SCHEMAS.items()
+        }
+        self._mcap: foxglove.MCAPWriter | None = None
+        self._server: WebSocketServer | None = None
+        self._thread = threading.Thread(target=self._drain, name="bywire-telemetry", daemon=True)
+        self.written = 0
+
+    def record(self, path: Path) -> None:
+        """Write every channel to an MCAP file at `path` (overwritten if it exists)."""
+        try:
+            self._mcap = foxglove.open_mcap(path, allow_overwrite=True, context=self.context)
+        except Exception as error:  # the SDK raises its own types for I/O failures
+            raise ConfigError(f"cannot write the MCAP file {path}: {error}") from None
+
+    def serve(self, endpoint: Endpoint) -> int:
+        """Serve every channel to Foxglove WebSocket clients; returns the port it listens on."""
+        try:
+            self._server = foxglove.start_server(
+                name="bywire", host=endpoint.host, port=endpoint.port, context=self.context
+            )
+        except Exception as error:  # e.g. the port is taken
+            raise ConfigError(f"cannot serve Foxglove on {endpoint}: {error}") from None
+        return self._server.port
+
+    def start(self) -> TelemetryWriter:
+        self._thread.start()
+        return self
+
+    def close(self, timeout_s: float = 5.0) -> None:
+        """Write what is queued, then close the file and stop the server."""
+        self._outbox.close()
+        if self._thread.is_alive():
+            self._thread.join(timeout_s)
+        if self._mcap is not None:
+            self._mcap.close()
+        if self._server is not None:
+            self._server.stop()
+
+    def _drain(self) -> None:
+        outbox = self._outbox
+        while True:
+            captures = outbox.take(POLL_S)
+            if not captures and outbox.closed:
+                return
+            for capture in captures:
+                self.write(capture)
+                time.sleep(0)  # let the loop's thread take the interpreter lock if it waits
+
+    def write(self, capture: Capture) -> None:
+        """Encode one capture onto its channel (the writer's thread, or a test, calls this)."""
+        topic, body = message(capture)
+        log_time_ns = self._log_offset_ns + round(capture.time_s * 1e9)
+        data = json.dumps(body, separators=(",", ":")).encode()
+        self._channels[topic].log(data, log_time=log_time_ns)
+        self.written += 1
