@@ -45,6 +45,7 @@ class Robot:
         *,
         user: int | None = None,
         notify_socket: Path | None = None,
+        extra: tuple[str, ...] = (),
     ) -> None:
         self.bench, self.line = bench, line
         self.hlc = bench.root / "hlc"
@@ -53,7 +54,7 @@ class Robot:
         config = bench.root / "robot.toml"
         config.write_text(bench.config_text())
         args = ["run", "--config", str(config), "--sysfs-root", str(bench.sysfs)]
-        args += ["--dev-root", str(bench.dev)]
+        args += ["--dev-root", str(bench.dev), *extra]
         command = [sys.executable, str(LAUNCHER), str(self.hlc), bench.can_channel, "--", *args]
         if user is not None:
             command = ["setpriv", f"--reuid={user}", f"--regid={user}", "--clear-groups", *command]
@@ -306,6 +307,46 @@ def test_a_device_the_user_may_not_open_says_which_group(denied: str, expected: 
             line.close()
     errors = robot.errors().strip().splitlines()
     assert status == 2
-    assert len(errors) == 1, errors
-    assert "permission denied" in errors[0]
-    assert expected in errors[0]
+    assert errors[0].startswith("bywire run: error: ")
+    # Every device with the problem is named (both PWM channels), each saying what to do.
+    assert all("permission denied" in error and expected in error for error in errors), errors
+    assert len(errors) == (2 if denied == "pwm" else 1)
+
+
+def test_every_missing_device_is_named_at_once(tmp_path: Path, line: PtyRcLine) -> None:
+    bench = make_bench(tmp_path)
+    _no_pwm_chip(bench)
+    _no_rc_receiver(bench)
+    robot = Robot(bench, line)
+    status = robot.finish()
+    errors = robot.errors().strip().splitlines()
+    assert status == 2
+    assert len(errors) == 2, errors
+    assert "PWM: no chip 'fe20c000.pwm'" in errors[0]
+    assert "ttyRC does not exist: enable the UART" in errors[1]
+
+
+def test_check_opens_each_device_reports_it_and_energises_nothing(
+    tmp_path: Path, line: PtyRcLine
+) -> None:
+    bench = make_bench(tmp_path)
+    robot = Robot(bench, line, extra=("--check",))
+    assert robot.finish() == 0, robot.errors()
+    out = robot._output[0]
+    for device in ("GPIO output lines", "DAC", "steering PWM", "RC receiver (UART)", "CAN bus"):
+        assert f"ready    {device}" in out
+    assert "6 of 6 devices ready" in out
+    assert [bench.dac_code(channel) for channel in range(4)] == [0, 0, 0, 0]
+    assert fake_gpiod.read_state(bench.gpio_chip)["released"] is True
+
+
+def test_check_names_each_problem_and_exits_2(tmp_path: Path, line: PtyRcLine) -> None:
+    bench = make_bench(tmp_path)
+    _no_dac(bench)
+    robot = Robot(bench, line, extra=("--check",))
+    assert robot.finish() == 2
+    out = robot._output[0]
+    assert "PROBLEM  DAC: " in out
+    assert "i2c-1 does not exist: enable I2C" in out
+    assert "ready    CAN bus" in out
+    assert "5 of 6 devices ready" in out

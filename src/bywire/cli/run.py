@@ -23,11 +23,11 @@ from collections.abc import Iterator
 from pathlib import Path
 from types import FrameType
 
-from bywire.config import load_config
+from bywire.config import RobotConfig, load_config
 from bywire.errors import BywireError, HardwareError
 from bywire.hal.linux.device_errors import reason
 from bywire.hal.linux.systemd import notify
-from bywire.hal.opening import LinuxPaths, open_hardware
+from bywire.hal.opening import LinuxPaths, open_hardware, preflight
 from bywire.runtime.app import Runtime
 from bywire.runtime.realtime import RealtimeReport, apply_collector, apply_process
 from bywire.runtime.settings import RuntimeConfig
@@ -56,6 +56,13 @@ def configure(parser: argparse.ArgumentParser) -> None:
     )
     parser.add_argument("--verbose", action="store_true", help="log device events in detail")
     parser.add_argument(
+        "--check",
+        action="store_true",
+        help="pre-flight: open every device the configuration names, one at a time, report each"
+        " (all problems at once), close it again, and exit (0: all ready, 2: a problem); the"
+        " outputs are never energised",
+    )
+    parser.add_argument(
         "--dashboard",
         action="store_true",
         help="show the live controller view in this terminal (mode, flags, commands, actuators, "
@@ -74,6 +81,8 @@ def run(args: argparse.Namespace) -> int:
         raise BywireError("--dashboard needs a terminal (stderr is not one)")
     robot = load_config(args.config)
     paths = LinuxPaths(args.sysfs_root, args.dev_root)
+    if args.check:
+        return _preflight(robot, paths)
     status = 0
     # Before the hardware opens: its reader threads and the watchdog inherit scheduler and CPUs.
     realtime = apply_process(robot.realtime, python=sys.executable)
@@ -94,6 +103,17 @@ def run(args: argparse.Namespace) -> int:
             runtime.run()
     log.info("stopped; outputs de-energised")
     return status
+
+
+def _preflight(robot: RobotConfig, paths: LinuxPaths) -> int:
+    """Each device on a line: ready, or its problem and what to do; 2 if any is not ready."""
+    with _device_errors():
+        results = preflight(robot, paths)
+    for name, problem in results:
+        print(f"ready    {name}" if problem is None else f"PROBLEM  {name}: {problem}")
+    failed = sum(problem is not None for _, problem in results)
+    print(f"{robot.name}: {len(results) - failed} of {len(results)} devices ready")
+    return 2 if failed else 0
 
 
 def _report_realtime(report: RealtimeReport) -> None:

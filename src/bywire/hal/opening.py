@@ -20,13 +20,17 @@ import logging
 from collections.abc import Callable, Iterator
 from dataclasses import dataclass, fields
 from pathlib import Path
-from typing import TypeVar
+from typing import TYPE_CHECKING, TypeVar, cast
 
 from bywire.config import RobotConfig, output_lines
-from bywire.config.model import OUTPUT_LINE_KEYS, DacOutput
+from bywire.config.model import OUTPUT_LINE_KEYS, DacOutput, PwmOutput
 from bywire.errors import HardwareError
 from bywire.hal.hardware import DigitalOutputs, Hardware
-from bywire.hal.ports import DigitalOut, I2cDevice
+from bywire.hal.ports import ByteStream, CanPort, DigitalOut, I2cDevice, PwmChannel
+
+if TYPE_CHECKING:
+    from bywire.hal.linux.clock import LinuxClock
+    from bywire.hal.linux.gpio_gpiod import GpiodOutputs
 from bywire.protocol import dac6574
 
 log = logging.getLogger(__name__)
@@ -83,7 +87,13 @@ def _open_sim(config: RobotConfig, _paths: LinuxPaths, stack: contextlib.ExitSta
     return world.hardware
 
 
-def _open_linux(config: RobotConfig, paths: LinuxPaths, stack: contextlib.ExitStack) -> Hardware:
+Opener = Callable[[contextlib.ExitStack], object]
+"""Opens one device and puts its close on the stack; HardwareError says what is wrong."""
+
+
+def _linux_openers(config: RobotConfig, paths: LinuxPaths, clock: LinuxClock) -> dict[str, Opener]:
+    """Every device the configuration names, by what the user calls it, in the order that keeps
+    the robot safe while they open (outputs low first, inputs last)."""
     from bywire.hal.linux.can_open import BusSettings  # noqa: PLC0415 -- only the chosen backend
     from bywire.hal.linux.can_pythoncan import PythonCanPort  # noqa: PLC0415
     from bywire.hal.linux.clock import LinuxClock  # noqa: PLC0415
@@ -92,37 +102,107 @@ def _open_linux(config: RobotConfig, paths: LinuxPaths, stack: contextlib.ExitSt
     from bywire.hal.linux.serial_pyserial import PyserialStream  # noqa: PLC0415
     from bywire.protocol import dbc  # noqa: PLC0415
 
-    clock = LinuxClock()
+    assert isinstance(clock, LinuxClock)
     specs = {
         name: LineSpec(OUTPUT_LINE_KEYS[name], line.chip, line.line)
         for name, line in output_lines(config).items()
     }
-    gpio = GpiodOutputs(specs, paths.dev_root)
-    stack.callback(gpio.close)
-    dac = _open_dac(config.drive.dac, paths, stack)
-    pwms = []
-    outputs_pwm = (("steering.pwm", config.steering.pwm), ("hydrobrake.pwm", config.hydrobrake.pwm))
-    for key, output in outputs_pwm:
-        chip = find_pwm_chip(paths.sysfs_root, output.chip)
-        pwm = SysfsPwm(chip, output.channel, 1.0 / output.frequency_hz, key)
-        stack.callback(pwm.close)
-        pwms.append(pwm)
-    rc = PyserialStream(paths.device(config.rc.port), clock.notify_input, baud=config.rc.baud)
-    stack.callback(rc.close)
-    can = config.can
-    settings = BusSettings(
-        can.interface,
-        can.channel,
-        can.bitrate_bps,
-        accept_ids=dbc.command_ids(),
-        sample_point=can.sample_point,
-        clock_hz=can.clock_hz,
-        sysfs_root=paths.sysfs_root,
-    )
-    can_port = PythonCanPort(settings, clock.notify_input, clock.now)
-    stack.callback(can_port.close)
+
+    def gpio(stack: contextlib.ExitStack) -> object:
+        lines = GpiodOutputs(specs, paths.dev_root)
+        stack.callback(lines.close)
+        return lines
+
+    def pwm(key: str, output: PwmOutput) -> Opener:
+        def open_pwm(stack: contextlib.ExitStack) -> object:
+            chip = find_pwm_chip(paths.sysfs_root, output.chip)
+            opened = SysfsPwm(chip, output.channel, 1.0 / output.frequency_hz, key)
+            stack.callback(opened.close)
+            return opened
+
+        return open_pwm
+
+    def rc(stack: contextlib.ExitStack) -> object:
+        port = PyserialStream(paths.device(config.rc.port), clock.notify_input, baud=config.rc.baud)
+        stack.callback(port.close)
+        return port
+
+    def can(stack: contextlib.ExitStack) -> object:
+        section = config.can
+        settings = BusSettings(
+            section.interface,
+            section.channel,
+            section.bitrate_bps,
+            accept_ids=dbc.command_ids(),
+            sample_point=section.sample_point,
+            clock_hz=section.clock_hz,
+            sysfs_root=paths.sysfs_root,
+        )
+        port = PythonCanPort(settings, clock.notify_input, clock.now)
+        stack.callback(port.close)
+        return port
+
+    return {
+        "GPIO output lines": gpio,
+        "DAC": lambda stack: _open_dac(config.drive.dac, paths, stack),
+        "steering PWM": pwm("steering.pwm", config.steering.pwm),
+        "hydraulic brake PWM": pwm("hydrobrake.pwm", config.hydrobrake.pwm),
+        "RC receiver (UART)": rc,
+        "CAN bus": can,
+    }
+
+
+def _open_linux(config: RobotConfig, paths: LinuxPaths, stack: contextlib.ExitStack) -> Hardware:
+    from bywire.hal.linux.clock import LinuxClock  # noqa: PLC0415 -- only the chosen backend
+
+    clock = LinuxClock()
+    openers = _linux_openers(config, paths, clock)
+    opened: dict[str, object] = {}
+    for name, opener in openers.items():
+        try:
+            opened[name] = opener(stack)
+        except HardwareError as error:
+            # Like a pre-arm check: every other device's problem too, not one per attempt.
+            later = list(openers)[len(opened) + 1 :]
+            problems = [str(error), *_problems({n: openers[n] for n in later})]
+            raise HardwareError("\n".join(dict.fromkeys(problems))) from error  # once each
+    gpio = cast("GpiodOutputs", opened["GPIO output lines"])
     outputs = DigitalOutputs(**gpio.lines)
-    return Hardware(clock, can_port, rc, dac, pwms[0], pwms[1], outputs)
+    return Hardware(
+        clock,
+        cast(CanPort, opened["CAN bus"]),
+        cast(ByteStream, opened["RC receiver (UART)"]),
+        cast(I2cDevice, opened["DAC"]),
+        cast(PwmChannel, opened["steering PWM"]),
+        cast(PwmChannel, opened["hydraulic brake PWM"]),
+        outputs,
+    )
+
+
+def _problems(openers: dict[str, Opener]) -> list[str]:
+    """What is wrong with each device, each opened alone and closed again."""
+    problems = []
+    for opener in openers.values():
+        try:
+            with contextlib.ExitStack() as stack:
+                opener(stack)
+        except HardwareError as error:
+            problems.append(str(error))
+    return problems
+
+
+def preflight(config: RobotConfig, paths: LinuxPaths | None = None) -> list[tuple[str, str | None]]:
+    """Every device the configuration names: (name, None) when it opens, (name, the problem)
+    when it does not; each opened alone and closed again (outputs never energised)."""
+    if config.backend == "sim":
+        return [("simulated robot", None)]
+    from bywire.hal.linux.clock import LinuxClock  # noqa: PLC0415 -- only the chosen backend
+
+    results: list[tuple[str, str | None]] = []
+    for name, opener in _linux_openers(config, paths or LinuxPaths(), LinuxClock()).items():
+        problems = _problems({name: opener})
+        results.append((name, problems[0] if problems else None))
+    return results
 
 
 def _open_dac(dac: DacOutput, paths: LinuxPaths, stack: contextlib.ExitStack) -> I2cDevice:
