@@ -6,7 +6,7 @@ import argparse
 
 import pytest
 
-from bywire.cli.arguments import positive_seconds
+from bywire.cli.arguments import positive_seconds, whole_number
 
 
 @pytest.mark.parametrize(("text", "seconds"), [("1", 1.0), ("0.25", 0.25), ("60", 60.0)])
@@ -18,3 +18,12 @@ def test_positive_durations_are_accepted(text: str, seconds: float) -> None:
 def test_other_durations_are_refused_naming_the_value(text: str) -> None:
     with pytest.raises(argparse.ArgumentTypeError, match="seconds > 0"):
         positive_seconds(text)
+
+
+def test_whole_numbers_are_checked_against_their_minimum() -> None:
+    at_least_one = whole_number(1)
+    assert at_least_one("3") == 3
+    for text in ("0", "-2", "1.5", "x"):
+        with pytest.raises(argparse.ArgumentTypeError, match=f"whole number >= 1, got '{text}'"):
+            at_least_one(text)
+    assert whole_number(0)("0") == 0

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+from collections.abc import Callable
 
 
 def positive_seconds(text: str) -> float:
@@ -25,3 +26,18 @@ def positive_hertz(text: str) -> float:
     if not 0 < value < float("inf"):  # also refuses NaN
         raise argparse.ArgumentTypeError(f"must be a rate in Hz > 0, got {text!r}")
     return value
+
+
+def whole_number(minimum: int) -> Callable[[str], int]:
+    """A whole number >= `minimum`, as an argparse type (one line and exit 2 otherwise)."""
+
+    def parse(text: str) -> int:
+        try:
+            value = int(text)
+        except ValueError:
+            value = minimum - 1
+        if value < minimum:
+            raise argparse.ArgumentTypeError(f"must be a whole number >= {minimum}, got {text!r}")
+        return value
+
+    return parse

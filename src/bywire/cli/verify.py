@@ -28,7 +28,7 @@ from typing import Any
 from rich.console import Console
 from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
 
-from bywire.cli.arguments import positive_seconds
+from bywire.cli.arguments import positive_seconds, whole_number
 from bywire.config import RobotConfig, default_sim_config, load_config
 from bywire.config.hazards import unsafe_combinations
 from bywire.control.supervisor_check import TRANSITIONS
@@ -47,24 +47,8 @@ DEFAULT_BUDGET = 200
 DEFAULT_OUT = Path("verify-failures")
 
 
-def _positive_int(text: str) -> int:
-    try:
-        value = int(text)
-    except ValueError:
-        value = 0
-    if value < 1:
-        raise argparse.ArgumentTypeError(f"must be a whole number >= 1, got {text!r}")
-    return value
-
-
-def _seed(text: str) -> int:
-    try:
-        value = int(text)
-    except ValueError:
-        value = -1
-    if value < 0:
-        raise argparse.ArgumentTypeError(f"must be a whole number >= 0, got {text!r}")
-    return value
+_positive_int = whole_number(1)
+_seed = whole_number(0)
 
 
 def configure(parser: argparse.ArgumentParser) -> None:
