@@ -30,7 +30,7 @@ from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, T
 
 from bywire.cli.arguments import positive_seconds, whole_number
 from bywire.config import RobotConfig, default_sim_config, load_config
-from bywire.config.hazards import unsafe_combinations
+from bywire.config.hazards import UnsafeCombination, unsafe_combinations
 from bywire.control.supervisor_check import TRANSITIONS
 from bywire.sim.scenario import scenario_toml
 from bywire.sim.verify import (
@@ -180,7 +180,7 @@ def run(args: argparse.Namespace) -> int:
     return 1 if tally.violations else 0
 
 
-def _report_unsafe(source: str, unsafe: Iterable[Any], *, as_json: bool) -> None:
+def _report_unsafe(source: str, unsafe: Iterable[UnsafeCombination], *, as_json: bool) -> None:
     problems = [{"keys": list(c.keys), "problem": c.problem, "fix": c.fix} for c in unsafe]
     if as_json:
         print(json.dumps({"config": source, "unsafe_combinations": problems}, indent=2))

@@ -26,7 +26,7 @@ from bywire.control.supervisor_check import transition_labels
 from bywire.hal.sim.clock import VirtualClock
 from bywire.model import ControlMode, Gear
 from bywire.runtime.watchdog import POLL_S as WATCHDOG_POLL_S
-from bywire.sim.oracle import CAN_SILENT, HazardOracle, OracleTiming
+from bywire.sim.oracle import CAN_ONLY, CAN_SILENT, HazardOracle, OracleTiming
 from bywire.sim.runner import SimRun
 from bywire.sim.scenario import Event, Scenario
 
@@ -310,7 +310,7 @@ class OracleWitness:
         if "mode" in values:
             mode = ControlMode[str(values["mode"]).upper()]
             oracle.set_switch(mode, now)
-            if mode is CAN and oracle.faults & {*CAN_SILENT, "can_impostor", "remote_stop"}:
+            if mode is CAN and oracle.faults & CAN_ONLY:
                 oracle.stop_event("can_lost", now)
 
     def _hlc(self, values: dict[str, Any], now: float) -> None:

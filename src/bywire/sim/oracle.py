@@ -113,8 +113,7 @@ class OracleTiming:
 
 
 RC_BORNE = frozenset({"switch_stop", "rc_implausible", "rc_failsafe"})
-BORNE_BY = dict.fromkeys(RC_BORNE, "rc")
-"""Events that frames carry, by the link that carries them (corrupted frames delay them)."""
+"""Events the IBUS frames carry: corrupted frames may delay them (`rc_blind_until`)."""
 CAN_SILENT = frozenset({"can_lost", "can_unplugged"})
 """Faults in which nothing the computer sends arrives."""
 CAN_ONLY = frozenset({*CAN_SILENT, "can_impostor", "remote_stop"})
@@ -182,9 +181,7 @@ class HazardOracle:
         if kind in RC_BORNE and self.faults & silenced:
             return
         # Frames being corrupted may hide the event until they are over.
-        blind_until = {"rc": self.rc_blind_until, "can": self.can_blind_until}.get(
-            BORNE_BY.get(kind, ""), now
-        )
+        blind_until = self.rc_blind_until if kind in RC_BORNE else now
         deadline = max(now, blind_until) + self.timing.deadline_s(kind)
         if kind in RC_BORNE:
             self.rc_borne_at = now
