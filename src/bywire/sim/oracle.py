@@ -154,6 +154,7 @@ class HazardOracle:
     switch_at: float = 0.0
     armed_ok: bool = False
     drive_allowed_until: float | None = None
+    stopped_by: set[str] = field(default_factory=set)  # what set `drive_allowed_until`
     faults: set[str] = field(default_factory=set)
     fault_changed_at: float = -1.0
     sources: dict[ControlMode, _Source] = field(
@@ -188,8 +189,10 @@ class HazardOracle:
         if self.armed_ok:
             self.armed_ok = False
             self.drive_allowed_until = deadline
+            self.stopped_by = {kind}
         elif self.drive_allowed_until is not None:
             self.drive_allowed_until = min(self.drive_allowed_until, deadline)
+            self.stopped_by.add(kind)
 
     def fault(self, kind: str, active: bool, now: float) -> None:
         """A fault condition begins (and stops the robot) or ends; saying it again changes
@@ -241,6 +244,10 @@ class HazardOracle:
             self.tripped_at = None  # the operator's acknowledgement begins
             return
         self.left_at[was] = now
+        if was is ControlMode.CAN and mode is ControlMode.RC and self._can_stop_pending(now):
+            # Handed over before the controller could have acted on a CAN-bound fault: RC
+            # drives on (CAN-bound causes never block RC).
+            self.armed_ok, self.drive_allowed_until = True, None
         source = self.sources[mode]
         # Back to a source within the debounce: the controller may never have left it.
         since_left_s = now - self.left_at.get(mode, -1.0)
@@ -277,6 +284,11 @@ class HazardOracle:
         if self.pending_arm is not None and self.pending_arm[1] is source:
             self.pending_arm = None  # changed within the debounce: whether it armed is timing
             self._arm_now(now, source)
+
+    def _can_stop_pending(self, now: float) -> bool:
+        """Only CAN-bound faults demand STOP, and the controller may not have acted yet."""
+        deadline = self.drive_allowed_until
+        return deadline is not None and now < deadline and self.stopped_by <= CAN_ONLY
 
     def re_enable(self, now: float) -> None:
         """A CAN re-enable request (a 0→1 change) was sent."""
@@ -342,7 +354,9 @@ class HazardOracle:
 
     def _h2(self, now: float, volts: float) -> None:
         mode = self.switch
-        if volts <= 0.0 or mode is ControlMode.STOP or now < self.switch_at + self.timing.settle_s:
+        # The switch's position travels in the IBUS frames: corrupted ones delay it.
+        settled_s = max(self.switch_at, self.rc_blind_until) + self.timing.settle_s
+        if volts <= 0.0 or mode is ControlMode.STOP or now < settled_s:
             return
         if not self.sources[mode].seen_zero:
             self._flag("H2", now, f"{mode.name} never at zero throttle; throttle={volts:.2f} V")
