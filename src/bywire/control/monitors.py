@@ -20,7 +20,7 @@ appears. Which flags demand STOP is configuration (`stop_flags`, default: both, 
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
 
 from bywire.control.error_flags import ErrorFlag
 from bywire.control.interlocks import elapsed_since
@@ -126,19 +126,24 @@ def _servo_model(
 
 
 def _encoder_step(
-    state: MonitorState, inputs: MonitorInputs, now: float, config: MonitorConfig
+    state: MonitorState,
+    low_since: float | None,
+    inputs: MonitorInputs,
+    now: float,
+    config: MonitorConfig,
 ) -> tuple[MonitorState, bool]:
-    """The encoder monitor: its new state (pressure part untouched) and whether it faults."""
+    """The encoder monitor: the new state (with the pressure's `low_since`) and whether it
+    faults."""
     measured = inputs.steering_measured_norm
     if measured is None or not abs(measured) <= config.encoder_valid_limit_norm:
-        return MonitorState(state.pressure_low_since, updated_at=now), measured is not None
+        return MonitorState(low_since, updated_at=now), measured is not None
     # The servo gets what pulse_for_steering makes of the command: NaN centres, the rest clamps.
     command = clamp_norm(inputs.steering_command_norm)
     model = _servo_model(state, measured, command, now, config)
     tolerance = config.steering_tolerance_norm
     late = abs(command - measured) > tolerance and abs(command - model) <= tolerance
     late_since = _since(state.steering_late_since, late, now)
-    new_state = MonitorState(state.pressure_low_since, late_since, model, command, now)
+    new_state = MonitorState(low_since, late_since, model, command, now)
     return new_state, _lasted(late_since, now, config.steering_margin_s)
 
 
@@ -147,13 +152,13 @@ def monitor_step(
 ) -> tuple[MonitorState, ErrorFlag]:
     """One monitoring step at `now`: the new state and the raised flags. Pure: reads no clock."""
     low_since = _since(state.pressure_low_since, _pressure_low(inputs, config), now)
-    state, encoder_fault = _encoder_step(state, inputs, now, config)
+    state, encoder_fault = _encoder_step(state, low_since, inputs, now, config)
     flags = NO_FLAGS
     if _lasted(low_since, now, config.hydro_response_s):
         flags |= ErrorFlag.HYDRO_PRESSURE_FAULT
     if encoder_fault:
         flags |= ErrorFlag.STEERING_ENCODER_FAULT
-    return replace(state, pressure_low_since=low_since), flags
+    return state, flags
 
 
 def stop_required(flags: int, config: MonitorConfig = DEFAULT_MONITOR_CONFIG) -> bool:

@@ -437,6 +437,6 @@ class TransitionLog:
 
     def observe(self, _now: float) -> None:
         state = self.run.runtime.state.supervisor
-        if state is not self.previous:
+        if state != self.previous:  # a new but equal state every pass: no row was taken
             self.seen.update(transition_labels(self.previous, state))
             self.previous = state
