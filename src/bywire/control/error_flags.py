@@ -1,4 +1,4 @@
-"""Error flags: one named 64-bit set, reported over CAN and shown on the error LED (R-ERRORS).
+"""Error flags: one named set of up to 64, reported over CAN and shown on the error LED (R-ERRORS).
 
 Bits 0–10 are Figure 23's flags renamed for a Linux controller; the rest are new. Bit positions are
 part of the CAN protocol: the ErrorReport carries each flag as a 1-bit signal named as the flag, at

@@ -64,7 +64,7 @@ def to_raw(signal: Signal, value: float) -> int:
     this one bit for bit.
     """
     if isinstance(value, int) and signal.scale == 1 and signal.offset == 0:
-        return int(value)  # exact: a float detour would round 64-bit flags
+        return int(value)  # exact: a float detour would round 64-bit values
     if not math.isfinite(value):
         raise FrameError(f"signal {signal.name}: {value} cannot be encoded")
     return _round_half_away((value - signal.offset) / signal.scale)
