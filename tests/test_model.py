@@ -3,6 +3,8 @@
 from __future__ import annotations
 
 import dataclasses
+import enum
+from typing import get_type_hints
 
 import pytest
 
@@ -38,8 +40,14 @@ def test_stop_is_zero_so_a_zeroed_report_reads_as_stop() -> None:
 @pytest.mark.parametrize("kind", COMMAND_TYPES + REPORT_TYPES, ids=lambda kind: kind.__name__)
 def test_fields_are_exactly_the_dbc_signals(kind: type) -> None:
     signal_names = {signal.name for signal in database().get_message_by_name(kind.__name__).signals}
-    field_names = {field.name for field in dataclasses.fields(kind)}
-    # The CRC is the codec's business; every other signal is a field and vice versa.
+    field_names: set[str] = set()
+    for name, field_type in get_type_hints(kind).items():
+        if isinstance(field_type, type) and issubclass(field_type, enum.IntFlag):
+            field_names |= {str(member.name) for member in field_type}  # one signal per flag
+        else:
+            field_names.add(name)
+    # The CRC is the codec's business; every other signal is a field (or a flag of one) and
+    # vice versa.
     assert field_names == signal_names - {"crc"}
 
 

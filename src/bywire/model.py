@@ -13,6 +13,8 @@ from __future__ import annotations
 from dataclasses import dataclass
 from enum import IntEnum
 
+from bywire.control.error_flags import ErrorFlag
+
 
 class Gear(IntEnum):
     """Driving direction; the values are the DBC's ``gear`` value table."""
@@ -91,9 +93,9 @@ class ModeReport:
 
 @dataclass(frozen=True, slots=True)
 class ErrorReport:
-    """The error flags as one 64-bit unsigned integer, one bit per flag; 0 means no error."""
+    """The error flags that are up; none means no error. On the bus: one 1-bit signal per flag."""
 
-    flags: int
+    flags: ErrorFlag
 
 
 @dataclass(frozen=True, slots=True)

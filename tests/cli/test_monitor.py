@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import contextlib
+import os
 import re
 import socket
 import subprocess
@@ -18,6 +19,7 @@ import pytest
 from bywire.cli.main import main
 from bywire.model import Gear, MovementCommand
 from bywire.protocol import dbc
+from bywire.tools import socketcand
 
 SIM_S = 3.0
 TIMEOUT_S = 20.0
@@ -168,3 +170,99 @@ def test_monitor_refuses_a_recording_format_it_cannot_write(
     args = ["-i", "virtual", "-c", virtual_channel, "--once", "--record", str(tmp_path / "x.csv")]
     assert main(["monitor", *args]) == 2
     assert "suffix" in capsys.readouterr().err
+
+
+# --- python-can's socketcand warnings stay off the monitor's screen ---------------------------
+
+BURST_FRAMES = 60
+
+
+def _burst() -> bytes:
+    """Frames in one write, longer than python-can's 1024-byte read and not cut at a frame, so
+    its socketcand client finds a half frame at the end of a read ("Got incomplete message")."""
+    lines = []
+    for counter in range(BURST_FRAMES):
+        frame_id, data = dbc.encode_command(
+            MovementCommand(0.1, 0.0, 0.0, Gear.FORWARD, counter % 16)
+        )
+        lines.append(socketcand.frame_line(frame_id, 1_700_000_000 + counter / 50, data, False))
+    text = "".join(lines)
+    assert len(text) > 1024
+    assert not any(len("".join(lines[:n])) == 1024 for n in range(len(lines)))
+    return text.encode("ascii")
+
+
+@contextlib.contextmanager
+def _bursting_server() -> Iterator[int]:
+    """A socketcand server on loopback: the handshake, then one burst to every client."""
+    listener = socket.create_server(("127.0.0.1", 0))
+    stop = threading.Event()
+
+    def serve(client: socket.socket) -> None:
+        with client:
+            client.sendall(b"< hi >")
+            pending = ""
+            while not stop.is_set():
+                try:
+                    chunk = client.recv(1024).decode("ascii")
+                except OSError:  # the client went away without closing
+                    return
+                if not chunk:
+                    return
+                commands, pending = socketcand.split_commands(pending + chunk)
+                for command in commands:
+                    client.sendall(b"< ok >")
+                    if command.strip() == "rawmode":
+                        client.sendall(_burst())
+
+    def accept() -> None:
+        listener.settimeout(0.2)
+        while not stop.is_set():
+            try:
+                client, _ = listener.accept()
+            except TimeoutError:
+                continue
+            threading.Thread(target=serve, args=(client,), daemon=True).start()
+
+    acceptor = threading.Thread(target=accept, daemon=True)
+    acceptor.start()
+    try:
+        yield listener.getsockname()[1]
+    finally:
+        stop.set()
+        acceptor.join()
+        listener.close()
+
+
+CONTROL_CLIENT = """
+import sys, can
+bus = can.Bus(interface="socketcand", host="127.0.0.1", port=int(sys.argv[1]), channel="can0")
+received = [bus.recv(1.0) for _ in range({frames})]
+bus.shutdown()
+print(sum(message is not None for message in received))
+"""
+
+
+def test_python_cans_socketcand_warnings_never_reach_the_monitors_screen() -> None:
+    with _bursting_server() as port:
+        control = subprocess.run(
+            [sys.executable, "-c", CONTROL_CLIENT.format(frames=BURST_FRAMES), str(port)],
+            capture_output=True,
+            text=True,
+            timeout=TIMEOUT_S,
+            check=False,
+        )
+        monitor = subprocess.run(
+            [*BYWIRE, "monitor", "--port", str(port), "--once"],
+            capture_output=True,
+            text=True,
+            timeout=TIMEOUT_S,
+            check=False,
+            env={**os.environ, "COLUMNS": "200"},
+        )
+    # A plain python-can client on the same server prints the warning: the burst provokes it.
+    assert control.stdout.strip() == str(BURST_FRAMES), control.stderr
+    assert "Got incomplete message" in control.stderr
+    assert monitor.returncode == 0, monitor.stderr
+    assert "MovementCommand" in monitor.stdout
+    assert "incomplete" not in monitor.stdout + monitor.stderr

@@ -2,7 +2,13 @@
 
 from __future__ import annotations
 
+import os
+import shutil
 import socket
+import sys
+import tempfile
+import traceback
+from pathlib import Path
 
 import can
 import pytest
@@ -54,9 +60,109 @@ def test_the_app_runs_on_the_opened_bus_which_is_closed_after(
     monkeypatch: pytest.MonkeyPatch,
 ) -> None:
     seen: list[can.BusABC] = []
-    monkeypatch.setattr(teleop, "run_app", seen.append)
+    monkeypatch.setattr(teleop, "run_app", lambda bus, gamepad: seen.append(bus))
     assert main(["teleop", "-i", "virtual", "-c", "teleop-cli-test"]) == 0
     [bus] = seen
     assert bus.channel_info.startswith("Virtual bus")
     with pytest.raises(can.CanOperationError):
         bus.send(can.Message(arbitration_id=0x100, is_extended_id=False))
+
+
+# --- --gamepad: every failure to open is one line naming the fix, exit 2 ------------------------
+
+
+def test_help_shows_the_gamepad_mapping(capsys: pytest.CaptureFixture[str]) -> None:
+    with pytest.raises(SystemExit):
+        main(["teleop", "--help"])
+    out = capsys.readouterr().out
+    assert "--gamepad [DEVICE]" in out
+    assert teleop.GAMEPAD_HELP in out
+    assert "group 'input'" in out
+
+
+def _refusal(capsys: pytest.CaptureFixture[str], *arguments: str) -> str:
+    assert main(["teleop", *arguments, "-i", "virtual", "-c", "gamepad-cli-test"]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1, err
+    return err
+
+
+def test_a_missing_gamepad_device_is_named(capsys: pytest.CaptureFixture[str]) -> None:
+    pytest.importorskip("evdev")
+    err = _refusal(capsys, "--gamepad", "/dev/input/event99-none")
+    assert "no gamepad at /dev/input/event99-none: the file does not exist" in err
+
+
+def test_a_file_that_is_no_input_device_is_refused(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    pytest.importorskip("evdev")
+    fake = tmp_path / "event0"
+    fake.write_bytes(b"")
+    err = _refusal(capsys, "--gamepad", str(fake))
+    assert f"cannot open the gamepad {fake}" in err
+    assert "event device" in err
+
+
+def test_no_gamepad_in_the_input_folder_says_so(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    pytest.importorskip("evdev")
+    from bywire.teleop import gamepad_device  # noqa: PLC0415
+
+    monkeypatch.setattr(gamepad_device, "INPUT_DIR", tmp_path)
+    (tmp_path / "event0").write_bytes(b"")  # not an input device: passed over
+    err = _refusal(capsys, "--gamepad")
+    assert f"no gamepad found in {tmp_path}" in err
+
+
+def test_without_evdev_the_fix_is_named(
+    monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    monkeypatch.setitem(sys.modules, "evdev", None)  # as where it is not installed
+    err = _refusal(capsys, "--gamepad")
+    assert "--gamepad needs the evdev package (Linux only)" in err
+    assert "pip install 'bywire[gamepad]'" in err
+
+
+NOBODY = 65534
+
+
+@pytest.mark.skipif(os.geteuid() != 0, reason="needs root to become another user in a child")
+def test_an_unreadable_gamepad_names_the_input_group() -> None:
+    """A root-only file read by user nobody: the permission error a user outside `input` gets.
+
+    A forked child drops to nobody after the modules are imported (the venv may be root's) and
+    runs the command; its exit status and stderr come back through the parent.
+    """
+    pytest.importorskip("evdev")
+    import bywire.teleop.gamepad_device  # noqa: F401, PLC0415 -- imported before dropping root
+
+    folder = Path(tempfile.mkdtemp(prefix="bywire-input-", dir="/tmp"))  # nobody may enter it
+    folder.chmod(0o755)
+    device = folder / "event7"
+    device.write_bytes(b"")
+    device.chmod(0o600)
+    read_end, write_end = os.pipe()
+    child = os.fork()
+    if child == 0:  # pragma: no cover -- the child reports through its exit status and pipe
+        code = 3
+        try:
+            os.dup2(write_end, 2)
+            sys.stderr = os.fdopen(2, "w", buffering=1)
+            os.setegid(NOBODY)
+            os.seteuid(NOBODY)
+            code = main(["teleop", "--gamepad", str(device), "-i", "virtual", "-c", "x"])
+        except BaseException:
+            traceback.print_exc()
+        finally:
+            os._exit(code)
+    os.close(write_end)
+    with os.fdopen(read_end) as pipe:
+        err = pipe.read()
+    _, status = os.waitpid(child, 0)
+    shutil.rmtree(folder)
+    assert os.waitstatus_to_exitcode(status) == 2, err
+    assert err.count("\n") == 1, err
+    assert f"cannot read the gamepad {device}: permission denied" in err
+    assert "add yourself to the group 'input'" in err

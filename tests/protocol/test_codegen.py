@@ -10,8 +10,10 @@ from pathlib import Path
 import pytest
 
 from bywire.cli.dbc import write_c_sources
+from bywire.control.error_flags import ErrorFlag
 from bywire.model import (
     ControlCommand,
+    ErrorReport,
     Gear,
     LightsCommand,
     MovementCommand,
@@ -29,6 +31,7 @@ CONTROL = ControlCommand(remote_stop=True, re_enable=True, counter=15)
 LIGHTS = LightsCommand(turn_left=False, turn_right=True, hazard=True, low_beam=True, counter=0)
 SPEEDS = WheelSpeedReport(left_mps=-1.5, right_mps=327.67)
 STATUS = StatusReport(uptime_s=123456, overrun_count=7, rc_input_age_ms=4095, can_command_age_ms=9)
+ERRORS = ErrorReport(ErrorFlag.TASK_CRASHED | ErrorFlag.RC_TIMEOUT | ErrorFlag.NOT_ARMED)
 
 
 @pytest.fixture
@@ -76,6 +79,8 @@ int main(void) {{
         .uptime_s = 123456u, .overrun_count = 7u, .rc_input_age_ms = 4095u,
         .can_command_age_ms = 9u }};
     print_frame(buffer, albert_status_report_pack(buffer, &status, sizeof buffer));
+    struct albert_error_report_t errors = {{ .task_crashed = 1, .rc_timeout = 1, .not_armed = 1 }};
+    print_frame(buffer, albert_error_report_pack(buffer, &errors, sizeof buffer));
     return 0;
 }}
 """
@@ -132,7 +137,7 @@ def test_generated_pack_matches_the_python_encoder(generated: Path) -> None:
         [str(generated / "pack_test")], capture_output=True, text=True, check=True
     ).stdout.split()
     expected = [dbc.encode_command(command)[1].hex() for command in (MOVEMENT, CONTROL, LIGHTS)]
-    expected += [dbc.encode_report(report)[1].hex() for report in (SPEEDS, STATUS)]
+    expected += [dbc.encode_report(report)[1].hex() for report in (SPEEDS, STATUS, ERRORS)]
     assert output == expected
 
 

@@ -5,10 +5,12 @@ from __future__ import annotations
 import math
 from pathlib import Path
 
+import cantools
 import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
+from bywire.control.error_flags import DESCRIPTIONS, ErrorFlag
 from bywire.errors import BywireError, FrameError
 from bywire.model import (
     Command,
@@ -25,7 +27,7 @@ from bywire.model import (
     SteeringReport,
     WheelSpeedReport,
 )
-from bywire.protocol import dbc
+from bywire.protocol import dbc, flag_signals
 from bywire.protocol.crc8 import crc8
 from bywire.protocol.dbc import CommandRejected, RejectReason
 
@@ -44,10 +46,10 @@ COMMANDS: list[Command] = [
 REPORTS: list[Report] = [
     ModeReport(Gear.REVERSE, ControlMode.CAN, estop_engaged=False, stop_latched=True, armed=True),
     ModeReport(Gear.NEUTRAL, ControlMode.STOP, estop_engaged=True, stop_latched=False, armed=False),
-    ErrorReport(0),
-    ErrorReport(1 << 63),
-    ErrorReport((1 << 63) | 1),  # not a float: the codec must stay in integers
-    ErrorReport(2**64 - 1),
+    ErrorReport(ErrorFlag(0)),
+    ErrorReport(ErrorFlag.TASK_CRASHED),
+    ErrorReport(ErrorFlag.RC_TIMEOUT | ErrorFlag.NOT_ARMED),
+    ErrorReport(ErrorFlag(sum(ErrorFlag))),  # every flag up
     WheelSpeedReport(left_mps=-327.68, right_mps=327.67),
     WheelSpeedReport(left_mps=1.25, right_mps=-0.01),
     SteeringReport(commanded_norm=-1.0, measured_norm=1.0, measured_valid=True),
@@ -200,6 +202,52 @@ def test_reports_saturate_at_the_signal_range() -> None:
     assert dbc.decode_report(*dbc.encode_report(status)) == StatusReport(2**24 - 1, 65535, 4095, 0)
     speeds = dbc.decode_report(*dbc.encode_report(WheelSpeedReport(1000.0, -1000.0)))
     assert speeds == WheelSpeedReport(327.67, -327.68)
+
+
+# --- the ErrorReport: one 1-bit signal per ErrorFlag --------------------------------------------
+
+ALBERT_DBC = Path(dbc.__file__).with_name("albert.dbc")
+
+
+def test_error_report_signals_are_the_error_flags_exactly() -> None:
+    message = dbc.database().get_message_by_name("ErrorReport")
+    signals = [(signal.name, signal.start, signal.length) for signal in message.signals]
+    flags = [(str(flag.name), int(flag).bit_length() - 1, 1) for flag in ErrorFlag]
+    assert sorted(signals, key=lambda s: s[1]) == sorted(flags, key=lambda f: f[1])
+    assert [signal.comment for signal in message.signals] == [
+        DESCRIPTIONS[ErrorFlag[signal.name]] for signal in message.signals
+    ]
+
+
+def test_albert_dbc_holds_the_error_report_rendered_from_error_flag() -> None:
+    text = ALBERT_DBC.read_text(encoding="utf-8")
+    assert flag_signals.message_block() in text
+    assert flag_signals.comment_lines() in text
+    assert dbc.frame_id(ErrorReport) == flag_signals.ERROR_REPORT_ID
+
+
+def test_every_error_flag_is_one_bit_and_has_a_description() -> None:
+    for flag in ErrorFlag:
+        assert int(flag).bit_count() == 1, flag
+        assert DESCRIPTIONS[flag].endswith("."), flag
+    assert set(DESCRIPTIONS) == set(ErrorFlag)
+
+
+def test_cantools_decodes_an_error_report_to_named_flags() -> None:
+    """Any DBC tool shows names: cantools, loading the file itself, no bywire code decoding."""
+    frame, data = dbc.encode_report(ErrorReport(ErrorFlag.RC_TIMEOUT | ErrorFlag.REMOTE_STOP))
+    decoded = cantools.database.load_file(ALBERT_DBC).decode_message(frame, data)
+    assert {name for name, value in decoded.items() if value} == {"RC_TIMEOUT", "REMOTE_STOP"}
+    assert len(decoded) == len(ErrorFlag)
+    assert data == ((1 << 8) | (1 << 19)).to_bytes(8, "little")
+
+
+def test_error_report_reserved_bits_are_ignored_and_never_sent() -> None:
+    frame = dbc.frame_id(ErrorReport)
+    received = dbc.decode_report(frame, ((1 << 63) | (1 << 40) | 1).to_bytes(8, "little"))
+    assert received == ErrorReport(ErrorFlag.TASK_CRASHED)
+    _, data = dbc.encode_report(ErrorReport(ErrorFlag((1 << 63) | (1 << 2))))
+    assert data == (1 << 2).to_bytes(8, "little")
 
 
 def test_report_nan_is_a_frame_error() -> None:

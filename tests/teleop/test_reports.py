@@ -20,7 +20,7 @@ from bywire.teleop.state import TeleopState, press
 
 REPORTS: tuple[Report, ...] = (
     ModeReport(Gear.REVERSE, ControlMode.CAN, False, False, True),
-    ErrorReport(int(ErrorFlag.RC_TIMEOUT | ErrorFlag.REMOTE_STOP)),
+    ErrorReport(ErrorFlag.RC_TIMEOUT | ErrorFlag.REMOTE_STOP),
     WheelSpeedReport(1.0, 1.5),
     SteeringReport(-0.25, -0.2, True),
     LightsReport(True, True, False, False, False, True, False),
@@ -60,7 +60,8 @@ def test_the_panel_names_mode_gear_speed_steering_lights_flags_and_ages() -> Non
 
 
 def test_a_latched_stop_and_no_errors_read_plainly() -> None:
-    view = view_of(ModeReport(Gear.NEUTRAL, ControlMode.STOP, True, True, False), ErrorReport(0))
+    mode = ModeReport(Gear.NEUTRAL, ControlMode.STOP, True, True, False)
+    view = view_of(mode, ErrorReport(ErrorFlag(0)))
     text = "\n".join(report_lines(view, 1.0))
     assert "mode STOP  gear NEUTRAL  LATCHED E-STOP" in text
     assert "errors none" in text

@@ -7,12 +7,19 @@ from pathlib import Path
 import can
 import pytest
 
+from bywire.control.error_flags import ErrorFlag
 from bywire.errors import ConfigError
 from bywire.model import ControlMode, ErrorReport, Gear, ModeReport, MovementCommand
 from bywire.protocol import dbc
 from bywire.sim.plot import DPI, SIZE_IN
 from bywire.tools.log_decode import decode_messages, read_can_log, read_messages
-from bywire.tools.logplot import choose_signals, is_albert_log, write_log_plot
+from bywire.tools.logplot import (
+    choose_signals,
+    error_flags_seen,
+    error_flags_up,
+    is_albert_log,
+    write_log_plot,
+)
 from tests.tools import tesla_drive
 
 PNG_SIGNATURE = b"\x89PNG\r\n\x1a\n"
@@ -25,7 +32,7 @@ def _message(time_s: float, frame_id: int, data: bytes) -> can.Message:
 def _frames() -> list[can.Message]:
     movement = dbc.encode_command(MovementCommand(0.25, 0.5, 0.0, Gear.FORWARD, 3))
     mode = dbc.encode_report(ModeReport(Gear.FORWARD, ControlMode.CAN, False, False, True))
-    flags = dbc.encode_report(ErrorReport((1 << 63) | 1))
+    flags = dbc.encode_report(ErrorReport(ErrorFlag.TASK_CRASHED | ErrorFlag.NOT_ARMED))
     return [
         _message(100.0, *movement),
         _message(100.02, *mode),
@@ -40,10 +47,24 @@ def test_every_known_frame_becomes_signals_in_seconds_from_the_first_frame() -> 
     assert log.signal("MovementCommand.steering_norm").values == (0.25,)
     assert log.signal("ModeReport.control_mode").times_s == pytest.approx((0.02,))
     assert log.signal("ModeReport.control_mode").values == (ControlMode.CAN.value,)
-    assert log.signal("ErrorReport.flags").values == ((1 << 63) | 1,)  # exact, not a float
+    assert log.signal("ErrorReport.NOT_ARMED").values == (1,)
+    assert log.signal("ErrorReport.RC_TIMEOUT").values == (0,)
     assert (log.frames, log.unknown_frames, log.undecodable_frames) == (5, 1, 1)
     assert log.duration_s == pytest.approx(0.05)
     assert log.signal("NoSuch.signal").values == ()
+
+
+def test_error_flags_are_counted_and_named_from_their_one_bit_signals() -> None:
+    reports = [
+        ErrorReport(ErrorFlag(0)),
+        ErrorReport(ErrorFlag.RC_TIMEOUT | ErrorFlag.REMOTE_STOP),
+        ErrorReport(ErrorFlag.REMOTE_STOP),
+    ]
+    messages = [_message(index * 0.02, *dbc.encode_report(r)) for index, r in enumerate(reports)]
+    log = decode_messages(messages, dbc.database())
+    assert error_flags_up(log).values == (0, 2, 1)
+    assert error_flags_up(log).times_s == pytest.approx((0.0, 0.02, 0.04))
+    assert error_flags_seen(log) == ["RC_TIMEOUT", "REMOTE_STOP"]
 
 
 def test_a_decoded_log_draws_a_png_with_content(tmp_path: Path) -> None:

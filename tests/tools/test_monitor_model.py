@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import pytest
 
+from bywire.control.error_flags import ErrorFlag
 from bywire.model import ControlMode, ErrorReport, Gear, ModeReport, MovementCommand
 from bywire.protocol import dbc
 from bywire.tools.monitor_model import BusModel, MessageRow
@@ -43,9 +44,12 @@ def test_a_command_shows_physical_values_with_units_and_hides_its_crc() -> None:
 
 def test_error_flags_are_shown_by_name() -> None:
     model = BusModel()
-    frame_id, data = dbc.encode_report(ErrorReport(flags=0b101))
+    frame_id, data = dbc.encode_report(ErrorReport(ErrorFlag.TASK_CRASHED | ErrorFlag.CAN_BUS_OFF))
     model.add(frame_id, data, 0.0)
-    assert str(row_of(model, frame_id, 0.0).signals[0]) == "flags=TASK_CRASHED|CAN_BUS_OFF"
+    (shown,) = row_of(model, frame_id, 0.0).signals  # one line, not 23 one-bit signals
+    assert str(shown) == "flags=TASK_CRASHED|CAN_BUS_OFF"
+    model.add(*dbc.encode_report(ErrorReport(ErrorFlag(0))), 0.02)
+    assert [str(s) for s in row_of(model, frame_id, 0.02).signals] == ["flags=none"]
 
 
 def test_rate_and_age_follow_the_given_now() -> None:

@@ -1,10 +1,12 @@
-"""`bywire teleop`: drive the robot (or the simulator) from the keyboard over any python-can bus."""
+"""`bywire teleop`: drive the robot (or the simulator) from the keyboard or a gamepad over any
+python-can bus."""
 
 from __future__ import annotations
 
 import argparse
 import logging
-from typing import Any
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
 
 import can
 
@@ -12,7 +14,11 @@ from bywire.cli.bus_options import add_bus_options, bus_from_args
 from bywire.protocol import dbc
 from bywire.teleop.state import HOLD_S, KEYS
 
+if TYPE_CHECKING:
+    from bywire.teleop.app import PadInput
+
 DEFAULT_PORT = 29536
+AUTO = "auto"
 STANDARD_ID_MASK = 0x7FF
 
 EPILOG = f"""\
@@ -25,6 +31,12 @@ with no left/right key for {HOLD_S} s the steering returns to the centre. Gear c
 throttle to 0. The robot enters CAN mode only with zero throttle, after its RC transmitter's mode
 switch went through STOP; after a remote stop, release it (s) and re-enable (e).
 
+gamepad (--gamepad [DEVICE], Linux, evdev: pip install 'bywire[gamepad]'):
+{{GAMEPAD}}
+Hold the dead man to drive: released, throttle 0 and full brake at once, steering centred. If
+the trigger is pulled when the dead man is pressed, the throttle stays 0 until it is let go.
+Without DEVICE the first gamepad in /dev/input is used; reading it needs the group 'input'.
+
 examples:
   # the simulator, started in another terminal by `bywire sim --realtime --serve {DEFAULT_PORT}`
   bywire teleop
@@ -32,14 +44,41 @@ examples:
   bywire teleop -i socketcan -c can0
   # a PEAK adapter at 500 kbit/s
   bywire teleop -i pcan -c PCAN_USBBUS1 --bitrate 500000
+  # a gamepad on the simulator; or name it: --gamepad /dev/input/by-id/usb-…-event-joystick
+  bywire teleop --gamepad
 """
+
+# The gamepad's mapping, written out here so that `--help` needs no evdev; a test holds it to
+# bywire.teleop.gamepad.help_lines().
+GAMEPAD_HELP = """\
+  LB (hold)      dead man: held = drive, released = throttle 0, full brake
+  left stick     steering
+  right trigger  throttle
+  left trigger   brake
+  Y              forward
+  A              reverse
+  X              neutral
+  B              remote stop
+  START          re-enable
+  d-pad left     turn left
+  d-pad right    turn right
+  d-pad up       low beam
+  d-pad down     hazard"""
 
 
 def configure(parser: argparse.ArgumentParser) -> None:
     """Add the bus options and the key table."""
     parser.formatter_class = argparse.RawDescriptionHelpFormatter
-    parser.epilog = EPILOG
+    parser.epilog = EPILOG.replace("{GAMEPAD}", GAMEPAD_HELP)
     add_bus_options(parser)
+    parser.add_argument(
+        "--gamepad",
+        nargs="?",
+        const=AUTO,
+        metavar="DEVICE",
+        help="drive with a gamepad (Linux evdev device, e.g. /dev/input/event5; default: the"
+        " first gamepad found); the keyboard's other keys still work",
+    )
 
 
 def open_bus(args: argparse.Namespace) -> can.BusABC:
@@ -53,17 +92,26 @@ def open_bus(args: argparse.Namespace) -> can.BusABC:
 
 
 def run(args: argparse.Namespace) -> int:
-    """Open the bus and run the terminal program until `q`."""
-    bus = open_bus(args)
+    """Open the gamepad (if asked) and the bus, and run the terminal program until `q`."""
+    gamepad = None
+    if args.gamepad is not None:
+        from bywire.teleop.gamepad_device import open_driver  # noqa: PLC0415 -- Linux-only evdev
+
+        gamepad = open_driver(None if args.gamepad == AUTO else Path(args.gamepad))
     try:
-        run_app(bus)
+        bus = open_bus(args)
+        try:
+            run_app(bus, gamepad)
+        finally:
+            bus.shutdown()
     finally:
-        bus.shutdown()
+        if gamepad is not None:
+            gamepad.close()
     return 0
 
 
-def run_app(bus: can.BusABC) -> None:
+def run_app(bus: can.BusABC, gamepad: PadInput | None = None) -> None:
     """The textual program on ``bus`` (imported here: textual is only needed by this command)."""
     from bywire.teleop.app import TeleopApp  # noqa: PLC0415 -- keeps `bywire --help` fast
 
-    TeleopApp(bus).run()
+    TeleopApp(bus, gamepad=gamepad).run()

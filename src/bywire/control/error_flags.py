@@ -1,7 +1,9 @@
-"""Error flags: one named 64-bit set, reported over CAN and shown on the error LED (R-ERRORS).
+"""Error flags: one named set of up to 64, reported over CAN and shown on the error LED (R-ERRORS).
 
 Bits 0–10 are Figure 23's flags renamed for a Linux controller; the rest are new. Bit positions are
-part of the CAN protocol (the ErrorReport's 64-bit signal): never renumber, only append.
+part of the CAN protocol: the ErrorReport carries each flag as a 1-bit signal named as the flag, at
+the bit of its value, with ``DESCRIPTIONS`` as its DBC comment (``bywire.protocol.flag_signals``
+renders that block of albert.dbc, and a test holds the file to it). Never renumber, only append.
 """
 
 from __future__ import annotations
@@ -39,6 +41,34 @@ class ErrorFlag(enum.IntFlag):
     CAN_UNTRUSTED = 1 << 20  # a command id's counter misses too often: a second sender, a replay
     SPEED_SENSOR_FAULT = 1 << 21  # wheel speeds changed faster than the robot can: not used
     NOT_ARMED = 1 << 22  # power-up STOP: the mode switch has not yet passed through STOP
+
+
+DESCRIPTIONS: dict[ErrorFlag, str] = {
+    ErrorFlag.TASK_CRASHED: "A periodic task raised an exception and was stopped.",
+    ErrorFlag.CAN_OPEN_FAILED: "The CAN interface could not be opened or configured.",
+    ErrorFlag.CAN_BUS_OFF: "The CAN controller is bus-off or unplugged; reports back off.",
+    ErrorFlag.CAN_RX_FAILED: "Reading a frame from the CAN interface failed.",
+    ErrorFlag.CAN_TX_FAILED: "Sending a report frame failed.",
+    ErrorFlag.DAC_VALUE_CLAMPED: "A motor voltage was clamped to the DAC's range.",
+    ErrorFlag.DAC_WRITE_FAILED: "An I2C write to a motor DAC failed (NAK or timeout).",
+    ErrorFlag.IBUS_PORT_FAILED: "The RC receiver's serial port failed or could not be reopened.",
+    ErrorFlag.RC_TIMEOUT: "No valid IBUS frame from the RC receiver within the RC timeout.",
+    ErrorFlag.IBUS_RESYNC: "The IBUS stream lost its frame alignment and was resynchronised.",
+    ErrorFlag.IBUS_CHECKSUM: "An IBUS frame failed its checksum.",
+    ErrorFlag.CAN_COMMAND_TIMEOUT: "No accepted CAN command within the command timeout.",
+    ErrorFlag.CAN_COMMAND_REJECTED: "A command frame was rejected: length, CRC, counter or range.",
+    ErrorFlag.RC_FAILSAFE: "The RC receiver sends its failsafe values: the transmitter is lost.",
+    ErrorFlag.TASK_OVERRUN: "A periodic task overran its period.",
+    ErrorFlag.WATCHDOG_TRIPPED: "The watchdog tripped: STOP latched until re-armed at STOP.",
+    ErrorFlag.DAC_FAULT_STOP: "Persistent DAC failure: motors disabled, STOP latched.",
+    ErrorFlag.HYDRO_PRESSURE_FAULT: "The hydraulic brake builds no pressure: STOP latched.",
+    ErrorFlag.STEERING_ENCODER_FAULT: "The steering encoder reading is invalid: STOP latched.",
+    ErrorFlag.REMOTE_STOP: "The higher-level computer requested STOP (ControlCommand).",
+    ErrorFlag.CAN_UNTRUSTED: "A command id's counter misses too often: a second sender, a replay.",
+    ErrorFlag.SPEED_SENSOR_FAULT: "Wheel speeds changed faster than the robot can.",
+    ErrorFlag.NOT_ARMED: "Power-up STOP: the mode switch has not yet passed through STOP.",
+}
+"""What each flag means, one sentence: the comment of its signal in albert.dbc."""
 
 
 RECOVERABLE = (

@@ -1,4 +1,8 @@
-"""Model field values <-> raw DBC signal values: scale, offset and range, exact for 64-bit flags.
+"""Model field values <-> raw DBC signal values: scale, offset and range, exact for 64-bit values.
+
+A field whose type is an ``enum.IntFlag`` (the ErrorReport's ``flags``) has no signal of its
+own: each member of the flag type is a 1-bit signal named as the member. Bits that name no
+member are not sent, and reserved bits of a received frame are ignored.
 
 Ranges are checked on raw integers, computed once from the DBC's physical [min|max] and never
 wider than the signal's bits hold, so no float comparison decides whether a frame is accepted.
@@ -60,7 +64,7 @@ def to_raw(signal: Signal, value: float) -> int:
     this one bit for bit.
     """
     if isinstance(value, int) and signal.scale == 1 and signal.offset == 0:
-        return int(value)  # exact: a float detour would round 64-bit flags
+        return int(value)  # exact: a float detour would round 64-bit values
     if not math.isfinite(value):
         raise FrameError(f"signal {signal.name}: {value} cannot be encoded")
     return _round_half_away((value - signal.offset) / signal.scale)
@@ -88,11 +92,23 @@ def scaled(signal: Signal, raw: int) -> float:
 def raw_values(message: Message, value: object, saturate: bool) -> dict[str, int]:
     """Raw signal values of a model dataclass; out of range: saturated, or FrameError."""
     raw: dict[str, int] = {}
+    field_types = _FIELD_TYPES[type(value)]  # type: ignore[index]
     for field in dataclasses.fields(value):  # type: ignore[arg-type]
-        signal = message.get_signal_by_name(field.name)
         physical = getattr(value, field.name)
+        flag_type = _flag_type(field_types[field.name])
+        if flag_type is not None:
+            raw |= {str(member.name): int(bool(physical & member)) for member in flag_type}
+            continue
+        signal = message.get_signal_by_name(field.name)
         raw[field.name] = _fit(message, signal, to_raw(signal, physical), saturate, physical)
     return raw
+
+
+def _flag_type(field_type: Any) -> type[enum.IntFlag] | None:
+    """The flag type of a field that is a set of flags, one signal per member; else None."""
+    if isinstance(field_type, type) and issubclass(field_type, enum.IntFlag):
+        return field_type
+    return None
 
 
 def _fit(message: Message, signal: Signal, raw: int, saturate: bool, physical: object) -> int:
@@ -127,11 +143,24 @@ def build(
     """
     values: dict[str, Any] = {}
     for name, field_type in _FIELD_TYPES[kind].items():
+        flag_type = _flag_type(field_type)
+        if flag_type is not None:
+            values[name] = _flags(flag_type, raw)
+            continue
         signal = message.get_signal_by_name(name)
         if check_range:
             _check_range(signal, raw[name])
         values[name] = _field_value(field_type, signal, raw[name])
     return kind(**values)
+
+
+def _flags(flag_type: type[enum.IntFlag], raw: dict[str, int]) -> enum.IntFlag:
+    """The members whose 1-bit signal is set."""
+    value = flag_type(0)
+    for member in flag_type:
+        if raw[str(member.name)]:
+            value |= member
+    return value
 
 
 def _check_range(signal: Signal, raw: int) -> None:

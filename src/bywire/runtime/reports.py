@@ -5,6 +5,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 from bywire.control.controller import ControlOutputs
+from bywire.control.error_flags import ErrorFlag
 from bywire.model import (
     ErrorReport,
     LightsReport,
@@ -56,7 +57,7 @@ def build_reports(outputs: ControlOutputs, health: Health) -> tuple[Report, ...]
             stop_latched=bool(outputs.causes),
             armed=not outputs.causes,
         ),
-        ErrorReport(flags=outputs.error_flags),
+        ErrorReport(flags=ErrorFlag(outputs.error_flags)),
         WheelSpeedReport(left_mps=left_mps, right_mps=right_mps),
         SteeringReport(
             commanded_norm=health.steering_setpoint_norm,

@@ -1,5 +1,8 @@
 """The teleop terminal program (textual): keys to CAN commands every 20 ms, reports on screen.
 
+With a gamepad (``gamepad``), each period first applies the pad's events (``PadInput.step``): its
+sticks and dead man drive, and the keyboard's other keys still work.
+
 All decisions are in the pure modules (``state``, ``frames``, ``reports``); this shell owns the
 bus, the clock and the screen. ``tick()`` is one send period: read what arrived, send the three
 command frames, advance the state. By default a textual interval calls it every 20 ms; a test
@@ -14,6 +17,7 @@ from __future__ import annotations
 import time
 from collections.abc import Callable
 from dataclasses import replace
+from typing import Protocol
 
 import can
 from rich.text import Text
@@ -26,6 +30,16 @@ from bywire.teleop.reports import ReportView, command_lines, fold, report_lines
 from bywire.teleop.state import KEYS, TeleopState, advance, help_line, press
 
 KEY_NAMES = frozenset(binding.key for binding in KEYS)
+
+
+class PadInput(Protocol):
+    """A gamepad (``bywire.teleop.gamepad_device.GamepadDriver``; evdev is imported only there)."""
+
+    def step(self, state: TeleopState, now_s: float) -> TeleopState:
+        """The state after the pad's events since the last period."""
+
+    def status(self) -> str:
+        """One line for the screen."""
 
 
 class TeleopApp(App[None]):
@@ -46,9 +60,11 @@ class TeleopApp(App[None]):
         now: Callable[[], float] = time.monotonic,
         auto_tick: bool = True,
         notifier: bool = True,
+        gamepad: PadInput | None = None,
     ) -> None:
         super().__init__()
         self.bus = bus
+        self.gamepad = gamepad
         self.state = TeleopState()
         self.counters = Counters()
         self.view = ReportView()
@@ -89,6 +105,8 @@ class TeleopApp(App[None]):
         """One send period: take in the reports, send the commands, advance the state."""
         now_s = self._now()
         self._receive(now_s)
+        if self.gamepad is not None:
+            self.state = self.gamepad.step(self.state, now_s)
         self._send(self.state)
         self.state = advance(self.state, now_s)
         self._show(now_s)
@@ -117,7 +135,8 @@ class TeleopApp(App[None]):
 
     def _show(self, now_s: float) -> None:
         sent = f"frames sent {self.frames_sent}  send errors {self.send_errors}"
+        pad = [] if self.gamepad is None else [self.gamepad.status()]
         self.query_one("#commands", Static).update(
-            Text("\n".join([*command_lines(self.state), sent]))
+            Text("\n".join([*command_lines(self.state), sent, *pad]))
         )
         self.query_one("#reports", Static).update(Text("\n".join(report_lines(self.view, now_s))))

@@ -312,7 +312,7 @@ def _decode(message: Message, data: bytes) -> dict[str, float] | None:
         return None
     if not isinstance(values, dict):
         return None
-    # ints stay ints: a 64-bit flag field does not fit a float's 53-bit mantissa
+    # ints stay ints: a 64-bit signal does not fit a float's 53-bit mantissa
     return {name: v for name, v in values.items() if isinstance(v, int | float)}
 
 

@@ -5,8 +5,9 @@ default of the signals that change, counters and checksums left out), one panel 
 
 For albert.dbc, `draw_log` draws what the bus shows of a run, like `bywire sim --plot`: the
 higher-level computer's movement set-points, the steering the controller commanded and measured,
-the wheel speeds, the lights and the number of error flags, and the control mode with the
-e-brake and the STOP latch.
+the wheel speeds, the lights and the number of error flags up (the ErrorReport's 1-bit flag
+signals, the names of those seen in the legend), and the control mode with the e-brake and the
+STOP latch.
 """
 
 from __future__ import annotations
@@ -23,6 +24,7 @@ from cantools.database.can import Database
 from matplotlib.axes import Axes
 from matplotlib.figure import Figure
 
+from bywire.control.error_flags import ErrorFlag
 from bywire.errors import ConfigError
 from bywire.model import ControlMode
 from bywire.sim.plot import DPI, SIZE_IN
@@ -197,15 +199,33 @@ def _lanes(axes: Axes, lanes: dict[str, Signal], first: int = 0) -> list[float]:
     return [first + index + LANE_HEIGHT / 2 for index in range(len(lanes))]
 
 
+def error_flags_up(log: DecodedLog) -> Signal:
+    """How many error flags each ErrorReport had up, from its per-flag 1-bit signals."""
+    lanes = [log.signal(f"ErrorReport.{flag.name}") for flag in ErrorFlag]
+    present = [lane for lane in lanes if lane.values]
+    if not present:
+        return Signal((), ())
+    rows = zip(*(lane.values for lane in present), strict=True)  # one frame: every flag
+    return Signal(present[0].times_s, tuple(sum(bool(value) for value in row) for row in rows))
+
+
+def error_flags_seen(log: DecodedLog) -> list[str]:
+    """The flags up in any ErrorReport of the log, lowest bit first."""
+    return [
+        str(flag.name) for flag in ErrorFlag if any(log.signal(f"ErrorReport.{flag.name}").values)
+    ]
+
+
 def _lights_panel(axes: Axes, log: DecodedLog) -> Axes:
     heights = _lanes(axes, {name: log.signal(f"LightsReport.{name}") for name in LIGHTS})
     axes.set_yticks(heights, [name.replace("_", " ") for name in LIGHTS])
     axes.set_ylim(-0.2, len(LIGHTS))
     axes.grid(alpha=0.3, axis="x")
-    flags = log.signal("ErrorReport.flags")
+    flags = error_flags_up(log)
+    seen = error_flags_seen(log)
+    label = "error flags" + (f" ({', '.join(seen)})" if seen else "")
     twin = axes.twinx()
-    counts = [int(value).bit_count() for value in flags.values]
-    twin.step(flags.times_s, counts, where="post", color="tab:purple", ls="--", label="error flags")
+    twin.step(flags.times_s, flags.values, where="post", color="tab:purple", ls="--", label=label)
     twin.set_ylabel("error flags set")
     twin.set_ylim(bottom=0)
     return twin

@@ -3,7 +3,8 @@
 Commands are checked as the controller checks them (``dbc.decode_command`` with the previous
 counter of that id, which a CRC failure forgets and a counter failure resynchronises); a rejected
 frame is counted by reason and leaves the decoded values at the last good frame (no partial
-update). Reports are decoded with ``dbc.decode_report``; ids not in the DBC are kept raw.
+update). Reports are decoded with ``dbc.decode_report``; ids not in the DBC are kept raw. The
+ErrorReport's 23 one-bit flag signals are shown as one ``flags=NAME|NAME`` value.
 """
 
 from __future__ import annotations
@@ -15,11 +16,12 @@ import cantools
 
 from bywire.control.error_flags import flag_names
 from bywire.errors import FrameError
+from bywire.model import ErrorReport
 from bywire.protocol import dbc
 
 RATE_WINDOW_S = 2.0
 HIDDEN_SIGNALS = {"crc"}  # checked, not shown
-BARE_UNITS = {"", "enum", "bool", "bitmask", "count"}  # pseudo-units: the value says it all
+BARE_UNITS = {"", "enum", "bool", "count"}  # pseudo-units: the value says it all
 
 
 @dataclass(frozen=True, slots=True)
@@ -138,10 +140,14 @@ class BusModel:
 
     def _check_report(self, arbitration_id: int, message: _Message) -> None:
         try:
-            dbc.decode_report(arbitration_id, message.data)
+            report = dbc.decode_report(arbitration_id, message.data)
         except FrameError as error:
             message.other_errors += 1
             message.last_error = str(error)
+            return
+        if isinstance(report, ErrorReport):
+            names = "|".join(flag_names(report.flags)) or "none"
+            message.signals = (SignalValue("flags", names, ""),)
             return
         message.signals = _signals(arbitration_id, message.data)
 
@@ -155,15 +161,13 @@ def _signals(arbitration_id: int, data: bytes) -> tuple[SignalValue, ...]:
         return ()
     units = {signal.name: signal.unit or "" for signal in definition.signals}
     return tuple(
-        SignalValue(name, _format(value, units[name]), units[name])
+        SignalValue(name, _format(value), units[name])
         for name, value in decoded.items()
         if name not in HIDDEN_SIGNALS
     )
 
 
-def _format(value: object, unit: str) -> str:
-    if unit == "bitmask" and isinstance(value, int):
-        return "|".join(flag_names(value)) or "none"
+def _format(value: object) -> str:
     if isinstance(value, float):
         return f"{value:.4g}"
     return str(value)
