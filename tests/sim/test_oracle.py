@@ -1,0 +1,107 @@
+"""The hazard oracle leans towards allowing where the controller's timing is uncertain, and still
+flags what the hardware must never show.
+
+The two replays are failures `bywire verify --seed 4` reported against a correct controller: the
+oracle was too strict. Each is paired with a check on the oracle alone that the same rule still
+flags the hazard once the uncertainty is over.
+"""
+
+from __future__ import annotations
+
+from bywire.config import default_sim_config
+from bywire.hal.sim.clock import VirtualClock
+from bywire.hal.sim.world import SimWorld
+from bywire.model import ControlMode
+from bywire.sim.campaign import Campaign
+from bywire.sim.oracle import HazardOracle
+from bywire.sim.scenario import parse_scenario
+
+RC, CAN = ControlMode.RC, ControlMode.CAN
+
+ARMED_IN_CAN = """
+    { at_s = 0.0, rc = { gear = "forward" } },
+    { at_s = 0.0, hlc = { steering = 0.0, throttle = 0.0, brake = 0.0, gear = "forward" } },
+    { at_s = 0.2, rc = { mode = "stop" } },
+    { at_s = 0.26, hlc = { throttle = 0.0 } },
+    { at_s = 0.26, rc = { mode = "can" } },
+"""
+
+
+def _violations(events: str, duration_s: float) -> list[str]:
+    text = f'name = "case"\nduration_s = {duration_s}\nevent = [{ARMED_IN_CAN}{events}]\n'
+    result = Campaign().run_scenario(parse_scenario(text, "<test>"))
+    assert result.oracle.checks > 0
+    return [f"{v.invariant} at {v.time_s:.4f}: {v.detail}" for v in result.oracle.violations]
+
+
+def _oracle() -> HazardOracle:
+    robot = default_sim_config()
+    world = SimWorld.from_robot(VirtualClock(), robot)
+    return HazardOracle(world, robot.drive.dac.throttle_channel)
+
+
+# --- H2: the switch's move travels in IBUS frames that corruption may delay ---------------------
+
+
+def test_a_move_to_rc_hidden_by_corrupted_frames_is_not_judged_before_they_end() -> None:
+    # verify seed 4, campaign 106: CAN drives at 0.2; the switch goes to RC with the stick at
+    # 0.2 and the next ten frames are corrupted. The controller, rightly, is still in CAN.
+    events = """
+        { at_s = 0.3, hlc = { throttle = 0.2 } },
+        { at_s = 1.5, rc = { throttle = 0.2, mode = "rc" } },
+        { at_s = 1.51, fault = "ibus_corrupt", count = 10 },
+    """
+    assert _violations(events, 2.05) == []
+
+
+def test_h2_still_flags_rc_never_at_zero_once_the_corrupted_frames_are_over() -> None:
+    oracle = _oracle()
+    oracle.set_throttle(RC, 0.2, 1.0)
+    oracle.set_switch(RC, 1.5)
+    oracle.blind(RC, 1.6)
+    settled_s = 1.6 + oracle.timing.settle_s
+    oracle._h2(settled_s - 0.001, 1.0)
+    assert oracle.violations == []
+    oracle._h2(settled_s + 0.001, 1.0)
+    assert [v.invariant for v in oracle.violations] == ["H2"]
+
+
+# --- H1: a handover to RC before the controller acts on a CAN-bound fault -----------------------
+
+
+def test_a_handover_to_rc_before_a_second_sender_is_noticed_lets_rc_drive() -> None:
+    # verify seed 4, campaign 227: armed in CAN, a second node sends on the computer's id, and
+    # 47 ms later the switch goes straight to RC with the stick at zero. The controller hands
+    # over before it distrusts the id; CAN-bound causes never block RC.
+    events = """
+        { at_s = 1.652, fault = "can_impostor", count = 5 },
+        { at_s = 1.699, rc = { throttle = 0.0, mode = "rc" } },
+    """
+    assert _violations(events, 2.36) == []
+
+
+def _armed_in_can(oracle: HazardOracle) -> None:
+    oracle.set_switch(CAN, 0.0)
+    oracle.re_enable(0.0)
+    assert oracle.armed_ok
+
+
+def test_h1_still_flags_rc_driving_after_a_can_stop_the_controller_must_have_taken() -> None:
+    oracle = _oracle()
+    _armed_in_can(oracle)
+    oracle.fault("can_impostor", True, 1.0)
+    deadline_s = oracle.drive_allowed_until
+    assert deadline_s is not None
+    oracle.set_switch(RC, deadline_s + 0.001)  # too late: the controller had stopped by then
+    oracle._h1(deadline_s + 0.1, True, True, True, 0.0)
+    assert [v.invariant for v in oracle.violations] == ["H1"]
+
+
+def test_h1_still_flags_a_handover_that_an_rc_bound_stop_forbids() -> None:
+    oracle = _oracle()
+    _armed_in_can(oracle)
+    oracle.fault("can_impostor", True, 1.0)
+    oracle.fault("dac_fail", True, 1.01)  # stops every source, not only CAN
+    oracle.set_switch(RC, 1.02)
+    oracle._h1(1.5, True, True, True, 0.0)
+    assert [v.invariant for v in oracle.violations] == ["H1"]
