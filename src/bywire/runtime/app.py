@@ -258,9 +258,9 @@ class Runtime:
             dac_failing=self.actuators.dac_failing,
             watchdog_tripped=watchdog_tripped,
             can_untrusted=self.can.untrusted,
-            speed_mps=sensors.speed_mps,
-            hydrobrake_pressure_bar=sensors.hydrobrake_pressure_bar,
-            steering_measured_norm=sensors.steering_measured_norm,
+            speed_mps=sensors.checked_speed_mps,
+            hydrobrake_pressure_bar=sensors.checked_pressure_bar,
+            steering_measured_norm=sensors.checked_steering_norm,
         )
         self.state, outputs = controller_step(self.state, self.inputs, now, self.config.control)
         if self.outputs is None or outputs.mode is not self.outputs.mode:

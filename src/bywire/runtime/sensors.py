@@ -1,25 +1,59 @@
-"""The optional feedback sensors, read once per pass: wheel speeds, brake pressure, steering."""
+"""The optional feedback sensors, read once per pass: wheel speeds, brake pressure, steering.
+
+A sensor that is not fitted is not checked. A fitted sensor that gives no reading (unplugged,
+its bus silent) is a different thing: it must not pass for an absent one, or a sensor that dies
+quietly would switch its own monitor off. The decision gets an invalid reading (NaN) from it,
+which the monitors and the speed check treat as a fault; reports and telemetry still say "no
+reading".
+"""
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 from bywire.hal.hardware import Hardware
 
+NO_READING = math.nan
+"""What the decision gets from a fitted sensor that gave no reading: an invalid one."""
+
 
 @dataclass(frozen=True, slots=True)
 class SensorReadings:
-    """One reading of every fitted sensor; None where none is fitted or it gave no reading."""
+    """One reading of every sensor; None where none is fitted or it gave no reading, and which
+    sensors are fitted."""
 
     wheel_speeds_mps: tuple[float, float] | None = None
     hydrobrake_pressure_bar: float | None = None
     steering_measured_norm: float | None = None
+    wheels_fitted: bool = False
+    pressure_fitted: bool = False
+    encoder_fitted: bool = False
 
     @property
     def speed_mps(self) -> float | None:
         """The robot's speed: the mean of the two wheels, positive forward."""
         wheels = self.wheel_speeds_mps
         return None if wheels is None else (wheels[0] + wheels[1]) / 2
+
+    @property
+    def checked_speed_mps(self) -> float | None:
+        """The speed the decision checks: NaN from a fitted sensor that gave none."""
+        return _checked(self.speed_mps, self.wheels_fitted)
+
+    @property
+    def checked_pressure_bar(self) -> float | None:
+        """The pressure the decision checks: NaN from a fitted sensor that gave none."""
+        return _checked(self.hydrobrake_pressure_bar, self.pressure_fitted)
+
+    @property
+    def checked_steering_norm(self) -> float | None:
+        """The steering angle the decision checks: NaN from a fitted encoder that gave none."""
+        return _checked(self.steering_measured_norm, self.encoder_fitted)
+
+
+def _checked(reading: float | None, fitted: bool) -> float | None:
+    return NO_READING if reading is None and fitted else reading
 
 
 def read_sensors(hardware: Hardware) -> SensorReadings:
@@ -30,4 +64,7 @@ def read_sensors(hardware: Hardware) -> SensorReadings:
         None if wheels is None else wheels.read(),
         None if pressure is None else pressure.read(),
         None if encoder is None else encoder.read(),
+        wheels_fitted=wheels is not None,
+        pressure_fitted=pressure is not None,
+        encoder_fitted=encoder is not None,
     )
