@@ -43,7 +43,7 @@ VOCABULARY: dict[str, Sequence[object]] = {
     "arm": (RC, RC, CAN),  # switch to STOP, hold it, the source at zero, switch over
     "flick": (0.005, 0.02, 0.05, 0.1),  # through STOP and straight back after this long
     "handover": (0.0, 0.2, 0.6),  # to the other source, which asks for this throttle
-    "rc_throttle": (0.0, 0.0, 0.3, 0.8, -0.6),
+    "rc_throttle": (0.0, 0.0, 0.3, 0.8, -0.6, -1.0),  # below zero: the brake
     "can_throttle": (0.0, 0.0, 0.2, 0.6),
     # sticks, switches and set-points
     "switch": tuple(ControlMode),
