@@ -15,9 +15,15 @@ import pytest
 
 from bywire.cli.main import main
 from bywire.config import default_sim_config
-from bywire.sim.campaign import VOCABULARY, Campaign, compile_steps
+from bywire.sim.campaign import VOCABULARY, Campaign, Step, compile_steps
 from bywire.sim.scenario import parse_scenario, scenario_toml
-from bywire.sim.verify import Outcome, draw_campaign, run_campaign, shrink_failure
+from bywire.sim.verify import (
+    Outcome,
+    _simpler_values,
+    draw_campaign,
+    run_campaign,
+    shrink_failure,
+)
 from tests.system.old_bugs import OLD_BUGS
 
 ROBOT = default_sim_config()
@@ -92,3 +98,10 @@ def test_a_reintroduced_bug_is_found_shrunk_and_replayed(
     assert main(["sim", "--scenario", str(path), "--json"]) == 1  # the bug: replay fails
     monkeypatch.undo()
     assert main(["sim", "--scenario", str(path), "--json"]) == 0  # fixed: the same scenario passes
+
+
+def test_a_value_outside_the_vocabulary_is_simplified_to_the_vocabularys_own() -> None:
+    # A campaign opens with a throttle from its own list (0.3 is not a CAN vocabulary value):
+    # the shrinker must still simplify it, not fail.
+    values = {step.value for step in _simpler_values(Step(0.15, "can_throttle", 0.3))}
+    assert values == set(VOCABULARY["can_throttle"])

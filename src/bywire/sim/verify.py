@@ -231,8 +231,10 @@ def _simpler_values(step: Step) -> Iterator[Step]:
     if isinstance(values, range):
         value = int(step.value)  # type: ignore[call-overload]
         candidates: list[object] = [values.start, (values.start + value) // 2]
+    elif step.value in values:
+        candidates = list(values[: list(values).index(step.value)])  # listed simplest first
     else:
-        candidates = list(values[: list(values).index(step.value)])
+        candidates = list(values)  # a campaign's opening throttle is drawn from its own list
     for value in dict.fromkeys(candidates):
         if value != step.value:
             yield replace(step, value=value)
