@@ -58,7 +58,7 @@ def test_h2_still_flags_rc_never_at_zero_once_the_corrupted_frames_are_over() ->
     oracle = _oracle()
     oracle.set_throttle(RC, 0.2, 1.0)
     oracle.set_switch(RC, 1.5)
-    oracle.blind(RC, 1.6)
+    oracle.blind(RC, 1.51, 1.6)
     settled_s = 1.6 + oracle.timing.settle_s
     oracle._h2(settled_s - 0.001, 1.0)
     assert oracle.violations == []
@@ -105,3 +105,36 @@ def test_h1_still_flags_a_handover_that_an_rc_bound_stop_forbids() -> None:
     oracle.set_switch(RC, 1.02)
     oracle._h1(1.5, True, True, True, 0.0)
     assert [v.invariant for v in oracle.violations] == ["H1"]
+
+
+# --- H1/H2: a trip through STOP that no frame showed --------------------------------------------
+
+
+def test_a_trip_through_stop_inside_corrupted_frames_leaves_the_robot_driving() -> None:
+    # verify seed 7 (config/albert.toml), campaign 200: CAN drives at 0.2; ten IBUS frames are
+    # corrupted, and within them the switch goes to STOP and back to CAN 20 ms later. No frame
+    # showed STOP: the controller rightly drives on.
+    events = """
+        { at_s = 0.3, hlc = { throttle = 0.2 } },
+        { at_s = 1.0, fault = "ibus_corrupt", count = 10 },
+        { at_s = 1.03, rc = { mode = "stop" } },
+        { at_s = 1.05, rc = { mode = "can" } },
+    """
+    assert _violations(events, 1.63) == []
+
+
+def _driving_after_a_stop(back_s: float) -> list[str]:
+    oracle = _oracle()
+    _armed_in_can(oracle)
+    oracle.set_throttle(CAN, 0.2, 0.5)
+    oracle.blind(RC, 1.0, 1.077)
+    oracle.set_switch(ControlMode.STOP, 1.03)
+    oracle.set_switch(CAN, back_s)
+    oracle._resolve_arming(1.5)  # the debounce is over: back at CAN with the throttle pushed
+    oracle._h1(1.5, True, True, True, 1.0)
+    return [v.invariant for v in oracle.violations]
+
+
+def test_h1_still_flags_driving_on_after_a_stop_the_frames_showed() -> None:
+    assert _driving_after_a_stop(1.05) == []  # hidden by the corruption
+    assert _driving_after_a_stop(1.2) == ["H1"]  # held past it: the controller saw STOP

@@ -353,8 +353,8 @@ class OracleWitness:
             "rc_failsafe": lambda: oracle.fault("rc_failsafe", True, now),
             "rc_failsafe_off": lambda: oracle.fault("rc_failsafe", False, now),
             "rc_implausible": lambda: oracle.stop_event("rc_implausible", now),
-            "ibus_corrupt": lambda: oracle.blind(RC, now + (count + 1) * frame_s),
-            "ibus_garbage": lambda: oracle.blind(RC, now + (count // 32 + 2) * frame_s),
+            "ibus_corrupt": lambda: oracle.blind(RC, now, now + (count + 1) * frame_s),
+            "ibus_garbage": lambda: oracle.blind(RC, now, now + (count // 32 + 2) * frame_s),
             "can_silence": lambda: self._can_fault("can_lost", True, now),
             "can_resume": lambda: self._can_back("can_lost", now),
             "can_unplug": lambda: self._can_fault("can_unplugged", True, now),
@@ -367,7 +367,7 @@ class OracleWitness:
             "wheel_sensor_dead": lambda: setattr(oracle, "sensor_dead", True),
         }
         if fault.startswith("can_corrupt_"):
-            oracle.blind(CAN, now + (count + 1) * IMPOSTOR_PERIOD_S)
+            oracle.blind(CAN, now, now + (count + 1) * IMPOSTOR_PERIOD_S)
         elif fault in actions:
             actions[fault]()
         # Anything else (a flood, a brake or the steering failing, an encoder dead) may stop the

@@ -170,7 +170,8 @@ class HazardOracle:
     left_at: dict[ControlMode, float] = field(default_factory=dict)
     rc_borne_at: float = -1.0  # when an event the IBUS frames carry last happened
     dac_back_at: float = -1.0  # when DAC writes last began to succeed again
-    rc_blind_until: float = -1.0  # IBUS frames may be lost to corruption until then
+    rc_blind_from: float = -1.0  # IBUS frames may be lost to corruption from then…
+    rc_blind_until: float = -1.0  # …until then
     can_blind_until: float = -1.0  # the computer's frames may be dropped until then
 
     # --- what was done ----------------------------------------------------------------------------
@@ -218,10 +219,12 @@ class HazardOracle:
         if armed_before and now - began_s < self.timing.unnoticed_s(kind):
             self.armed_ok, self.drive_allowed_until = True, None  # it may have passed unseen
 
-    def blind(self, source: ControlMode, until_s: float) -> None:
-        """Frames of `source` may be lost (corrupted, garbled) until `until_s`: what they carry
-        may reach the controller that much later."""
+    def blind(self, source: ControlMode, from_s: float, until_s: float) -> None:
+        """Frames of `source` may be lost (corrupted, garbled) from `from_s` until `until_s`:
+        what they carry may reach the controller that much later, or never."""
         if source is ControlMode.RC:
+            if from_s > self.rc_blind_until:
+                self.rc_blind_from = from_s  # a new blind stretch, not a longer one
             self.rc_blind_until = max(self.rc_blind_until, until_s)
         else:
             self.can_blind_until = max(self.can_blind_until, until_s)
@@ -252,7 +255,7 @@ class HazardOracle:
         # Back to a source within the debounce: the controller may never have left it.
         since_left_s = now - self.left_at.get(mode, -1.0)
         returning = since_left_s < self.timing.settle_s and was is not ControlMode.STOP
-        unseen = was is ControlMode.STOP and held_s < self.timing.unseen_s
+        unseen = was is ControlMode.STOP and (held_s < self.timing.unseen_s or self._hidden(now))
         if unseen and self.armed_before_stop:
             self.armed_ok, self.drive_allowed_until = True, None  # no frame may have shown it
         if not returning and not (unseen and mode is self.source_before_stop):
@@ -284,6 +287,13 @@ class HazardOracle:
         if self.pending_arm is not None and self.pending_arm[1] is source:
             self.pending_arm = None  # changed within the debounce: whether it armed is timing
             self._arm_now(now, source)
+
+    def _hidden(self, now: float) -> bool:
+        """Every frame since the switch last moved may have been lost: the controller may
+        never have seen that position (a move to STOP acts on one frame, so a frame sent
+        before the corruption began would have shown it)."""
+        began_s = self.switch_at + self.timing.unseen_s
+        return self.rc_blind_from < began_s and now <= self.rc_blind_until
 
     def _can_stop_pending(self, now: float) -> bool:
         """Only CAN-bound faults demand STOP, and the controller may not have acted yet."""
