@@ -120,6 +120,10 @@ def test_without_evdev_the_fix_is_named(
     monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
 ) -> None:
     monkeypatch.setitem(sys.modules, "evdev", None)  # as where it is not installed
+    for module in ("bywire.teleop.gamepad", "bywire.teleop.gamepad_device"):
+        monkeypatch.delitem(
+            sys.modules, module, raising=False
+        )  # imported afresh, as in a new process
     err = _refusal(capsys, "--gamepad")
     assert "--gamepad needs the evdev package (Linux only)" in err
     assert "pip install 'bywire[gamepad]'" in err

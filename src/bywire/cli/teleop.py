@@ -11,11 +11,13 @@ from typing import TYPE_CHECKING, Any
 import can
 
 from bywire.cli.bus_options import add_bus_options, bus_from_args
+from bywire.errors import HardwareError
 from bywire.protocol import dbc
 from bywire.teleop.state import HOLD_S, KEYS
 
 if TYPE_CHECKING:
     from bywire.teleop.app import PadInput
+    from bywire.teleop.gamepad_device import GamepadDriver
 
 DEFAULT_PORT = 29536
 AUTO = "auto"
@@ -95,9 +97,7 @@ def run(args: argparse.Namespace) -> int:
     """Open the gamepad (if asked) and the bus, and run the terminal program until `q`."""
     gamepad = None
     if args.gamepad is not None:
-        from bywire.teleop.gamepad_device import open_driver  # noqa: PLC0415 -- Linux-only evdev
-
-        gamepad = open_driver(None if args.gamepad == AUTO else Path(args.gamepad))
+        gamepad = _open_gamepad(None if args.gamepad == AUTO else Path(args.gamepad))
     try:
         bus = open_bus(args)
         try:
@@ -108,6 +108,20 @@ def run(args: argparse.Namespace) -> int:
         if gamepad is not None:
             gamepad.close()
     return 0
+
+
+def _open_gamepad(path: Path | None) -> GamepadDriver:
+    """The gamepad's driver; evdev (Linux only, optional) is imported only here."""
+    try:
+        from bywire.teleop.gamepad_device import open_driver  # noqa: PLC0415 -- see above
+    except ModuleNotFoundError as error:
+        if error.name != "evdev":
+            raise
+        raise HardwareError(
+            "--gamepad needs the evdev package (Linux only), which is not installed:"
+            " pip install 'bywire[gamepad]'"
+        ) from None
+    return open_driver(path)
 
 
 def run_app(bus: can.BusABC, gamepad: PadInput | None = None) -> None:
