@@ -28,3 +28,12 @@ def test_latching_faults_are_not_recoverable() -> None:
     assert ErrorFlag.WATCHDOG_TRIPPED not in RECOVERABLE
     assert ErrorFlag.DAC_FAULT_STOP not in RECOVERABLE
     assert ErrorFlag.RC_TIMEOUT in RECOVERABLE
+
+
+# Found by mutation testing (docs/mutation.md): Error flag names cover exactly the 64 bits of the
+# CAN report.
+
+
+def test_bits_beyond_the_64_bit_report_are_not_named() -> None:
+    assert flag_names(1 << 63) == ["BIT63"]
+    assert flag_names(1 << 64) == []
