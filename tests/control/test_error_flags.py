@@ -6,7 +6,7 @@ from bywire.control.error_flags import RECOVERABLE, ErrorFlag, flag_names
 
 
 def test_figure_23_flags_keep_their_bit_positions() -> None:
-    assert ErrorFlag.TASK_CRASHED == 1
+    assert ErrorFlag.TASK_CRASHED == 1 << 0
     assert ErrorFlag.DAC_WRITE_FAILED == 1 << 6
     assert ErrorFlag.RC_TIMEOUT == 1 << 8
     assert ErrorFlag.IBUS_CHECKSUM == 1 << 10

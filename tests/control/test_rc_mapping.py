@@ -72,7 +72,8 @@ def test_table_3_defaults_map_sticks_and_switches() -> None:
 def test_left_stick_below_centre_is_brake_and_never_throttle() -> None:
     request = rc_request(frame(ch1=1000, ch6=1500, ch7=1000), RcMapping())
     assert request is not None
-    assert (request.throttle_norm, request.brake_norm) == (0.0, pytest.approx(1.0))
+    assert request.throttle_norm == 0.0
+    assert request.brake_norm == pytest.approx(1.0)
     assert request.mode is ControlMode.RC
     assert request.gear is Gear.REVERSE
 

@@ -45,7 +45,12 @@ class StandIn:
         self.world = SimWorld.create(self.clock)
         self.runtime = Runtime(self.world.hardware, RuntimeConfig())
         rc = self.world.rc
-        self.clock.call_at(0.1, lambda: (rc.set_mode(ControlMode.STOP), rc.set_gear(Gear.FORWARD)))
+
+        def switch_to_stop_in_forward() -> None:
+            rc.set_mode(ControlMode.STOP)
+            rc.set_gear(Gear.FORWARD)
+
+        self.clock.call_at(0.1, switch_to_stop_in_forward)
         self.clock.call_at(0.2, lambda: rc.set_mode(ControlMode.RC))
         self.world.start()
 
