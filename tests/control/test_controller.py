@@ -5,6 +5,7 @@ from __future__ import annotations
 import math
 from collections.abc import Callable
 from dataclasses import replace
+from typing import TypedDict, Unpack
 
 import pytest
 
@@ -25,11 +26,23 @@ from tests.control.stepping import CONFIG, run
 RC_STOP = RcRequest(ControlMode.STOP, 0.0, 0.0, 0.0, Gear.FORWARD, low_beam=False, hazard=False)
 
 
-def rc_at(at_s: float, **changes: object) -> Stamped[RcRequest | None]:
-    return Stamped(replace(RC_STOP, **changes), received_at=at_s)  # type: ignore[arg-type]
+class RcChanges(TypedDict, total=False):
+    """Fields of an `RcRequest` a test changes from `RC_STOP`."""
+
+    mode: ControlMode
+    steering_norm: float
+    throttle_norm: float
+    brake_norm: float
+    gear: Gear
+    low_beam: bool
+    hazard: bool
 
 
-def armed_rc(now: float, **changes: object) -> list[tuple[float, ControlInputs]]:
+def rc_at(at_s: float, **changes: Unpack[RcChanges]) -> Stamped[RcRequest | None]:
+    return Stamped(replace(RC_STOP, **changes), received_at=at_s)
+
+
+def armed_rc(now: float, **changes: Unpack[RcChanges]) -> list[tuple[float, ControlInputs]]:
     """Switch in STOP, then the given RC request, 10 ms apart."""
     return [
         (now, ControlInputs(rc=rc_at(now))),
@@ -237,9 +250,9 @@ def test_can_timeout_boundary_in_can_mode(age_s: float, mode: ControlMode) -> No
     assert run(steps)[-1].mode is mode
 
 
-# Found by mutation testing (docs/mutation.md): The decision's wiring, pinned where mutation
-# testing found it untested: sensors reach the monitors and the steering, configuration reaches
-# every stage, re-enable and flags are exact.
+# Tests added after mutation testing (docs/mutation.md). The decision's wiring, pinned where
+# mutation testing found it untested: sensors reach the monitors and the steering, configuration
+# reaches every stage, re-enable and flags are exact.
 
 
 CAN_IDLE = MovementCommand(0.0, 0.0, 0.0, Gear.FORWARD, counter=1)
@@ -307,7 +320,7 @@ def test_the_blink_rate_comes_from_the_configuration() -> None:
     assert run(steps, replace(CONFIG, blink_rate_hz=0.5))[-1].lights.turn_left
 
 
-DRIVING_FORWARD: dict[str, object] = {
+DRIVING_FORWARD: RcChanges = {
     "mode": ControlMode.RC,
     "gear": Gear.FORWARD,
     "throttle_norm": 0.5,
@@ -319,7 +332,7 @@ def test_a_direction_change_while_driving_is_reported_as_held() -> None:
         (0.02 + 0.01 * tick, ControlInputs(rc=rc_at(0.02 + 0.01 * tick, **DRIVING_FORWARD)))
         for tick in range(5)
     ]
-    to_reverse = {**DRIVING_FORWARD, "gear": Gear.REVERSE}
+    to_reverse: RcChanges = {**DRIVING_FORWARD, "gear": Gear.REVERSE}
     reverse_now = (0.07, ControlInputs(rc=rc_at(0.07, **to_reverse)))
     outputs = run([*armed_rc(0.0, mode=ControlMode.RC), *forward, reverse_now])
     assert outputs[-2].drive.throttle_volts > 0.0
@@ -370,7 +383,7 @@ def test_no_can_command_timeout_is_flagged_while_rc_drives_without_can() -> None
 
 
 def test_rc_light_switches_are_ignored_in_can_mode() -> None:
-    can_mode = {"mode": ControlMode.CAN, "low_beam": True, "hazard": True}
+    can_mode: RcChanges = {"mode": ControlMode.CAN, "low_beam": True, "hazard": True}
     steps = [
         (0.0, ControlInputs(rc=rc_at(0.0))),
         (0.01, ControlInputs(rc=rc_at(0.01, **can_mode), movement=Stamped(CAN_IDLE, 0.01))),

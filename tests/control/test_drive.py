@@ -86,8 +86,8 @@ def test_volts_never_leave_their_limits(
     assert not (outputs.forward and outputs.reverse)
 
 
-# Found by mutation testing (docs/mutation.md): The command-unit clamp of the drive on its own
-# (the volts clamp behind it hides its top end).
+# Tests added after mutation testing (docs/mutation.md). The command-unit clamp of the drive on
+# its own (the volts clamp behind it hides its top end).
 
 
 @pytest.mark.parametrize(

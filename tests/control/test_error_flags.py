@@ -30,8 +30,8 @@ def test_latching_faults_are_not_recoverable() -> None:
     assert ErrorFlag.RC_TIMEOUT in RECOVERABLE
 
 
-# Found by mutation testing (docs/mutation.md): Error flag names cover exactly the 64 bits of the
-# CAN report.
+# Tests added after mutation testing (docs/mutation.md). Error flag names cover exactly the 64
+# bits of the CAN report.
 
 
 def test_bits_beyond_the_64_bit_report_are_not_named() -> None:

@@ -383,9 +383,9 @@ def test_neutral_is_always_granted_at_once(steps: list[Step]) -> None:
             assert (record.applied.gear, record.held) == (N, False)
 
 
-# Found by mutation testing (docs/mutation.md): Interlocks at their exact edges: zero thresholds
-# allowed, standstill speed inclusive, a throttle above full scale never reaching the drive
-# however long the slew has had.
+# Tests added after mutation testing (docs/mutation.md). Interlocks at their exact edges: zero
+# thresholds allowed, standstill speed inclusive, a throttle above full scale never reaching the
+# drive however long the slew has had.
 
 
 def test_zero_dwells_and_zero_standstill_speed_are_valid_settings() -> None:

@@ -66,8 +66,8 @@ def test_nothing_requested_means_all_dark() -> None:
     assert light_outputs(LightRequest(), now=0.2) == LightOutputs()
 
 
-# Found by mutation testing (docs/mutation.md): Blinking at its exact edges: the lit half excludes
-# the half-period instant; the rate is used.
+# Tests added after mutation testing (docs/mutation.md). Blinking at its exact edges: the lit half
+# excludes the half-period instant; the rate is used.
 
 
 def test_the_lit_half_of_a_blink_ends_exactly_at_half_a_period() -> None:

@@ -277,8 +277,9 @@ def test_servo_at_least_as_fast_as_modelled_never_raises(
         assert flags == NONE
 
 
-# Found by mutation testing (docs/mutation.md): Monitors at their exact edges: configuration
-# messages, the slow-servo model's "strictly ahead" rule on ties, and both faults raised together.
+# Tests added after mutation testing (docs/mutation.md). Monitors at their exact edges:
+# configuration messages, the slow-servo model's "strictly ahead" rule on ties, and both faults
+# raised together.
 
 
 def test_a_slow_servo_speed_below_one_per_second_is_a_valid_setting() -> None:

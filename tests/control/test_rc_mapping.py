@@ -118,8 +118,8 @@ def test_failsafe_signature_channel_is_configurable() -> None:
     assert rc_request(frame(ch1=900), mapping) is not None  # 900 is a plausible stick value
 
 
-# Found by mutation testing (docs/mutation.md): RC mapping at its exact edges: deadband, end
-# stops, switch thresholds, short frames, hazard.
+# Tests added after mutation testing (docs/mutation.md). RC mapping at its exact edges: deadband,
+# end stops, switch thresholds, short frames, hazard.
 
 
 def test_a_stick_exactly_at_the_deadband_edge_is_outside_the_deadband() -> None:

@@ -87,8 +87,8 @@ def test_pulse_always_within_calibration(targets: list[float]) -> None:
         assert config.min_pulse_s <= pulse_s <= config.max_pulse_s
 
 
-# Found by mutation testing (docs/mutation.md): Steering slew from the first step and far from
-# time zero.
+# Tests added after mutation testing (docs/mutation.md). Steering slew from the first step and far
+# from time zero.
 
 
 def test_the_first_step_has_no_elapsed_time_so_the_set_point_does_not_move() -> None:

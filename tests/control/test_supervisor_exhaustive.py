@@ -88,8 +88,14 @@ def test_a_refused_arming_that_clears_the_latch_anyway_is_found(
 ) -> None:
     original = supervisor._from_stop
 
-    def remembering(state: SupervisorState, *args: object) -> SupervisorState:
-        after = original(state, *args)  # type: ignore[arg-type]
+    def remembering(
+        state: SupervisorState,
+        inputs: supervisor.SupervisorInputs,
+        switch: ControlMode | None,
+        held_at_stop: bool,
+        debounce: tuple[ControlMode | None, int, bool],
+    ) -> SupervisorState:
+        after = original(state, inputs, switch, held_at_stop, debounce)
         return replace(after, latched=frozenset()) if after.mode is ControlMode.STOP else after
 
     assert _found(monkeypatch, "_from_stop", remembering)

@@ -61,8 +61,8 @@ def test_empty_stats_report_zero() -> None:
     assert TaskStats().jitter_percentile_s(0.99) == 0.0
 
 
-# Found by mutation testing (docs/mutation.md): Schedule statistics at their exact edges: budget,
-# last jitter bin, overruns accumulate.
+# Tests added after mutation testing (docs/mutation.md). Schedule statistics at their exact edges:
+# budget, last jitter bin, overruns accumulate.
 
 
 QUARTER = TaskSpec("quarter", 4.0, 0.01)  # a 0.25 s period, exact in binary

@@ -75,9 +75,9 @@ def test_a_zero_limit_is_refused() -> None:
         Watchdog(lambda: None, 0.0)
 
 
-# Found by mutation testing (docs/mutation.md): The watchdog thread's body on virtual time (its
-# stop event replaced by one that advances a fake clock), and its thread's life: named, a daemon,
-# joined on stop, stop safe to repeat.
+# Tests added after mutation testing (docs/mutation.md). The watchdog thread's body on virtual
+# time (its stop event replaced by one that advances a fake clock), and its thread's life: named,
+# a daemon, joined on stop, stop safe to repeat.
 
 
 class VirtualStop(threading.Event):

@@ -4,7 +4,7 @@ coming back under the same name, clear errors, idempotent close."""
 from __future__ import annotations
 
 import threading
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from pathlib import Path
 
 import pytest
@@ -26,9 +26,9 @@ def line(tmp_path: Path) -> Iterator[PtyRcLine]:
     rc.close()
 
 
-def _wait(clock: LinuxClock, condition: object) -> bool:
+def _wait(clock: LinuxClock, condition: Callable[[], bool]) -> bool:
     for _ in range(ATTEMPTS):
-        if condition():  # type: ignore[operator]
+        if condition():
             return True
         clock.wait_until(clock.now() + 0.01)
     return False
