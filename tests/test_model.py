@@ -59,6 +59,6 @@ def test_commands_carry_a_counter_and_reports_do_not() -> None:
 def test_messages_are_frozen_values() -> None:
     command = MovementCommand(0.1, 0.2, 0.0, Gear.FORWARD, counter=3)
     with pytest.raises(dataclasses.FrozenInstanceError):
-        command.counter = 4  # type: ignore[misc]
+        command.counter = 4  # type: ignore[misc]  # what mypy refuses must also fail at run time
     assert command == MovementCommand(0.1, 0.2, 0.0, Gear.FORWARD, 3)
     assert len({WheelSpeedReport(1.0, 1.0), WheelSpeedReport(1.0, 1.0)}) == 1

@@ -29,7 +29,7 @@ def test_ruff_is_clean(command: tuple[str, ...]) -> None:
 
 
 def test_mypy_strict_is_clean() -> None:
-    result = _run("mypy", "--strict", "src")
+    result = _run("mypy", "--strict", "src", "tests")
     assert result.returncode == 0, result.stdout + result.stderr
 
 

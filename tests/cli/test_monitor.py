@@ -77,7 +77,8 @@ def test_a_sim_process_and_two_client_processes_see_the_same_frames(tmp_path: Pa
     )
     try:
         port = _served_port(sim)
-        threading.Thread(target=sim.stderr.read, daemon=True).start()  # type: ignore[union-attr]
+        assert sim.stderr is not None
+        threading.Thread(target=sim.stderr.read, daemon=True).start()
         monitor = subprocess.Popen(
             [*BYWIRE, "monitor", "--port", str(port), "--duration", "1"],
             stdout=subprocess.PIPE,

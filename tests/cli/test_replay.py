@@ -32,10 +32,10 @@ def record(tmp_path_factory: pytest.TempPathFactory) -> Path:
     return path
 
 
-def _robot_toml(tmp_path: Path, **servo: float) -> Path:
+def _robot_toml(tmp_path: Path, max_pulse_s: float) -> Path:
     robot = default_sim_config()
     steering = dataclasses.replace(
-        robot.steering, servo=dataclasses.replace(robot.steering.servo, **servo)
+        robot.steering, servo=dataclasses.replace(robot.steering.servo, max_pulse_s=max_pulse_s)
     )
     path = tmp_path / "changed.toml"
     path.write_text(describe(dataclasses.replace(robot, steering=steering)), encoding="utf-8")

@@ -95,7 +95,8 @@ class Robot:
         os.replace(temporary, self.hlc / "movement.json")
 
     def reports(self) -> dict[str, Any]:
-        return json.loads((self.hlc / "reports.json").read_text())
+        reports: dict[str, Any] = json.loads((self.hlc / "reports.json").read_text())
+        return reports
 
     def kill(self) -> None:
         if self.process.poll() is None:
@@ -237,16 +238,16 @@ def _no_rc_receiver(bench: Bench) -> None:
 
 
 def _kvaser(bench: Bench) -> None:
-    bench.config_text = lambda: Bench.config_text(bench).replace('"virtual"', '"kvaser"')  # type: ignore[method-assign]
+    bench.can_interface = "kvaser"
 
 
 def _socketcan_down(bench: Bench) -> None:
     make_can_netdev(bench.sysfs, bench.can_channel, "down")
-    bench.config_text = lambda: Bench.config_text(bench).replace('"virtual"', '"socketcan"')  # type: ignore[method-assign]
+    bench.can_interface = "socketcan"
 
 
 def _unknown_interface(bench: Bench) -> None:
-    bench.config_text = lambda: Bench.config_text(bench).replace('"virtual"', '"vcan"')  # type: ignore[method-assign]
+    bench.can_interface = "vcan"
 
 
 @pytest.mark.parametrize(

@@ -19,6 +19,7 @@ from typing import Any, ClassVar
 import pytest
 from mcap.reader import make_reader
 from websockets.sync.client import ClientConnection, connect
+from websockets.typing import Subprotocol
 
 from bywire.cli import sim as sim_command
 from bywire.cli.main import main
@@ -31,7 +32,7 @@ TOPICS = {STATE_TOPIC, EVENTS_TOPIC, CAN_TOPIC}
 LIMIT_S = 30.0  # generous limits on waiting, never timing assertions
 # The SDK's server speaks protocol v1 under this name; the Foxglove app offers it along with
 # the older "foxglove.websocket.v1" and the server refuses a client that offers neither.
-SUBPROTOCOLS = ["foxglove.sdk.v1", "foxglove.websocket.v1"]
+SUBPROTOCOLS = [Subprotocol("foxglove.sdk.v1"), Subprotocol("foxglove.websocket.v1")]
 MESSAGE_DATA = 0x01  # the protocol's binary opcode: u8 op, u32 subscription, u64 time, payload
 
 

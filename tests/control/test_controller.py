@@ -2,8 +2,10 @@
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable
 from dataclasses import replace
+from typing import TypedDict, Unpack
 
 import pytest
 
@@ -13,20 +15,34 @@ from bywire.control.controller import (
 )
 from bywire.control.drive import SAFE_DRIVE
 from bywire.control.error_flags import ErrorFlag
+from bywire.control.monitors import MonitorConfig
 from bywire.control.rc_mapping import RcRequest
+from bywire.control.steering import SteeringConfig
 from bywire.control.supervisor import Cause
 from bywire.control.validity import Stamped
 from bywire.model import ControlCommand, ControlMode, Gear, LightsCommand, MovementCommand
-from tests.control.stepping import run
+from tests.control.stepping import CONFIG, run
 
 RC_STOP = RcRequest(ControlMode.STOP, 0.0, 0.0, 0.0, Gear.FORWARD, low_beam=False, hazard=False)
 
 
-def rc_at(at_s: float, **changes: object) -> Stamped[RcRequest | None]:
-    return Stamped(replace(RC_STOP, **changes), received_at=at_s)  # type: ignore[arg-type]
+class RcChanges(TypedDict, total=False):
+    """Fields of an `RcRequest` a test changes from `RC_STOP`."""
+
+    mode: ControlMode
+    steering_norm: float
+    throttle_norm: float
+    brake_norm: float
+    gear: Gear
+    low_beam: bool
+    hazard: bool
 
 
-def armed_rc(now: float, **changes: object) -> list[tuple[float, ControlInputs]]:
+def rc_at(at_s: float, **changes: Unpack[RcChanges]) -> Stamped[RcRequest | None]:
+    return Stamped(replace(RC_STOP, **changes), received_at=at_s)
+
+
+def armed_rc(now: float, **changes: Unpack[RcChanges]) -> list[tuple[float, ControlInputs]]:
     """Switch in STOP, then the given RC request, 10 ms apart."""
     return [
         (now, ControlInputs(rc=rc_at(now))),
@@ -232,3 +248,147 @@ def test_can_timeout_boundary_in_can_mode(age_s: float, mode: ControlMode) -> No
         (0.02 + age_s, ControlInputs(rc=rc_at(0.02 + age_s, mode=ControlMode.CAN), movement=sent)),
     ]
     assert run(steps)[-1].mode is mode
+
+
+# Tests added after mutation testing (docs/mutation.md). The decision's wiring, pinned where
+# mutation testing found it untested: sensors reach the monitors and the steering, configuration
+# reaches every stage, re-enable and flags are exact.
+
+
+CAN_IDLE = MovementCommand(0.0, 0.0, 0.0, Gear.FORWARD, counter=1)
+
+
+def test_low_brake_pressure_while_stopped_raises_the_hydro_fault_after_the_response_time() -> None:
+    # In STOP the hydraulic brake is at full duty, so a sensor reading 0 bar is a failed brake.
+    times = [0.0, 0.1, 0.2, 0.29, 0.31]
+    steps = [(now, ControlInputs(hydrobrake_pressure_bar=0.0, rc=rc_at(now))) for now in times]
+    outputs = run(steps)
+    assert not outputs[3].error_flags & ErrorFlag.HYDRO_PRESSURE_FAULT  # 0.29 s: not 0.3 s yet
+    assert outputs[4].error_flags & ErrorFlag.HYDRO_PRESSURE_FAULT
+    assert outputs[4].lights.error_led
+
+
+def test_full_brake_pressure_while_stopped_raises_no_fault() -> None:
+    times = [0.0, 0.1, 0.2, 0.29, 0.31, 0.5]
+    steps = [(now, ControlInputs(hydrobrake_pressure_bar=5.0, rc=rc_at(now))) for now in times]
+    assert all(not out.error_flags & ErrorFlag.HYDRO_PRESSURE_FAULT for out in run(steps))
+
+
+def test_an_invalid_steering_encoder_reading_stops_rc_driving_with_a_hardware_latch() -> None:
+    steps = [
+        *armed_rc(0.0, mode=ControlMode.RC),
+        (0.02, ControlInputs(rc=rc_at(0.02, mode=ControlMode.RC), steering_measured_norm=math.nan)),
+    ]
+    outputs = run(steps)
+    assert outputs[1].mode is ControlMode.RC
+    last = outputs[-1]
+    assert last.mode is ControlMode.STOP
+    assert last.causes == {Cause.STEERING_ENCODER}
+    assert last.error_flags & ErrorFlag.STEERING_ENCODER_FAULT
+
+
+def test_a_monitor_flag_left_out_of_stop_flags_is_reported_but_does_not_stop() -> None:
+    config = replace(CONFIG, monitors=MonitorConfig(stop_flags=ErrorFlag(0)))
+    steps = [
+        *armed_rc(0.0, mode=ControlMode.RC),
+        (0.02, ControlInputs(rc=rc_at(0.02, mode=ControlMode.RC), steering_measured_norm=math.nan)),
+    ]
+    last = run(steps, config)[-1]
+    assert last.mode is ControlMode.RC
+    assert not last.causes
+    assert last.error_flags & ErrorFlag.STEERING_ENCODER_FAULT
+
+
+def test_the_boost_works_from_the_encoder_reading_when_one_is_fitted() -> None:
+    # Set-point centre, servo measured at +0.5: gain 1 asks for -0.5, i.e. 1.25 ms.
+    config = replace(CONFIG, steering=SteeringConfig(boost_gain=1.0))
+    (outputs,) = run([(0.0, ControlInputs(steering_measured_norm=0.5))], config)
+    assert outputs.steering_pulse_s == pytest.approx(0.00125)
+
+
+def test_the_hydrobrake_threshold_comes_from_the_configuration() -> None:
+    config = replace(CONFIG, hydrobrake_threshold_norm=0.25)
+    last = run(armed_rc(0.0, mode=ControlMode.RC, brake_norm=0.75), config)[-1]
+    assert last.mode is ControlMode.RC
+    assert last.hydrobrake_duty == pytest.approx((0.75 - 0.25) / (1.0 - 0.25))
+
+
+def test_the_blink_rate_comes_from_the_configuration() -> None:
+    # At t = 0.5 s a 1.5 Hz blink is in its dark half (phase 0.75), a 0.5 Hz one in its lit half.
+    steps = armed_rc(0.49, mode=ControlMode.RC, hazard=True)
+    assert not run(steps)[-1].lights.turn_left
+    assert run(steps, replace(CONFIG, blink_rate_hz=0.5))[-1].lights.turn_left
+
+
+DRIVING_FORWARD: RcChanges = {
+    "mode": ControlMode.RC,
+    "gear": Gear.FORWARD,
+    "throttle_norm": 0.5,
+}
+
+
+def test_a_direction_change_while_driving_is_reported_as_held() -> None:
+    forward = [
+        (0.02 + 0.01 * tick, ControlInputs(rc=rc_at(0.02 + 0.01 * tick, **DRIVING_FORWARD)))
+        for tick in range(5)
+    ]
+    to_reverse: RcChanges = {**DRIVING_FORWARD, "gear": Gear.REVERSE}
+    reverse_now = (0.07, ControlInputs(rc=rc_at(0.07, **to_reverse)))
+    outputs = run([*armed_rc(0.0, mode=ControlMode.RC), *forward, reverse_now])
+    assert outputs[-2].drive.throttle_volts > 0.0
+    assert outputs[-2].direction_change_held is False
+    last = outputs[-1]
+    assert last.direction_change_held is True
+    assert last.drive.forward
+    assert last.drive.throttle_volts == 0.0
+
+
+def test_a_can_re_enable_edge_clears_a_can_timeout_latch() -> None:
+    sent = Stamped(CAN_IDLE, 0.02)
+    again = Stamped(replace(CAN_IDLE, counter=2), 0.30)
+    no_request = Stamped(ControlCommand(remote_stop=False, re_enable=False, counter=0), 0.29)
+    re_enable = Stamped(ControlCommand(remote_stop=False, re_enable=True, counter=1), 0.30)
+    steps = [
+        *armed_rc(0.0, mode=ControlMode.RC),
+        (0.02, ControlInputs(rc=rc_at(0.02, mode=ControlMode.CAN), movement=sent)),
+        (0.25, ControlInputs(rc=rc_at(0.25, mode=ControlMode.CAN), movement=sent)),
+        (
+            0.29,
+            ControlInputs(rc=rc_at(0.29, mode=ControlMode.CAN), movement=again, control=no_request),
+        ),
+        (
+            0.30,
+            ControlInputs(rc=rc_at(0.30, mode=ControlMode.CAN), movement=again, control=re_enable),
+        ),
+    ]
+    outputs = run(steps)
+    assert outputs[2].mode is ControlMode.CAN
+    assert outputs[3].causes == {Cause.CAN_LOST}
+    assert outputs[4].causes == {Cause.CAN_LOST}  # fresh commands alone do not clear it
+    assert outputs[5].mode is ControlMode.CAN
+    assert not outputs[5].causes
+
+
+def test_remote_stop_is_flagged_alongside_an_rc_timeout() -> None:
+    stop = Stamped(ControlCommand(remote_stop=True, re_enable=False, counter=0), 0.0)
+    (outputs,) = run([(0.0, ControlInputs(control=stop))])
+    assert outputs.error_flags & ErrorFlag.REMOTE_STOP
+    assert outputs.error_flags & ErrorFlag.RC_TIMEOUT
+
+
+def test_no_can_command_timeout_is_flagged_while_rc_drives_without_can() -> None:
+    last = run(armed_rc(0.0, mode=ControlMode.RC))[-1]
+    assert last.mode is ControlMode.RC
+    assert last.error_flags == 0
+
+
+def test_rc_light_switches_are_ignored_in_can_mode() -> None:
+    can_mode: RcChanges = {"mode": ControlMode.CAN, "low_beam": True, "hazard": True}
+    steps = [
+        (0.0, ControlInputs(rc=rc_at(0.0))),
+        (0.01, ControlInputs(rc=rc_at(0.01, **can_mode), movement=Stamped(CAN_IDLE, 0.01))),
+    ]
+    last = run(steps)[-1]
+    assert last.mode is ControlMode.CAN
+    assert not last.lights.low_beam
+    assert not last.lights.turn_left  # t = 0.01 s is in the lit half of a blink

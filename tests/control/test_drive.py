@@ -8,7 +8,7 @@ import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
-from bywire.control.drive import SAFE_DRIVE, DriveConfig, DriveOutputs, drive_outputs
+from bywire.control.drive import SAFE_DRIVE, DriveConfig, DriveOutputs, drive_outputs, unit_clamp
 from bywire.control.mux import Movement
 from bywire.model import Gear
 
@@ -84,3 +84,14 @@ def test_volts_never_leave_their_limits(
     assert 0.0 <= outputs.regen_volts <= CONFIG.max_regen_volts
     assert not (outputs.throttle_volts > 0 and outputs.regen_volts > 0)
     assert not (outputs.forward and outputs.reverse)
+
+
+# Tests added after mutation testing (docs/mutation.md). The command-unit clamp of the drive on
+# its own (the volts clamp behind it hides its top end).
+
+
+@pytest.mark.parametrize(
+    ("value", "clamped"), [(1.5, 1.0), (math.inf, 1.0), (-0.5, 0.0), (0.25, 0.25)]
+)
+def test_unit_clamp_keeps_values_within_zero_and_one(value: float, clamped: float) -> None:
+    assert unit_clamp(value, nan_value=0.0) == clamped

@@ -12,6 +12,8 @@ from bywire.control.rc_mapping import (
     RcMapping,
     SwitchCalibration,
     axis_norm,
+    channels_plausible,
+    in_failsafe,
     rc_request,
     switch_position,
 )
@@ -70,7 +72,8 @@ def test_table_3_defaults_map_sticks_and_switches() -> None:
 def test_left_stick_below_centre_is_brake_and_never_throttle() -> None:
     request = rc_request(frame(ch1=1000, ch6=1500, ch7=1000), RcMapping())
     assert request is not None
-    assert (request.throttle_norm, request.brake_norm) == (0.0, pytest.approx(1.0))
+    assert request.throttle_norm == 0.0
+    assert request.brake_norm == pytest.approx(1.0)
     assert request.mode is ControlMode.RC
     assert request.gear is Gear.REVERSE
 
@@ -113,3 +116,51 @@ def test_failsafe_signature_channel_is_configurable() -> None:
     mapping = RcMapping(failsafe=FailsafeSignature(channel=9, below_raw=1100))
     assert rc_request(frame(ch9=1000), mapping) is None
     assert rc_request(frame(ch1=900), mapping) is not None  # 900 is a plausible stick value
+
+
+# Tests added after mutation testing (docs/mutation.md). RC mapping at its exact edges: deadband,
+# end stops, switch thresholds, short frames, hazard.
+
+
+def test_a_stick_exactly_at_the_deadband_edge_is_outside_the_deadband() -> None:
+    # 10 µs of a 500 µs half-range is exactly the default deadband of 0.02
+    assert axis_norm(1510, AxisCalibration(channel=0)) == 0.02
+    assert axis_norm(1509, AxisCalibration(channel=0)) == 0.0
+
+
+@pytest.mark.parametrize(("raw", "norm"), [(800, -1.0), (900, -1.0), (2200, 1.0)])
+def test_a_stick_beyond_its_calibrated_end_stops_is_clamped_to_full_scale(
+    raw: int, norm: float
+) -> None:
+    assert axis_norm(raw, AxisCalibration(channel=1)) == norm
+
+
+@pytest.mark.parametrize(
+    ("raw", "position"),
+    [(1249, 0), (1250, 1), (1500, 1), (1750, 1), (1751, 2)],
+)
+def test_switch_thresholds_are_1250_and_1750_inclusive_of_the_middle(
+    raw: int, position: int
+) -> None:
+    assert switch_position(raw, SwitchCalibration(channel=6)) == position
+
+
+def test_a_frame_too_short_for_the_used_channels_is_implausible_not_a_crash() -> None:
+    mapping = RcMapping()
+    short = CENTRED[:8]  # the hazard switch is channel 8
+    assert not channels_plausible(short, mapping)
+    assert rc_request(short, mapping) is None
+
+
+def test_a_frame_too_short_for_the_failsafe_channel_is_not_failsafe_output() -> None:
+    mapping = RcMapping()
+    assert not in_failsafe(CENTRED[:1], mapping)
+    assert rc_request(CENTRED[:1], mapping) is None  # and still refused: too short to use
+
+
+def test_the_hazard_switch_up_asks_for_hazard_lights() -> None:
+    channels = (*CENTRED[:8], 2000, *CENTRED[9:])
+    request = rc_request(channels, RcMapping())
+    assert request is not None
+    assert request.hazard
+    assert not request.low_beam

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 
 from bywire.control.interlocks import InterlockConfig
 from bywire.control.speed_check import (
@@ -15,7 +16,7 @@ from bywire.control.speed_check import (
 CONFIG = InterlockConfig()
 
 
-def readings(speeds: list[float | None], throttle: float = 0.0) -> SpeedCheckState:
+def readings(speeds: Sequence[float | None], throttle: float = 0.0) -> SpeedCheckState:
     state = SpeedCheckState()
     for index, speed in enumerate(speeds):
         state = speed_check_step(state, speed, throttle, index * 0.01, CONFIG)

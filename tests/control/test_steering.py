@@ -85,3 +85,19 @@ def test_pulse_always_within_calibration(targets: list[float]) -> None:
     for tick, target in enumerate(targets):
         state, pulse_s = steering_step(state, target, now=tick * 0.01, config=config)
         assert config.min_pulse_s <= pulse_s <= config.max_pulse_s
+
+
+# Tests added after mutation testing (docs/mutation.md). Steering slew from the first step and far
+# from time zero.
+
+
+def test_the_first_step_has_no_elapsed_time_so_the_set_point_does_not_move() -> None:
+    state, pulse_s = steering_step(SteeringState(), 1.0, 100.0, DEFAULT)
+    assert state.setpoint_norm == 0.0
+    assert pulse_s == pytest.approx(0.0015)
+
+
+def test_the_rate_limit_uses_the_time_since_the_last_step_late_in_a_run() -> None:
+    state = SteeringState(updated_at=100.0)
+    state, _ = steering_step(state, 1.0, 100.01, DEFAULT)
+    assert state.setpoint_norm == pytest.approx(0.04)

@@ -46,12 +46,12 @@ def run(
 
 
 def frames(count: int, switch: ControlMode, **changes: bool) -> list[SupervisorInputs]:
-    return [frame(switch, **changes)] * count
+    return [frame(switch, FRESH, **changes)] * count
 
 
 def between_frames(switch: ControlMode, **changes: bool) -> SupervisorInputs:
     """A step with no new RC frame: the newest frame still shows `switch`."""
-    return replace(frame(switch, **changes), rc_frame=False)
+    return replace(frame(switch, FRESH, **changes), rc_frame=False)
 
 
 def armed(mode: ControlMode = RC) -> SupervisorState:
@@ -60,7 +60,7 @@ def armed(mode: ControlMode = RC) -> SupervisorState:
 
 def test_power_up_is_stop_latched_until_the_switch_is_held_at_stop_then_moved() -> None:
     state = run(SupervisorState(), *frames(5, RC))
-    assert (state.mode, state.latched) == (STOP, {Cause.POWER_UP})
+    assert (state.mode, state.latched) == (STOP, frozenset({Cause.POWER_UP}))
     state = run(state, *frames(2, STOP))
     assert state.latched == {Cause.POWER_UP}  # two frames at STOP are not yet a position
     state = run(state, frame(STOP))
@@ -90,7 +90,7 @@ def test_a_chattering_switch_stops_once_and_never_rearms() -> None:
 def test_a_fault_latches_in_any_mode_and_the_switch_clears_it_once_gone(cause: Cause) -> None:
     switch = None if cause is Cause.RC_IMPLAUSIBLE else RC
     state = run(armed(), SupervisorInputs(frozenset({cause}), switch, rc_frame=True))
-    assert (state.mode, state.latched) == (STOP, {cause})
+    assert (state.mode, state.latched) == (STOP, frozenset({cause}))
     state = run(state, *frames(3, RC))
     assert state.mode is STOP  # the fault is gone, but nobody re-armed
     still = run(state, *[frame(STOP, frozenset({cause}))] * 3)
@@ -128,7 +128,7 @@ def test_a_refused_arming_is_forgotten() -> None:
     """Hazard row 3: refused for a pushed throttle, it neither clears nor arms later."""
     state = run(armed(CAN), frame(CAN, frozenset({Cause.CAN_LOST}), can_throttle_zero=False))
     refused = run(state, frame(CAN, re_enable_edge=True, can_throttle_zero=False))
-    assert (refused.mode, refused.latched) == (STOP, {Cause.CAN_LOST})
+    assert (refused.mode, refused.latched) == (STOP, frozenset({Cause.CAN_LOST}))
     assert run(refused, *frames(10, CAN)).mode is STOP
     at_stop = run(SupervisorState(), *frames(3, STOP))
     pushed = run(at_stop, *frames(3, RC, rc_throttle_zero=False))
@@ -154,17 +154,17 @@ def test_a_held_remote_stop_stops_can_mode_but_never_locks_the_rc_operator_out()
     """Hazard row 5."""
     held = frozenset({Cause.REMOTE_STOP})
     state = run(armed(CAN), frame(CAN, held, remote_stop_rising=True))
-    assert (state.mode, state.latched) == (STOP, {Cause.REMOTE_STOP})
+    assert (state.mode, state.latched) == (STOP, frozenset({Cause.REMOTE_STOP}))
     state = run(state, *[frame(STOP, held)] * 3, *[frame(RC, held)] * 3)
     assert state.mode is RC  # through STOP into RC: the operator takes over
     assert run(state, *[frame(RC, held)] * 10).mode is RC
     to_can = run(state, *[frame(STOP, held)] * 3, *[frame(CAN, held)] * 3)
-    assert (to_can.mode, to_can.latched) == (STOP, {Cause.REMOTE_STOP})
+    assert (to_can.mode, to_can.latched) == (STOP, frozenset({Cause.REMOTE_STOP}))
 
 
 def test_a_new_remote_stop_stops_rc_mode_too() -> None:
     state = run(armed(RC), frame(RC, frozenset({Cause.REMOTE_STOP}), remote_stop_rising=True))
-    assert (state.mode, state.latched) == (STOP, {Cause.REMOTE_STOP})
+    assert (state.mode, state.latched) == (STOP, frozenset({Cause.REMOTE_STOP}))
 
 
 def test_an_untrusted_can_id_stops_can_mode_and_only_the_operator_clears_it() -> None:
@@ -241,7 +241,7 @@ def test_a_can_fault_in_the_step_that_ends_can_mode_is_latched_with_the_rest(
     fault = frozenset({cause})
     stopping = frame(STOP, fault) if ending == "switch to STOP" else lost(cause)
     state = run(armed(CAN), stopping)
-    expected = {cause} if ending == "switch to STOP" else {cause, Cause.RC_LOST}
+    expected = frozenset({cause} if ending == "switch to STOP" else {cause, Cause.RC_LOST})
     assert (state.mode, state.latched) == (STOP, expected)
     assert state.flags & CAUSE_FLAGS[cause]
 
@@ -268,7 +268,11 @@ def test_after_a_refused_re_enable_a_new_edge_arms_without_a_new_debounce() -> N
     computer's next deliberate edge (throttle now at zero) arms, with or without an RC frame."""
     state = run(armed(CAN), frame(CAN, frozenset({Cause.CAN_LOST}), can_throttle_zero=False))
     refused = run(state, frame(CAN, re_enable_edge=True, can_throttle_zero=False))
-    assert (refused.mode, refused.latched, refused.switch) == (STOP, {Cause.CAN_LOST}, CAN)
+    assert (refused.mode, refused.latched, refused.switch) == (
+        STOP,
+        frozenset({Cause.CAN_LOST}),
+        CAN,
+    )
     assert run(refused, between_frames(CAN, re_enable_edge=True)).mode is CAN
     assert run(refused, frame(CAN, re_enable_edge=True)).mode is CAN
 

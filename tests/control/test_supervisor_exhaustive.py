@@ -9,7 +9,6 @@ the same rules (about 4x the states and 3 minutes; the figures are in docs/SAFET
 from __future__ import annotations
 
 import os
-from collections.abc import Callable
 from dataclasses import replace
 
 import pytest
@@ -61,7 +60,7 @@ def test_every_reachable_state_keeps_every_invariant(capsys: pytest.CaptureFixtu
 SMALL = SupervisorConfig(debounce_frames=1)
 
 
-def _found(monkeypatch: pytest.MonkeyPatch, name: str, fake: Callable[..., object]) -> set[str]:
+def _found(monkeypatch: pytest.MonkeyPatch, name: str, fake: object) -> set[str]:
     monkeypatch.setattr(supervisor, name, fake)
     result = explore(alphabet(reduced_causes()), SMALL, max_violations=1)
     return {violation for violation, _ in result.violations}
@@ -89,8 +88,14 @@ def test_a_refused_arming_that_clears_the_latch_anyway_is_found(
 ) -> None:
     original = supervisor._from_stop
 
-    def remembering(state: SupervisorState, *args: object) -> SupervisorState:
-        after = original(state, *args)  # type: ignore[arg-type]
+    def remembering(
+        state: SupervisorState,
+        inputs: supervisor.SupervisorInputs,
+        switch: ControlMode | None,
+        held_at_stop: bool,
+        debounce: tuple[ControlMode | None, int, bool],
+    ) -> SupervisorState:
+        after = original(state, inputs, switch, held_at_stop, debounce)
         return replace(after, latched=frozenset()) if after.mode is ControlMode.STOP else after
 
     assert _found(monkeypatch, "_from_stop", remembering)

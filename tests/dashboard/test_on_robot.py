@@ -9,7 +9,7 @@ from __future__ import annotations
 import asyncio
 import threading
 import time
-from collections.abc import Callable
+from collections.abc import Awaitable, Callable
 
 import pytest
 from textual.pilot import Pilot
@@ -45,7 +45,12 @@ class StandIn:
         self.world = SimWorld.create(self.clock)
         self.runtime = Runtime(self.world.hardware, RuntimeConfig())
         rc = self.world.rc
-        self.clock.call_at(0.1, lambda: (rc.set_mode(ControlMode.STOP), rc.set_gear(Gear.FORWARD)))
+
+        def switch_to_stop_in_forward() -> None:
+            rc.set_mode(ControlMode.STOP)
+            rc.set_gear(Gear.FORWARD)
+
+        self.clock.call_at(0.1, switch_to_stop_in_forward)
         self.clock.call_at(0.2, lambda: rc.set_mode(ControlMode.RC))
         self.world.start()
 
@@ -72,13 +77,15 @@ async def _until(pilot: Pilot[None], condition: Callable[[], bool], what: str) -
         await pilot.pause(0.05)
 
 
-def _pilot(script: Callable[[RobotDashboardApp, Pilot[None]], object]) -> Callable[..., None]:
+def _pilot(
+    script: Callable[[RobotDashboardApp, Pilot[None]], Awaitable[None]],
+) -> Callable[..., None]:
     """A `show` for run_with_dashboard: the app under textual's pilot, running `script`."""
 
     def show(app: RobotDashboardApp) -> None:
         async def drive() -> None:
             async with app.run_test(size=SIZE) as pilot:
-                await script(app, pilot)  # type: ignore[misc]
+                await script(app, pilot)
 
         asyncio.run(drive())
 

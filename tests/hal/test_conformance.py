@@ -99,7 +99,12 @@ def test_command_frames_arrive_and_other_ids_are_filtered(rig: Rig) -> None:
     rig.peer_send(0x7FF, b"\x01")
     rig.peer_send(movement_id, bytes(range(8)))
     frames: list[CanFrame] = []
-    assert settle_until(rig, lambda: bool(frames.extend(rig.hardware.can.receive()) or frames))
+
+    def received() -> bool:
+        frames.extend(rig.hardware.can.receive())
+        return bool(frames)
+
+    assert settle_until(rig, received)
     rig.settle()
     frames.extend(rig.hardware.can.receive())
     assert [(frame.arbitration_id, frame.data) for frame in frames] == [
@@ -110,7 +115,12 @@ def test_command_frames_arrive_and_other_ids_are_filtered(rig: Rig) -> None:
 def test_a_sent_report_reaches_the_other_node(rig: Rig) -> None:
     assert rig.hardware.can.send(CanFrame(0x200, b"\x12\x34"))
     received: list[tuple[int, bytes]] = []
-    assert settle_until(rig, lambda: bool(received.extend(rig.peer_frames()) or received))
+
+    def arrived() -> bool:
+        received.extend(rig.peer_frames())
+        return bool(received)
+
+    assert settle_until(rig, arrived)
     assert received == [(0x200, b"\x12\x34")]
 
 

@@ -236,7 +236,10 @@ def test_every_error_flag_is_one_bit_and_has_a_description() -> None:
 def test_cantools_decodes_an_error_report_to_named_flags() -> None:
     """Any DBC tool shows names: cantools, loading the file itself, no bywire code decoding."""
     frame, data = dbc.encode_report(ErrorReport(ErrorFlag.RC_TIMEOUT | ErrorFlag.REMOTE_STOP))
-    decoded = cantools.database.load_file(ALBERT_DBC).decode_message(frame, data)
+    database = cantools.database.load_file(ALBERT_DBC)
+    assert isinstance(database, cantools.database.can.Database)
+    decoded = database.decode_message(frame, data)
+    assert isinstance(decoded, dict)  # a plain message, not a container
     assert {name for name, value in decoded.items() if value} == {"RC_TIMEOUT", "REMOTE_STOP"}
     assert len(decoded) == len(ErrorFlag)
     assert data == ((1 << 8) | (1 << 19)).to_bytes(8, "little")

@@ -9,6 +9,7 @@ from dataclasses import replace
 import pytest
 
 from bywire.control import controller
+from bywire.control.controller import ControlConfig, ControlInputs, ControlOutputs, ControlState
 from bywire.hal.sim.clock import VirtualClock
 from bywire.hal.sim.world import SimWorld
 from bywire.model import ControlMode, Gear, SteeringReport
@@ -37,9 +38,11 @@ def test_one_pass_reads_the_clock_once_and_decides_once_even_as_time_moves(
     decisions: list[float] = []
     original = controller.controller_step
 
-    def counted(*args: object) -> object:
-        decisions.append(args[2])  # type: ignore[arg-type]
-        return original(*args)  # type: ignore[arg-type]
+    def counted(
+        state: ControlState, inputs: ControlInputs, now: float, config: ControlConfig
+    ) -> tuple[ControlState, ControlOutputs]:
+        decisions.append(now)
+        return original(state, inputs, now, config)
 
     monkeypatch.setattr(app, "controller_step", counted)
     per_pass: list[int] = []

@@ -88,6 +88,18 @@ def _child(settings: dict[str, object], *, privileged: bool) -> dict[str, object
     return result
 
 
+def _only_refusal(seen: dict[str, object]) -> tuple[str, str, str]:
+    """The child's one refusal, as (setting, reason, fix); fails if there is not exactly one."""
+    refused = seen["refused"]
+    assert isinstance(refused, list)
+    (entry,) = refused
+    setting, reason, fix = entry
+    assert isinstance(setting, str)
+    assert isinstance(reason, str)
+    assert isinstance(fix, str)
+    return setting, reason, fix
+
+
 def _may_use_fifo() -> bool:
     soft, _ = resource.getrlimit(resource.RLIMIT_RTPRIO)
     return os.geteuid() == 0 or soft >= RealtimeSection().priority
@@ -110,7 +122,7 @@ unprivileged = pytest.mark.skipif(
 def test_sched_fifo_refused_by_the_kernel_names_cap_sys_nice_and_limitrtprio() -> None:
     seen = _child({"scheduler": "fifo", "priority": 40}, privileged=False)
     assert seen["applied"] == []
-    [(setting, reason, fix)] = seen["refused"]  # type: ignore[misc]
+    setting, reason, fix = _only_refusal(seen)
     assert setting == "SCHED_FIFO 40"
     assert reason.startswith("EPERM")
     assert "cap_sys_nice" in fix
@@ -121,7 +133,7 @@ def test_sched_fifo_refused_by_the_kernel_names_cap_sys_nice_and_limitrtprio() -
 @unprivileged
 def test_mlockall_under_a_finite_limit_is_refused_naming_limitmemlock() -> None:
     seen = _child({"lock_memory": True}, privileged=False)
-    [(setting, reason, fix)] = seen["refused"]  # type: ignore[misc]
+    setting, reason, fix = _only_refusal(seen)
     assert setting == "mlockall"
     assert "RLIMIT_MEMLOCK is 65536 bytes" in reason
     assert "LimitMEMLOCK=infinity" in fix
@@ -133,7 +145,7 @@ def test_mlockall_under_a_finite_limit_is_refused_naming_limitmemlock() -> None:
 def test_cpus_the_process_may_not_use_are_refused_naming_those_it_may() -> None:
     available = sorted(os.sched_getaffinity(0))
     seen = _child({"cpus": "1023"}, privileged=True)
-    [(setting, reason, _fix)] = seen["refused"]  # type: ignore[misc]
+    setting, reason, _fix = _only_refusal(seen)
     assert setting == "CPUs 1023"
     assert f"may use {','.join(map(str, available))}" in reason
     assert seen["cpus"] == available

@@ -34,7 +34,12 @@ class Robot:
     def arm_rc(self, at_s: float = 0.1) -> None:
         """Switch through STOP into RC, forward gear, sticks centred."""
         rc = self.world.rc
-        self.at(at_s, lambda: (rc.set_mode(ControlMode.STOP), rc.set_gear(Gear.FORWARD)))
+
+        def switch_to_stop_in_forward() -> None:
+            rc.set_mode(ControlMode.STOP)
+            rc.set_gear(Gear.FORWARD)
+
+        self.at(at_s, switch_to_stop_in_forward)
         self.at(at_s + 0.1, lambda: rc.set_mode(ControlMode.RC))
 
     def run(self, until_s: float) -> None:

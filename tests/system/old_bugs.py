@@ -42,7 +42,7 @@ def row_4_a_handover_without_the_throttle_gate(monkeypatch: pytest.MonkeyPatch) 
 
 
 def row_6_no_debounce(monkeypatch: pytest.MonkeyPatch) -> None:
-    original, one_frame = controller.supervisor_step, supervisor.SupervisorConfig(1)
+    original, one_frame = supervisor.supervisor_step, supervisor.SupervisorConfig(1)
 
     def undebounced(state: SupervisorState, inputs: Any, _config: Any) -> SupervisorState:
         return original(state, inputs, one_frame)
@@ -65,10 +65,11 @@ def row_8_a_write_in_flight_lands_after_the_trip(monkeypatch: pytest.MonkeyPatch
 
 
 def row_12_a_leaky_counter_half_an_impostor_balances(monkeypatch: pytest.MonkeyPatch) -> None:
+    levels: dict[int, int] = {}  # by id(): each trust keeps its own leaky level
+
     def leaky(self: readers._CounterTrust, miss: bool) -> None:
-        level = getattr(self, "level", 0) + (1 if miss else -1)
-        self.level = max(level, 0)  # type: ignore[attr-defined]
-        self.untrusted = self.level >= 3
+        levels[id(self)] = max(levels.get(id(self), 0) + (1 if miss else -1), 0)
+        self.untrusted = levels[id(self)] >= 3
 
     monkeypatch.setattr(readers._CounterTrust, "record", leaky)
 

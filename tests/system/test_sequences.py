@@ -36,9 +36,11 @@ def _values(action: str) -> st.SearchStrategy[tuple[str, object]]:
 OPERATOR = [
     _values(action) for action in ("arm", "flick", "handover", "rc_throttle", "can_throttle")
 ]
-FAULTS = ("switch", "rc_gear", "rc_steer", "chatter", "rc_link", "rc_failsafe", "rc_implausible")
-FAULTS += ("can_gear", "can_link", "can_repeat", "remote_stop", "re_enable", "impostor", "dac")
-FAULTS += ("stall", "wheel_sensor")
+FAULTS = (
+    *("switch", "rc_gear", "rc_steer", "chatter", "rc_link", "rc_failsafe", "rc_implausible"),
+    *("can_gear", "can_link", "can_repeat", "remote_stop", "re_enable", "impostor", "dac"),
+    *("stall", "wheel_sensor"),
+)
 # The actions this check was first written with; `bywire verify` draws from all of VOCABULARY
 # (and its tests hold the teeth: old bugs put back, each found).
 ACTIONS = st.one_of(

@@ -20,9 +20,12 @@ def test_a_stalled_loop_gets_safe_outputs_and_a_latched_stop() -> None:
     runtime = Runtime(world.hardware, replace(RuntimeConfig(), watchdog_s=0.05))
     start_s = clock.now()
     rc = world.rc
-    clock.call_at(
-        start_s + 0.05, lambda: (rc.set_mode(ControlMode.STOP), rc.set_gear(Gear.FORWARD))
-    )
+
+    def switch_to_stop_in_forward() -> None:
+        rc.set_mode(ControlMode.STOP)
+        rc.set_gear(Gear.FORWARD)
+
+    clock.call_at(start_s + 0.05, switch_to_stop_in_forward)
     clock.call_at(start_s + 0.15, lambda: rc.set_mode(ControlMode.RC))
     clock.call_at(start_s + 0.20, lambda: rc.set_pedal(0.5))
     stalled = threading.Event()

@@ -33,6 +33,6 @@ def read(path: Path) -> Recording:
             )
         elif fields[:1] == ["E:"]:
             sec, usec = fields[1].split(".")
-            kind, code, value = int(fields[2], 16), int(fields[3], 16), int(fields[4])
-            events.append(InputEvent(int(sec), int(usec), kind, code, value))
+            kind, event_code, value = int(fields[2], 16), int(fields[3], 16), int(fields[4])
+            events.append(InputEvent(int(sec), int(usec), kind, event_code, value))
     return Recording(name, axes, events)

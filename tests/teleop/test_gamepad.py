@@ -241,6 +241,7 @@ async def _drive(teleop: can.BusABC, robot: can.BusABC) -> tuple[dict[float, Mov
     recording = evemu.read(RECORDING)
     clock = [0.0]
     reader = RecordedReader(recording.events, clock)
+    # GamepadDriver's reader is typed as the evdev-backed GamepadReader; this one plays a recording
     driver = GamepadDriver(reader, pad_of(recording.axes))  # type: ignore[arg-type]
     app = TeleopApp(teleop, now=lambda: clock[0], auto_tick=False, notifier=False, gamepad=driver)
     received: dict[float, MovementCommand] = {}

@@ -10,6 +10,7 @@ from __future__ import annotations
 import contextlib
 import math
 import sqlite3
+from collections.abc import Mapping
 from pathlib import Path
 
 import can
@@ -37,7 +38,7 @@ def steering_deg(time_s: float) -> float:
     return 30.0 * math.sin(2 * math.pi * time_s / DURATION_S)
 
 
-def _encode(message: Message, changes: dict[str, float], first_byte: int = 0) -> bytes:
+def _encode(message: Message, changes: Mapping[str, float], first_byte: int = 0) -> bytes:
     """Every signal of the message (of the mux value in `first_byte`) at zero raw, then changes."""
     zero = bytes([first_byte]) + bytes(message.length - 1)
     values = message.decode(zero, decode_choices=False)

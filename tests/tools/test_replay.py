@@ -10,6 +10,7 @@ from pathlib import Path
 import pytest
 
 from bywire.config import RobotConfig, default_sim_config
+from bywire.control.steering import SteeringConfig
 from bywire.errors import ConfigError, HardwareError
 from bywire.hal.ports import CanFrame
 from bywire.hal.sim.clock import VirtualClock
@@ -46,11 +47,8 @@ def _record(scenario: str, duration_s: float, path: Path) -> RecordedRun:
     return read_record(path)
 
 
-def _with_steering(robot: RobotConfig, **servo: float) -> RobotConfig:
-    steering = dataclasses.replace(
-        robot.steering, servo=dataclasses.replace(robot.steering.servo, **servo)
-    )
-    return dataclasses.replace(robot, steering=steering)
+def _with_servo(robot: RobotConfig, servo: SteeringConfig) -> RobotConfig:
+    return dataclasses.replace(robot, steering=dataclasses.replace(robot.steering, servo=servo))
 
 
 @pytest.fixture(scope="module")
@@ -78,7 +76,9 @@ def test_a_changed_steering_limit_diverges_where_the_robot_first_steers_right(
 ) -> None:
     robot = default_sim_config()
     narrower = robot.steering.servo.max_pulse_s - 0.0001
-    result = replay(course, _with_steering(robot, max_pulse_s=narrower))
+    result = replay(
+        course, _with_servo(robot, dataclasses.replace(robot.steering.servo, max_pulse_s=narrower))
+    )
     divergence = result.divergence
     assert divergence is not None
     assert divergence.name == "steering_pwm"
@@ -89,7 +89,9 @@ def test_a_changed_steering_limit_diverges_where_the_robot_first_steers_right(
 def test_a_changed_steering_centre_diverges_at_the_first_safe_write(course: RecordedRun) -> None:
     robot = default_sim_config()
     centre = robot.steering.servo.center_pulse_s + 0.00005
-    divergence = replay(course, _with_steering(robot, center_pulse_s=centre)).divergence
+    divergence = replay(
+        course, _with_servo(robot, dataclasses.replace(robot.steering.servo, center_pulse_s=centre))
+    ).divergence
     assert divergence is not None
     assert (divergence.time_s, divergence.name) == (0.0, "steering_pwm")
     assert divergence.replayed == pytest.approx(centre)

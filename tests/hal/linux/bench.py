@@ -40,6 +40,7 @@ class Bench:
     iio_device: Path | None
     rc_link: Path
     can_channel: str
+    can_interface: str = "virtual"
 
     def config_text(self, **extra: str) -> str:
         text = f"""
@@ -48,7 +49,7 @@ backend = "linux"
 gpio_chip = "{GPIO_LABEL}"
 
 [can]
-interface = "virtual"
+interface = "{self.can_interface}"
 channel = "{self.can_channel}"
 
 [rc]

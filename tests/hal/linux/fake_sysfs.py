@@ -42,7 +42,10 @@ def make_pwm_channel(chip: Path, channel: int) -> Path:
 def read_pwm(chip: Path, channel: int) -> tuple[int, int, int]:
     """(period_ns, duty_cycle_ns, enable) of one channel."""
     pwm = chip / f"pwm{channel}"
-    return tuple(int((pwm / name).read_text()) for name in ("period", "duty_cycle", "enable"))  # type: ignore[return-value]
+    period_ns, duty_cycle_ns, enable = (
+        int((pwm / name).read_text()) for name in ("period", "duty_cycle", "enable")
+    )
+    return period_ns, duty_cycle_ns, enable
 
 
 def make_iio_dac(sysfs: Path, number: int, i2c_bus: int, address: int) -> Path:

@@ -18,8 +18,8 @@ import sys
 import threading
 from pathlib import Path
 
-sys.path.insert(0, str(Path(__file__).resolve().parent))
-import fake_gpiod
+sys.path.insert(0, str(Path(__file__).resolve().parents[3]))  # the repository, for `tests`
+from tests.hal.linux import fake_gpiod
 
 sys.modules["gpiod"] = fake_gpiod
 

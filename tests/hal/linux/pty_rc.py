@@ -36,6 +36,7 @@ class PtyRcLine:
         self.bytes_written = 0
         self.plug()
         self.clock = RealtimeClock()
+        # SimRcTransmitter's uart is typed as SimUart; this line offers the same transmit()
         self.transmitter = SimRcTransmitter(self.clock, self)  # type: ignore[arg-type]
         self._stopping = threading.Event()
         self._thread = threading.Thread(target=self._run, name="pty-rc", daemon=True)

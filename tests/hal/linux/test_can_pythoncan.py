@@ -38,10 +38,11 @@ class Unpluggable:
             self._check()
             return original_recv(timeout)
 
-        def send(message: can.Message, timeout: float | None = None) -> None:
+        def send(msg: can.Message, timeout: float | None = None) -> None:
             self._check()
-            original_send(message, timeout)
+            original_send(msg, timeout)
 
+        # mypy refuses any assignment to a method; this one wraps python-can's own bus methods
         bus.recv, bus.send = recv, send  # type: ignore[method-assign]
         return bus
 
@@ -86,7 +87,12 @@ def test_commands_arrive_stamped_and_other_ids_are_filtered(channel: str, hlc: c
         hlc.send(can.Message(arbitration_id=0x101, data=b"\x01", is_extended_id=True))
         hlc.send(can.Message(arbitration_id=0x100, data=b"\x02\x03\x04", is_extended_id=False))
         frames: list[CanFrame] = []
-        assert _wait(clock, lambda: bool(frames.extend(port.receive()) or frames))
+
+        def received() -> bool:
+            frames.extend(port.receive())
+            return bool(frames)
+
+        assert _wait(clock, received)
     finally:
         port.close()
     assert [(frame.arbitration_id, frame.data) for frame in frames] == [(0x100, b"\x02\x03\x04")]
@@ -142,7 +148,7 @@ def test_bus_off_is_flagged_and_cleared_when_frames_flow(channel: str, hlc: can.
 
 
 def test_a_send_the_controller_refuses_returns_false(channel: str) -> None:
-    class FullQueue(can.BusABC):  # type: ignore[misc]
+    class FullQueue(can.BusABC):
         def __init__(self) -> None:
             super().__init__(channel=channel)
 

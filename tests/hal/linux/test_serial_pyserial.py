@@ -4,7 +4,7 @@ coming back under the same name, clear errors, idempotent close."""
 from __future__ import annotations
 
 import threading
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from pathlib import Path
 
 import pytest
@@ -26,9 +26,9 @@ def line(tmp_path: Path) -> Iterator[PtyRcLine]:
     rc.close()
 
 
-def _wait(clock: LinuxClock, condition: object) -> bool:
+def _wait(clock: LinuxClock, condition: Callable[[], bool]) -> bool:
     for _ in range(ATTEMPTS):
-        if condition():  # type: ignore[operator]
+        if condition():
             return True
         clock.wait_until(clock.now() + 0.01)
     return False
@@ -42,12 +42,12 @@ def test_paced_ibus_frames_from_the_transmitter_parse_whole(line: PtyRcLine) -> 
     line.transmitter.set_steering(0.5)
     line.start()
     try:
-        assert _wait(
-            clock,
-            lambda: bool(
-                frames.extend(parser.feed(stream.read_available(), 0.0)) or len(frames) >= 20
-            ),
-        )
+
+        def twenty_parsed() -> bool:
+            frames.extend(parser.feed(stream.read_available(), 0.0))
+            return len(frames) >= 20
+
+        assert _wait(clock, twenty_parsed)
     finally:
         stream.close()
     assert set(frames) == {line.transmitter.channels}
@@ -66,10 +66,12 @@ def test_a_vanished_port_is_flagged_and_reopened_when_it_returns(line: PtyRcLine
         assert _wait(clock, lambda: stream.connected)
         line.write(b"\x20\x40back")
         received = bytearray()
-        assert _wait(
-            clock,
-            lambda: bool(received.extend(stream.read_available())) or received == b"\x20\x40back",
-        )
+
+        def all_received() -> bool:
+            received.extend(stream.read_available())
+            return received == b"\x20\x40back"
+
+        assert _wait(clock, all_received)
         assert (stream.disconnects, stream.reopens) == (1, 1)
     finally:
         stream.close()

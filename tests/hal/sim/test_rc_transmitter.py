@@ -27,10 +27,12 @@ from bywire.protocol import ibus
 FRAME_S = 32 * 10 / 115_200
 
 
-def running_transmitter(**kwargs: object) -> tuple[VirtualClock, SimUart, SimRcTransmitter]:
+def running_transmitter(
+    *, mapping: RcMapping | None = None, seed: int = 0
+) -> tuple[VirtualClock, SimUart, SimRcTransmitter]:
     clock = VirtualClock()
     uart = SimUart(clock)
-    rc = SimRcTransmitter(clock, uart, **kwargs)  # type: ignore[arg-type]
+    rc = SimRcTransmitter(clock, uart, mapping=mapping, seed=seed)
     rc.start()
     return clock, uart, rc
 

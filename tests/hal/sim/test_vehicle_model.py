@@ -48,17 +48,17 @@ def test_full_throttle_forward_accelerates_towards_top_speed() -> None:
 
 
 @pytest.mark.parametrize(
-    "change",
+    "inputs",
     [
-        {"motors_enable": False},
-        {"motors_forward": False},
-        {"motors_reverse": True},  # both direction lines: the controller refuses to drive
-        {"throttle_volts": 0.0},
+        dataclasses.replace(FULL_FORWARD, motors_enable=False),
+        dataclasses.replace(FULL_FORWARD, motors_forward=False),
+        # both direction lines: the controller refuses to drive
+        dataclasses.replace(FULL_FORWARD, motors_reverse=True),
+        dataclasses.replace(FULL_FORWARD, throttle_volts=0.0),
     ],
     ids=["not-enabled", "no-direction", "both-directions", "no-throttle"],
 )
-def test_no_drive_without_enable_and_exactly_one_direction(change: dict[str, object]) -> None:
-    inputs = dataclasses.replace(FULL_FORWARD, **change)  # type: ignore[arg-type]
+def test_no_drive_without_enable_and_exactly_one_direction(inputs: ActuatorInputs) -> None:
     assert run(VehicleState(), inputs, 2.0).speed_mps == 0.0
 
 
@@ -75,22 +75,24 @@ def test_reverse_gives_negative_speed_up_to_the_reverse_top_speed() -> None:
     assert state.distance_m == pytest.approx(-state.x_m)
 
 
+ROLLING = ActuatorInputs(motors_enable=True, ebrake_release=True)
+
+
 @pytest.mark.parametrize(
-    "brake",
+    "inputs",
     [
-        {"regen_volts": 5.0},
-        {"hydraulic_duty": 1.0},
-        {"ebrake_release": False},
-        {"motors_enable": False},  # coasting: rolling drag alone
+        dataclasses.replace(ROLLING, regen_volts=5.0),
+        dataclasses.replace(ROLLING, hydraulic_duty=1.0),
+        dataclasses.replace(ROLLING, ebrake_release=False),
+        dataclasses.replace(ROLLING, motors_enable=False),  # coasting: rolling drag alone
     ],
     ids=["regen", "hydraulic", "ebrake", "coast"],
 )
 @pytest.mark.parametrize("direction", [1, -1])
 def test_braking_stops_the_robot_and_never_reverses_it(
-    brake: dict[str, object], direction: int
+    inputs: ActuatorInputs, direction: int
 ) -> None:
     start = VehicleState(speed_mps=2.0 * direction)
-    inputs = dataclasses.replace(ActuatorInputs(motors_enable=True, ebrake_release=True), **brake)  # type: ignore[arg-type]
     state = start
     speeds = []
     for _ in range(round(20.0 / STEP_S)):
