@@ -69,7 +69,7 @@ def parse_listen_address(text: str, *, allow_remote: bool) -> Endpoint | ListenA
     host = host.strip("[]") if separator else DEFAULT_HOST
     if host.lower() in LOOPBACK_HOSTS:
         return Endpoint(loopback_host(host), port)
-    return ListenAddress(host or "0.0.0.0", port)  # noqa: S104 -- the configuration asked
+    return ListenAddress(host or "0.0.0.0", port)  # every interface: the configuration asked
 
 
 def parse_endpoint(text: str) -> Endpoint:
