@@ -17,7 +17,7 @@ from bywire.runtime.app import Runtime
 from bywire.telemetry.capture import DEFAULT_RATE_HZ, Capture, TelemetryTap
 from bywire.telemetry.outbox import DEFAULT_CAPACITY, Outbox
 from bywire.telemetry.writer import TelemetryWriter
-from bywire.tools.loopback import Endpoint
+from bywire.tools.loopback import Endpoint, ListenAddress
 
 
 @dataclass(frozen=True, slots=True)
@@ -25,7 +25,7 @@ class FeedOptions:
     """Where the feed goes and how often the state is sampled."""
 
     mcap_path: Path | None = None
-    foxglove: Endpoint | None = None
+    foxglove: Endpoint | ListenAddress | None = None
     rate_hz: float = DEFAULT_RATE_HZ
     capacity: int = DEFAULT_CAPACITY
 
@@ -52,17 +52,30 @@ def check_mcap_path(path: Path) -> None:
         raise ConfigError(f"cannot write {path}: folder {path.parent} does not exist")
 
 
+def new_outbox(options: FeedOptions, *, virtual_time: bool) -> Outbox[Capture]:
+    """The feed's queue: on virtual time it waits for room, on real time it drops the oldest."""
+    return Outbox(options.capacity, wait_when_full=virtual_time)
+
+
 @contextlib.contextmanager
 def open_feed(
-    runtime: Runtime, options: FeedOptions, *, virtual_time: bool
+    runtime: Runtime,
+    options: FeedOptions,
+    *,
+    virtual_time: bool,
+    outbox: Outbox[Capture] | None = None,
+    close_timeout_s: float = 5.0,
 ) -> Iterator[TelemetryFeed]:
     """Attach a feed to `runtime` for the duration of the block.
 
     On virtual time the log times are the simulated clock's and the outbox waits for room rather
     than drop (no loop time exists to protect there); on real time the log times are wall-clock
-    (epoch) times and a full outbox drops its oldest capture.
+    (epoch) times and a full outbox drops its oldest capture. `outbox`: one made beforehand with
+    `new_outbox` (a `TappedCanPort` built with the hardware already queues into it).
+    `close_timeout_s` bounds how long the end waits for the writer to encode what is queued.
     """
-    outbox: Outbox[Capture] = Outbox(options.capacity, wait_when_full=virtual_time)
+    if outbox is None:
+        outbox = new_outbox(options, virtual_time=virtual_time)
     offset_s = 0.0 if virtual_time else time.time() - runtime.clock.now()
     writer = TelemetryWriter(outbox, log_offset_s=offset_s)
     tap = TelemetryTap(runtime, outbox, rate_hz=options.rate_hz)
@@ -75,4 +88,4 @@ def open_feed(
         yield TelemetryFeed(tap, outbox, writer, port)
     finally:
         tap.detach()
-        writer.close()
+        writer.close(close_timeout_s)
