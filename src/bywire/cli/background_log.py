@@ -5,7 +5,7 @@ it then blocks, and a controller that logs from its main thread would block with
 unanswered and hardware never closed. `BackgroundLog` is a logging handler whose `emit` only
 appends to a bounded queue; a daemon thread writes the lines with `os.write` (no Python file
 object, so no lock that the interpreter's exit could wait on). While a view owns the terminal,
-`hold()` keeps the lines back and `release()` lets them out.
+`hold()` keeps the lines back and `resume()` lets them out.
 """
 
 from __future__ import annotations
@@ -52,8 +52,9 @@ class BackgroundLog(logging.Handler):
         with self._ready:
             self._held = True
 
-    def release(self) -> None:
-        """Write the lines held back, and every later one."""
+    def resume(self) -> None:
+        """Write the lines held back, and every later one (not `release`: that is
+        `logging.Handler`'s lock)."""
         with self._ready:
             self._held = False
             self._ready.notify()

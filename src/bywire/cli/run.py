@@ -105,7 +105,7 @@ def run(args: argparse.Namespace) -> int:
     try:
         return _run(args, logs)
     finally:
-        logs.release()
+        logs.resume()
         logs.drain(LOG_DRAIN_S)  # a terminal that does not read does not hold the exit
 
 
@@ -207,7 +207,7 @@ def _start_view(
         terminal_fd=sys.stderr.fileno(),
     )
     logs.hold()
-    stack.callback(logs.release)
+    stack.callback(logs.resume)
     stack.callback(view.stop)
     view.start()
 

@@ -10,7 +10,6 @@ one message's encoding (tens of µs) for it, not the interpreter's 5 ms switch i
 from __future__ import annotations
 
 import json
-import logging
 import threading
 import time
 from pathlib import Path
@@ -26,13 +25,6 @@ from bywire.telemetry.schemas import SCHEMAS
 from bywire.tools.loopback import Endpoint, ListenAddress
 
 POLL_S = 0.05  # how long the writer waits for a capture before looking at `closed` again
-
-# foxglove-sdk's server threads log through Python's logging (pyo3-log), which takes the
-# interpreter lock from a Rust thread; `WebSocketServer.stop()` holds that lock while it waits
-# for those threads. A client that connects, falls behind or leaves makes them log, and the stop
-# then never returns (seen: a controller that wrote its safe outputs and hung). The SDK's
-# failures that matter raise exceptions here (`start_server`, `open_mcap`), so its log is muted.
-logging.getLogger("foxglove").setLevel(logging.CRITICAL + 1)
 
 
 class TelemetryWriter:
