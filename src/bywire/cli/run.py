@@ -37,12 +37,13 @@ from bywire.runtime.app import Runtime
 from bywire.runtime.realtime import RealtimeReport, apply_collector, apply_process
 from bywire.runtime.settings import RuntimeConfig
 from bywire.telemetry.can_tap import TappedCanPort
+from bywire.telemetry.capture import TelemetryTap
 from bywire.telemetry.feed import (
     FeedOptions,
-    TelemetryFeed,
+    FeedSinks,
     check_mcap_path,
     new_outbox,
-    open_feed,
+    open_sinks,
 )
 from bywire.tools.loopback import DEFAULT_HOST, Endpoint, ListenAddress, parse_listen_address
 
@@ -131,29 +132,43 @@ def _run(args: argparse.Namespace, logs: background_log.BackgroundLog) -> int:
         if options is not None:
             outbox = new_outbox(options, virtual_time=False)
             hardware = dataclasses.replace(opened, can=TappedCanPort(opened.can, outbox))
-        runtime = Runtime(hardware, RuntimeConfig.from_robot(robot), notify=notify)
-        requests.runtime = runtime
-        realtime.extend(apply_collector(robot.realtime, runtime).report)
-        _report_realtime(realtime)
-        if options is not None:
-            feed = after_hardware.enter_context(
-                open_feed(
-                    runtime,
+            # The server, the file and the view start before the controller is built: the
+            # loop's first deadlines are counted from then, and must not wait for them.
+            sinks = after_hardware.enter_context(
+                open_sinks(
                     options,
+                    opened.clock,
                     virtual_time=False,
                     outbox=outbox,
                     close_timeout_s=FEED_CLOSE_S,
                 )
             )
-            _announce(options, feed)
+            _announce(options, sinks)
             if args.dashboard:
-                _start_view(after_hardware, runtime, view_url(options, feed), logs)
+                _start_view(after_hardware, requests, view_url(options, sinks), logs)
+        runtime = Runtime(hardware, RuntimeConfig.from_robot(robot), notify=notify)
+        requests.runtime = runtime
+        realtime.extend(apply_collector(robot.realtime, runtime).report)
+        _report_realtime(realtime)
+        _start_schedule_now(runtime)
+        if options is not None and outbox is not None:
+            TelemetryTap(runtime, outbox, rate_hz=options.rate_hz).attach()
         if requests.signals:  # one came while the hardware opened: stop before driving
             runtime.request_stop()
         log.info("running %s (%s backend)", robot.name, robot.backend)  # signals handled
         runtime.run()
     log.info("stopped; outputs de-energised")
     return 0
+
+
+def _start_schedule_now(runtime: Runtime) -> None:
+    """Count the schedule from now, not from when the runtime was built: the start-up work in
+    between (the collector's freeze, the log lines) is no deadline the loop missed, and left
+    as it was it made the first pass look 5-20 ms late (the "start stall")."""
+    now = runtime.clock.now()
+    runtime.started_at = now
+    for task in runtime.tasks:
+        task.first_deadline_s = task.next_deadline_s = now
 
 
 def feed_options(robot: RobotConfig, *, mcap: Path | None, dashboard: bool) -> FeedOptions | None:
@@ -175,14 +190,14 @@ def feed_options(robot: RobotConfig, *, mcap: Path | None, dashboard: bool) -> F
     return options if options.wanted else None
 
 
-def view_url(options: FeedOptions, feed: TelemetryFeed) -> str:
+def view_url(options: FeedOptions, feed: FeedSinks) -> str:
     """Where a view on this machine reaches the feed's server."""
     assert options.foxglove is not None
     host = ANY_ADDRESS_VIEW.get(options.foxglove.host, options.foxglove.host)
     return f"ws://[{host}]:{feed.port}" if ":" in host else f"ws://{host}:{feed.port}"
 
 
-def _announce(options: FeedOptions, feed: TelemetryFeed) -> None:
+def _announce(options: FeedOptions, feed: FeedSinks) -> None:
     if options.mcap_path is not None:
         log.info("recording telemetry to %s", options.mcap_path)
     if options.foxglove is not None:
@@ -193,7 +208,7 @@ def _announce(options: FeedOptions, feed: TelemetryFeed) -> None:
 
 def _start_view(
     stack: contextlib.ExitStack,
-    runtime: Runtime,
+    requests: _StopRequests,
     url: str,
     logs: background_log.BackgroundLog,
 ) -> None:
@@ -202,7 +217,7 @@ def _start_view(
 
     view = ViewProcess(
         url,
-        on_quit=runtime.request_stop,
+        on_quit=requests.quit,
         write_raw=logs.write_raw,
         terminal_fd=sys.stderr.fileno(),
     )
@@ -241,6 +256,10 @@ class _StopRequests:
         self.signals.append(signal_number)
         if self.runtime is not None:
             self.runtime.request_stop()
+
+    def quit(self) -> None:
+        """The operator quit the view (its thread): stop as on a signal."""
+        self(0, None)
 
 
 @contextlib.contextmanager
