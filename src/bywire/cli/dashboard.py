@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import contextlib
 import os
 from pathlib import Path
 
@@ -72,13 +73,13 @@ def attach_url(text: str) -> str:
 
 def run(args: argparse.Namespace) -> int:
     """Watch the feed until q (and, without --attach, stop the simulated robot after)."""
-    _leave_realtime()
     if args.attach is not None:
         given = [f"--{name}" for name in ("duration", "config") if getattr(args, name)]
         if args.scenario != DEFAULT_SCENARIO:
             given.append("--scenario")
         if given:
             raise ConfigError(f"{', '.join(given)}: for the simulated robot, not with --attach")
+        _step_aside()
         return show(attach_url(args.attach), source=args.attach)
     from bywire.dashboard.child import SimFeed  # noqa: PLC0415
 
@@ -89,7 +90,8 @@ def run(args: argparse.Namespace) -> int:
     if args.config is not None:
         load_config(args.config)
         arguments += ["--config", str(args.config)]
-    sim = SimFeed(arguments)
+    sim = SimFeed(arguments)  # at the priority this command was given
+    _step_aside()
     try:
         return show(sim.url, source=f"scenario {Path(args.scenario).stem}")
     finally:
@@ -110,10 +112,15 @@ def show(url: str, *, source: str) -> int:
     return app.return_code or 0
 
 
-def _leave_realtime() -> None:
-    """A view started by `bywire run` inherits its real-time scheduling and CPU pinning: under
-    SCHED_FIFO (only a controller sets it) go back to the normal scheduler and to the CPUs the
-    controller does not use, so that the view never competes with it."""
+VIEW_NICENESS = 10  # a view yields the CPU to anything at normal priority (the controller)
+
+
+def _step_aside() -> None:
+    """The view is never more urgent than the controller it shows: it runs at a lower priority
+    (nice 10), and, started by `bywire run` under SCHED_FIFO (only a controller sets it), it
+    goes back to the normal scheduler and to the CPUs the controller does not use."""
+    with contextlib.suppress(OSError, AttributeError):
+        os.nice(VIEW_NICENESS)
     try:
         if os.sched_getscheduler(0) == os.SCHED_OTHER:
             return

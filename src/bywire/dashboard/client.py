@@ -24,7 +24,7 @@ from bywire.telemetry.schemas import EVENTS_TOPIC, STATE_TOPIC
 SUBPROTOCOLS = [Subprotocol("foxglove.sdk.v1"), Subprotocol("foxglove.websocket.v1")]
 MESSAGE_DATA = 0x01  # binary opcode: u8 op, u32 subscription id, u64 log time, payload
 HEADER = struct.Struct("<BIQ")
-STATE_ID, EVENTS_ID = 1, 2
+STATE_ID, EVENTS_ID, OTHER_ID = 1, 2, 100  # subscription ids: other topics from 100 on
 OPEN_TIMEOUT_S = 5.0
 EVENTS_KEPT = 50
 
@@ -32,8 +32,9 @@ EVENTS_KEPT = 50
 class FeedClient:
     """The newest `/bywire/state` message and the last events of the feed at `url`."""
 
-    def __init__(self, url: str) -> None:
+    def __init__(self, url: str, *, topics: tuple[str, ...] = (STATE_TOPIC, EVENTS_TOPIC)) -> None:
         self.url = url
+        self._topics = topics
         self._lock = threading.Lock()
         self._state: dict[str, Any] | None = None
         self._events: collections.deque[dict[str, Any]] = collections.deque(maxlen=EVENTS_KEPT)
@@ -110,9 +111,9 @@ class FeedClient:
             return False
         ids = {STATE_TOPIC: STATE_ID, EVENTS_TOPIC: EVENTS_ID}
         wanted = [
-            {"id": ids[channel["topic"]], "channelId": channel["id"]}
-            for channel in body["channels"]
-            if channel["topic"] in ids
+            {"id": ids.get(channel["topic"], OTHER_ID + index), "channelId": channel["id"]}
+            for index, channel in enumerate(body["channels"])
+            if channel["topic"] in self._topics
         ]
         if wanted:
             connection.send(json.dumps({"op": "subscribe", "subscriptions": wanted}))
