@@ -1,26 +1,33 @@
-"""`bywire dashboard` from the command line: help, user errors as one line, the run it builds."""
+"""`bywire dashboard` from the command line: help, user errors as one line, the simulated robot
+it starts as a child process and the feed it attaches to."""
 
 from __future__ import annotations
 
-import argparse
+import time
 from pathlib import Path
 
 import pytest
 
-from bywire.cli import dashboard
+from bywire.cli.dashboard import attach_url
 from bywire.cli.main import COMMANDS, main
-from bywire.dashboard.live import LiveRun
-from bywire.hal.sim.clock import RealtimeClock
+from bywire.dashboard.child import SimFeed
+from bywire.dashboard.client import FeedClient
+from bywire.errors import ConfigError
+
+LIMIT_S = 60.0  # generous: a loaded machine is slow to start the simulator
 
 
-def test_help_says_what_it_shows_and_how_to_quit(capsys: pytest.CaptureFixture[str]) -> None:
+def test_help_says_what_it_shows_how_to_attach_and_how_to_quit(
+    capsys: pytest.CaptureFixture[str],
+) -> None:
     with pytest.raises(SystemExit) as exited:
         main(["dashboard", "--help"])
     assert exited.value.code == 0
-    out = capsys.readouterr().out
-    for option in ("--scenario", "--config", "--duration"):
+    out = " ".join(capsys.readouterr().out.split())
+    for option in ("--attach", "--scenario", "--config", "--duration"):
         assert option in out
     assert "Figure 30" in out
+    assert "80x24" in out
     assert "q quits" in out
     assert "dashboard" in COMMANDS
 
@@ -33,37 +40,68 @@ def test_an_unknown_scenario_is_one_line_and_exit_2(capsys: pytest.CaptureFixtur
     assert err.count("\n") == 1
 
 
+@pytest.mark.parametrize(
+    ("argv", "complaint"),
+    [
+        (["--attach", "robot"], "expected [HOST:]PORT or ws://HOST:PORT, got 'robot'"),
+        (["--attach", "70000"], "expected [HOST:]PORT"),
+        (["--attach", "8765", "--scenario", "rc-link-lost"], "--scenario: for the simulated"),
+        (["--attach", "8765", "--duration", "3"], "--duration: for the simulated"),
+    ],
+)
+def test_bad_attach_options_are_one_line_and_exit_2(
+    argv: list[str], complaint: str, capsys: pytest.CaptureFixture[str]
+) -> None:
+    assert main(["dashboard", *argv]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith("bywire dashboard: error: ")
+    assert complaint in err
+    assert err.count("\n") == 1
+
+
 def test_a_missing_config_is_one_line_and_exit_2(
     tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
-    assert main(["dashboard", "--config", str(tmp_path / "none.toml")]) == 2
+    assert main(["dashboard", "--config", f"{tmp_path}/none.toml"]) == 2
     err = capsys.readouterr().err
     assert err.startswith("bywire dashboard: error:")
     assert err.count("\n") == 1
 
 
-def test_it_runs_the_scenario_in_real_time_and_stops_the_controller_after_the_view(
-    monkeypatch: pytest.MonkeyPatch,
-) -> None:
-    shown: list[LiveRun] = []
-
-    def fake_view(live: LiveRun) -> None:
-        assert live.running
-        shown.append(live)
-
-    monkeypatch.setattr(dashboard, "run_app", fake_view)
-    args = argparse.Namespace(scenario="rc-link-lost", config=None, duration=30.0)
-    assert dashboard.run(args) == 0
-    (live,) = shown
-    assert live.sim.scenario.name == "rc-link-lost"
-    assert isinstance(live.sim.world.clock, RealtimeClock)
-    assert not live.running
-    assert live.feed.status == "stopped: outputs safe"
+@pytest.mark.parametrize(
+    ("text", "url"),
+    [
+        ("8765", "ws://127.0.0.1:8765"),
+        ("localhost:8765", "ws://localhost:8765"),
+        ("[::1]:8765", "ws://[::1]:8765"),
+        ("ws://robot.local:8765", "ws://robot.local:8765"),
+    ],
+)
+def test_attach_takes_a_port_a_host_and_port_or_a_url(text: str, url: str) -> None:
+    assert attach_url(text) == url
 
 
-def test_default_scenario_is_the_test_course() -> None:
-    parser = argparse.ArgumentParser()
-    dashboard.configure(parser)
-    live = dashboard.build(parser.parse_args([]))
-    assert live.sim.scenario.name == "test-course"
-    assert not live.running
+def test_attach_refuses_what_is_not_an_address() -> None:
+    with pytest.raises(ConfigError, match="expected"):
+        attach_url("robot:port")
+
+
+def test_without_attach_it_starts_the_simulated_robot_whose_feed_carries_the_scenario() -> None:
+    """The child `bywire dashboard` starts alone: the scenario's robot, on real time, served on
+    a free loopback port; a client sees it latch STOP when the receiver is unplugged."""
+    sim = SimFeed(["--scenario", "rc-link-lost", "--duration", "8"])
+    try:
+        assert sim.url.startswith("ws://127.0.0.1:")
+        client = FeedClient(sim.url).start()
+        try:
+            deadline = time.monotonic() + LIMIT_S
+            while "RC_LOST" not in ((state := client.latest()) or {}).get("latched_causes", []):
+                assert not client.ended, client.status
+                assert time.monotonic() < deadline, f"never latched: {state}"
+                time.sleep(0.05)
+        finally:
+            client.close()
+    finally:
+        status = sim.stop()
+    assert status in (0, 130)  # ended by itself, or stopped by Ctrl-C
+    assert "Traceback" not in "\n".join(sim.lines)

@@ -121,6 +121,12 @@ BAD_VALUES = [
     ("[realtime]\ncpus = 1", "realtime.cpus", "got an integer"),
     ('[realtime]\ngc_mode = "off"', "realtime.gc_mode", '"automatic", "idle"'),
     ("[realtime]\ngc_freeze = 0", "realtime.gc_freeze", "true or false"),
+    ("[telemetry]\nrate_hz = 0", "telemetry.rate_hz", "0.1..1000 Hz"),
+    ('[telemetry]\nmcap = "run.txt"', "telemetry.mcap", "ends in .mcap"),
+    ('[telemetry]\nfoxglove = "0.0.0.0:8765"', "telemetry.foxglove", "allow_remote = true"),
+    ('[telemetry]\nfoxglove = "192.168.1.5:8765"', "telemetry.foxglove", "loopback only"),
+    ('[telemetry]\nfoxglove = "robot"', "telemetry.foxglove", "[HOST:]PORT"),
+    ('[telemetry]\nfoxglove = "70000"', "telemetry.foxglove", "0..65535"),
     ("[sim]\nseed = -1", "sim.seed", "0..4294967295"),
     ("[sim]\nrc_frame_period_s = 0.5", "sim.rc_frame_period_s", "0.001..0.1 s"),
     ("[sim]\ntop_speed_mps = 0", "sim.top_speed_mps", "0.1..30 m/s"),
@@ -139,7 +145,12 @@ def test_bad_value_is_refused_with_key_range_and_file(text: str, key: str, allow
     assert "problems:" not in message  # one bad value, one problem: no knock-on errors
 
 
-EVERY_KEY = [*leaf_keys(as_dict(RobotConfig())), "can.clock_hz"]
+EVERY_KEY = [
+    *leaf_keys(as_dict(RobotConfig())),
+    "can.clock_hz",
+    "telemetry.mcap",
+    "telemetry.foxglove",
+]
 
 
 @pytest.mark.parametrize("key", EVERY_KEY)
@@ -276,3 +287,9 @@ def test_realtime_defaults_need_no_privilege() -> None:
     realtime = RobotConfig().realtime
     assert (realtime.scheduler, realtime.lock_memory, realtime.cpu_set) == ("other", False, None)
     assert realtime.gc_freeze
+
+
+def test_a_remote_telemetry_address_needs_allow_remote() -> None:
+    config = parse_config('[telemetry]\nfoxglove = "0.0.0.0:8765"\nallow_remote = true')
+    assert (config.telemetry.foxglove, config.telemetry.allow_remote) == ("0.0.0.0:8765", True)
+    assert parse_config('[telemetry]\nfoxglove = "8765"').telemetry.foxglove == "8765"

@@ -6,7 +6,9 @@ Timeline, in seconds after the controller starts (D = one phase)::
     0.5      mode switch to CAN: the robot arms (moved through STOP with throttle at zero)
     1        nominal phase: CAN sweep; half-way, mode switch to RC and RC sweep
     1 + D    flood phase: other nodes fill the bus; CAN sweep, then RC sweep as before
-    1 + 2D   stop
+    1 + 2D   stop (with `look`: a "feed" phase, the telemetry feed on and a Foxglove client
+             attached, then a "dashboard" phase, the dashboard's child process attached; nominal
+             load, each as the nominal phase; see `bywire.bench.looking`)
 
 The clock is injected: the benchmark runs on a real-time clock, the tests on a virtual one (where
 every latency is exactly zero); both are metered, to tell the simulator's CPU time apart. The
@@ -28,6 +30,7 @@ from bywire.bench.latency import (
     can_command,
     rc_command,
 )
+from bywire.bench.looking import LOOKING_PHASES, Onlookers
 from bywire.bench.machine import peak_rss_bytes
 from bywire.bench.phases import (
     Marks,
@@ -81,6 +84,7 @@ class BenchSettings:
     phase_s: float = 60.0
     flood_load: float = 1.0
     settle_s: float = 0.2
+    look: bool = False  # the looking phases too: the cost of the feed and of the dashboard
 
 
 @dataclass(frozen=True, slots=True)
@@ -114,21 +118,39 @@ class RealtimeSession:
         self.rc_sweep = RcSweep(self.world)
         self.writes: list[DacWrite] = []
         first_s = self.runtime.started_at + FIRST_PHASE_AT_S + GRID_OFFSET_S
-        self.windows = (
-            PhaseWindow("nominal", first_s, first_s + settings.phase_s, None, settings.settle_s),
+        phase_s = settings.phase_s
+        self.windows: tuple[PhaseWindow, ...] = (
+            PhaseWindow("nominal", first_s, first_s + phase_s, None, settings.settle_s),
             PhaseWindow(
                 "flood",
-                first_s + settings.phase_s,
-                first_s + 2 * settings.phase_s,
+                first_s + phase_s,
+                first_s + 2 * phase_s,
                 settings.flood_load,
                 settings.settle_s,
             ),
         )
+        self.onlookers: Onlookers | None = None
+        if settings.look:
+            self.onlookers = Onlookers(self.runtime, self.world)
+            self.windows += tuple(
+                PhaseWindow(
+                    name,
+                    first_s + k * phase_s,
+                    first_s + (k + 1) * phase_s,
+                    None,
+                    settings.settle_s,
+                )
+                for k, name in enumerate(LOOKING_PHASES, start=2)
+            )
 
     def run(self) -> RealtimeResult:
         """Play the timeline to its end; the controller's outputs end safe."""
         self._schedule()
-        self.runtime.run(until_s=self.windows[-1].end_s + 1.0)
+        try:
+            self.runtime.run(until_s=self.windows[-1].end_s + 1.0)
+        finally:
+            if self.onlookers is not None:
+                self.onlookers.close()
         self.world.stop()
         rss_bytes = peak_rss_bytes()
         commands = self.commands()
@@ -181,6 +203,8 @@ class RealtimeSession:
         if window.flood_load is not None:
             self.world.bus.flood(window.flood_load)
         self._to_can()
+        if self.onlookers is not None and window.name in LOOKING_PHASES:
+            self.onlookers.start(window.name)
         window.started = Marks.take(self.clock, self.world.bus)
         if self.progress is not None:
             first, last = self.windows[0], self.windows[-1]
@@ -193,6 +217,8 @@ class RealtimeSession:
             task.stats = TaskStats()  # the phase's figures stay as they are now
         self.can_sweep.active = self.rc_sweep.active = False
         self.world.bus.stop_flood()
+        if self.onlookers is not None and window.name in LOOKING_PHASES:
+            self.onlookers.stop(window.name)
         self._collect_writes()
 
     def _collect_writes(self) -> None:

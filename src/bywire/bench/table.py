@@ -28,12 +28,18 @@ def machine_line(machine: dict[str, object]) -> str:
     )
 
 
+LOOKING = {
+    "feed": ", telemetry feed on, a Foxglove client attached",
+    "dashboard": ", telemetry feed on, bywire dashboard attached (child process)",
+}
+
+
 def section_title(result: BenchResult, section: str) -> str:
     """What a section of the table measured under."""
     for phase in result.realtime.phases:
         if phase.name == section:
             load = "nominal load" if phase.flood_load is None else "CAN bus flooded"
-            return f"{load}, {phase.duration_s:g} s"
+            return f"{load}{LOOKING.get(phase.name, '')}, {phase.duration_s:g} s"
     return "whole process"
 
 

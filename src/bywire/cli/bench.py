@@ -69,6 +69,13 @@ def configure(parser: argparse.ArgumentParser) -> None:
         " the benchmark's process first, as `bywire run` does; bench/realtime.toml turns each on",
     )
     parser.add_argument(
+        "--look",
+        action="store_true",
+        help="also measure the cost of looking: a phase with the telemetry feed on and a"
+        " Foxglove client (a process of its own) attached, and a phase with `bywire dashboard`"
+        " as a child process on the feed, each at nominal load",
+    )
+    parser.add_argument(
         "--probe",
         action="store_true",
         help="also find where the tail comes from: time every garbage collection and sample the"
@@ -83,7 +90,7 @@ def _settings(args: argparse.Namespace) -> BenchSettings:
         raise ConfigError(f"--duration {phase_s:g}: use 0.5 to {MAX_PHASE_S:g} seconds")
     if not 0.0 < args.flood_load <= 1.0:
         raise ConfigError(f"--flood-load {args.flood_load:g}: use a share in (0, 1]")
-    return BenchSettings(phase_s=phase_s, flood_load=args.flood_load)
+    return BenchSettings(phase_s=phase_s, flood_load=args.flood_load, look=args.look)
 
 
 def run(args: argparse.Namespace) -> int:
@@ -97,7 +104,8 @@ def run(args: argparse.Namespace) -> int:
     applied = RealtimeReport()
     if args.realtime:
         applied = apply_process(robot.realtime, python=sys.executable)
-    with _progress(console, 2 * settings.phase_s) as progress:
+    phases = 4 if settings.look else 2
+    with _progress(console, phases * settings.phase_s) as progress:
         session = RealtimeSession(robot, settings, clock, progress)
         collector = apply_collector(robot.realtime, session.runtime) if args.realtime else None
         if collector is not None:
@@ -115,10 +123,10 @@ def run(args: argparse.Namespace) -> int:
                 clock.stop()
             if collector is not None:
                 collector.release()  # the virtual-time course runs with Python's own collector
-        progress("virtual-time course", 2 * settings.phase_s, 2 * settings.phase_s)
+        progress("virtual-time course", phases * settings.phase_s, phases * settings.phase_s)
         speedup = measure_speedup(robot, DEFAULT_SCENARIO, course_s)
         campaigns = QUICK_CAMPAIGNS if args.quick else VERIFY_CAMPAIGNS
-        progress("verify campaigns", 2 * settings.phase_s, 2 * settings.phase_s)
+        progress("verify campaigns", phases * settings.phase_s, phases * settings.phase_s)
         verify_rate = measure_verify_rate(robot, campaigns, os.cpu_count() or 1)
     result = BenchResult(
         realtime=realtime,
@@ -133,6 +141,7 @@ def run(args: argparse.Namespace) -> int:
             "config": None if args.config is None else str(args.config),
             "course_duration_s": speedup.simulated_s,
             "probe": bool(args.probe),
+            "look": bool(args.look),
             "realtime": applied.as_json() if args.realtime else None,
         },
     )

@@ -10,10 +10,13 @@ from __future__ import annotations
 import argparse
 import contextlib
 import json
+import signal
 import sys
+import threading
 import time
 from collections.abc import Iterator
 from pathlib import Path
+from types import FrameType
 
 from rich.console import Console
 from rich.markup import escape
@@ -37,6 +40,8 @@ from bywire.tools.sim_bridge import serve_bus
 from bywire.tools.sim_record import SimRunRecorder
 
 PROGRESS_PERIOD_S = 0.1  # simulated seconds between progress updates
+STOP_SIGNALS = (signal.SIGINT, signal.SIGTERM, signal.SIGHUP)
+INTERRUPTED = 130  # the shell's status for a run ended by Ctrl-C
 
 
 class _Console(Console):
@@ -152,6 +157,15 @@ def run(args: argparse.Namespace) -> int:
         raise ConfigError("--serve needs --realtime: virtual time outruns any client")
     if args.foxglove is not None and not isinstance(sim.world.clock, RealtimeClock):
         raise ConfigError("--foxglove needs --realtime: virtual time outruns any client")
+    stopped_by: list[int] = []
+    # A signal after the run's end (while the plot is drawn) is noted, never an interruption.
+    with _stop_on_signals(sim, stopped_by):
+        status = _one_run(args, sim, stopped_by)
+    return INTERRUPTED if stopped_by else status
+
+
+def _one_run(args: argparse.Namespace, sim: SimRun, stopped_by: list[int]) -> int:
+    """Play `sim`, write its files, print its summary; 1 if an expectation failed."""
     feed = FeedOptions(args.mcap, args.foxglove, args.telemetry_rate)
     recorder = None if args.record is None else SimRunRecorder.attach(sim, args.record)
     tally = BusTally()
@@ -176,15 +190,48 @@ def run(args: argparse.Namespace) -> int:
     else:
         console = _Console()
         render(summary, console)
-        if args.plot is not None:
-            console.print(f"Plot: {args.plot}", soft_wrap=True)
-        if args.log is not None:
-            console.print(f"CAN log: {args.log} ({frames_logged} frames)", soft_wrap=True)
-        if args.record is not None:
-            console.print(f"Run record: {args.record} (for bywire replay)", soft_wrap=True)
-        if args.mcap is not None:
-            console.print(f"MCAP: {args.mcap} (open it in Foxglove)", soft_wrap=True)
+        for line in _file_lines(args, frames_logged):
+            console.print(line, soft_wrap=True)
+        if stopped_by:
+            name = signal.Signals(stopped_by[0]).name
+            console.print(f"Stopped by {name} after {summary.simulated_s:.1f} s", soft_wrap=True)
     return 0 if summary.passed else 1
+
+
+@contextlib.contextmanager
+def _stop_on_signals(sim: SimRun, received: list[int]) -> Iterator[None]:
+    """Ctrl-C, SIGTERM and SIGHUP end the run at the loop's next pass, as its end would: the
+    outputs are made safe, the log and the recording are closed complete, and the summary and
+    the plot are written for the part that ran. (From the main thread only: Python delivers
+    signals there; a run in another thread keeps the default handlers.)"""
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+
+    def stop(number: int, _frame: FrameType | None) -> None:
+        received.append(number)
+        sim.runtime.request_stop()
+
+    previous = {number: signal.signal(number, stop) for number in STOP_SIGNALS}
+    try:
+        yield
+    finally:
+        for number, handler in previous.items():
+            signal.signal(number, handler)
+
+
+def _file_lines(args: argparse.Namespace, frames_logged: int) -> list[str]:
+    """A line for each file the run wrote."""
+    lines = []
+    if args.plot is not None:
+        lines.append(f"Plot: {args.plot}")
+    if args.log is not None:
+        lines.append(f"CAN log: {args.log} ({frames_logged} frames)")
+    if args.record is not None:
+        lines.append(f"Run record: {args.record} (for bywire replay)")
+    if args.mcap is not None:
+        lines.append(f"MCAP: {args.mcap} (open it in Foxglove)")
+    return lines
 
 
 def _check_one_run(args: argparse.Namespace) -> None:

@@ -23,6 +23,7 @@ from bywire.config.model import (
     SimSection,
     SteeringSection,
     TasksSection,
+    TelemetrySection,
     TimeoutsSection,
     output_lines,
 )
@@ -45,6 +46,7 @@ __all__ = [
     "SimSection",
     "SteeringSection",
     "TasksSection",
+    "TelemetrySection",
     "TimeoutsSection",
     "as_dict",
     "default_sim_config",

@@ -26,6 +26,7 @@ from bywire.config.sections import (
     steering_section,
     supervisor_section,
     tasks_section,
+    telemetry_section,
     timeouts_section,
 )
 from bywire.errors import ConfigError
@@ -97,6 +98,7 @@ def build_robot(data: Mapping[str, object], problems: Problems) -> RobotConfig:
         supervisor=supervisor_section(root.table("supervisor")),
         tasks=tasks_section(root.table("tasks")),
         realtime=realtime_section(root.table("realtime")),
+        telemetry=telemetry_section(root.table("telemetry")),
         sim=sim_section(root.table("sim")),
     )
     root.close()

@@ -193,6 +193,20 @@ def parse_cpu_list(text: str) -> frozenset[int]:
 
 
 @dataclass(frozen=True, slots=True)
+class TelemetrySection:
+    """The telemetry feed of `bywire run` (`bywire.telemetry`): off unless a sink is named.
+
+    `mcap`: a file to record the feed to; `foxglove`: "[HOST:]PORT" to serve it on (Foxglove's
+    WebSocket protocol, no authentication), loopback only unless `allow_remote` says otherwise.
+    """
+
+    rate_hz: float = 50.0
+    mcap: str | None = None
+    foxglove: str | None = None
+    allow_remote: bool = False
+
+
+@dataclass(frozen=True, slots=True)
 class RobotConfig:
     """Everything one robot needs: buses, addresses, lines, calibration, limits and rates."""
 
@@ -212,6 +226,7 @@ class RobotConfig:
     supervisor: SupervisorConfig = field(default_factory=SupervisorConfig)
     tasks: TasksSection = field(default_factory=TasksSection)
     realtime: RealtimeSection = field(default_factory=RealtimeSection)
+    telemetry: TelemetrySection = field(default_factory=TelemetrySection)
     sim: SimSection = field(default_factory=SimSection)
 
 

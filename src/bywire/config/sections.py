@@ -30,6 +30,7 @@ from bywire.config.limits import (
     SPEED_STEP_MPS,
     STANDSTILL_MPS,
     TASK_RATE_HZ,
+    TELEMETRY_RATE_HZ,
     TOLERANCE_NORM,
     TOP_SPEED_MPS,
     WATCHDOG_S,
@@ -45,6 +46,7 @@ from bywire.config.model import (
     SimSection,
     SteeringSection,
     TasksSection,
+    TelemetrySection,
     TimeoutsSection,
     parse_cpu_list,
 )
@@ -59,6 +61,8 @@ from bywire.control.rc_mapping import (
 )
 from bywire.control.steering import SteeringConfig
 from bywire.control.supervisor import SupervisorConfig
+from bywire.errors import ConfigError
+from bywire.tools.loopback import parse_listen_address
 
 
 def can_section(table: Table) -> CanSection:
@@ -304,3 +308,39 @@ def cpu_list(table: Table, name: str, default: str) -> str:
         table.refuse(name, value, f"out of range; allowed {allowed}")
         return default
     return value
+
+
+def telemetry_section(table: Table) -> TelemetrySection:
+    default = TelemetrySection()
+    allow_remote = table.flag("allow_remote", default.allow_remote)
+    section = TelemetrySection(
+        rate_hz=table.number("rate_hz", default.rate_hz, TELEMETRY_RATE_HZ),
+        mcap=_optional_text(table, "mcap"),
+        foxglove=_optional_text(table, "foxglove"),
+        allow_remote=allow_remote,
+    )
+    if section.mcap is not None and not section.mcap.lower().endswith(".mcap"):
+        table.refuse("mcap", section.mcap, "an MCAP file's name ends in .mcap")
+        section = TelemetrySection(section.rate_hz, None, section.foxglove, allow_remote)
+    if section.foxglove is not None:
+        try:
+            parse_listen_address(section.foxglove, allow_remote=allow_remote)
+        except ConfigError as error:
+            reason = str(error)
+            if "loopback only" in reason:
+                reason = (
+                    "loopback only (127.0.0.1, ::1 or localhost) unless"
+                    f" {table.key('allow_remote')} = true: the feed has no authentication"
+                )
+            table.refuse("foxglove", section.foxglove, reason)
+            section = TelemetrySection(section.rate_hz, section.mcap, None, allow_remote)
+    table.close()
+    return section
+
+
+def _optional_text(table: Table, name: str) -> str | None:
+    """A non-empty string, or None when the key is absent (or refused)."""
+    value = table.get(name)
+    if value is MISSING:
+        return None
+    return table.text(name, "") or None

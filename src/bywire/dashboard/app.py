@@ -1,19 +1,21 @@
-"""The `bywire dashboard` terminal program (textual): the feed's latest snapshot, 4 times a second.
+"""The `bywire dashboard` terminal program (textual): the feed's newest state, 4 times a second.
 
-The app never touches the runtime: it reads immutable snapshots from the feed, and on exit calls
-`on_exit` (the live run's stop, which asks the controller to stop and write its safe outputs).
+The app reads decoded `/bywire/state` messages from a `FeedSource` (the Foxglove client) and
+never touches a controller; it fits an 80×24 terminal. `q` quits the view with exit status 0
+(`bywire run --dashboard` takes that as the operator's stop); once the feed has ended the last
+picture stays on screen, with the reason in the title bar.
 """
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from typing import Any, Protocol
 
 from rich.text import Text
 from textual.app import App, ComposeResult
 from textual.containers import Horizontal
 from textual.widgets import DataTable, Footer, Header, Static
 
-from bywire.dashboard.feed import SnapshotFeed
+from bywire.dashboard.snapshot import from_state
 from bywire.dashboard.view import (
     TASK_COLUMNS,
     actuator_panel,
@@ -25,48 +27,50 @@ from bywire.dashboard.view import (
 )
 
 REFRESH_S = 0.25
-PANELS = ("mode", "commands", "actuators", "inputs")
+PANELS = {"mode": "mode", "commands": "command", "actuators": "actuators", "inputs": "inputs"}
+
+
+class FeedSource(Protocol):
+    """What the view reads: the newest state message and a status line."""
+
+    def latest(self) -> dict[str, Any] | None: ...
+
+    @property
+    def status(self) -> str: ...
 
 
 class DashboardApp(App[None]):
-    """Panels for mode and flags, commands, actuators and inputs; the task table below."""
+    """Panels for mode and flags, command, actuators and inputs; the task table below."""
 
     TITLE = "bywire dashboard"
-    BINDINGS = [("q", "quit", "Quit (controller stops, outputs safe)")]  # noqa: RUF012 -- textual's
+    BINDINGS = [("q", "quit", "Quit")]  # noqa: RUF012 -- textual's class attribute
     CSS = """
-    Horizontal { height: auto; }
-    Static { border: round $primary; padding: 0 1; width: 1fr; height: auto; }
+    Horizontal { height: 6; }
+    .panel { border: round $primary; padding: 0 1; width: 1fr; height: 6; }
     #mode { border: round $accent; }
     #tasks { height: auto; border: round $primary; }
     """
 
-    def __init__(
-        self,
-        feed: SnapshotFeed,
-        *,
-        source: str = "",
-        on_exit: Callable[[], object] | None = None,
-    ) -> None:
+    def __init__(self, feed: FeedSource, *, source: str = "") -> None:
         super().__init__()
         self.feed = feed
-        self.sub_title = source
         self._source = source
-        self._on_exit = on_exit
+        self.sub_title = source
         self._rows: set[str] = set()
 
     def compose(self) -> ComposeResult:
         yield Header()
         with Horizontal():
-            yield Static(Text("waiting for the controller…"), id="mode")
-            yield Static(id="commands")
+            yield Static(Text("waiting for the feed…"), id="mode", classes="panel")
+            yield Static(id="commands", classes="panel")
         with Horizontal():
-            yield Static(id="actuators")
-            yield Static(id="inputs")
-        yield DataTable(id="tasks", cursor_type="none")
+            yield Static(id="actuators", classes="panel")
+            yield Static(id="inputs", classes="panel")
+        yield DataTable(id="tasks", cursor_type="none", show_cursor=False)
         yield Footer()
 
     def on_mount(self) -> None:
-        for panel, title in zip(PANELS, ("mode", "command", "actuators", "inputs"), strict=True):
+        for panel, title in PANELS.items():
             self.query_one(f"#{panel}", Static).border_title = title
         table = self.query_one(DataTable)
         table.border_title = "tasks"
@@ -75,24 +79,19 @@ class DashboardApp(App[None]):
         self.refresh_view()
         self.set_interval(REFRESH_S, self.refresh_view)
 
-    def on_unmount(self) -> None:
-        if self._on_exit is not None:
-            self._on_exit()
-
     def refresh_view(self) -> None:
-        """Show the newest snapshot; keep the last one on screen once the run has ended."""
-        snap, status = self.feed.latest(), self.feed.status
-        if status is not None:
-            self.sub_title = f"{self._source} · {status}"
-        if snap is None:
+        """Show the newest state; keep the last one on screen once the feed has ended."""
+        self.sub_title = " · ".join(part for part in (self._source, self.feed.status) if part)
+        state = self.feed.latest()
+        if state is None:
             return
-        self.query_one("#mode", Static).update(mode_panel(snap, status))
+        snap = from_state(state)
+        self.query_one("#mode", Static).update(mode_panel(snap))
         self.query_one("#commands", Static).update(command_panel(snap))
         self.query_one("#actuators", Static).update(actuator_panel(snap))
         self.query_one("#inputs", Static).update(input_panel(snap))
-        rows = [task_cells(row) for row in snap.tasks] + [idle_cells(snap)]
         table = self.query_one(DataTable)
-        for cells in rows:
+        for cells in [task_cells(row) for row in snap.tasks] + [idle_cells(snap)]:
             self._show_row(table, cells)
 
     def _show_row(self, table: DataTable[str], cells: tuple[str, ...]) -> None:

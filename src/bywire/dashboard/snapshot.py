@@ -1,38 +1,21 @@
-"""One frozen picture of the running controller, taken in its loop thread: the dashboard's model.
+"""One picture of the running controller, read from a `/bywire/state` message of the telemetry
+feed: the dashboard's model. Pure: a decoded message in, a frozen snapshot out.
 
-Everything here reads the runtime's mutable state, so `snapshot` must run in the loop's own thread
-(an `on_cycle` observer); the result is immutable and safe to hand to any other thread. The task
-table reuses `bywire sim`'s rows, so the dashboard and the summary agree to the digit.
+The dashboard never touches the controller: it is a client of the feed (Foxglove's WebSocket
+protocol), in a process of its own, and this is all it knows of the robot.
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass, fields
-
-from bywire.control.controller import ControlOutputs
-from bywire.control.error_flags import flag_names
-from bywire.control.validity import age_s
-from bywire.model import ControlMode
-from bywire.runtime.app import Runtime
-from bywire.sim.summary import TaskRow, task_row
+from collections.abc import Mapping
+from dataclasses import dataclass
+from typing import Any
 
 SOURCES = {
-    ControlMode.STOP: "none: STOP holds full brake",
-    ControlMode.RC: "RC transmitter (IBUS)",
-    ControlMode.CAN: "higher-level computer (CAN movement command)",
+    "none": "none: STOP holds full brake",
+    "rc": "RC transmitter (IBUS)",
+    "can": "CAN (higher-level computer)",
 }
-
-
-@dataclass(frozen=True, slots=True)
-class ModeView:
-    """The selected mode and, while STOP is latched, every cause and why; armed: nothing
-    latched."""
-
-    mode: str
-    latch: str | None
-    latch_reason: str | None
-    armed: bool
-    direction_change_held: bool
 
 
 @dataclass(frozen=True, slots=True)
@@ -47,24 +30,12 @@ class CommandView:
 
 
 @dataclass(frozen=True, slots=True)
-class InputView:
-    """How fresh the inputs are and what the readers counted; ages None until first seen."""
-
-    rc_age_s: float | None
-    can_movement_age_s: float | None
-    ibus_frames: int
-    ibus_checksum_errors: int
-    ibus_resyncs: int
-    can_rejected: tuple[tuple[str, int], ...]  # (reason, count), reasons seen only
-    reports_sent: int
-
-
-@dataclass(frozen=True, slots=True)
 class ActuatorView:
-    """Every actuator level the controller commands."""
+    """Every actuator level the controller commands (the DAC's acknowledged volts if known)."""
 
     steering_pulse_ms: float
     throttle_volts: float
+    dac_throttle_volts: float | None
     regen_volts: float
     hydrobrake_duty: float
     ebrake_engaged: bool
@@ -74,83 +45,103 @@ class ActuatorView:
 
 
 @dataclass(frozen=True, slots=True)
+class InputView:
+    """How fresh the inputs are and what arrived; ages None until first seen."""
+
+    rc_age_s: float | None
+    can_movement_age_s: float | None
+    rc_frames: int
+    can_control_frames: int
+    reports_sent: int
+    telemetry_dropped: int
+
+
+@dataclass(frozen=True, slots=True)
+class TaskView:
+    """One row of the schedule table (the thesis' Figure 30, with rates and jitter)."""
+
+    name: str
+    nominal_rate_hz: float
+    rate_hz: float
+    runtime_share_pct: float
+    jitter_max_ms: float
+    overruns: int
+    budget_exceeded: int
+
+
+@dataclass(frozen=True, slots=True)
 class DashboardSnapshot:
     """The whole dashboard at one instant; `elapsed_s` is controller time since it started."""
 
     elapsed_s: float
-    wall_elapsed_s: float
-    mode: ModeView
+    mode: str
+    armed: bool
+    latched: tuple[str, ...]
+    direction_change_held: bool
+    speed_mps: float | None
     command: CommandView
-    inputs: InputView
     actuators: ActuatorView
+    inputs: InputView
     error_flags: tuple[str, ...]
-    tasks: tuple[TaskRow, ...]
+    tasks: tuple[TaskView, ...]
     idle_share_pct: float  # 100 % minus the tasks' runtime shares (Figure 30's IDLE row)
     watchdog_tripped: bool
 
 
-def snapshot(runtime: Runtime, now: float, wall_elapsed_s: float) -> DashboardSnapshot:
-    """The dashboard of `runtime` at `now`; call it from the loop's thread, after a decision.
-
-    Raises ValueError before the first decision (the loop takes one on its first pass).
-    """
-    outputs = runtime.outputs
-    if outputs is None:
-        raise ValueError("the controller has not taken a decision yet")
-    elapsed_s = now - runtime.started_at
-    tasks = tuple(task_row(task, elapsed_s, wall_elapsed_s) for task in runtime.tasks)
-    causes = sorted(outputs.causes, key=lambda cause: cause.name)
-    movement = outputs.movement
+def from_state(state: Mapping[str, Any]) -> DashboardSnapshot:
+    """The dashboard of one decoded `/bywire/state` message (KeyError if it is not one)."""
+    elapsed_s = float(state["elapsed_s"])
+    setpoint, outputs, inputs = state["setpoint"], state["outputs"], state["inputs"]
+    tasks = tuple(_task(task, elapsed_s) for task in state["tasks"])
+    lights = outputs["lights"]
+    direction = "forward" if outputs["forward"] else "reverse" if outputs["reverse"] else "neutral"
     return DashboardSnapshot(
         elapsed_s=elapsed_s,
-        wall_elapsed_s=wall_elapsed_s,
-        mode=ModeView(
-            mode=outputs.mode.name,
-            latch=", ".join(cause.name for cause in causes) or None,
-            latch_reason="; ".join(cause.value for cause in causes) or None,
-            armed=not causes,
-            direction_change_held=outputs.direction_change_held,
-        ),
+        mode=state["mode"],
+        armed=bool(state["armed"]),
+        latched=tuple(state["latched_causes"]),
+        direction_change_held=bool(state["direction_change_held"]),
+        speed_mps=state["speed_mps"],
         command=CommandView(
-            source=SOURCES[outputs.mode],
-            steering_norm=movement.steering_norm,
-            throttle_norm=movement.throttle_norm,
-            brake_norm=movement.brake_norm,
-            gear=movement.gear.name,
+            source=SOURCES.get(state["setpoint_source"], state["setpoint_source"]),
+            steering_norm=setpoint["steering_norm"],
+            throttle_norm=setpoint["throttle_norm"],
+            brake_norm=setpoint["brake_norm"],
+            gear=setpoint["gear"],
         ),
-        inputs=_inputs(runtime, now),
-        actuators=_actuators(outputs),
-        error_flags=tuple(flag_names(outputs.error_flags)),
+        actuators=ActuatorView(
+            steering_pulse_ms=outputs["steering_pulse_ms"],
+            throttle_volts=outputs["throttle_volts"],
+            dac_throttle_volts=outputs["dac_throttle_volts"],
+            regen_volts=outputs["regen_volts"],
+            hydrobrake_duty=outputs["hydrobrake_duty"],
+            ebrake_engaged=outputs["ebrake_engaged"],
+            motors_enabled=outputs["motors_enabled"],
+            direction=direction,
+            lights_on=tuple(name for name, on in lights.items() if on),
+        ),
+        inputs=InputView(
+            rc_age_s=inputs["rc_age_s"],
+            can_movement_age_s=inputs["can_movement_age_s"],
+            rc_frames=inputs["rc_frames"],
+            can_control_frames=inputs["can_control_frames"],
+            reports_sent=state["reports_sent"],
+            telemetry_dropped=state["telemetry_dropped"],
+        ),
+        error_flags=tuple(state["error_flags"]),
         tasks=tasks,
         idle_share_pct=max(0.0, 100.0 - sum(task.runtime_share_pct for task in tasks)),
-        watchdog_tripped=runtime.watchdog is not None and runtime.watchdog.tripped,
+        watchdog_tripped=bool(state["watchdog_tripped"]),
     )
 
 
-def _inputs(runtime: Runtime, now: float) -> InputView:
-    parser = runtime.ibus.parser.stats
-    rejected = sorted((reason.value, n) for reason, n in runtime.can.rejected.items() if n)
-    return InputView(
-        rc_age_s=age_s(runtime.inputs.rc, now),
-        can_movement_age_s=age_s(runtime.inputs.movement, now),
-        ibus_frames=parser.frames,
-        ibus_checksum_errors=parser.checksum_errors,
-        ibus_resyncs=parser.resyncs,
-        can_rejected=tuple(rejected),
-        reports_sent=runtime.reports_sent,
-    )
-
-
-def _actuators(outputs: ControlOutputs) -> ActuatorView:
-    drive, lights = outputs.drive, outputs.lights
-    direction = "forward" if drive.forward else "reverse" if drive.reverse else "neutral"
-    return ActuatorView(
-        steering_pulse_ms=outputs.steering_pulse_s * 1000.0,
-        throttle_volts=drive.throttle_volts,
-        regen_volts=drive.regen_volts,
-        hydrobrake_duty=outputs.hydrobrake_duty,
-        ebrake_engaged=outputs.ebrake_engaged,
-        motors_enabled=drive.enable,
-        direction=direction,
-        lights_on=tuple(f.name for f in fields(lights) if getattr(lights, f.name)),
+def _task(task: Mapping[str, Any], elapsed_s: float) -> TaskView:
+    return TaskView(
+        name=task["name"],
+        nominal_rate_hz=task["nominal_rate_hz"],
+        rate_hz=task["rate_hz"],
+        runtime_share_pct=100.0 * task["spent_s"] / elapsed_s if elapsed_s > 0 else 0.0,
+        jitter_max_ms=task["max_jitter_ms"],
+        overruns=task["overruns"],
+        budget_exceeded=task["budget_exceeded"],
     )

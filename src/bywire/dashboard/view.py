@@ -1,28 +1,23 @@
-"""The dashboard's text: panels and task-table cells from a snapshot (pure, no textual)."""
+"""The dashboard's text: panels and task-table cells from a snapshot (pure, no textual).
+
+Every panel is four lines of at most `PANEL_WIDTH` characters, so that two panels side by side,
+the task table, the header and the footer fit an 80×24 terminal.
+"""
 
 from __future__ import annotations
 
 from rich.text import Text
 
-from bywire.dashboard.snapshot import DashboardSnapshot
-from bywire.sim.summary import TaskRow
+from bywire.dashboard.snapshot import DashboardSnapshot, TaskView
 
-TASK_COLUMNS = (
-    "task",
-    "rate",
-    "nominal",
-    "runtime",
-    "jitter p99",
-    "jitter max",
-    "overruns",
-    "over budget",
-)
+PANEL_WIDTH = 36  # (80 columns / 2) less each panel's border and padding
+TASK_COLUMNS = ("task", "rate", "nominal", "runtime", "jitter max", "overruns", "over budget")
 IDLE_ROW = "idle"
 MODE_STYLES = {"STOP": "bold red", "RC": "bold yellow", "CAN": "bold green"}
 
 
-def _ms(seconds: float | None, digits: int = 0) -> str:
-    return "—" if seconds is None else f"{seconds * 1000:.{digits}f} ms"
+def _ms(seconds: float | None) -> str:
+    return "—" if seconds is None else f"{seconds * 1000:.0f} ms"
 
 
 def _fixed(value: float, spec: str) -> str:
@@ -30,91 +25,75 @@ def _fixed(value: float, spec: str) -> str:
     return format(value + 0.0, spec)
 
 
-def _on(value: bool, yes: str = "on", no: str = "off") -> str:
-    return yes if value else no
+def _fit(line: str) -> str:
+    return line if len(line) <= PANEL_WIDTH else line[: PANEL_WIDTH - 1] + "…"
 
 
-def mode_panel(snap: DashboardSnapshot, status: str | None = None) -> Text:
-    """Mode, latch and error flags (red while any is set)."""
-    mode = snap.mode
+def mode_panel(snap: DashboardSnapshot) -> Text:
+    """Mode, arming, speed, the latch and the error flags (red while any is set)."""
     text = Text("mode ")
-    text.append(mode.mode, style=MODE_STYLES.get(mode.mode, "bold"))
-    text.append(f"  {'armed' if mode.armed else 'LATCHED'}")
-    text.append(f"  t {snap.elapsed_s:.1f} s\n")
-    if mode.latch is not None:
-        text.append(f"latched by {mode.latch}: {mode.latch_reason}\n", style="yellow")
-    if mode.direction_change_held:
-        text.append("direction change held until standstill\n", style="yellow")
+    text.append(snap.mode, style=MODE_STYLES.get(snap.mode, "bold"))
+    text.append(f"  {'armed' if snap.armed else 'LATCHED'}  t {snap.elapsed_s:.1f} s\n")
+    speed = "—" if snap.speed_mps is None else f"{snap.speed_mps:.2f} m/s"
+    text.append(_fit(f"speed {speed}") + "\n", style="bold")
+    latch = ", ".join(snap.latched) or "none"
+    text.append(_fit(f"latched: {latch}") + "\n", style="yellow" if snap.latched else "")
     flags = ", ".join(snap.error_flags) or "none"
-    text.append(f"error flags: {flags}", style="bold red" if snap.error_flags else "green")
     if snap.watchdog_tripped:
-        text.append("\nWATCHDOG TRIPPED", style="bold red")
-    if status:
-        text.append(f"\n{status}", style="bold")
+        flags = f"WATCHDOG; {flags}"
+    problem = bool(snap.error_flags) or snap.watchdog_tripped
+    text.append(_fit(f"flags: {flags}"), style="bold red" if problem else "green")
     return text
 
 
 def command_panel(snap: DashboardSnapshot) -> Text:
     """The selected movement set-point and where it came from."""
     command = snap.command
-    return Text(
-        "\n".join(
-            [
-                f"source   {command.source}",
-                f"steering {_fixed(command.steering_norm, '+.2f')}",
-                f"throttle {_fixed(command.throttle_norm, '.2f')}",
-                f"brake    {_fixed(command.brake_norm, '.2f')}",
-                f"gear     {command.gear}",
-            ]
-        )
-    )
+    lines = [
+        f"source {command.source}",
+        f"steering {_fixed(command.steering_norm, '+.2f')}   gear {command.gear}",
+        f"throttle {_fixed(command.throttle_norm, '.2f')}"
+        f"   brake {_fixed(command.brake_norm, '.2f')}",
+        "direction change held (standstill)" if snap.direction_change_held else "",
+    ]
+    return Text("\n".join(_fit(line) for line in lines))
 
 
 def actuator_panel(snap: DashboardSnapshot) -> Text:
-    """What the actuators are told."""
+    """What the actuators are told (and the DAC's acknowledged volts)."""
     out = snap.actuators
-    motors = f"{_on(out.motors_enabled, 'enabled', 'disabled')} {out.direction}"
-    return Text(
-        "\n".join(
-            [
-                f"steering pulse {out.steering_pulse_ms:.3f} ms",
-                f"throttle {_fixed(out.throttle_volts, '.2f')} V",
-                f"regen {_fixed(out.regen_volts, '.2f')} V",
-                f"hydrobrake duty {_fixed(out.hydrobrake_duty, '.2f')}",
-                f"e-brake {_on(out.ebrake_engaged, 'ENGAGED', 'released')}",
-                f"motors {motors}",
-                f"lights {', '.join(out.lights_on) or 'off'}",
-            ]
-        )
-    )
+    dac = "" if out.dac_throttle_volts is None else f" (DAC {out.dac_throttle_volts:.2f})"
+    motors = f"motors {'enabled' if out.motors_enabled else 'disabled'} {out.direction}"
+    lines = [
+        f"throttle {_fixed(out.throttle_volts, '.2f')} V{dac}",
+        f"{motors}, regen {_fixed(out.regen_volts, '.2f')} V",
+        f"e-brake {'ENGAGED' if out.ebrake_engaged else 'released'}"
+        f", hydro {_fixed(out.hydrobrake_duty, '.2f')}",
+        f"servo {out.steering_pulse_ms:.3f} ms, lights {','.join(out.lights_on) or 'off'}",
+    ]
+    return Text("\n".join(_fit(line) for line in lines))
 
 
 def input_panel(snap: DashboardSnapshot) -> Text:
-    """Input ages and the readers' counts."""
+    """Input ages and counts, reports sent, and what the feed dropped."""
     inputs = snap.inputs
-    rejected = ", ".join(f"{n} {reason}" for reason, n in inputs.can_rejected) or "none"
-    return Text(
-        "\n".join(
-            [
-                f"RC age {_ms(inputs.rc_age_s)}  CAN movement age {_ms(inputs.can_movement_age_s)}",
-                f"IBUS {inputs.ibus_frames} frames, {inputs.ibus_checksum_errors} checksum errors,"
-                f" {inputs.ibus_resyncs} resyncs",
-                f"CAN rejected: {rejected}",
-                f"reports sent {inputs.reports_sent}",
-            ]
-        )
-    )
+    lines = [
+        f"RC age {_ms(inputs.rc_age_s)}, {inputs.rc_frames} frames",
+        f"CAN age {_ms(inputs.can_movement_age_s)}, {inputs.can_control_frames} control",
+        f"reports sent {inputs.reports_sent}",
+        f"feed dropped {inputs.telemetry_dropped}",
+    ]
+    return Text("\n".join(_fit(line) for line in lines))
 
 
-def task_cells(row: TaskRow) -> tuple[str, ...]:
-    """One task's row, in `TASK_COLUMNS` order (Figure 30 with rates and jitter)."""
+def task_cells(row: TaskView) -> tuple[str, ...]:
+    """One task's row, in `TASK_COLUMNS` order."""
     return (
         row.name,
         f"{row.rate_hz:.1f} Hz",
         f"{row.nominal_rate_hz:.0f} Hz",
         f"{row.runtime_share_pct:.2f} %",
-        _ms(row.jitter_p99_s, 3),
-        _ms(row.jitter_max_s, 3),
+        f"{row.jitter_max_ms:.3f} ms",
         str(row.overruns),
         str(row.budget_exceeded),
     )

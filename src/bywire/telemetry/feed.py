@@ -11,13 +11,14 @@ import time
 from collections.abc import Iterator
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Protocol
 
 from bywire.errors import ConfigError
 from bywire.runtime.app import Runtime
 from bywire.telemetry.capture import DEFAULT_RATE_HZ, Capture, TelemetryTap
 from bywire.telemetry.outbox import DEFAULT_CAPACITY, Outbox
 from bywire.telemetry.writer import TelemetryWriter
-from bywire.tools.loopback import Endpoint
+from bywire.tools.loopback import Endpoint, ListenAddress
 
 
 @dataclass(frozen=True, slots=True)
@@ -25,7 +26,7 @@ class FeedOptions:
     """Where the feed goes and how often the state is sampled."""
 
     mcap_path: Path | None = None
-    foxglove: Endpoint | None = None
+    foxglove: Endpoint | ListenAddress | None = None
     rate_hz: float = DEFAULT_RATE_HZ
     capacity: int = DEFAULT_CAPACITY
 
@@ -52,27 +53,77 @@ def check_mcap_path(path: Path) -> None:
         raise ConfigError(f"cannot write {path}: folder {path.parent} does not exist")
 
 
-@contextlib.contextmanager
-def open_feed(
-    runtime: Runtime, options: FeedOptions, *, virtual_time: bool
-) -> Iterator[TelemetryFeed]:
-    """Attach a feed to `runtime` for the duration of the block.
+def new_outbox(options: FeedOptions, *, virtual_time: bool) -> Outbox[Capture]:
+    """The feed's queue: on virtual time it waits for room, on real time it drops the oldest."""
+    return Outbox(options.capacity, wait_when_full=virtual_time)
 
-    On virtual time the log times are the simulated clock's and the outbox waits for room rather
-    than drop (no loop time exists to protect there); on real time the log times are wall-clock
-    (epoch) times and a full outbox drops its oldest capture.
+
+@dataclass(frozen=True, slots=True)
+class FeedSinks:
+    """The writer and its sinks, running before any tap feeds them: `port` the server's."""
+
+    outbox: Outbox[Capture]
+    writer: TelemetryWriter
+    port: int | None
+
+
+class Clock(Protocol):
+    def now(self) -> float: ...
+
+
+@contextlib.contextmanager
+def open_sinks(
+    options: FeedOptions,
+    clock: Clock,
+    *,
+    virtual_time: bool,
+    outbox: Outbox[Capture] | None = None,
+    close_timeout_s: float = 5.0,
+) -> Iterator[FeedSinks]:
+    """The MCAP file, the server and the writer thread, for the duration of the block.
+
+    Started before the controller is built (`bywire run`): the server's start takes tens of ms,
+    which the loop's first deadlines must not wait for. `clock` is the controller's clock (the
+    log times are its times). On virtual time the log times are the simulated clock's and the
+    outbox waits for room rather than drop (no loop time exists to protect there); on real time
+    the log times are wall-clock (epoch) times and a full outbox drops its oldest capture.
+    `outbox`: one made beforehand with `new_outbox` (a `TappedCanPort` built with the hardware
+    already queues into it). `close_timeout_s` bounds how long the end waits for the writer to
+    encode what is queued.
     """
-    outbox: Outbox[Capture] = Outbox(options.capacity, wait_when_full=virtual_time)
-    offset_s = 0.0 if virtual_time else time.time() - runtime.clock.now()
+    if outbox is None:
+        outbox = new_outbox(options, virtual_time=virtual_time)
+    offset_s = 0.0 if virtual_time else time.time() - clock.now()
     writer = TelemetryWriter(outbox, log_offset_s=offset_s)
-    tap = TelemetryTap(runtime, outbox, rate_hz=options.rate_hz)
     try:
         if options.mcap_path is not None:
             writer.record(options.mcap_path)
         port = None if options.foxglove is None else writer.serve(options.foxglove)
-        tap.attach()
         writer.start()
-        yield TelemetryFeed(tap, outbox, writer, port)
+        yield FeedSinks(outbox, writer, port)
     finally:
-        tap.detach()
-        writer.close()
+        writer.close(close_timeout_s)
+
+
+@contextlib.contextmanager
+def open_feed(
+    runtime: Runtime,
+    options: FeedOptions,
+    *,
+    virtual_time: bool,
+    outbox: Outbox[Capture] | None = None,
+    close_timeout_s: float = 5.0,
+) -> Iterator[TelemetryFeed]:
+    """Attach a feed to `runtime` for the duration of the block (`open_sinks`, then the tap)."""
+    with open_sinks(
+        options,
+        runtime.clock,
+        virtual_time=virtual_time,
+        outbox=outbox,
+        close_timeout_s=close_timeout_s,
+    ) as sinks:
+        tap = TelemetryTap(runtime, sinks.outbox, rate_hz=options.rate_hz).attach()
+        try:
+            yield TelemetryFeed(tap, sinks.outbox, sinks.writer, sinks.port)
+        finally:
+            tap.detach()

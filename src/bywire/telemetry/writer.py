@@ -22,7 +22,7 @@ from bywire.telemetry.capture import Capture
 from bywire.telemetry.messages import message
 from bywire.telemetry.outbox import Outbox
 from bywire.telemetry.schemas import SCHEMAS
-from bywire.tools.loopback import Endpoint
+from bywire.tools.loopback import Endpoint, ListenAddress
 
 POLL_S = 0.05  # how long the writer waits for a capture before looking at `closed` again
 
@@ -55,7 +55,7 @@ class TelemetryWriter:
         except Exception as error:  # the SDK raises its own types for I/O failures
             raise ConfigError(f"cannot write the MCAP file {path}: {error}") from None
 
-    def serve(self, endpoint: Endpoint) -> int:
+    def serve(self, endpoint: Endpoint | ListenAddress) -> int:
         """Serve every channel to Foxglove WebSocket clients; returns the port it listens on."""
         try:
             self._server = foxglove.start_server(

@@ -43,6 +43,35 @@ def loopback_host(host: str) -> str:
     return address
 
 
+@dataclass(frozen=True, slots=True)
+class ListenAddress:
+    """Where a server listens when the configuration allows more than loopback (any host)."""
+
+    host: str
+    port: int
+
+    def __str__(self) -> str:
+        return f"[{self.host}]:{self.port}" if ":" in self.host else f"{self.host}:{self.port}"
+
+
+def parse_listen_address(text: str, *, allow_remote: bool) -> Endpoint | ListenAddress:
+    """``[HOST:]PORT`` as `parse_endpoint` reads it; with `allow_remote` any host is taken (an
+    empty one, or 0.0.0.0, listens on every interface), else loopback only (ConfigError)."""
+    if not allow_remote:
+        return parse_endpoint(text)
+    host, separator, port_text = text.rpartition(":")
+    try:
+        port = int(port_text)
+    except ValueError:
+        raise ConfigError(f"expected [HOST:]PORT, got {text!r}") from None
+    if not 0 <= port <= 65535:
+        raise ConfigError(f"port must be 0..65535, got {port}")
+    host = host.strip("[]") if separator else DEFAULT_HOST
+    if host.lower() in LOOPBACK_HOSTS:
+        return Endpoint(loopback_host(host), port)
+    return ListenAddress(host or "0.0.0.0", port)  # every interface: the configuration asked
+
+
 def parse_endpoint(text: str) -> Endpoint:
     """``PORT``, ``HOST:PORT`` or ``[::1]:PORT`` -> Endpoint; the host defaults to 127.0.0.1."""
     host, separator, port_text = text.rpartition(":")

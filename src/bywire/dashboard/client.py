@@ -1,0 +1,135 @@
+"""The dashboard's side of the telemetry feed: a Foxglove WebSocket client in a thread.
+
+It connects to the feed of `bywire run` or `bywire sim --realtime --foxglove`, subscribes to
+`/bywire/state` and `/bywire/events`, and keeps the newest state and the last events for the
+view to read. It is only a client: if it is slow the server drops messages for it, and if it
+stops the controller never knows.
+"""
+
+from __future__ import annotations
+
+import collections
+import json
+import struct
+import threading
+from typing import Any
+
+from websockets.exceptions import ConnectionClosed, InvalidHandshake, InvalidURI
+from websockets.sync.client import ClientConnection, connect
+from websockets.typing import Subprotocol
+
+from bywire.telemetry.schemas import EVENTS_TOPIC, STATE_TOPIC
+
+# The SDK's server speaks protocol v1 under the first name; older servers under the second.
+SUBPROTOCOLS = [Subprotocol("foxglove.sdk.v1"), Subprotocol("foxglove.websocket.v1")]
+MESSAGE_DATA = 0x01  # binary opcode: u8 op, u32 subscription id, u64 log time, payload
+HEADER = struct.Struct("<BIQ")
+STATE_ID, EVENTS_ID, OTHER_ID = 1, 2, 100  # subscription ids: other topics from 100 on
+OPEN_TIMEOUT_S = 5.0
+EVENTS_KEPT = 50
+
+
+class FeedClient:
+    """The newest `/bywire/state` message and the last events of the feed at `url`."""
+
+    def __init__(self, url: str, *, topics: tuple[str, ...] = (STATE_TOPIC, EVENTS_TOPIC)) -> None:
+        self.url = url
+        self._topics = topics
+        self._lock = threading.Lock()
+        self._state: dict[str, Any] | None = None
+        self._events: collections.deque[dict[str, Any]] = collections.deque(maxlen=EVENTS_KEPT)
+        self._status = f"connecting to {url}"
+        self._ended = False
+        self.received = 0
+        self._connection: ClientConnection | None = None
+        self._thread = threading.Thread(target=self._follow, name="bywire-feed", daemon=True)
+
+    def start(self) -> FeedClient:
+        self._thread.start()
+        return self
+
+    def close(self) -> None:
+        connection = self._connection
+        if connection is not None:
+            connection.close()
+        self._thread.join(OPEN_TIMEOUT_S)
+
+    def latest(self) -> dict[str, Any] | None:
+        with self._lock:
+            return self._state
+
+    def events(self) -> list[dict[str, Any]]:
+        with self._lock:
+            return list(self._events)
+
+    @property
+    def status(self) -> str:
+        with self._lock:
+            return self._status
+
+    @property
+    def ended(self) -> bool:
+        """The feed has gone (the controller stopped, or it was never there)."""
+        with self._lock:
+            return self._ended
+
+    def _set_status(self, status: str, *, ended: bool = False) -> None:
+        with self._lock:
+            self._status = status
+            self._ended = ended
+
+    def _follow(self) -> None:
+        try:
+            with connect(
+                self.url, subprotocols=SUBPROTOCOLS, open_timeout=OPEN_TIMEOUT_S, max_size=None
+            ) as connection:
+                self._connection = connection
+                self._subscribe(connection)
+                self._set_status(f"live from {self.url}")
+                for data in connection:
+                    if isinstance(data, bytes) and data and data[0] == MESSAGE_DATA:
+                        self._take(data)
+                    elif isinstance(data, str):
+                        self._subscribe_new(connection, data)
+        except ConnectionClosed:
+            self._set_status("feed ended: the controller stopped", ended=True)
+        except (OSError, InvalidHandshake, InvalidURI, TimeoutError) as error:
+            self._set_status(f"no feed at {self.url}: {error}", ended=True)
+        else:
+            self._set_status("feed ended: the controller stopped", ended=True)
+
+    def _subscribe(self, connection: ClientConnection) -> None:
+        """Read the server's JSON messages up to the channel advertisement, then subscribe."""
+        while True:
+            text = connection.recv(timeout=OPEN_TIMEOUT_S)
+            if isinstance(text, str) and self._subscribe_new(connection, text):
+                return
+
+    def _subscribe_new(self, connection: ClientConnection, text: str) -> bool:
+        body = json.loads(text)
+        if body.get("op") != "advertise":
+            return False
+        ids = {STATE_TOPIC: STATE_ID, EVENTS_TOPIC: EVENTS_ID}
+        wanted = [
+            {"id": ids.get(channel["topic"], OTHER_ID + index), "channelId": channel["id"]}
+            for index, channel in enumerate(body["channels"])
+            if channel["topic"] in self._topics
+        ]
+        if wanted:
+            connection.send(json.dumps({"op": "subscribe", "subscriptions": wanted}))
+        return bool(wanted)
+
+    def _take(self, data: bytes) -> None:
+        _op, subscription, _log_time_ns = HEADER.unpack_from(data)
+        body = json.loads(data[HEADER.size :])
+        with self._lock:
+            self.received += 1
+            if subscription == STATE_ID:
+                self._state = body
+            elif subscription == EVENTS_ID:
+                self._events.append(body)
+
+
+def feed_url(host: str, port: int) -> str:
+    """ws://HOST:PORT, with an IPv6 host in brackets."""
+    return f"ws://[{host}]:{port}" if ":" in host else f"ws://{host}:{port}"
