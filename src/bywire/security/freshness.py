@@ -19,6 +19,7 @@ from __future__ import annotations
 import contextlib
 import json
 import os
+import tempfile
 import threading
 from pathlib import Path
 
@@ -54,7 +55,8 @@ class FreshnessStore:
         return self.start_bounds.get(data_id, 0)
 
     def reserve(self, data_id: int, value: int) -> None:
-        """Make sure `value` is covered on disk before it is sent or accepted."""
+        """Make sure `value` is covered on disk before it is sent or accepted; OSError when
+        the file cannot be written (the value must then not be used)."""
         if self.path is None:
             return
         durable = self._durable.get(data_id, 0)
@@ -66,6 +68,13 @@ class FreshnessStore:
             with self._lock:
                 self._wanted[data_id] = durable + self.block
             self._wake_writer()
+
+    def halt(self) -> None:
+        """Stop writing at once, pending writes lost, as a killed process does (restart tests)."""
+        with self._write_lock:  # a write under way finishes: a rename is atomic either way
+            self.path = None
+        self._closed = True
+        self._pending.set()
 
     def close(self) -> None:
         """Write what is pending and stop the writer thread."""
@@ -98,14 +107,13 @@ class FreshnessStore:
         return bounds
 
     def _flush(self) -> None:
-        if self.path is None:
-            return
         with self._write_lock:
+            path = self.path
             with self._lock:
                 snapshot = dict(self._wanted)
-            if snapshot == self._durable:
+            if path is None or snapshot == self._durable:
                 return
-            _write_atomically(self.path, self._key_check, snapshot)
+            _write_atomically(path, self._key_check, snapshot)
             self._durable = snapshot
 
     def _wake_writer(self) -> None:
@@ -118,13 +126,14 @@ class FreshnessStore:
         while not self._closed:
             self._pending.wait()
             self._pending.clear()
-            self._flush()
+            with contextlib.suppress(OSError):  # the in-line write that follows will say why
+                self._flush()
 
 
 def _write_atomically(path: Path, key_check: str, bounds: dict[int, int]) -> None:
     document = {"key_check": key_check, "bounds": {str(k): v for k, v in sorted(bounds.items())}}
-    temporary = path.with_name(path.name + ".tmp")
-    descriptor = os.open(temporary, os.O_WRONLY | os.O_CREAT | os.O_TRUNC, FILE_MODE)
+    descriptor, temporary = tempfile.mkstemp(prefix=path.name + ".", dir=path.parent)
+    os.fchmod(descriptor, FILE_MODE)
     with os.fdopen(descriptor, "w", encoding="utf-8") as file:
         file.write(json.dumps(document) + "\n")
         file.flush()

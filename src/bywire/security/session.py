@@ -30,23 +30,23 @@ class SecocSigner:
 
     def __init__(self, key: SecocKey, store: FreshnessStore) -> None:
         self._key = key
-        self._store = store
+        self.store = store
         self._next: dict[int, int] = {}
 
     def next_freshness(self, frame_id: int) -> int:
         """The freshness value the next frame of this id will carry."""
-        return self._next.get(frame_id, self._store.bound(frame_id) + 1)
+        return self._next.get(frame_id, self.store.bound(frame_id) + 1)
 
     def authenticator(self, frame_id: int, payload: bytes) -> CanFrame:
         """The cryptographic PDU for this command frame; uses up one freshness value."""
         freshness = self.next_freshness(frame_id)
-        self._store.reserve(frame_id, freshness)
+        self.store.reserve(frame_id, freshness)
         self._next[frame_id] = freshness + 1
         data = secoc.encode_authenticator(self._key, frame_id, payload, freshness)
         return CanFrame(secoc.auth_id(frame_id), data)
 
     def close(self) -> None:
-        self._store.close()
+        self.store.close()
 
 
 class AuthFailure(enum.Enum):
@@ -56,6 +56,7 @@ class AuthFailure(enum.Enum):
     BAD_MAC = "MAC does not verify: a forgery, a replay, another key, or a sender behind"
     ORPHAN = "cryptographic PDU without its command frame"
     MALFORMED = "cryptographic PDU of the wrong length"
+    UNSAVED = "the freshness file cannot be written: nothing is accepted that a restart could reuse"
 
 
 @dataclass(slots=True)
@@ -77,7 +78,7 @@ class SecocReceiver:
         window_s: float = DEFAULT_WINDOW_S,
     ) -> None:
         self._key = key
-        self._store = store
+        self.store = store
         self._window_s = window_s
         self.command_ids = frozenset(command_ids)
         self.crypto_ids = frozenset(secoc.auth_id(i) for i in self.command_ids)
@@ -124,10 +125,13 @@ class SecocReceiver:
             freshness = secoc.verified_freshness(self._key, frame_id, payload, authenticator, last)
             if freshness is not None:
                 del pending[index]
-                self._store.reserve(frame_id, freshness)
+                try:
+                    self.store.reserve(frame_id, freshness)
+                except OSError:
+                    return Outcome(failures=[(frame_id, AuthFailure.UNSAVED)])
                 self.last_accepted[frame_id] = freshness
                 return Outcome(verified=(frame_id, payload))
         return Outcome(failures=[(frame_id, AuthFailure.BAD_MAC)])
 
     def close(self) -> None:
-        self._store.close()
+        self.store.close()
