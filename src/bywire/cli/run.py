@@ -31,6 +31,8 @@ from bywire.hal.opening import LinuxPaths, open_hardware, preflight
 from bywire.runtime.app import Runtime
 from bywire.runtime.realtime import RealtimeReport, apply_collector, apply_process
 from bywire.runtime.settings import RuntimeConfig
+from bywire.security.session import SecocReceiver
+from bywire.security.setup import configured_key, controller_receiver
 
 STOP_SIGNALS = (signal.SIGINT, signal.SIGTERM, signal.SIGHUP)  # SIGHUP: the terminal closed
 log = logging.getLogger(__name__)
@@ -89,8 +91,14 @@ def run(args: argparse.Namespace) -> int:
     # The stop signals are ours until the hardware is closed: a second SIGINT or SIGTERM while
     # the safe outputs are written only asks again, it never cuts the shutdown short.
     requests = _StopRequests()
-    with _stop_on_signals(requests), _device_errors(), open_hardware(robot, paths) as hardware:
-        runtime = Runtime(hardware, RuntimeConfig.from_robot(robot), notify=notify)
+    secoc = _authentication(robot)
+    with (
+        _closing(secoc),
+        _stop_on_signals(requests),
+        _device_errors(),
+        open_hardware(robot, paths) as hardware,
+    ):
+        runtime = Runtime(hardware, RuntimeConfig.from_robot(robot), notify=notify, secoc=secoc)
         requests.runtime = runtime
         realtime.extend(apply_collector(robot.realtime, runtime).report)
         _report_realtime(realtime)
@@ -103,6 +111,38 @@ def run(args: argparse.Namespace) -> int:
             runtime.run()
     log.info("stopped; outputs de-energised")
     return status
+
+
+def _authentication(robot: RobotConfig) -> SecocReceiver | None:
+    """The verifier of authenticated commands ([security] enabled), its state said in one line
+    (the key by its check value only)."""
+    security = robot.security
+    if not security.enabled:
+        log.info("authentication: off (commands carry counter and CRC only)")
+        return None
+    key = configured_key(security)
+    receiver = controller_receiver(security, key)
+    log.info(
+        "authentication: on (SecOC profile 3, key check value %s, freshness %s)",
+        key.check_value,
+        security.freshness_file or "in memory",
+    )
+    if security.freshness_file is not None and not receiver.store.found:
+        log.warning(
+            "%s: no freshness for this key yet: starting at 0; if this key was used before,"
+            " its old frames could be replayed: make a new key (docs/SECURITY.md)",
+            security.freshness_file,
+        )
+    return receiver
+
+
+@contextlib.contextmanager
+def _closing(secoc: SecocReceiver | None) -> Iterator[None]:
+    try:
+        yield
+    finally:
+        if secoc is not None:
+            secoc.close()
 
 
 def _preflight(robot: RobotConfig, paths: LinuxPaths) -> int:

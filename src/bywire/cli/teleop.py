@@ -4,12 +4,16 @@ from __future__ import annotations
 
 import argparse
 import logging
+from pathlib import Path
 from typing import Any
 
 import can
 
 from bywire.cli.bus_options import add_bus_options, bus_from_args
 from bywire.protocol import dbc
+from bywire.security.keys import read_key_file
+from bywire.security.session import SecocSigner
+from bywire.security.setup import sender_signer
 from bywire.teleop.state import HOLD_S, KEYS
 
 DEFAULT_PORT = 29536
@@ -32,7 +36,10 @@ examples:
   bywire teleop -i socketcan -c can0
   # a PEAK adapter at 500 kbit/s
   bywire teleop -i pcan -c PCAN_USBBUS1 --bitrate 500000
+  # a robot with authenticated commands ([security] enabled): the same key file as the robot's
+  bywire teleop -i socketcan -c can0 --key ~/.config/bywire/secoc.key
 """
+DEFAULT_FRESHNESS = Path.home() / ".local" / "state" / "bywire" / "teleop-freshness.json"
 
 
 def configure(parser: argparse.ArgumentParser) -> None:
@@ -40,6 +47,21 @@ def configure(parser: argparse.ArgumentParser) -> None:
     parser.formatter_class = argparse.RawDescriptionHelpFormatter
     parser.epilog = EPILOG
     add_bus_options(parser)
+    parser.add_argument(
+        "--key",
+        type=Path,
+        metavar="FILE",
+        help="sign every command (SecOC, for a robot with [security] enabled) with this key"
+        " file (mode 0600; bywire keys new FILE)",
+    )
+    parser.add_argument(
+        "--freshness",
+        type=Path,
+        metavar="FILE",
+        default=DEFAULT_FRESHNESS,
+        help="with --key: where this sender keeps its freshness values across restarts"
+        " (default: %(default)s)",
+    )
 
 
 def open_bus(args: argparse.Namespace) -> can.BusABC:
@@ -54,16 +76,25 @@ def open_bus(args: argparse.Namespace) -> can.BusABC:
 
 def run(args: argparse.Namespace) -> int:
     """Open the bus and run the terminal program until `q`."""
+    signer = None if args.key is None else _signer(args.key, args.freshness)
     bus = open_bus(args)
     try:
-        run_app(bus)
+        run_app(bus, signer)
     finally:
         bus.shutdown()
+        if signer is not None:
+            signer.close()
     return 0
 
 
-def run_app(bus: can.BusABC) -> None:
+def _signer(key_file: Path, freshness: Path) -> SecocSigner:
+    key = read_key_file(key_file)
+    freshness.parent.mkdir(parents=True, exist_ok=True, mode=0o700)
+    return sender_signer(key, freshness)
+
+
+def run_app(bus: can.BusABC, signer: SecocSigner | None = None) -> None:
     """The textual program on ``bus`` (imported here: textual is only needed by this command)."""
     from bywire.teleop.app import TeleopApp  # noqa: PLC0415 -- keeps `bywire --help` fast
 
-    TeleopApp(bus).run()
+    TeleopApp(bus, signer=signer).run()
