@@ -129,3 +129,16 @@ def test_recorded_authenticated_frames_replayed_later_are_rejected() -> None:
 def test_without_authentication_the_same_replay_drives_the_robot() -> None:
     robot = _replay_run(authenticated=False)  # the check above has teeth
     assert robot.moved(after_s=2.3)
+
+
+def test_the_summary_counts_verification_failures_by_reason() -> None:
+    from bywire.config import default_sim_config  # noqa: PLC0415
+    from bywire.sim.catalog import find_scenario  # noqa: PLC0415
+    from bywire.sim.runner import SimRun  # noqa: PLC0415
+    from bywire.sim.summary import build_summary  # noqa: PLC0415
+
+    sim = SimRun(default_sim_config(), find_scenario("can-impostor-authenticated"))
+    sim.run()
+    rejected = build_summary(sim, 0.0, None).inputs.can_rejected
+    assert rejected["MAC does not verify: a forgery, a replay, another key, or a sender behind"] > 0
+    assert sim.secoc is not None
