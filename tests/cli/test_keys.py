@@ -123,9 +123,17 @@ def test_the_key_reaches_no_output_or_log(tmp_path: Path, caplog: pytest.LogCapt
     config = _secured_config(tmp_path, key)
     outputs += [_bywire("config", "check", str(config))]
     outputs += [_bywire("config", "check", "--json", str(config))]
-    outputs += [_bywire("sim", "--config", str(config), "--duration", "1", "--json")]
+    mcap = tmp_path / "run.mcap"
+    outputs += [
+        _bywire("sim", "--config", str(config), "--duration", "1", "--json", "--mcap", str(mcap))
+    ]
     text = "".join(out + err for _, out, err in outputs) + caplog.text
     assert [status for status, _, _ in outputs] == [0, 0, 0, 0]
+    assert "authentication: on" in outputs[1][1]
     assert secret not in text.lower()
     assert secret.upper() not in text
+    telemetry = mcap.read_bytes()  # the telemetry feed, every channel
+    assert len(telemetry) > 1000
+    assert bytes.fromhex(secret) not in telemetry
+    assert secret.encode() not in telemetry.lower()
     assert repr(load_config(config)).count(secret) == 0
