@@ -299,6 +299,7 @@ SECOC_KEYS = {
     "secoc_plain_p99_ms",
     "secoc_auth_p50_ms",
     "secoc_auth_p99_ms",
+    "secoc_wall_cost_p99_ms",
     "secoc_wire_ms",
 }
 

@@ -22,7 +22,7 @@ def test_a_pair_within_the_window_verifies_and_moves_the_freshness_on() -> None:
     auth = signer.authenticator(MOVEMENT, payload)
     assert receiver.offer(MOVEMENT, payload, 1.000).verified is None  # waits for its PDU
     outcome = receiver.offer(auth.arbitration_id, auth.data, 1.004)
-    assert (outcome.verified, outcome.failures) == ((MOVEMENT, payload), [])
+    assert (outcome.verified, outcome.failures) == ((MOVEMENT, payload), ())
     assert receiver.last_accepted[MOVEMENT] == 1
 
 
@@ -35,16 +35,16 @@ def test_a_pdu_later_than_the_window_leaves_the_command_rejected() -> None:
     assert receiver.expire(1.006) == [(MOVEMENT, AuthFailure.NO_AUTHENTICATOR)]
     late = receiver.offer(auth.arbitration_id, auth.data, 1.006)
     assert late.verified is None
-    assert late.failures == [(MOVEMENT, AuthFailure.ORPHAN)]
+    assert late.failures == ((MOVEMENT, AuthFailure.ORPHAN),)
 
 
 def test_a_malformed_pdu_and_a_displaced_command_are_failures() -> None:
     _, receiver = _ends()
-    assert receiver.offer(0x111, bytes(7), 0.0).failures == [(MOVEMENT, AuthFailure.MALFORMED)]
+    assert receiver.offer(0x111, bytes(7), 0.0).failures == ((MOVEMENT, AuthFailure.MALFORMED),)
     receiver.offer(MOVEMENT, bytes(8), 0.0)
     receiver.offer(MOVEMENT, bytes(8), 0.0)
     third = receiver.offer(MOVEMENT, bytes(8), 0.0)
-    assert third.failures == [(MOVEMENT, AuthFailure.NO_AUTHENTICATOR)]
+    assert third.failures == ((MOVEMENT, AuthFailure.NO_AUTHENTICATOR),)
 
 
 def test_a_frame_slipped_between_a_command_and_its_pdu_does_not_cost_the_command() -> None:
@@ -64,4 +64,4 @@ def test_a_pdu_for_another_id_does_not_verify() -> None:
     auth = signer.authenticator(0x100, payload)
     receiver.offer(0x102, payload, 0.0)
     moved = receiver.offer(0x112, auth.data, 0.001)  # ControlCommand's PDU under Lights' id
-    assert moved.failures == [(0x102, AuthFailure.BAD_MAC)]
+    assert moved.failures == ((0x102, AuthFailure.BAD_MAC),)

@@ -23,7 +23,8 @@ bits, so it can only move forward. Pure: no I/O, no clock, no state.
 from __future__ import annotations
 
 import hmac
-from dataclasses import dataclass
+import struct
+from typing import NamedTuple
 
 from cryptography.hazmat.primitives import cmac
 from cryptography.hazmat.primitives.ciphers import algorithms
@@ -38,6 +39,8 @@ FRESHNESS_BYTES = 8  # the full value, as it enters the MAC
 AUTH_ID_OFFSET = 0x10  # cryptographic PDU id = authentic PDU id + this
 AUTH_PDU_BYTES = 2 + MAC_BYTES
 DATA_ID_BYTES = 2
+_DATA_ID = struct.Struct(">H")
+_FRESHNESS = struct.Struct(">Q")
 
 
 class SecocKey:
@@ -70,11 +73,7 @@ class SecocKey:
 
 def authenticated_data(data_id: int, payload: bytes, freshness: int) -> bytes:
     """What the MAC covers: data id (2 bytes BE) || payload || freshness (8 bytes BE)."""
-    return (
-        data_id.to_bytes(DATA_ID_BYTES, "big")
-        + bytes(payload)
-        + freshness.to_bytes(FRESHNESS_BYTES, "big")
-    )
+    return _DATA_ID.pack(data_id) + bytes(payload) + _FRESHNESS.pack(freshness)
 
 
 def truncated_mac(key: SecocKey, data_id: int, payload: bytes, freshness: int) -> bytes:
@@ -98,8 +97,7 @@ def encode_authenticator(key: SecocKey, data_id: int, payload: bytes, freshness:
     return low.to_bytes(2, "little") + truncated_mac(key, data_id, payload, freshness)
 
 
-@dataclass(frozen=True, slots=True)
-class Authenticator:
+class Authenticator(NamedTuple):
     """A received cryptographic PDU: the freshness' low bits and the truncated MAC."""
 
     freshness_low: int
@@ -110,7 +108,7 @@ def decode_authenticator(data: bytes) -> Authenticator:
     """Split a cryptographic PDU; FrameError when its length is not AUTH_PDU_BYTES."""
     if len(data) != AUTH_PDU_BYTES:
         raise FrameError(f"cryptographic PDU of {len(data)} bytes, expected {AUTH_PDU_BYTES}")
-    return Authenticator(int.from_bytes(data[:2], "little"), bytes(data[2:]))
+    return Authenticator(data[0] | data[1] << 8, bytes(data[2:]))
 
 
 def rebuilt_freshness(last_accepted: int, freshness_low: int) -> int:

@@ -8,6 +8,7 @@ input so that the matching error flag is set while faults keep coming and clears
 from __future__ import annotations
 
 from collections import Counter, deque
+from collections.abc import Sequence
 
 from bywire.control.command_edges import NO_EDGES, CommandEdges, command_edges
 from bywire.control.rc_mapping import RcMapping, RcRequest, rc_request
@@ -122,15 +123,16 @@ class CanReader:
         accepted: list[Stamped[Command]] = []
         self.control_edges = NO_EDGES
         secoc = self._secoc
-        if secoc is not None:
-            self._auth_failed(secoc.expire(now), now)
+        if secoc is not None and (expired := secoc.expire(now)):
+            self._auth_failed(expired, now)
         for frame in self._port.receive():
             frame_id, data = frame.arbitration_id, frame.data
             if secoc is not None and (
                 frame_id in self._command_ids or frame_id in secoc.crypto_ids
             ):
                 outcome = secoc.offer(frame_id, data, now)
-                self._auth_failed(outcome.failures, now)
+                if outcome.failures:
+                    self._auth_failed(outcome.failures, now)
                 if outcome.verified is None:
                     continue
                 frame_id, data = outcome.verified
@@ -163,7 +165,7 @@ class CanReader:
             return None
         return command
 
-    def _auth_failed(self, failures: list[tuple[int, AuthFailure]], now: float) -> None:
+    def _auth_failed(self, failures: Sequence[tuple[int, AuthFailure]], now: float) -> None:
         for frame_id, failure in failures:
             self.auth_failures[failure] += 1
             self.auth_faults.happened(now)

@@ -13,7 +13,7 @@ from __future__ import annotations
 import enum
 from collections import deque
 from collections.abc import Iterable
-from dataclasses import dataclass, field
+from typing import NamedTuple
 
 from bywire.errors import FrameError
 from bywire.hal.ports import CanFrame
@@ -59,12 +59,14 @@ class AuthFailure(enum.Enum):
     UNSAVED = "the freshness file cannot be written: nothing is accepted that a restart could reuse"
 
 
-@dataclass(slots=True)
-class Outcome:
+class Outcome(NamedTuple):
     """What one received frame led to: a verified command (id, payload) and/or failures."""
 
     verified: tuple[int, bytes] | None = None
-    failures: list[tuple[int, AuthFailure]] = field(default_factory=list)
+    failures: tuple[tuple[int, AuthFailure], ...] = ()
+
+
+WAITING = Outcome()  # a command frame held for its cryptographic PDU
 
 
 class SecocReceiver:
@@ -103,22 +105,21 @@ class SecocReceiver:
         return self._pair(secoc.authentic_id(frame_id), data)
 
     def _hold(self, frame_id: int, data: bytes, now: float) -> Outcome:
-        outcome = Outcome()
         pending = self._pending[frame_id]
-        if len(pending) == PENDING_PER_ID:  # displaced without its authenticator
-            pending.popleft()
-            outcome.failures.append((frame_id, AuthFailure.NO_AUTHENTICATOR))
         pending.append((bytes(data), now))
-        return outcome
+        if len(pending) > PENDING_PER_ID:  # displaced without its authenticator
+            pending.popleft()
+            return Outcome(failures=((frame_id, AuthFailure.NO_AUTHENTICATOR),))
+        return WAITING
 
     def _pair(self, frame_id: int, data: bytes) -> Outcome:
         try:
             authenticator = secoc.decode_authenticator(data)
         except FrameError:
-            return Outcome(failures=[(frame_id, AuthFailure.MALFORMED)])
+            return Outcome(failures=((frame_id, AuthFailure.MALFORMED),))
         pending = self._pending[frame_id]
         if not pending:
-            return Outcome(failures=[(frame_id, AuthFailure.ORPHAN)])
+            return Outcome(failures=((frame_id, AuthFailure.ORPHAN),))
         last = self.last_accepted[frame_id]
         for index in range(len(pending) - 1, -1, -1):  # newest first: it is usually the one
             payload = pending[index][0]
@@ -128,10 +129,10 @@ class SecocReceiver:
                 try:
                     self.store.reserve(frame_id, freshness)
                 except OSError:
-                    return Outcome(failures=[(frame_id, AuthFailure.UNSAVED)])
+                    return Outcome(failures=((frame_id, AuthFailure.UNSAVED),))
                 self.last_accepted[frame_id] = freshness
                 return Outcome(verified=(frame_id, payload))
-        return Outcome(failures=[(frame_id, AuthFailure.BAD_MAC)])
+        return Outcome(failures=((frame_id, AuthFailure.BAD_MAC),))
 
     def close(self) -> None:
         self.store.close()
