@@ -137,3 +137,23 @@ def test_the_key_reaches_no_output_or_log(tmp_path: Path, caplog: pytest.LogCapt
     assert bytes.fromhex(secret) not in telemetry
     assert secret.encode() not in telemetry.lower()
     assert repr(load_config(config)).count(secret) == 0
+
+
+def test_a_freshness_file_that_cannot_be_written_stops_the_start(tmp_path: Path) -> None:
+    from bywire.config.security import SecuritySection  # noqa: PLC0415
+    from bywire.errors import ConfigError  # noqa: PLC0415
+    from bywire.protocol.secoc import SecocKey  # noqa: PLC0415
+    from bywire.security.setup import controller_receiver  # noqa: PLC0415
+
+    missing = tmp_path / "no-such-dir" / "freshness.json"
+    security = SecuritySection(enabled=True, key_file="k", freshness_file=str(missing))
+    with pytest.raises(ConfigError, match="cannot write freshness file"):
+        controller_receiver(security, SecocKey(bytes(16)))
+    written = tmp_path / "freshness.json"
+    receiver = controller_receiver(
+        SecuritySection(enabled=True, key_file="k", freshness_file=str(written)),
+        SecocKey(bytes(16)),
+    )
+    receiver.close()
+    assert written.exists()
+    assert stat.S_IMODE(written.stat().st_mode) == 0o600

@@ -69,6 +69,12 @@ class FreshnessStore:
                 self._wanted[data_id] = durable + self.block
             self._wake_writer()
 
+    def save(self) -> None:
+        """Write the bounds as they are (at start-up: the file exists and can be written)."""
+        with self._write_lock:
+            if self.path is not None:
+                _write_atomically(self.path, self._key_check, dict(self._durable))
+
     def halt(self) -> None:
         """Stop writing at once, pending writes lost, as a killed process does (restart tests)."""
         with self._write_lock:  # a write under way finishes: a rename is atomic either way

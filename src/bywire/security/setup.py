@@ -7,6 +7,7 @@ import secrets
 from pathlib import Path
 
 from bywire.config.security import SecuritySection
+from bywire.errors import ConfigError
 from bywire.protocol import dbc
 from bywire.protocol.secoc import KEY_BYTES, SecocKey
 from bywire.security.freshness import FreshnessStore
@@ -22,9 +23,17 @@ def configured_key(security: SecuritySection) -> SecocKey:
 
 
 def controller_receiver(security: SecuritySection, key: SecocKey) -> SecocReceiver:
-    """The CAN reader's verifier, its freshness persisted when the configuration names a file."""
+    """The CAN reader's verifier, its freshness persisted when the configuration names a file.
+
+    The file is written once here, unchanged, before the loop runs: a state directory that
+    cannot be written is an error at start-up, not at the first command.
+    """
     path = None if security.freshness_file is None else Path(security.freshness_file)
     store = FreshnessStore(key, path, security.freshness_block)
+    try:
+        store.save()
+    except OSError as error:
+        raise ConfigError(f"{path}: cannot write freshness file: {error.strerror}") from None
     return SecocReceiver(key, store, dbc.command_ids(), security.pairing_window_s)
 
 
