@@ -127,9 +127,7 @@ class CanReader:
             self._auth_failed(expired, now)
         for frame in self._port.receive():
             frame_id, data = frame.arbitration_id, frame.data
-            if secoc is not None and (
-                frame_id in self._command_ids or frame_id in secoc.crypto_ids
-            ):
+            if secoc is not None and frame_id in secoc.received_ids:
                 outcome = secoc.offer(frame_id, data, now)
                 if outcome.failures:
                     self._auth_failed(outcome.failures, now)

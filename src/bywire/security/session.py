@@ -11,6 +11,7 @@ command. Both take `now` from their caller.
 from __future__ import annotations
 
 import enum
+import hmac
 from collections import deque
 from collections.abc import Iterable
 from typing import NamedTuple
@@ -84,6 +85,8 @@ class SecocReceiver:
         self._window_s = window_s
         self.command_ids = frozenset(command_ids)
         self.crypto_ids = frozenset(secoc.auth_id(i) for i in self.command_ids)
+        self.received_ids = self.command_ids | self.crypto_ids
+        """Every id this receiver takes: the commands and their cryptographic PDUs."""
         self.last_accepted = {i: store.bound(i) for i in self.command_ids}
         self._pending: dict[int, deque[tuple[bytes, float]]] = {
             i: deque() for i in self.command_ids
@@ -100,13 +103,10 @@ class SecocReceiver:
 
     def offer(self, frame_id: int, data: bytes, now: float) -> Outcome:
         """Take one command frame or cryptographic PDU received at `now`."""
-        if frame_id in self.command_ids:
-            return self._hold(frame_id, data, now)
-        return self._pair(secoc.authentic_id(frame_id), data)
-
-    def _hold(self, frame_id: int, data: bytes, now: float) -> Outcome:
-        pending = self._pending[frame_id]
-        pending.append((bytes(data), now))
+        pending = self._pending.get(frame_id)
+        if pending is None:
+            return self._pair(secoc.authentic_id(frame_id), data)
+        pending.append((bytes(data), now))  # a command frame: it waits for its PDU
         if len(pending) > PENDING_PER_ID:  # displaced without its authenticator
             pending.popleft()
             return Outcome(failures=((frame_id, AuthFailure.NO_AUTHENTICATOR),))
@@ -120,11 +120,15 @@ class SecocReceiver:
         pending = self._pending[frame_id]
         if not pending:
             return Outcome(failures=((frame_id, AuthFailure.ORPHAN),))
-        last = self.last_accepted[frame_id]
+        # The acceptance rule (secoc.verified_freshness), the value rebuilt once for every
+        # waiting frame: it depends on the PDU and the last accepted value only.
+        freshness = secoc.rebuilt_freshness(
+            self.last_accepted[frame_id], authenticator.freshness_low
+        )
         for index in range(len(pending) - 1, -1, -1):  # newest first: it is usually the one
             payload = pending[index][0]
-            freshness = secoc.verified_freshness(self._key, frame_id, payload, authenticator, last)
-            if freshness is not None:
+            expected = secoc.truncated_mac(self._key, frame_id, payload, freshness)
+            if hmac.compare_digest(expected, authenticator.mac):
                 del pending[index]
                 try:
                     self.store.reserve(frame_id, freshness)
