@@ -99,6 +99,7 @@ def run(args: argparse.Namespace) -> int:
         open_hardware(robot, paths) as hardware,
     ):
         runtime = Runtime(hardware, RuntimeConfig.from_robot(robot), notify=notify, secoc=secoc)
+        _report_authentication(robot, secoc)
         requests.runtime = runtime
         realtime.extend(apply_collector(robot.realtime, runtime).report)
         _report_realtime(realtime)
@@ -114,17 +115,22 @@ def run(args: argparse.Namespace) -> int:
 
 
 def _authentication(robot: RobotConfig) -> SecocReceiver | None:
-    """The verifier of authenticated commands ([security] enabled), its state said in one line
-    (the key by its check value only)."""
+    """The verifier of authenticated commands ([security] enabled), None when off; its key
+    and freshness file are read before any device opens."""
     security = robot.security
     if not security.enabled:
-        log.info("authentication: off (commands carry counter and CRC only)")
         return None
-    key = configured_key(security)
-    receiver = controller_receiver(security, key)
+    return controller_receiver(security, configured_key(security))
+
+
+def _report_authentication(robot: RobotConfig, receiver: SecocReceiver | None) -> None:
+    """One line when authentication is on (the key by its check value only)."""
+    security = robot.security
+    if receiver is None:
+        return
     log.info(
         "authentication: on (SecOC profile 3, key check value %s, freshness %s)",
-        key.check_value,
+        receiver.key_check_value,
         security.freshness_file or "in memory",
     )
     if security.freshness_file is not None and not receiver.store.found:
@@ -133,7 +139,6 @@ def _authentication(robot: RobotConfig) -> SecocReceiver | None:
             " its old frames could be replayed: make a new key (docs/SECURITY.md)",
             security.freshness_file,
         )
-    return receiver
 
 
 @contextlib.contextmanager

@@ -85,6 +85,7 @@ class SecocReceiver:
         self._window_s = window_s
         self.command_ids = frozenset(command_ids)
         self.crypto_ids = frozenset(secoc.auth_id(i) for i in self.command_ids)
+        self.key_check_value = key.check_value
         self.received_ids = self.command_ids | self.crypto_ids
         """Every id this receiver takes: the commands and their cryptographic PDUs."""
         self.last_accepted = {i: store.bound(i) for i in self.command_ids}
