@@ -293,6 +293,15 @@ EXPECTED_KEYS = {
         "steal_percent",
     )
 } | {"peak_rss_mb", "virtual_speedup", "verify_campaigns_per_min"}
+SECOC_KEYS = {
+    "secoc_cost_p99_ms",
+    "secoc_plain_p50_ms",
+    "secoc_plain_p99_ms",
+    "secoc_auth_p50_ms",
+    "secoc_auth_p99_ms",
+    "secoc_wall_cost_p99_ms",
+    "secoc_wire_ms",
+}
 
 
 def test_json_has_every_figure_as_a_number_with_its_target(bench_result: BenchResult) -> None:
@@ -370,8 +379,10 @@ def test_bench_quick_json_runs_end_to_end_and_gives_every_figure(
     assert main(["bench", "--quick", "--json"]) == 0
     document = json.loads(capsys.readouterr().out)
     figures = {figure["key"]: figure for figure in document["figures"]}
-    assert set(figures) == EXPECTED_KEYS
+    assert set(figures) == EXPECTED_KEYS | SECOC_KEYS
     assert all(isinstance(figure["value"], float) for figure in figures.values())
+    assert figures["secoc_cost_p99_ms"]["target"] == "≤ 0.05 ms"
+    assert document["secoc"]["authenticated"]["samples"] == 2000
     assert document["settings"]["quick"] is True
     assert document["settings"]["realtime"] is None  # no --realtime: the process as it was
     assert document["tail"] is None  # no --probe

@@ -46,10 +46,12 @@ def test_lines_from_several_threads_all_arrive_and_the_handler_lock_is_free(
     read_fd, write_fd = pipe
     handler = BackgroundLog(write_fd)
     logger = _logger(handler, "bywire.test.threads")
-    threads = [
-        threading.Thread(target=lambda n=n: [logger.info("t%d %d", n, i) for i in range(50)])
-        for n in range(4)
-    ]
+
+    def write_lines(n: int) -> None:
+        for i in range(50):
+            logger.info("t%d %d", n, i)
+
+    threads = [threading.Thread(target=write_lines, args=(n,)) for n in range(4)]
     for thread in threads:
         thread.start()
     for thread in threads:

@@ -64,6 +64,7 @@ def test_codegen_writes_header_and_source(
     assert main(["dbc", "codegen", str(outdir), "--name", "robot"]) == 0
     written = capsys.readouterr().out.split()
     names = ["robot.h", "robot.c", "robot_protection.h", "robot_protection.c"]
+    names += ["robot_secoc.h", "robot_secoc.c"]
     assert written == [str(outdir / name) for name in names]
     assert "uint8_t robot_command_crc(" in (outdir / "robot_protection.h").read_text("utf-8")
     assert "ROBOT_MOVEMENT_COMMAND_FRAME_ID" in (outdir / "robot.h").read_text(encoding="utf-8")

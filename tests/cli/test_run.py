@@ -24,6 +24,7 @@ from typing import Any
 
 import pytest
 
+from bywire.cli.main import main
 from bywire.model import ControlMode, Gear
 from tests.hal.linux import fake_gpiod
 from tests.hal.linux.bench import Bench, make_bench
@@ -46,13 +47,14 @@ class Robot:
         user: int | None = None,
         notify_socket: Path | None = None,
         extra: tuple[str, ...] = (),
+        config_lines: tuple[str, ...] = (),
     ) -> None:
         self.bench, self.line = bench, line
         self.hlc = bench.root / "hlc"
         self.hlc.mkdir(exist_ok=True)
         self.hlc.chmod(0o777)  # the higher-level computer writes here, as whichever user runs
         config = bench.root / "robot.toml"
-        config.write_text(bench.config_text())
+        config.write_text(bench.config_text() + "".join(f"\n{line}" for line in config_lines))
         args = ["run", "--config", str(config), "--sysfs-root", str(bench.sysfs)]
         args += ["--dev-root", str(bench.dev), *extra]
         command = [sys.executable, str(LAUNCHER), str(self.hlc), bench.can_channel, "--", *args]
@@ -163,6 +165,38 @@ def test_ibus_and_can_drive_the_outputs_and_a_signal_ends_safe(
         robot.kill()
     _assert_de_energised(bench)
     assert "Traceback" not in robot.errors()
+
+
+def test_authenticated_commands_drive_and_the_key_stays_out_of_the_log(
+    tmp_path: Path, line: PtyRcLine
+) -> None:
+    bench = make_bench(tmp_path)
+    key = tmp_path / "robot.key"
+    assert main(["keys", "new", str(key)]) == 0
+    security = (
+        "[security]",
+        "enabled = true",
+        f'key_file = "{key}"',
+        f'freshness_file = "{tmp_path / "freshness.json"}"',
+    )
+    (bench.root / "hlc").mkdir()
+    shutil.copy(key, bench.root / "hlc" / "hlc.key")  # the computer holds the same key
+    robot = Robot(bench, line, config_lines=security)
+    try:
+        robot.command(steering=-0.6, throttle=0.0, brake=0.0, gear="forward")
+        robot.wait_for("armed in STOP", lambda: robot.reports() == _stop_armed(robot))
+        line.transmitter.set_mode(ControlMode.CAN)
+        robot.wait_for("CAN mode in the reports", lambda: robot.reports()["mode"] == "CAN")
+        robot.wait_for("CAN steering left", lambda: _steering_ns(bench) < CENTRE_NS - 200_000)
+        robot.process.send_signal(signal.SIGTERM)
+        assert robot.finish() == 0, robot.errors()
+    finally:
+        robot.kill()
+    _assert_de_energised(bench)
+    log = robot.errors()
+    assert "authentication: on (SecOC profile 3" in log
+    assert key.read_text().strip() not in log.lower()
+    assert json.loads((tmp_path / "freshness.json").read_text())["bounds"]["257"] > 0
 
 
 @pytest.fixture

@@ -105,10 +105,8 @@ def test_a_foxglove_client_attaches_to_the_server_the_telemetry_section_asks_for
     tmp_path: Path, line: PtyRcLine
 ) -> None:
     bench = make_bench(tmp_path)
-    bench.config_text = lambda: type(bench).config_text(  # type: ignore[method-assign]
-        bench, telemetry='[telemetry]\nfoxglove = "127.0.0.1:0"\nrate_hz = 20'
-    )
-    robot = Robot(bench, line)
+    telemetry = ('[telemetry]\nfoxglove = "127.0.0.1:0"\nrate_hz = 20',)
+    robot = Robot(bench, line, config_lines=telemetry)
     errors = StderrLines(robot)
     try:
         url = errors.find(robot, r"serving telemetry to Foxglove on (ws://127\.0\.0\.1:\d+)")
@@ -156,8 +154,12 @@ def test_bad_telemetry_settings_are_one_line_exit_2_and_nothing_opened(
     complaint: str,
 ) -> None:
     bench = make_bench(tmp_path)
-    bench.config_text = lambda: type(bench).config_text(bench, telemetry=telemetry)  # type: ignore[method-assign]
-    robot = Robot(bench, line, extra=tuple(arg.format(tmp=tmp_path) for arg in extra))
+    robot = Robot(
+        bench,
+        line,
+        extra=tuple(arg.format(tmp=tmp_path) for arg in extra),
+        config_lines=(telemetry,),
+    )
     status = robot.finish()
     errors = robot.errors().strip().splitlines()
     assert status == 2

@@ -15,6 +15,7 @@ import pytest
 
 from bywire.cli import teleop
 from bywire.cli.main import main
+from bywire.security.session import SecocSigner
 from bywire.teleop.state import KEYS
 
 
@@ -60,7 +61,9 @@ def test_the_app_runs_on_the_opened_bus_which_is_closed_after(
     monkeypatch: pytest.MonkeyPatch,
 ) -> None:
     seen: list[can.BusABC] = []
-    monkeypatch.setattr(teleop, "run_app", lambda bus, gamepad: seen.append(bus))
+    monkeypatch.setattr(
+        teleop, "run_app", lambda bus, _gamepad=None, _signer=None: seen.append(bus)
+    )
     assert main(["teleop", "-i", "virtual", "-c", "teleop-cli-test"]) == 0
     [bus] = seen
     assert bus.channel_info.startswith("Virtual bus")
@@ -170,3 +173,30 @@ def test_an_unreadable_gamepad_names_the_input_group() -> None:
     assert err.count("\n") == 1, err
     assert f"cannot read the gamepad {device}: permission denied" in err
     assert "add yourself to the group 'input'" in err
+
+
+def test_with_a_key_every_command_is_signed_and_freshness_kept(
+    monkeypatch: pytest.MonkeyPatch, tmp_path: Path
+) -> None:
+    signers: list[SecocSigner | None] = []
+    monkeypatch.setattr(teleop, "run_app", lambda _bus, signer=None: signers.append(signer))
+    key = tmp_path / "k.key"
+    assert main(["keys", "new", str(key)]) == 0
+    freshness = tmp_path / "state" / "teleop.json"
+    argv = ["teleop", "-i", "virtual", "-c", "teleop-key-test", "--key", str(key)]
+    assert main([*argv, "--freshness", str(freshness)]) == 0
+    [signer] = signers
+    assert signer is not None
+    assert signer.authenticator(0x101, bytes(8)).arbitration_id == 0x111
+    signer.close()
+    assert freshness.exists()
+
+
+def test_a_key_others_can_read_is_refused_before_the_bus_opens(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    key = tmp_path / "k.key"
+    assert main(["keys", "new", str(key)]) == 0
+    key.chmod(0o644)
+    assert main(["teleop", "-i", "virtual", "-c", "x", "--key", str(key)]) == 2
+    assert "key file has mode 0644" in capsys.readouterr().err

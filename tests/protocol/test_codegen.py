@@ -230,3 +230,93 @@ def test_the_c_protection_gives_the_python_side_bytes(generated: Path) -> None:
     assert output[-1] == "4b"  # CRC-8/SAE-J1850's check value
     # OK after the previous counter, BAD_COUNTER on a repeat, BAD_CRC under another id
     assert output[:-1] == [f"{payload.hex()} 0 -3 -2" for _frame_id, payload in frames]
+
+
+# --- the SecOC signing helper: AES-128, CMAC, the cryptographic PDU ------------------------------
+
+SECOC_PROGRAM = """
+#include <stdio.h>
+#include <string.h>
+#include "albert_secoc.h"
+
+static void read_hex(const char *hex, uint8_t *out, size_t length) {
+    for (size_t i = 0; i < length; i++) {
+        unsigned int byte;
+        sscanf(hex + 2 * i, "%2x", &byte);
+        out[i] = (uint8_t)byte;
+    }
+}
+
+/* stdin: "cmac KEY MESSAGE|-" -> the 16-byte CMAC; "pdu KEY ID PAYLOAD FRESHNESS" -> 8 bytes. */
+int main(void) {
+    char kind[8], key_hex[33], text[200];
+    while (scanf("%7s %32s", kind, key_hex) == 2) {
+        uint8_t key[16], out[16], data[100];
+        struct albert_secoc_key_t expanded;
+        read_hex(key_hex, key, 16);
+        albert_secoc_key_init(&expanded, key);
+        if (strcmp(kind, "cmac") == 0) {
+            scanf("%199s", text);
+            size_t length = strcmp(text, "-") == 0 ? 0 : strlen(text) / 2;
+            read_hex(text, data, length);
+            albert_cmac(&expanded, data, length, out);
+            for (int i = 0; i < 16; i++) printf("%02x", out[i]);
+        } else {
+            unsigned int frame_id;
+            unsigned long long freshness;
+            scanf("%x %199s %llx", &frame_id, text, &freshness);
+            size_t length = strlen(text) / 2;
+            read_hex(text, data, length);
+            albert_secoc_authenticate(&expanded, frame_id, data, length, freshness, out);
+            printf("%03x ", (unsigned int)albert_secoc_auth_id(frame_id));
+            for (int i = 0; i < 8; i++) printf("%02x", out[i]);
+        }
+        printf("\\n");
+    }
+    return 0;
+}
+"""
+
+RFC4493_KEY = "2b7e151628aed2a6abf7158809cf4f3c"
+RFC4493_MESSAGE = (
+    "6bc1bee22e409f96e93d7e117393172aae2d8a571e03ac9c9eb76fac45af8e51"
+    "30c81c46a35ce411e5fbc1191a0a52eff69f2445df4f9b17ad2b417be66c3710"
+)
+RFC4493_MACS = {
+    0: "bb1d6929e95937287fa37d129b756746",
+    16: "070a16b46b4d4144f79bdd9dd04a287c",
+    40: "dfa66747de9ae63030ca32611497c827",
+    64: "51f0bebf7e3b9d92fc49741779363cfe",
+}
+
+
+def test_the_c_secoc_helper_matches_rfc_4493_and_the_python_side(generated: Path) -> None:
+    from bywire.protocol import secoc  # noqa: PLC0415
+
+    (generated / "secoc_test.c").write_text(SECOC_PROGRAM, encoding="utf-8")
+    _gcc("secoc_test.c", "albert_secoc.c", "-o", "secoc_test", cwd=generated)
+    lines = [
+        f"cmac {RFC4493_KEY} {RFC4493_MESSAGE[: 2 * length] or '-'}" for length in RFC4493_MACS
+    ]
+    generator = random.Random(15)
+    cases = []
+    for command in _commands():
+        key = generator.randbytes(16)
+        frame_id, payload = dbc.encode_command(command)
+        freshness = generator.choice([0, 1, 0xFFFF, 0x1_0000, generator.getrandbits(64)])
+        cases.append((key, frame_id, payload, freshness))
+        lines.append(f"pdu {key.hex()} {frame_id:x} {payload.hex()} {freshness:x}")
+    output = subprocess.run(
+        [str(generated / "secoc_test")],
+        input="\n".join(lines) + "\n",
+        capture_output=True,
+        text=True,
+        check=True,
+    ).stdout.splitlines()
+    assert output[: len(RFC4493_MACS)] == list(RFC4493_MACS.values())
+    expected = [
+        f"{secoc.auth_id(frame_id):03x} "
+        + secoc.encode_authenticator(secoc.SecocKey(key), frame_id, payload, freshness).hex()
+        for key, frame_id, payload, freshness in cases
+    ]
+    assert output[len(RFC4493_MACS) :] == expected

@@ -13,8 +13,11 @@ from bywire.hal.sim.timers import PeriodicTimer
 from bywire.hal.sim.world import SimWorld
 from bywire.model import ControlMode, Gear
 from bywire.protocol import dbc
+from bywire.protocol.secoc import SecocKey
 from bywire.runtime.app import Runtime
 from bywire.runtime.settings import RuntimeConfig
+from bywire.security.freshness import FreshnessStore
+from bywire.security.session import SecocReceiver, SecocSigner
 from bywire.teleop.app import TeleopApp
 from bywire.teleop.frames import SEND_PERIOD_S
 from bywire.teleop.reports import speed_mps
@@ -33,12 +36,19 @@ class Rig:
     app: TeleopApp
 
     @classmethod
-    def build(cls) -> Rig:
+    def build(cls, key: SecocKey | None = None) -> Rig:
+        """`key`: authenticated commands, teleop signing, the controller verifying."""
         clock = VirtualClock()
         world = SimWorld.create(clock)
-        runtime = Runtime(world.hardware, RuntimeConfig())
-        bus = SimPortBus(world.bus.attach("teleop", accept_ids=dbc.report_ids()))
-        app = TeleopApp(bus, now=clock.now, auto_tick=False, notifier=False)
+        receiver = (
+            None if key is None else SecocReceiver(key, FreshnessStore(key), dbc.command_ids())
+        )
+        runtime = Runtime(world.hardware, RuntimeConfig(), secoc=receiver)
+        port = world.bus.attach("teleop", accept_ids=dbc.report_ids(), tx_mailboxes=6)
+        signer = None if key is None else SecocSigner(key, FreshnessStore(key))
+        app = TeleopApp(
+            SimPortBus(port), now=clock.now, auto_tick=False, notifier=False, signer=signer
+        )
         return cls(clock, world, runtime, app)
 
     def start(self) -> None:
@@ -118,3 +128,10 @@ async def _drive(rig: Rig) -> None:
 
 def test_key_presses_move_the_simulated_robot_and_the_panel_shows_its_reports() -> None:
     asyncio.run(_drive(Rig.build()))
+
+
+def test_signed_key_presses_move_a_robot_that_verifies_them() -> None:
+    rig = Rig.build(SecocKey(bytes(range(16))))
+    asyncio.run(_drive(rig))
+    assert rig.runtime.can.auth_failures == {}
+    assert rig.app.frames_sent % 2 == 0  # every command with its cryptographic PDU

@@ -40,6 +40,8 @@ def section_title(result: BenchResult, section: str) -> str:
         if phase.name == section:
             load = "nominal load" if phase.flood_load is None else "CAN bus flooded"
             return f"{load}{LOOKING.get(phase.name, '')}, {phase.duration_s:g} s"
+    if section == "secoc":
+        return "authenticated commands (SecOC), per command"
     return "whole process"
 
 

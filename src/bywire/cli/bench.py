@@ -19,6 +19,7 @@ from bywire.bench.figures import BenchResult, as_json
 from bywire.bench.machine import machine_info
 from bywire.bench.realtime import BenchSettings, RealtimeSession
 from bywire.bench.realtime import Progress as ProgressCallback
+from bywire.bench.secoc import measure_secoc_cost
 from bywire.bench.table import render, render_tail, summary_line
 from bywire.bench.tail import ProbedClock
 from bywire.bench.virtual import measure_speedup, measure_verify_rate
@@ -31,6 +32,8 @@ QUICK_PHASE_S = 1.0
 QUICK_COURSE_S = 10.0
 VERIFY_CAMPAIGNS = 100  # bywire verify's ten-second campaigns timed on every core
 QUICK_CAMPAIGNS = 8
+SECOC_SAMPLES = 20_000
+QUICK_SECOC_SAMPLES = 2_000
 MAX_PHASE_S = 3600.0
 
 
@@ -128,11 +131,16 @@ def run(args: argparse.Namespace) -> int:
         campaigns = QUICK_CAMPAIGNS if args.quick else VERIFY_CAMPAIGNS
         progress("verify campaigns", phases * settings.phase_s, phases * settings.phase_s)
         verify_rate = measure_verify_rate(robot, campaigns, os.cpu_count() or 1)
+        progress("SecOC verification", 2 * settings.phase_s, 2 * settings.phase_s)
+        secoc = measure_secoc_cost(
+            QUICK_SECOC_SAMPLES if args.quick else SECOC_SAMPLES, robot.can.bitrate_bps
+        )
     result = BenchResult(
         realtime=realtime,
         speedup=speedup,
         verify_rate=verify_rate,
         machine=machine,
+        secoc=secoc,
         settings={
             "phase_s": settings.phase_s,
             "flood_load": settings.flood_load,

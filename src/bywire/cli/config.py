@@ -13,8 +13,9 @@ import json
 import sys
 from pathlib import Path
 
-from bywire.config import as_dict, describe, load_config
+from bywire.config import RobotConfig, as_dict, describe, load_config
 from bywire.config.hazards import unsafe_combinations
+from bywire.security.keys import read_key_file
 
 
 def configure(parser: argparse.ArgumentParser) -> None:
@@ -28,6 +29,18 @@ def configure(parser: argparse.ArgumentParser) -> None:
     check.add_argument("--json", action="store_true", help="print the resolved values as JSON")
 
 
+def authentication_line(config: RobotConfig) -> str:
+    """Whether commands must be authenticated, and with which key (by check value only)."""
+    security = config.security
+    if not security.enabled or security.key_file is None:
+        return "authentication: off (commands carry counter and CRC only; [security] enabled)"
+    key = read_key_file(Path(security.key_file))
+    return (
+        f"authentication: on (SecOC profile 3, CMAC/AES-128; key {security.key_file},"
+        f" check value {key.check_value})"
+    )
+
+
 def run(args: argparse.Namespace) -> int:
     config = load_config(args.file)
     for combination in unsafe_combinations(config):
@@ -36,5 +49,6 @@ def run(args: argparse.Namespace) -> int:
         print(json.dumps(as_dict(config), indent=2))
         return 0
     print(f"# {args.file}: valid; robot {config.name!r}, backend {config.backend!r}")
+    print(f"# {authentication_line(config)}")
     print(describe(config), end="")
     return 0

@@ -12,7 +12,7 @@ from cantools.database.can import Database, Message, Signal
 from cantools.database.can.c_source import generate
 
 from bywire.errors import BywireError
-from bywire.protocol import protection_c
+from bywire.protocol import protection_c, secoc_c
 from bywire.protocol.dbc import database, load_user_database
 
 
@@ -152,7 +152,8 @@ def _number(value: float | None) -> str:
 
 def write_c_sources(loaded: Database, outdir: Path, name: str) -> list[Path]:
     """Write ``<name>.h`` and ``<name>.c`` (cantools' C generator) into outdir, and beside them
-    ``<name>_protection.h``/``.c`` (the commands' CRC-8 and rolling counter); their paths.
+    ``<name>_protection.h``/``.c`` (the commands' CRC-8 and rolling counter) and
+    ``<name>_secoc.h``/``.c`` (their SecOC signing: AES-128, CMAC); their paths.
 
     The encoders round to nearest (``use_round``; link with -lm) instead of cantools' default
     truncation, which would turn 0.1234 into 1233 steps where the Python codec sends 1234.
@@ -165,6 +166,8 @@ def write_c_sources(loaded: Database, outdir: Path, name: str) -> list[Path]:
         f"{name}.c": source,
         f"{name}_protection.h": protection_c.header(name),
         f"{name}_protection.c": protection_c.source(name),
+        f"{name}_secoc.h": secoc_c.header(name),
+        f"{name}_secoc.c": secoc_c.source(name),
     }
     paths = [outdir / file_name for file_name in texts]
     try:

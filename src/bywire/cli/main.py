@@ -32,6 +32,7 @@ COMMANDS: dict[str, tuple[str, str]] = {
     "bench": ("bywire.cli.bench", "measure latency, jitter, CPU, memory and speed-up (§8)"),
     "run": ("bywire.cli.run", "run the controller on the robot's hardware (until SIGINT/SIGTERM)"),
     "config": ("bywire.cli.config", "robot configuration: check a file, print what it resolves to"),
+    "keys": ("bywire.cli.keys", "keys for authenticated commands (SecOC): make a new key file"),
     "replay": (
         "bywire.cli.replay",
         "run the controller again on a recorded run's inputs and compare its outputs",

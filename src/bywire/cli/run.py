@@ -36,6 +36,8 @@ from bywire.hal.opening import LinuxPaths, open_hardware, preflight
 from bywire.runtime.app import Runtime
 from bywire.runtime.realtime import RealtimeReport, apply_collector, apply_process
 from bywire.runtime.settings import RuntimeConfig
+from bywire.security.session import SecocReceiver
+from bywire.security.setup import configured_key, controller_receiver
 from bywire.telemetry.can_tap import TappedCanPort
 from bywire.telemetry.capture import TelemetryTap
 from bywire.telemetry.feed import (
@@ -121,8 +123,10 @@ def _run(args: argparse.Namespace, logs: background_log.BackgroundLog) -> int:
     # The stop signals are ours until the hardware is closed: a second SIGINT or SIGTERM while
     # the safe outputs are written only asks again, it never cuts the shutdown short.
     requests = _StopRequests()
+    secoc = _authentication(robot)
     # The feed and the view end after the hardware is closed (the stack is left last).
     with (
+        _closing(secoc),
         _stop_on_signals(requests),
         contextlib.ExitStack() as after_hardware,
         _device_errors(),
@@ -146,7 +150,8 @@ def _run(args: argparse.Namespace, logs: background_log.BackgroundLog) -> int:
             _announce(options, sinks)
             if args.dashboard:
                 _start_view(after_hardware, requests, view_url(options, sinks), logs)
-        runtime = Runtime(hardware, RuntimeConfig.from_robot(robot), notify=notify)
+        runtime = Runtime(hardware, RuntimeConfig.from_robot(robot), notify=notify, secoc=secoc)
+        _report_authentication(robot, secoc)
         requests.runtime = runtime
         realtime.extend(apply_collector(robot.realtime, runtime).report)
         _report_realtime(realtime)
@@ -225,6 +230,42 @@ def _start_view(
     stack.callback(logs.resume)
     stack.callback(view.stop)
     view.start()
+
+
+def _authentication(robot: RobotConfig) -> SecocReceiver | None:
+    """The verifier of authenticated commands ([security] enabled), None when off; its key
+    and freshness file are read before any device opens."""
+    security = robot.security
+    if not security.enabled:
+        return None
+    return controller_receiver(security, configured_key(security))
+
+
+def _report_authentication(robot: RobotConfig, receiver: SecocReceiver | None) -> None:
+    """One line when authentication is on (the key by its check value only)."""
+    security = robot.security
+    if receiver is None:
+        return
+    log.info(
+        "authentication: on (SecOC profile 3, key check value %s, freshness %s)",
+        receiver.key_check_value,
+        security.freshness_file or "in memory",
+    )
+    if security.freshness_file is not None and not receiver.store.found:
+        log.warning(
+            "%s: no freshness for this key yet: starting at 0; if this key was used before,"
+            " its old frames could be replayed: make a new key (docs/SECURITY.md)",
+            security.freshness_file,
+        )
+
+
+@contextlib.contextmanager
+def _closing(secoc: SecocReceiver | None) -> Iterator[None]:
+    try:
+        yield
+    finally:
+        if secoc is not None:
+            secoc.close()
 
 
 def _preflight(robot: RobotConfig, paths: LinuxPaths) -> int:

@@ -15,6 +15,7 @@ import sys
 import threading
 import time
 from collections.abc import Iterator
+from dataclasses import replace
 from pathlib import Path
 from types import FrameType
 
@@ -24,7 +25,7 @@ from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 from rich.table import Table
 
 from bywire.cli.arguments import positive_hertz, positive_seconds
-from bywire.config import default_sim_config, load_config
+from bywire.config import RobotConfig, default_sim_config, load_config
 from bywire.errors import ConfigError
 from bywire.hal.sim.clock import RealtimeClock
 from bywire.sim.canlog import BusTally, CanLog, check_log_path
@@ -140,6 +141,12 @@ def configure(parser: argparse.ArgumentParser) -> None:
         metavar="FILE",
         help="robot configuration TOML (default: the packaged simulator defaults)",
     )
+    parser.add_argument(
+        "--authenticated",
+        action="store_true",
+        help="SecOC-authenticated commands: the simulated computer signs, the controller"
+        " verifies (as [security] enabled = true; the configured key, or a random one)",
+    )
 
 
 def run(args: argparse.Namespace) -> int:
@@ -149,7 +156,7 @@ def run(args: argparse.Namespace) -> int:
     if args.all is not None:
         return _run_all(args)
     _check_one_run(args)
-    robot = default_sim_config() if args.config is None else load_config(args.config)
+    robot = _robot(args)
     sim = SimRun(
         robot, find_scenario(args.scenario), realtime=args.realtime, duration_s=args.duration
     )
@@ -232,6 +239,13 @@ def _file_lines(args: argparse.Namespace, frames_logged: int) -> list[str]:
     if args.mcap is not None:
         lines.append(f"MCAP: {args.mcap} (open it in Foxglove)")
     return lines
+
+
+def _robot(args: argparse.Namespace) -> RobotConfig:
+    robot = default_sim_config() if args.config is None else load_config(args.config)
+    if args.authenticated:
+        return replace(robot, security=replace(robot.security, enabled=True))
+    return robot
 
 
 def _check_one_run(args: argparse.Namespace) -> None:
@@ -358,7 +372,7 @@ def _run_all(args: argparse.Namespace) -> int:
     given = [f"--{name}" for name in ONE_RUN_OPTIONS if getattr(args, name)]
     if given:
         raise ConfigError(f"{', '.join(given)}: for one scenario; --all runs each as written")
-    robot = default_sim_config() if args.config is None else load_config(args.config)
+    robot = _robot(args)
     found = collect(Path(args.all) if args.all else None)
     console = _Console()
     cases = []

@@ -13,6 +13,9 @@ import can
 from bywire.cli.bus_options import add_bus_options, bus_from_args
 from bywire.errors import HardwareError
 from bywire.protocol import dbc
+from bywire.security.keys import read_key_file
+from bywire.security.session import SecocSigner
+from bywire.security.setup import sender_signer
 from bywire.teleop.state import HOLD_S, KEYS
 
 if TYPE_CHECKING:
@@ -48,7 +51,10 @@ examples:
   bywire teleop -i pcan -c PCAN_USBBUS1 --bitrate 500000
   # a gamepad on the simulator; or name it: --gamepad /dev/input/by-id/usb-…-event-joystick
   bywire teleop --gamepad
+  # a robot with authenticated commands ([security] enabled): the same key file as the robot's
+  bywire teleop -i socketcan -c can0 --key ~/.config/bywire/secoc.key
 """
+DEFAULT_FRESHNESS = Path.home() / ".local" / "state" / "bywire" / "teleop-freshness.json"
 
 # The gamepad's mapping, written out here so that `--help` needs no evdev; a test holds it to
 # bywire.teleop.gamepad.help_lines().
@@ -81,6 +87,21 @@ def configure(parser: argparse.ArgumentParser) -> None:
         help="drive with a gamepad (Linux evdev device, e.g. /dev/input/event5; default: the"
         " first gamepad found); the keyboard's other keys still work",
     )
+    parser.add_argument(
+        "--key",
+        type=Path,
+        metavar="FILE",
+        help="sign every command (SecOC, for a robot with [security] enabled) with this key"
+        " file (mode 0600; bywire keys new FILE)",
+    )
+    parser.add_argument(
+        "--freshness",
+        type=Path,
+        metavar="FILE",
+        default=DEFAULT_FRESHNESS,
+        help="with --key: where this sender keeps its freshness values across restarts"
+        " (default: %(default)s)",
+    )
 
 
 def open_bus(args: argparse.Namespace) -> can.BusABC:
@@ -98,15 +119,19 @@ def run(args: argparse.Namespace) -> int:
     gamepad = None
     if args.gamepad is not None:
         gamepad = _open_gamepad(None if args.gamepad == AUTO else Path(args.gamepad))
+    signer = None
     try:
+        signer = None if args.key is None else _signer(args.key, args.freshness)
         bus = open_bus(args)
         try:
-            run_app(bus, gamepad)
+            run_app(bus, gamepad, signer)
         finally:
             bus.shutdown()
     finally:
         if gamepad is not None:
             gamepad.close()
+        if signer is not None:
+            signer.close()
     return 0
 
 
@@ -124,8 +149,16 @@ def _open_gamepad(path: Path | None) -> GamepadDriver:
     return open_driver(path)
 
 
-def run_app(bus: can.BusABC, gamepad: PadInput | None = None) -> None:
+def _signer(key_file: Path, freshness: Path) -> SecocSigner:
+    key = read_key_file(key_file)
+    freshness.parent.mkdir(parents=True, exist_ok=True, mode=0o700)
+    return sender_signer(key, freshness)
+
+
+def run_app(
+    bus: can.BusABC, gamepad: PadInput | None = None, signer: SecocSigner | None = None
+) -> None:
     """The textual program on ``bus`` (imported here: textual is only needed by this command)."""
     from bywire.teleop.app import TeleopApp  # noqa: PLC0415 -- keeps `bywire --help` fast
 
-    TeleopApp(bus, gamepad=gamepad).run()
+    TeleopApp(bus, gamepad=gamepad, signer=signer).run()

@@ -29,7 +29,9 @@ from bywire.config.sections import (
     telemetry_section,
     timeouts_section,
 )
+from bywire.config.security import SecuritySection, security_section
 from bywire.errors import ConfigError
+from bywire.security.keys import check_configuration_file, read_key_file
 
 DEFAULT_SIM_RESOURCE = ("defaults", "sim.toml")
 
@@ -45,7 +47,18 @@ def load_config(path: Path | str) -> RobotConfig:
     except OSError as error:
         reason = error.strerror or str(error)
         raise ConfigError(f"{path}: cannot read configuration file: {reason}") from error
-    return parse_config(text, str(path))
+    config = parse_config(text, str(path))
+    if config.security.enabled:
+        check_security_files(Path(path), config.security)
+    return config
+
+
+def check_security_files(path: Path, security: SecuritySection) -> None:
+    """StrictModes for authentication: the file that names the key (and could turn it off)
+    writable only by its owner, the key private and well formed; ConfigError otherwise."""
+    check_configuration_file(path)
+    if security.key_file is not None:
+        read_key_file(Path(security.key_file))
 
 
 def parse_config(text: str, origin: str = "<string>") -> RobotConfig:
@@ -100,6 +113,7 @@ def build_robot(data: Mapping[str, object], problems: Problems) -> RobotConfig:
         realtime=realtime_section(root.table("realtime")),
         telemetry=telemetry_section(root.table("telemetry")),
         sim=sim_section(root.table("sim")),
+        security=security_section(root.table("security"), backend),
     )
     root.close()
     return config

@@ -10,6 +10,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from typing import Literal
 
+from bywire.config.security import SecuritySection
 from bywire.control.drive import DriveConfig
 from bywire.control.hydrobrake import DEFAULT_THRESHOLD_NORM
 from bywire.control.interlocks import InterlockConfig
@@ -228,6 +229,7 @@ class RobotConfig:
     realtime: RealtimeSection = field(default_factory=RealtimeSection)
     telemetry: TelemetrySection = field(default_factory=TelemetrySection)
     sim: SimSection = field(default_factory=SimSection)
+    security: SecuritySection = field(default_factory=SecuritySection)
 
 
 OUTPUT_LINE_KEYS: dict[str, str] = {

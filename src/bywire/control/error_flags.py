@@ -41,6 +41,7 @@ class ErrorFlag(enum.IntFlag):
     CAN_UNTRUSTED = 1 << 20  # a command id's counter misses too often: a second sender, a replay
     SPEED_SENSOR_FAULT = 1 << 21  # wheel speeds changed faster than the robot can: not used
     NOT_ARMED = 1 << 22  # power-up STOP: the mode switch has not yet passed through STOP
+    CAN_AUTH_FAILED = 1 << 23  # a command failed SecOC verification ([security] on)
 
 
 DESCRIPTIONS: dict[ErrorFlag, str] = {
@@ -67,6 +68,7 @@ DESCRIPTIONS: dict[ErrorFlag, str] = {
     ErrorFlag.CAN_UNTRUSTED: "A command id's counter misses too often: a second sender, a replay.",
     ErrorFlag.SPEED_SENSOR_FAULT: "Wheel speeds changed faster than the robot can.",
     ErrorFlag.NOT_ARMED: "Power-up STOP: the mode switch has not yet passed through STOP.",
+    ErrorFlag.CAN_AUTH_FAILED: "A command failed SecOC verification (authentication on).",
 }
 """What each flag means, one sentence: the comment of its signal in albert.dbc."""
 
@@ -81,6 +83,7 @@ RECOVERABLE = (
     | ErrorFlag.IBUS_CHECKSUM
     | ErrorFlag.CAN_COMMAND_TIMEOUT
     | ErrorFlag.CAN_COMMAND_REJECTED
+    | ErrorFlag.CAN_AUTH_FAILED
     | ErrorFlag.RC_FAILSAFE
     | ErrorFlag.TASK_OVERRUN
 )

@@ -133,7 +133,7 @@ def _linux_openers(config: RobotConfig, paths: LinuxPaths, clock: LinuxClock) ->
             section.interface,
             section.channel,
             section.bitrate_bps,
-            accept_ids=dbc.command_ids(),
+            accept_ids=dbc.received_ids(),
             sample_point=section.sample_point,
             clock_hz=section.clock_hz,
             sysfs_root=paths.sysfs_root,

@@ -143,6 +143,12 @@ def command_ids() -> tuple[int, ...]:
     return tuple(sorted(frame_id(kind) for kind in COMMAND_TYPES))
 
 
+def received_ids() -> tuple[int, ...]:
+    """Every id the controller listens to: the commands and their SecOC cryptographic PDUs
+    (every message the higher-level computer sends), highest priority first."""
+    return tuple(sorted(m.frame_id for m in database().messages if m.senders == ["HLC"]))
+
+
 def report_ids() -> tuple[int, ...]:
     """Frame ids of the reports (controller -> higher-level computer), highest priority first."""
     return tuple(sorted(frame_id(kind) for kind in REPORT_TYPES))

@@ -39,6 +39,7 @@ from bywire.runtime.schedule import PeriodicTask
 from bywire.runtime.sensors import SensorReadings, read_sensors
 from bywire.runtime.settings import RuntimeConfig
 from bywire.runtime.watchdog import Watchdog
+from bywire.security.session import SecocReceiver
 
 CycleObserver = Callable[[float], None]
 MODE_LOG_LENGTH = 256  # mode changes kept for tools and tests; nothing grows with run time
@@ -68,8 +69,11 @@ class Runtime:
         *,
         notify: Callable[[str], None] | None = None,
         watchdog_thread: bool = True,
+        secoc: SecocReceiver | None = None,
     ) -> None:
         """`notify` receives systemd notifications (READY=1, WATCHDOG=1, STOPPING=1).
+
+        `secoc`: authenticated commands ([security] on): the CAN reader's verifier.
 
         `watchdog_thread` False: the watchdog runs on the hardware clock and whoever owns that
         clock calls `watchdog.check()` (the simulator on virtual time does, every poll period).
@@ -78,7 +82,7 @@ class Runtime:
         self.config = config
         self.clock = hardware.clock
         self.ibus = IbusReader(hardware.rc_uart, config.control.rc_mapping)
-        self.can = CanReader(hardware.can, gap_s=config.control.can_command_timeout_s)
+        self.can = CanReader(hardware.can, gap_s=config.control.can_command_timeout_s, secoc=secoc)
         self.actuators = Actuators(hardware, config.actuators)
         self.started_at = self.clock.now()
         self.tasks = [PeriodicTask(spec, self.started_at) for spec in config.schedule]
@@ -111,6 +115,7 @@ class Runtime:
             (self.ibus.checksum_faults, ErrorFlag.IBUS_CHECKSUM),
             (self.ibus.resync_faults, ErrorFlag.IBUS_RESYNC),
             (self.can.reject_faults, ErrorFlag.CAN_COMMAND_REJECTED),
+            (self.can.auth_faults, ErrorFlag.CAN_AUTH_FAILED),
             (self.actuators.dac_failures, ErrorFlag.DAC_WRITE_FAILED),
             (self.actuators.dac_clamps, ErrorFlag.DAC_VALUE_CLAMPED),
             (self.tx_faults, ErrorFlag.CAN_TX_FAILED),

@@ -8,6 +8,7 @@ input so that the matching error flag is set while faults keep coming and clears
 from __future__ import annotations
 
 from collections import Counter, deque
+from collections.abc import Sequence
 
 from bywire.control.command_edges import NO_EDGES, CommandEdges, command_edges
 from bywire.control.rc_mapping import RcMapping, RcRequest, rc_request
@@ -17,6 +18,7 @@ from bywire.model import Command, ControlCommand
 from bywire.protocol import dbc
 from bywire.protocol.ibus import IbusParser
 from bywire.runtime.recent_fault import RecentFault
+from bywire.security.session import AuthFailure, SecocReceiver
 
 COUNTER_WINDOW = 16  # the last frames of a command message whose counters are judged
 COUNTER_MISS_LIMIT = 3  # this many counter misses among them: the message is not trusted
@@ -83,10 +85,20 @@ class CanReader:
     consecutive accepted frames: a rejected or dropped frame, or a gap longer than `gap_s`,
     leaves no previous frame to compare with; and after a gap a re-enable counts only once the
     frames have been arriving for `gap_s` again (a burst of queued frames is no request).
+
+    With `secoc` (authentication on), a command frame counts only once its cryptographic PDU
+    has arrived and verified (`bywire.security.session`); a failure rejects it whole, is
+    counted in `auth_failures`, flags CAN_AUTH_FAILED and is a miss of the id's trust window,
+    so persistent failures make the message untrusted as counter misses do.
     """
 
-    def __init__(self, port: CanPort, gap_s: float = 0.100) -> None:
+    def __init__(
+        self, port: CanPort, gap_s: float = 0.100, secoc: SecocReceiver | None = None
+    ) -> None:
         self._port = port
+        self._secoc = secoc
+        self.auth_failures: Counter[AuthFailure] = Counter()
+        self.auth_faults = RecentFault()
         self._gap_s = gap_s
         self._command_ids = frozenset(dbc.command_ids())
         self._control_id = dbc.frame_id(ControlCommand)
@@ -110,12 +122,22 @@ class CanReader:
         """Every command accepted since the last poll, oldest first."""
         accepted: list[Stamped[Command]] = []
         self.control_edges = NO_EDGES
+        secoc = self._secoc
+        if secoc is not None and (expired := secoc.expire(now)):
+            self._auth_failed(expired, now)
         for frame in self._port.receive():
-            frame_id = frame.arbitration_id
+            frame_id, data = frame.arbitration_id, frame.data
+            if secoc is not None and frame_id in secoc.received_ids:
+                outcome = secoc.offer(frame_id, data, now)
+                if outcome.failures:
+                    self._auth_failed(outcome.failures, now)
+                if outcome.verified is None:
+                    continue
+                frame_id, data = outcome.verified
             if frame_id not in self._command_ids:
                 self.ignored_frames += 1
                 continue
-            command = self._checked(frame_id, frame.data, now)
+            command = self._checked(frame_id, data, now)
             if command is None:
                 if frame_id == self._control_id:
                     self._previous_control = None
@@ -140,6 +162,14 @@ class CanReader:
             self.reject_faults.happened(now)
             return None
         return command
+
+    def _auth_failed(self, failures: Sequence[tuple[int, AuthFailure]], now: float) -> None:
+        for frame_id, failure in failures:
+            self.auth_failures[failure] += 1
+            self.auth_faults.happened(now)
+            self.trust[frame_id].record(miss=True)
+            if frame_id == self._control_id:
+                self._previous_control = None
 
     def _edges(self, command: ControlCommand, now: float) -> None:
         previous = self._previous_control

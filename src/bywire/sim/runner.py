@@ -11,7 +11,7 @@ import functools
 import random
 import time
 from collections.abc import Callable
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Any
 
 from bywire.config import RobotConfig
@@ -25,6 +25,8 @@ from bywire.model import ControlMode, Gear
 from bywire.runtime.app import Runtime
 from bywire.runtime.settings import RuntimeConfig
 from bywire.runtime.watchdog import POLL_S as WATCHDOG_POLL_S
+from bywire.security.session import SecocReceiver
+from bywire.security.setup import configured_key, controller_receiver, sender_signer
 from bywire.sim.observe import Observation, conditions_hold, observe
 from bywire.sim.scenario import Event, Expectation, Scenario
 
@@ -104,7 +106,10 @@ class SimRun:
         # On virtual time the watchdog runs on the simulated clock, checked by a timer where the
         # thread would poll: a write stalled in simulated time trips it exactly, and the wall
         # clock's speed never does.
-        self.runtime = Runtime(self.world.hardware, config, watchdog_thread=realtime)
+        self.secoc = self._authentication(robot, scenario)
+        self.runtime = Runtime(
+            self.world.hardware, config, watchdog_thread=realtime, secoc=self.secoc
+        )
         watchdog = self.runtime.watchdog
         if watchdog is not None and not realtime:
 
@@ -125,6 +130,18 @@ class SimRun:
         self.runtime.on_cycle.append(self._observe)
         self.on_event: list[Callable[[Event, float], None]] = []
         """Called with each event just applied and the time (the hazard oracle's witness)."""
+
+    def _authentication(self, robot: RobotConfig, scenario: Scenario) -> SecocReceiver | None:
+        """With [security] on or an authenticated scenario: the computer signs, the controller
+        verifies, both with the configured key (or a random one) and freshness in memory (the
+        restarts that persisted freshness is for are tested in tests/security)."""
+        if not (robot.security.enabled or scenario.authenticated):
+            return None
+        key = configured_key(robot.security)
+        self.world.hlc.sign_with(sender_signer(key))
+        self.world.impostor.forge_authenticator = True
+        memory = replace(robot.security, freshness_file=None)
+        return controller_receiver(memory, key)
 
     def add_can_monitor(self, monitor: Callable[[LoggedFrame], None]) -> None:
         """Called with every frame that crosses the bus (the CAN log writer)."""

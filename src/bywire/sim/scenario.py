@@ -152,6 +152,7 @@ class Scenario:
     events: tuple[Event, ...]
     expectations: tuple[Expectation, ...]
     realtime: bool = False  # paced by the wall clock (what the watchdog measures)
+    authenticated: bool = False  # commands signed and verified (SecOC, docs/SECURITY.md)
 
 
 def _refuse(
@@ -250,7 +251,7 @@ def parse_scenario(text: str, origin: str) -> Scenario:
         document = tomllib.loads(text)
     except tomllib.TOMLDecodeError as error:
         raise ConfigError(f"{origin}: not valid TOML: {error}") from error
-    top_keys = {"name", "description", "duration_s", "realtime", "event", "expect"}
+    top_keys = {"name", "description", "duration_s", "realtime", "authenticated", "event", "expect"}
     _check_keys(document, top_keys, origin, "")
     events = [
         _event(table, origin, f"event[{index}]")
@@ -270,7 +271,15 @@ def parse_scenario(text: str, origin: str) -> Scenario:
         events=tuple(sorted(events, key=lambda event: event.at_s)),
         expectations=tuple(expectations),
         realtime=_realtime(document, events, origin),
+        authenticated=_authenticated(document, origin),
     )
+
+
+def _authenticated(document: dict[str, Any], origin: str) -> bool:
+    authenticated = document.get("authenticated", False)
+    if not isinstance(authenticated, bool):
+        raise _refuse(origin, "authenticated", f"must be true or false, got {authenticated!r}")
+    return authenticated
 
 
 def _within_duration(

@@ -192,6 +192,9 @@ def _inputs(run: SimRun, bus: BusTally | None) -> InputStats:
         ibus_resyncs=parser.resyncs,
         can_rejected={
             reason.value: n for reason, n in sorted(runtime.can.rejected.items(), key=str)
+        }
+        | {  # authenticated commands: verification failures, by reason
+            failure.value: n for failure, n in sorted(runtime.can.auth_failures.items(), key=str)
         },
         reports_sent=runtime.reports_sent,
         bus_frames=sum(by_sender.values()) if bus else None,

@@ -25,6 +25,7 @@ from textual import events
 from textual.app import App, ComposeResult
 from textual.widgets import Static
 
+from bywire.security.session import SecocSigner
 from bywire.teleop.frames import SEND_PERIOD_S, Counters, frames
 from bywire.teleop.reports import ReportView, command_lines, fold, report_lines
 from bywire.teleop.state import KEYS, TeleopState, advance, help_line, press
@@ -61,10 +62,13 @@ class TeleopApp(App[None]):
         auto_tick: bool = True,
         notifier: bool = True,
         gamepad: PadInput | None = None,
+        signer: SecocSigner | None = None,
     ) -> None:
+        """`signer`: authenticated commands, each frame followed by its cryptographic PDU."""
         super().__init__()
         self.bus = bus
         self.gamepad = gamepad
+        self.signer = signer
         self.state = TeleopState()
         self.counters = Counters()
         self.view = ReportView()
@@ -114,13 +118,19 @@ class TeleopApp(App[None]):
     def _send(self, state: TeleopState) -> None:
         period_frames, self.counters = frames(state, self.counters)
         for frame_id, data in period_frames:
-            message = can.Message(arbitration_id=frame_id, data=data, is_extended_id=False)
-            try:
-                self.bus.send(message, timeout=SEND_PERIOD_S)
-            except can.CanError:
-                self.send_errors += 1  # the controller sees a skipped counter and resyncs
-            else:
-                self.frames_sent += 1
+            if self._send_frame(frame_id, data) and self.signer is not None:
+                authenticator = self.signer.authenticator(frame_id, data)
+                self._send_frame(authenticator.arbitration_id, authenticator.data)
+
+    def _send_frame(self, frame_id: int, data: bytes) -> bool:
+        message = can.Message(arbitration_id=frame_id, data=data, is_extended_id=False)
+        try:
+            self.bus.send(message, timeout=SEND_PERIOD_S)
+        except can.CanError:
+            self.send_errors += 1  # the controller sees a skipped counter and resyncs
+            return False
+        self.frames_sent += 1
+        return True
 
     def _receive(self, now_s: float) -> None:
         while (message := self._next_message()) is not None:

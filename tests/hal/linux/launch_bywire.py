@@ -7,7 +7,8 @@ Usage: python launch_bywire.py HLC_DIR CAN_CHANNEL -- BYWIRE_ARGS...
 - CAN: python-can's virtual bus exists only inside one process, so the higher-level computer
   runs here, on a second virtual bus: every 20 ms it sends the MovementCommand that the test
   wrote to HLC_DIR/movement.json (nothing while there is none) and counts the reports it
-  receives into HLC_DIR/reports.json.
+  receives into HLC_DIR/reports.json. With a key file HLC_DIR/hlc.key it signs each command
+  (SecOC cryptographic PDU), its freshness kept in HLC_DIR/freshness.json.
 """
 
 from __future__ import annotations
@@ -28,6 +29,8 @@ import can  # noqa: E402
 from bywire.cli.main import main  # noqa: E402
 from bywire.model import Gear, ModeReport, MovementCommand  # noqa: E402
 from bywire.protocol import dbc  # noqa: E402
+from bywire.security.keys import read_key_file  # noqa: E402
+from bywire.security.setup import sender_signer  # noqa: E402
 
 PERIOD_S = 0.02
 
@@ -35,6 +38,8 @@ PERIOD_S = 0.02
 def higher_level_computer(folder: Path, channel: str, stop: threading.Event) -> None:
     bus = can.Bus(interface="virtual", channel=channel)
     counter, counts, mode, armed = 0, 0, None, None
+    key = folder / "hlc.key"
+    signer = sender_signer(read_key_file(key), folder / "freshness.json") if key.exists() else None
     try:
         while not stop.wait(PERIOD_S):
             command = folder / "movement.json"
@@ -46,6 +51,13 @@ def higher_level_computer(folder: Path, channel: str, stop: threading.Event) -> 
                 )  # fmt: skip
                 frame_id, payload = dbc.encode_command(movement)
                 bus.send(can.Message(arbitration_id=frame_id, data=payload, is_extended_id=False))
+                if signer is not None:
+                    auth = signer.authenticator(frame_id, payload)
+                    bus.send(
+                        can.Message(
+                            arbitration_id=auth.arbitration_id, data=auth.data, is_extended_id=False
+                        )
+                    )
                 counter = (counter + 1) % dbc.COUNTER_MODULUS
             while (message := bus.recv(0)) is not None:
                 counts += 1
@@ -57,6 +69,8 @@ def higher_level_computer(folder: Path, channel: str, stop: threading.Event) -> 
             os.replace(temporary, folder / "reports.json")
     finally:
         bus.shutdown()
+        if signer is not None:
+            signer.close()
 
 
 if __name__ == "__main__":

@@ -76,6 +76,10 @@ class SimCanPort:
         """Accept only these ids (None: every id), like a hardware acceptance filter."""
         self.accept_ids = None if accept_ids is None else frozenset(accept_ids)
 
+    def set_tx_mailboxes(self, count: int) -> None:
+        """Resize the transmit queue (a SecOC sender queues two frames per command)."""
+        self._tx_mailboxes = count
+
     def set_listener(self, listener: Callable[[CanFrame], None] | None) -> None:
         """Hand each accepted frame to ``listener`` at delivery instead of queueing it."""
         self._listener = listener

@@ -27,6 +27,7 @@ from bywire.model import (
     Report,
 )
 from bywire.protocol import dbc, dbc_values
+from bywire.security.session import SecocSigner
 
 COMMAND_PERIOD_S = 0.02
 ARRIVAL_HISTORY = 1000  # report arrival times kept per report type
@@ -80,7 +81,13 @@ class SimHigherLevelComputer:
         self._latest: dict[type[Report], tuple[float, Report]] = {}
         self._arrivals: dict[type[Report], deque[float]] = {}
         self._report_ids = frozenset(dbc.report_ids())
+        self.signer: SecocSigner | None = None
         port.set_listener(self._on_frame)
+
+    def sign_with(self, signer: SecocSigner) -> None:
+        """Authenticated commands: each frame is followed by its SecOC cryptographic PDU."""
+        self.signer = signer
+        self._port.set_tx_mailboxes(2 * len(COMMAND_TYPES))
 
     # --- commands --------------------------------------------------------------------------------
 
@@ -160,6 +167,8 @@ class SimHigherLevelComputer:
             self.send_refused += 1
             return
         self.frames_sent += 1
+        if self.signer is not None:  # signs what it sent, damage included: E2E judges that
+            self._port.send(self.signer.authenticator(frame_id, payload))
         if corruption is not Corruption.REPEATED_COUNTER:
             self._counters[kind] = (counter + 1) % dbc.COUNTER_MODULUS
 

@@ -12,7 +12,7 @@ from bywire.hal.sim.can_port import SimCanPort
 from bywire.hal.sim.hlc import COMMAND_PERIOD_S, SimHigherLevelComputer
 from bywire.hal.sim.timers import PeriodicTimer, SimClock
 from bywire.model import Gear, MovementCommand
-from bywire.protocol import dbc
+from bywire.protocol import dbc, secoc
 
 IMPOSTOR_NODE = "impostor"
 
@@ -28,6 +28,9 @@ class SimImpostor:
         self._remaining = 0
         self.throttle_norm = 0.8
         self.frames_sent = 0
+        self.forge_authenticator = False
+        """Also send a cryptographic PDU (SecOC) after each frame: it has no key, so its MAC is
+        a guess (deterministic bytes, so runs reproduce)."""
 
     def start(self, count: int, throttle_norm: float = 0.8) -> None:
         """Send `count` frames asking for `throttle_norm`, the first half a period from now."""
@@ -47,4 +50,7 @@ class SimImpostor:
         frame_id, payload = dbc.encode_command(command)
         if self._port.send(CanFrame(frame_id, payload)):
             self.frames_sent += 1
+            if self.forge_authenticator:
+                guess = (self.frames_sent * 0x9E3779B97F4A7C15).to_bytes(16, "little")[:8]
+                self._port.send(CanFrame(secoc.auth_id(frame_id), guess))
         self._remaining -= 1

@@ -103,7 +103,7 @@ class SimWorld:
         controller_can = bus.attach(
             CONTROLLER_NODE,
             True,
-            accept_ids=dbc.command_ids(),
+            accept_ids=dbc.received_ids(),
             tx_mailboxes=SOCKETCAN_TX_QUEUE,
         )
         hlc = SimHigherLevelComputer(clock, bus.attach(HLC_NODE, accept_ids=dbc.report_ids()))
