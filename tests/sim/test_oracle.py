@@ -8,6 +8,8 @@ flags the hazard once the uncertainty is over.
 
 from __future__ import annotations
 
+import textwrap
+
 from bywire.config import default_sim_config
 from bywire.hal.sim.clock import VirtualClock
 from bywire.hal.sim.world import SimWorld
@@ -138,3 +140,38 @@ def _driving_after_a_stop(back_s: float) -> list[str]:
 def test_h1_still_flags_driving_on_after_a_stop_the_frames_showed() -> None:
     assert _driving_after_a_stop(1.05) == []  # hidden by the corruption
     assert _driving_after_a_stop(1.2) == ["H1"]  # held past it: the controller saw STOP
+
+
+# --- H2: back to the driving source after glimpses of other positions -----------------------------
+
+
+def test_glimpses_of_stop_and_can_between_rc_and_rc_leave_rc_driving() -> None:
+    # verify seed 8, campaign 86: armed in RC; the switch goes to STOP for 5 ms, to CAN for
+    # 5 ms and back to RC with the stick at 0.2. No frame may have shown STOP, and CAN for less
+    # than the debounce's frames: the controller may never have left RC, and rightly drives.
+    text = """
+        name = "case"
+        duration_s = 6.68
+        event = [
+            { at_s = 0.0, rc = { gear = "forward" } },
+            { at_s = 5.837, rc = { mode = "stop" } },
+            { at_s = 5.897, rc = { throttle = 0.0, mode = "rc" } },
+            { at_s = 6.116, rc = { mode = "stop" } },
+            { at_s = 6.121, rc = { mode = "can" } },
+            { at_s = 6.126, rc = { throttle = 0.2, mode = "rc" } },
+        ]
+    """
+    result = Campaign().run_scenario(parse_scenario(textwrap.dedent(text), "<test>"))
+    assert result.oracle.checks > 0
+    assert result.oracle.violations == []
+
+
+def test_h2_still_flags_a_handover_to_rc_after_can_had_settled() -> None:
+    oracle = _oracle()
+    oracle.set_switch(RC, 0.0)
+    oracle.set_switch(ControlMode.STOP, 1.116)
+    oracle.set_switch(CAN, 1.121)
+    oracle.set_throttle(RC, 0.2, 1.5)
+    oracle.set_switch(RC, 1.5)  # CAN held long past the debounce: a real handover
+    oracle._h2(1.5 + oracle.timing.settle_s + 0.001, 1.0)
+    assert [v.invariant for v in oracle.violations] == ["H2"]

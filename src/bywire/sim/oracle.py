@@ -238,6 +238,7 @@ class HazardOracle:
         held_s = now - self.switch_at
         was = self.switch
         self.switch, self.switch_at = mode, now
+        self.left_at[was] = now  # via STOP too: a glimpse of STOP may have gone unseen
         if mode is ControlMode.STOP:
             if self.pending_arm is not None:  # cut short: it may have armed meanwhile
                 self._arm_now(now, self.pending_arm[1])
@@ -246,7 +247,6 @@ class HazardOracle:
             self.stop_event("switch_stop", now)
             self.tripped_at = None  # the operator's acknowledgement begins
             return
-        self.left_at[was] = now
         if was is ControlMode.CAN and mode is ControlMode.RC and self._can_stop_pending(now):
             # Handed over before the controller could have acted on a CAN-bound fault: RC
             # drives on (CAN-bound causes never block RC).
