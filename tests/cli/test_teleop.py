@@ -179,7 +179,13 @@ def test_with_a_key_every_command_is_signed_and_freshness_kept(
     monkeypatch: pytest.MonkeyPatch, tmp_path: Path
 ) -> None:
     signers: list[SecocSigner | None] = []
-    monkeypatch.setattr(teleop, "run_app", lambda _bus, signer=None: signers.append(signer))
+
+    def run_app(
+        _bus: can.BusABC, _gamepad: object = None, signer: SecocSigner | None = None
+    ) -> None:
+        signers.append(signer)
+
+    monkeypatch.setattr(teleop, "run_app", run_app)
     key = tmp_path / "k.key"
     assert main(["keys", "new", str(key)]) == 0
     freshness = tmp_path / "state" / "teleop.json"
