@@ -428,3 +428,22 @@ def test_bench_realtime_applies_the_configurations_settings_and_gives_the_collec
     assert realtime == {"applied": ["gc between passes (>= 2 ms idle)"], "refused": []}
     assert "real-time: applied gc between passes" in captured.err
     assert gc.isenabled()  # the virtual-time course and everything after collect as usual
+
+
+def test_a_phase_after_one_that_fell_to_stop_still_measures_every_frame() -> None:
+    # The host stalls the loop in the nominal phase (here: the RC link is lost for 0.3 s, a
+    # latched STOP); the flood phase must re-arm and measure, not watch a robot at rest.
+    session = RealtimeSession(
+        default_sim_config(),
+        BenchSettings(phase_s=PHASE_S, settle_s=SETTLE_S),
+        MeteredVirtualClock(),
+    )
+    clock, rc = session.world.clock, session.world.rc
+    lost_s = session.windows[0].half_s + 0.3
+    clock.call_at(lost_s, rc.link_lost)
+    clock.call_at(lost_s + 0.3, rc.link_restored)
+    nominal, flood = session.run().phases
+    assert nominal.stops == 1
+    assert flood.stops == 0
+    assert flood.can_latency.unpaired == flood.ibus_latency.unpaired == 0
+    assert flood.can_latency.samples == pytest.approx((PHASE_S / 2 - SETTLE_S) / 0.020, abs=1)

@@ -55,6 +55,7 @@ from bywire.runtime.settings import RuntimeConfig
 
 ARM_AT_S = 0.5
 HANDOVER_S = 0.06  # the switch counts after 3 IBUS frames (23 ms); well inside the settle time
+STOP_HOLD_S = 0.05  # a phase's arming: the switch held at STOP for 3 frames and a margin
 FIRST_PHASE_AT_S = 1.0
 GRID_OFFSET_S = 0.004
 PROGRESS_PERIOD_S = 1.0
@@ -187,6 +188,16 @@ class RealtimeSession:
         self._hand_over(ControlMode.CAN)
         self.world.clock.call_at(self.world.clock.now() + HANDOVER_S, self.can_sweep.activate)
 
+    def _arm_can(self) -> None:
+        """Arm into CAN as an operator does: both sources at zero, the switch held at STOP, then
+        moved to CAN. Every phase starts so, whatever the last one ended in: a phase that fell
+        to STOP (a stall the host caused) must not leave the next one measuring a robot at rest."""
+        self.can_sweep.active = self.rc_sweep.active = False
+        self.world.rc.set_throttle(0.0)
+        self.world.hlc.set_movement(0.0, 0.0, 0.0, Gear.FORWARD)
+        self.world.rc.set_mode(ControlMode.STOP)
+        self.world.clock.call_at(self.world.clock.now() + STOP_HOLD_S, self._to_can)
+
     def _to_rc(self) -> None:
         self._hand_over(ControlMode.RC)
         self.world.clock.call_at(self.world.clock.now() + HANDOVER_S, self.rc_sweep.activate)
@@ -202,7 +213,7 @@ class RealtimeSession:
             task.stats = TaskStats()
         if window.flood_load is not None:
             self.world.bus.flood(window.flood_load)
-        self._to_can()
+        self._arm_can()
         if self.onlookers is not None and window.name in LOOKING_PHASES:
             self.onlookers.start(window.name)
         window.started = Marks.take(self.clock, self.world.bus)
