@@ -6,6 +6,7 @@ import pytest
 
 from bywire.bench.phases import TaskFigures
 from bywire.runtime.schedule import PeriodicTask, TaskSpec, TaskStats
+from bywire.runtime.tasks import write_steering
 
 
 def test_task_figures_carry_p99_p999_and_max_jitter() -> None:
@@ -16,7 +17,9 @@ def test_task_figures_carry_p99_p999_and_max_jitter() -> None:
         stats.record(0.000_420, 0.0001, 0.002)  # bin 420..430 µs: inside p99.9 of 2000
     stats.record(0.002_500, 0.0001, 0.002)
     stats.record(0.003_100, 0.0001, 0.002)
-    figures = TaskFigures.of(PeriodicTask(TaskSpec("steering", 100.0, 0.002), 0.0), stats)
+    figures = TaskFigures.of(
+        PeriodicTask(TaskSpec("steering", 100.0, 0.002, write_steering), 0.0), stats
+    )
     assert figures.runs == 2000
     assert figures.jitter_p99_s == pytest.approx(60e-6)
     assert figures.jitter_p999_s == pytest.approx(430e-6)  # the 1998th run

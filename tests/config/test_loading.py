@@ -48,9 +48,13 @@ def test_albert_loads_as_the_reference_robot_on_linux() -> None:
 def test_defaults_are_table_1_rates_and_100_ms_timeouts(path: Path) -> None:
     config = load_config(path)
     tasks, timeouts = config.tasks, config.timeouts
-    control_rates = (tasks.steering_rate_hz, tasks.driving_rate_hz, tasks.hydrobrake_rate_hz)
-    assert control_rates == (100.0, 100.0, 100.0)
-    assert (tasks.can_tx_rate_hz, tasks.lights_rate_hz) == (50.0, 20.0)
+    assert dict(tasks.rates_hz) == {
+        "steering": 100.0,
+        "driving": 100.0,
+        "hydrobrake": 100.0,
+        "can_tx": 50.0,
+        "lights": 20.0,
+    }
     assert (timeouts.rc_timeout_s, timeouts.can_command_timeout_s) == (0.100, 0.100)
     assert timeouts.watchdog_s == 0.200
     assert config.steering.pwm.frequency_hz == 50.0

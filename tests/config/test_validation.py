@@ -179,8 +179,8 @@ def test_several_problems_are_reported_together() -> None:
 
 def test_ints_are_accepted_where_floats_are_expected() -> None:
     config = parse_config("[tasks]\nsteering_rate_hz = 200\n[drive.dac]\nvref_volts = 5")
-    assert config.tasks.steering_rate_hz == 200.0
-    assert isinstance(config.tasks.steering_rate_hz, float)
+    assert config.tasks.rate_hz("steering") == 200.0
+    assert isinstance(config.tasks.rate_hz("steering"), float)
     assert isinstance(config.drive.dac.vref_volts, float)
 
 

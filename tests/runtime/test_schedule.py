@@ -4,14 +4,20 @@ from __future__ import annotations
 
 import pytest
 
+from bywire.config import parse_config
+from bywire.config.consistency import CONTROL_TASKS
+from bywire.errors import ConfigError
 from bywire.runtime.schedule import (
     JITTER_BIN_S,
     JITTER_BINS,
     SCHEDULE,
+    TASK_NAMES,
     PeriodicTask,
     TaskSpec,
     TaskStats,
 )
+from bywire.runtime.settings import RuntimeConfig
+from bywire.runtime.tasks import write_lights
 
 
 def test_schedule_is_table_1() -> None:
@@ -27,7 +33,7 @@ def test_schedule_is_table_1() -> None:
 
 
 def test_deadlines_are_absolute_and_do_not_drift() -> None:
-    task = PeriodicTask(TaskSpec("t", 100.0, 0.001), next_deadline_s=0.0)
+    task = PeriodicTask(TaskSpec("t", 100.0, 0.001, write_lights), next_deadline_s=0.0)
     for tick in range(1000):
         task.advance(now=tick * 0.01 + 0.004)  # each run starts 4 ms late
     assert task.next_deadline_s == pytest.approx(10.0)
@@ -35,7 +41,7 @@ def test_deadlines_are_absolute_and_do_not_drift() -> None:
 
 
 def test_missed_periods_are_skipped_and_counted() -> None:
-    task = PeriodicTask(TaskSpec("t", 100.0, 0.001), next_deadline_s=1.0)
+    task = PeriodicTask(TaskSpec("t", 100.0, 0.001, write_lights), next_deadline_s=1.0)
     task.advance(now=1.035)  # ran 35 ms late: deadlines 1.01, 1.02, 1.03 missed
     assert task.stats.overruns == 3
     assert task.next_deadline_s == pytest.approx(1.04)
@@ -65,7 +71,7 @@ def test_empty_stats_report_zero() -> None:
 # budget, last jitter bin, overruns accumulate.
 
 
-QUARTER = TaskSpec("quarter", 4.0, 0.01)  # a 0.25 s period, exact in binary
+QUARTER = TaskSpec("quarter", 4.0, 0.01, write_lights)  # a 0.25 s period, exact in binary
 
 
 def test_a_run_that_takes_exactly_its_budget_is_within_it() -> None:
@@ -100,3 +106,19 @@ def test_overruns_accumulate_over_separate_late_runs() -> None:
     task.advance(0.3)  # one deadline missed
     task.advance(1.1)  # two more missed
     assert task.stats.overruns == 3
+
+
+def test_the_schedule_table_rows_carry_their_tasks_and_the_configuration_overrides_by_name() -> (
+    None
+):
+    assert all(callable(spec.run) for spec in SCHEDULE)
+    assert len(TASK_NAMES) == len(set(TASK_NAMES))
+    assert set(CONTROL_TASKS) <= set(TASK_NAMES)
+    robot = parse_config("[tasks]\nlights_rate_hz = 10")
+    rates = {spec.name: spec.rate_hz for spec in RuntimeConfig.from_robot(robot).schedule}
+    assert rates == {**{spec.name: spec.rate_hz for spec in SCHEDULE}, "lights": 10.0}
+
+
+def test_a_task_name_the_schedule_does_not_have_fails_at_load() -> None:
+    with pytest.raises(ConfigError, match=r"tasks\.light_rate_hz"):
+        parse_config("[tasks]\nlight_rate_hz = 10")

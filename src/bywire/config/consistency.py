@@ -10,7 +10,7 @@ from bywire.config.reader import Problems, number_text, show
 from bywire.errors import ConfigError
 from bywire.protocol import bittiming
 
-CONTROL_TASKS = ("steering_rate_hz", "driving_rate_hz", "hydrobrake_rate_hz")
+CONTROL_TASKS = ("steering", "driving", "hydrobrake")  # the actuator tasks the watchdog covers
 RC_AXES = ("steering", "throttle_brake")
 RC_FUNCTIONS = (*RC_AXES, "mode_switch", "gear_switch", "low_beam_switch", "hazard_switch")
 WATCHDOG_PERIODS = 2  # a watchdog shorter than two control periods would bite a healthy loop
@@ -110,16 +110,16 @@ def _exact(can: CanSection, bitrate_bps: int) -> bool:
 
 
 def _watchdog(config: RobotConfig, problems: Problems) -> None:
-    keys = ["timeouts.watchdog_s", *(f"tasks.{name}" for name in CONTROL_TASKS)]
+    keys = ["timeouts.watchdog_s", *(f"tasks.{name}_rate_hz" for name in CONTROL_TASKS)]
     if problems.affects(*keys):
         return
-    slowest = min(CONTROL_TASKS, key=lambda name: float(getattr(config.tasks, name)))
-    slowest_hz = float(getattr(config.tasks, slowest))
+    slowest = min(CONTROL_TASKS, key=config.tasks.rate_hz)
+    slowest_hz = config.tasks.rate_hz(slowest)
     minimum_s = WATCHDOG_PERIODS / slowest_hz
     if config.timeouts.watchdog_s < minimum_s:
         problems.add(
             keys[0],
             f"timeouts.watchdog_s = {show(config.timeouts.watchdog_s)}: shorter than"
-            f" {WATCHDOG_PERIODS} periods of tasks.{slowest} = {show(slowest_hz)};"
+            f" {WATCHDOG_PERIODS} periods of tasks.{slowest}_rate_hz = {show(slowest_hz)};"
             f" allowed >= {number_text(minimum_s)} s",
         )

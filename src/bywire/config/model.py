@@ -19,6 +19,7 @@ from bywire.control.monitors import MonitorConfig
 from bywire.control.rc_mapping import RcMapping
 from bywire.control.steering import SteeringConfig
 from bywire.control.supervisor import SupervisorConfig
+from bywire.runtime.schedule import SCHEDULE
 
 Backend = Literal["sim", "linux"]
 BACKENDS: tuple[Backend, ...] = ("sim", "linux")
@@ -140,13 +141,14 @@ class TimeoutsSection:
 
 @dataclass(frozen=True, slots=True)
 class TasksSection:
-    """Rates of the periodic tasks (thesis Table 1)."""
+    """The rate of each periodic task by its name, `[tasks] <name>_rate_hz`: the schedule
+    table's rows (`bywire.runtime.schedule.SCHEDULE`) give the tasks and their defaults."""
 
-    steering_rate_hz: float = 100.0
-    driving_rate_hz: float = 100.0
-    hydrobrake_rate_hz: float = 100.0
-    can_tx_rate_hz: float = 50.0
-    lights_rate_hz: float = 20.0
+    rates_hz: tuple[tuple[str, float], ...] = tuple((spec.name, spec.rate_hz) for spec in SCHEDULE)
+
+    def rate_hz(self, name: str) -> float:
+        """The configured rate of the task `name` (KeyError for no such task)."""
+        return dict(self.rates_hz)[name]
 
 
 @dataclass(frozen=True, slots=True)

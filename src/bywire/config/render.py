@@ -6,7 +6,7 @@ import json
 from collections.abc import Mapping
 from dataclasses import fields, is_dataclass
 
-from bywire.config.model import GpioLine, RobotConfig
+from bywire.config.model import GpioLine, RobotConfig, TasksSection
 from bywire.control.drive import DriveConfig
 from bywire.control.rc_mapping import RcMapping
 from bywire.control.steering import SteeringConfig
@@ -39,7 +39,9 @@ def _table(node: object, chip: str) -> dict[str, object]:
         value = getattr(node, field.name)
         if field.name in NOT_KEYS or value is None:
             continue
-        if isinstance(value, GpioLine):
+        if isinstance(value, TasksSection):
+            table[field.name] = {f"{name}_rate_hz": rate for name, rate in value.rates_hz}
+        elif isinstance(value, GpioLine):
             explicit = {"chip": value.chip, "line": value.line}
             table[field.name] = value.line if value.chip == chip else explicit
         elif isinstance(value, FLATTENED):

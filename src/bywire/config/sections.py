@@ -180,21 +180,13 @@ def timeouts_section(table: Table) -> TimeoutsSection:
 
 
 def tasks_section(table: Table) -> TasksSection:
-    default = TasksSection()
-
-    def rate(name: str) -> float:
-        default_hz: float = getattr(default, name)
-        return table.number(name, default_hz, TASK_RATE_HZ)
-
-    section = TasksSection(
-        steering_rate_hz=rate("steering_rate_hz"),
-        driving_rate_hz=rate("driving_rate_hz"),
-        hydrobrake_rate_hz=rate("hydrobrake_rate_hz"),
-        can_tx_rate_hz=rate("can_tx_rate_hz"),
-        lights_rate_hz=rate("lights_rate_hz"),
+    """`<name>_rate_hz` for each task of the schedule table; any other key is refused."""
+    rates = tuple(
+        (name, table.number(f"{name}_rate_hz", default_hz, TASK_RATE_HZ))
+        for name, default_hz in TasksSection().rates_hz
     )
     table.close()
-    return section
+    return TasksSection(rates)
 
 
 def sim_section(table: Table) -> SimSection:

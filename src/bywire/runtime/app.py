@@ -26,16 +26,14 @@ from bywire.control.controller import (
 from bywire.control.error_flags import ErrorFlag
 from bywire.control.rc_mapping import RcRequest
 from bywire.control.supervisor import Cause
-from bywire.control.validity import Stamped, age_s
+from bywire.control.validity import Stamped
 from bywire.hal.hardware import Hardware
-from bywire.hal.ports import CanFrame
 from bywire.model import Command, ControlCommand, ControlMode, LightsCommand, MovementCommand
-from bywire.protocol import dbc
+from bywire.runtime import tasks
 from bywire.runtime.actuators import Actuators
 from bywire.runtime.readers import CanReader, IbusReader
 from bywire.runtime.recent_fault import RecentFault, active_flags
-from bywire.runtime.reports import Health, build_reports
-from bywire.runtime.schedule import PeriodicTask
+from bywire.runtime.schedule import PeriodicTask, TaskFn
 from bywire.runtime.sensors import SensorReadings, read_sensors
 from bywire.runtime.settings import RuntimeConfig
 from bywire.runtime.watchdog import Watchdog
@@ -122,13 +120,6 @@ class Runtime:
             (self.overrun_faults, ErrorFlag.TASK_OVERRUN),
         )
         self._stop_requested = False
-        self._writers: dict[str, Callable[[ControlOutputs, float], None]] = {
-            "steering": self._write_steering,
-            "driving": self._write_drive,
-            "hydrobrake": self._write_brakes,
-            "can_tx": self._send_reports,
-            "lights": self._write_lights,
-        }
 
     def request_stop(self) -> None:
         """End the loop at its next wake-up (signal handlers and the simulator call this)."""
@@ -189,35 +180,41 @@ class Runtime:
         before = self.outputs
         outputs = self._decide(now)
         decided_s = (time.perf_counter() - started) / max(len(due), 1)
-        written: set[str] = set()
+        written: set[TaskFn] = set()
         for task in due:
             started = time.perf_counter()
-            self._writers[task.spec.name](outputs, now)
+            task.spec.run(self, outputs, now)
             spent_s = time.perf_counter() - started + decided_s
             task.stats.record(now - task.next_deadline_s, spent_s, task.spec.budget_s)
             overruns_before = task.stats.overruns
             task.advance(now)
             if task.stats.overruns > overruns_before:
                 self.overrun_faults.happened(now)
-            written.add(task.spec.name)
+            written.add(task.spec.run)
         if new_input:
             self._write_changes(before, outputs, now, written)
 
     def _write_changes(
-        self, before: ControlOutputs | None, after: ControlOutputs, now: float, written: set[str]
+        self, before: ControlOutputs | None, after: ControlOutputs, now: float, written: set[TaskFn]
     ) -> None:
         """Write at once what a new input changed, unless a due task just wrote it. The periodic
         tasks refresh everything anyway; an unchanged DAC value is not worth an I2C transfer."""
-        changed = {
-            "steering": before is None or after.steering_pulse_s != before.steering_pulse_s,
-            "driving": before is None or after.drive != before.drive,
-            "hydrobrake": before is None
-            or (after.hydrobrake_duty, after.ebrake_engaged)
-            != (before.hydrobrake_duty, before.ebrake_engaged),
-        }
-        for name, differs in changed.items():
-            if differs and name not in written:
-                self._writers[name](after, now)
+        changed = (
+            (
+                tasks.write_steering,
+                before is None or after.steering_pulse_s != before.steering_pulse_s,
+            ),
+            (tasks.write_drive, before is None or after.drive != before.drive),
+            (
+                tasks.write_brakes,
+                before is None
+                or (after.hydrobrake_duty, after.ebrake_engaged)
+                != (before.hydrobrake_duty, before.ebrake_engaged),
+            ),
+        )
+        for write, differs in changed:
+            if differs and write not in written:
+                write(self, after, now)
 
     # --- inputs -------------------------------------------------------------------------------
 
@@ -280,40 +277,3 @@ class Runtime:
         if self.watchdog is not None:
             self.watchdog.reset()
         self.actuators.gate.reset()
-
-    # --- the writers of the schedule's tasks --------------------------------------------------
-
-    def _write_steering(self, outputs: ControlOutputs, _now: float) -> None:
-        self.actuators.write_steering(outputs.steering_pulse_s)
-
-    def _write_drive(self, outputs: ControlOutputs, now: float) -> None:
-        self.actuators.write_drive(outputs.drive, now)
-
-    def _write_brakes(self, outputs: ControlOutputs, _now: float) -> None:
-        self.actuators.write_brakes(outputs.hydrobrake_duty, outputs.ebrake_engaged)
-
-    def _write_lights(self, outputs: ControlOutputs, _now: float) -> None:
-        self.actuators.write_lights(outputs.lights)
-
-    def _send_reports(self, outputs: ControlOutputs, now: float) -> None:
-        """Send one full set of reports; on the first refusal give up until the next period.
-
-        Backing off instead of retrying is the fix for §5.2: with the bus unplugged no mailbox
-        ever frees, and a task that keeps retrying starves everything below it.
-        """
-        health = Health(
-            uptime_s=now - self.started_at,
-            overrun_count=self.overrun_count,
-            rc_age_s=age_s(self.inputs.rc, now),
-            can_age_s=age_s(self.inputs.movement, now),
-            wheel_speeds_mps=self.sensors.wheel_speeds_mps,
-            steering_setpoint_norm=self.state.steering.setpoint_norm,
-            steering_measured_norm=self.sensors.steering_measured_norm,
-            encoder_valid_limit_norm=self.config.control.monitors.encoder_valid_limit_norm,
-        )
-        for report in build_reports(outputs, health):
-            frame_id, payload = dbc.encode_report(report)
-            if not self.hardware.can.send(CanFrame(frame_id, payload, now)):
-                self.tx_faults.happened(now)
-                return
-            self.reports_sent += 1

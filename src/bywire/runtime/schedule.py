@@ -8,7 +8,18 @@ more behind skips the missed deadlines (no burst of catch-up runs) and counts th
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass, field
+from typing import TYPE_CHECKING
+
+from bywire.runtime import tasks
+
+if TYPE_CHECKING:
+    from bywire.control.controller import ControlOutputs
+    from bywire.runtime.app import Runtime
+
+TaskFn = Callable[["Runtime", "ControlOutputs", float], None]
+"""What a row runs: a function of the controller, this pass's decision and its instant."""
 
 JITTER_BIN_S = 10e-6
 JITTER_BINS = 2000  # 0…20 ms in 10 µs bins; later starts land in the last bin
@@ -16,25 +27,30 @@ JITTER_BINS = 2000  # 0…20 ms in 10 µs bins; later starts land in the last bi
 
 @dataclass(frozen=True, slots=True)
 class TaskSpec:
-    """One row of the schedule table."""
+    """One row of the schedule table, as ArduPilot's `SCHED_TASK(fn, rate_hz, max_us)`: what it
+    runs, how often and within what budget. The configuration overrides `rate_hz` by `name`
+    (`[tasks] <name>_rate_hz`)."""
 
     name: str
     rate_hz: float
     budget_s: float
+    run: TaskFn
 
     @property
     def period_s(self) -> float:
         return 1.0 / self.rate_hz
 
 
-# Table 1 of the thesis. The RC and CAN readers are event-driven and not in this table.
+# Table 1 of the thesis: the one schedule table. The RC and CAN readers are event-driven and
+# not in it.
 SCHEDULE: tuple[TaskSpec, ...] = (
-    TaskSpec("steering", 100.0, 0.002),
-    TaskSpec("driving", 100.0, 0.002),
-    TaskSpec("hydrobrake", 100.0, 0.002),
-    TaskSpec("can_tx", 50.0, 0.004),
-    TaskSpec("lights", 20.0, 0.005),
+    TaskSpec("steering", 100.0, 0.002, tasks.write_steering),
+    TaskSpec("driving", 100.0, 0.002, tasks.write_drive),
+    TaskSpec("hydrobrake", 100.0, 0.002, tasks.write_brakes),
+    TaskSpec("can_tx", 50.0, 0.004, tasks.send_reports),
+    TaskSpec("lights", 20.0, 0.005, tasks.write_lights),
 )
+TASK_NAMES = tuple(spec.name for spec in SCHEDULE)
 
 
 @dataclass(slots=True)

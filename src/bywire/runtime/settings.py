@@ -42,7 +42,5 @@ class RuntimeConfig:
             dac_vref_volts=dac.vref_volts,
             safe_steering_pulse_s=servo.center_pulse_s,
         )
-        schedule = tuple(
-            replace(spec, rate_hz=getattr(robot.tasks, f"{spec.name}_rate_hz")) for spec in SCHEDULE
-        )
+        schedule = tuple(replace(spec, rate_hz=robot.tasks.rate_hz(spec.name)) for spec in SCHEDULE)
         return cls(control, actuators, schedule, robot.timeouts.watchdog_s)

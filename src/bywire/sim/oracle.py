@@ -26,6 +26,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 
+from bywire.config.consistency import CONTROL_TASKS
 from bywire.config.model import RobotConfig
 from bywire.hal.sim.world import SimWorld
 from bywire.model import ControlMode
@@ -53,8 +54,7 @@ class OracleTiming:
 
     @classmethod
     def for_robot(cls, robot: RobotConfig) -> OracleTiming:
-        tasks = robot.tasks
-        slowest_hz = min(tasks.steering_rate_hz, tasks.driving_rate_hz, tasks.hydrobrake_rate_hz)
+        slowest_hz = min(robot.tasks.rate_hz(name) for name in CONTROL_TASKS)
         return cls(
             frame_s=robot.sim.rc_frame_period_s,
             debounce_frames=robot.supervisor.debounce_frames,
