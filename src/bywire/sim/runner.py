@@ -18,7 +18,6 @@ from bywire.config import RobotConfig
 from bywire.control.supervisor import Cause
 from bywire.hal.sim.can_bus import LoggedFrame
 from bywire.hal.sim.clock import RealtimeClock, VirtualClock
-from bywire.hal.sim.hlc import Corruption
 from bywire.hal.sim.timers import PeriodicTimer
 from bywire.hal.sim.world import SimWorld
 from bywire.model import ControlMode, Gear
@@ -27,17 +26,12 @@ from bywire.runtime.settings import RuntimeConfig
 from bywire.runtime.watchdog import POLL_S as WATCHDOG_POLL_S
 from bywire.security.session import SecocReceiver
 from bywire.security.setup import configured_key, controller_receiver, sender_signer
+from bywire.sim.faults import BY_NAME
 from bywire.sim.observe import Observation, conditions_hold, observe
 from bywire.sim.scenario import Event, Expectation, Scenario
 
 RECORD_PERIOD_S = 0.010  # the plot's resolution; expectations see every pass of the loop
 SAFE_SEARCH_S = 2.0  # how long after a fault the run looks for safe outputs
-CORRUPTIONS = {
-    "can_corrupt_crc": Corruption.BAD_CRC,
-    "can_corrupt_length": Corruption.WRONG_LENGTH,
-    "can_corrupt_counter": Corruption.REPEATED_COUNTER,
-    "can_corrupt_range": Corruption.OUT_OF_RANGE,
-}
 
 
 @dataclass(slots=True)
@@ -101,7 +95,7 @@ class SimRun:
         self.duration_s = scenario.duration_s if duration_s is None else duration_s
         realtime = realtime or scenario.realtime
         clock = RealtimeClock() if realtime else VirtualClock()
-        self.world = SimWorld.from_robot(clock, robot)
+        self.world: SimWorld = SimWorld.from_robot(clock, robot)
         config = RuntimeConfig.from_robot(robot)
         # On virtual time the watchdog runs on the simulated clock, checked by a timer where the
         # thread would poll: a write stalled in simulated time trips it exactly, and the wall
@@ -119,7 +113,8 @@ class SimRun:
             PeriodicTimer(clock, WATCHDOG_POLL_S, check).start()
         self.record = RunRecord(verdicts=[Verdict(e) for e in scenario.expectations])
         self.started_at = clock.now()
-        self._random = random.Random(robot.sim.seed)
+        self.random = random.Random(robot.sim.seed)
+        """The run's own randomness (garbage bytes): seeded by the configuration."""
         self._movement: dict[str, Any] = {
             "steering": 0.0,
             "throttle": 0.0,
@@ -184,7 +179,14 @@ class SimRun:
                 if expectation.after == event.label and verdict.window is None:
                     length_s = expectation.during_s or expectation.within_s or 0.0
                     verdict.window = (now, now + length_s)
-        getattr(self, f"_apply_{event.kind}")(event.values)
+        appliers: dict[str, Callable[[dict[str, Any]], None]] = {
+            "rc": self._apply_rc,
+            "hlc": self._apply_hlc,
+            "hlc_lights": self._apply_hlc_lights,
+            "hlc_control": self._apply_hlc_control,
+            "fault": self._apply_fault,
+        }
+        appliers[event.kind](event.values)
         for listener in self.on_event:
             listener(event, now)
 
@@ -222,53 +224,9 @@ class SimRun:
         )
 
     def _apply_fault(self, values: dict[str, Any]) -> None:
-        world, fault, count = self.world, values["fault"], int(values["count"])
-        actions: dict[str, Callable[[], None]] = {
-            "rc_link_lost": world.rc.link_lost,
-            "rc_link_restored": world.rc.link_restored,
-            "rc_failsafe": lambda: world.rc.failsafe(self._failsafe_values()),
-            "rc_failsafe_off": world.rc.failsafe_off,
-            "ibus_garbage": lambda: world.rc.inject_bytes(self._random.randbytes(count)),
-            "ibus_corrupt": lambda: world.rc.corrupt_next_frames(count),
-            "can_silence": world.hlc.silence,
-            "can_resume": world.hlc.start,
-            "dac_fail": world.dac.fail_writes,
-            "dac_restore": world.dac.stop_failing,
-            "can_unplug": world.bus.unplug,
-            "can_plug": world.bus.plug,
-            "can_flood": lambda: world.bus.flood(float(values["load"])),
-            "can_flood_off": world.bus.stop_flood,
-            "switch_chatter": lambda: world.rc.chatter_next_frames(count),
-            "rc_implausible": lambda: world.rc.implausible_next_frames(count),
-            "can_impostor": lambda: world.impostor.start(count),
-            "dac_nak_alternate": lambda: world.dac.fail_pattern((True, False)),
-            "dac_stall": lambda: world.dac.stall_next_write(float(values["stall_s"])),
-            "wheel_sensor_dead": world.wheel_sensor.die,
-            "wheel_sensor_restore": world.wheel_sensor.restore,
-        }
-        actions.update(self._actuator_faults(values))
-        if fault in CORRUPTIONS:
-            world.hlc.corrupt_next(count, CORRUPTIONS[fault])
-        else:
-            actions[fault]()
+        BY_NAME[str(values["fault"])].apply(self, values)
 
-    def _actuator_faults(self, values: dict[str, Any]) -> dict[str, Callable[[], None]]:
-        faults, encoder = self.world.vehicle.faults, self.world.steering_encoder
-
-        def setter(name: str, value: bool) -> Callable[[], None]:
-            return lambda: setattr(faults, name, value)
-
-        return {
-            "hydrobrake_fail": setter("hydrobrake_failed", True),
-            "hydrobrake_restore": setter("hydrobrake_failed", False),
-            "ebrake_fail": setter("ebrake_failed", True),
-            "servo_stuck": setter("servo_stuck", True),
-            "servo_free": setter("servo_stuck", False),
-            "encoder_fail": lambda: setattr(encoder, "failed", True),
-            "loop_stall": lambda: self._stall(float(values["stall_s"])),
-        }
-
-    def _stall(self, stall_s: float) -> None:
+    def stall_loop(self, stall_s: float) -> None:
         """Hang the controller's thread (this timer runs in it), watching the outputs meanwhile:
         only the watchdog's own thread can make them safe now."""
         end_s = time.perf_counter() + stall_s
@@ -276,7 +234,7 @@ class SimRun:
             time.sleep(0.002)
             self._observe(self.world.clock.now())
 
-    def _failsafe_values(self) -> dict[int, int]:
+    def failsafe_values(self) -> dict[int, int]:
         """A FlySky receiver's output on loss: the transmitter's failsafe values. Sticks centred,
         switches as they were, and the configured signature channel at 900 µs."""
         mapping = self.robot.rc.mapping

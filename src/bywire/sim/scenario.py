@@ -41,6 +41,7 @@ from typing import Any
 import tomli_w
 
 from bywire.errors import ConfigError
+from bywire.sim.faults import FAULTS as FAULT_TABLE
 from bywire.sim.scenario_values import ACTION_VALUES, CONDITION_VALUES, FAULT_VALUES, Check
 
 RC_KEYS = {"steering", "throttle", "mode", "gear", "low_beam", "hazard"}
@@ -53,43 +54,7 @@ ACTIONS = {
     "hlc_lights": HLC_LIGHTS_KEYS,
     "hlc_control": HLC_CONTROL_KEYS,
 }
-FAULTS = {
-    "rc_link_lost": "the RC receiver stops sending (unplugged, or the UART dies)",
-    "rc_link_restored": "the RC receiver sends again",
-    "rc_failsafe": "the receiver sends its failsafe values (transmitter out of range)",
-    "rc_failsafe_off": "the transmitter is back in range",
-    "ibus_garbage": "`count` random bytes on the RC line",
-    "ibus_corrupt": "the next `count` IBUS frames have a corrupted byte",
-    "can_silence": "the higher-level computer stops sending commands",
-    "can_resume": "the higher-level computer sends again",
-    "can_corrupt_crc": "the next `count` command frames carry a bad CRC",
-    "can_corrupt_length": "the next `count` command frames have the wrong length",
-    "can_corrupt_counter": "the next `count` command frames repeat their counter",
-    "can_corrupt_range": "the next `count` command frames carry an out-of-range value",
-    "dac_fail": "every DAC write is NAKed from now on",
-    "dac_restore": "DAC writes succeed again",
-    "can_unplug": "the CAN cable is pulled: nothing is delivered, transmit queues fill",
-    "can_plug": "the CAN cable is back",
-    "can_flood": "other nodes fill `load` (0…1) of the bus with lower-priority frames",
-    "can_flood_off": "the other nodes stop",
-    "hydrobrake_fail": "the hydraulic brake builds no pressure and does not brake",
-    "hydrobrake_restore": "the hydraulic brake works again",
-    "ebrake_fail": "the spring-applied emergency brake does not engage",
-    "servo_stuck": "the steering servo stays where it is",
-    "servo_free": "the steering servo moves again",
-    "encoder_fail": "the steering encoder gives no reading",
-    "loop_stall": "the control loop hangs for `stall_s` (needs realtime = true: the watchdog's "
-    "limit is wall-clock time)",
-    "dac_stall": "the next DAC write hangs inside the I2C driver for `stall_s` (virtual time too)",
-    "dac_nak_alternate": "every other DAC write is NAKed from now on (dac_restore ends it)",
-    "switch_chatter": "the mode switch bounces: of the next `count` IBUS frames every other one "
-    "reads STOP",
-    "rc_implausible": "the next `count` IBUS frames are intact but carry a pulse no stick gives",
-    "can_impostor": "a second node sends `count` movement commands on the computer's id, each "
-    "with the counter the computer will use next, asking for throttle 0.8",
-    "wheel_sensor_dead": "the wheel-speed sensor reads 0 m/s from now on, whatever the wheels do",
-    "wheel_sensor_restore": "the wheel-speed sensor tells the truth again",
-}
+FAULTS = {fault.name: fault.description for fault in FAULT_TABLE}
 CONDITIONS = {
     "mode": "control mode: stop, rc or can",
     "latched": "STOP is latched (true/false)",
