@@ -10,7 +10,7 @@ from typing import Any
 
 import can
 
-from bywire.tools.can_feed import open_bus
+from bywire.monitor.feed import open_bus
 from bywire.tools.loopback import DEFAULT_HOST, DEFAULT_PORT
 
 

@@ -15,9 +15,9 @@ from rich.console import Console
 
 from bywire.cli.arguments import positive_seconds
 from bywire.cli.bus_options import add_bus_options, bus_from_args, bus_source
-from bywire.tools.can_feed import CanFeed
-from bywire.tools.monitor_model import BusModel
-from bywire.tools.monitor_view import snapshot_table
+from bywire.monitor.feed import CanFeed
+from bywire.monitor.model import BusModel
+from bywire.monitor.view import snapshot_table
 
 SNAPSHOT_S = 1.0
 
@@ -49,7 +49,7 @@ def run(args: argparse.Namespace) -> int:
     source = bus_source(args)
     if args.once or args.duration is not None:
         return _snapshot(feed, source, args.duration or SNAPSHOT_S)
-    from bywire.tools.monitor_app import MonitorApp  # noqa: PLC0415 -- textual: live view only
+    from bywire.monitor.app import MonitorApp  # noqa: PLC0415 -- textual: live view only
 
     feed.start()
     try:

@@ -6,9 +6,9 @@ import pytest
 
 from bywire.control.error_flags import ErrorFlag
 from bywire.model import ControlMode, ErrorReport, Gear, ModeReport, MovementCommand
+from bywire.monitor.model import BusModel, MessageRow
+from bywire.monitor.view import cells, snapshot_table
 from bywire.protocol import dbc
-from bywire.tools.monitor_model import BusModel, MessageRow
-from bywire.tools.monitor_view import cells, snapshot_table
 
 PERIOD_S = 0.02
 

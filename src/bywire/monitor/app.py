@@ -8,9 +8,9 @@ from collections.abc import Callable
 from textual.app import App, ComposeResult
 from textual.widgets import DataTable, Footer, Header
 
-from bywire.tools.can_feed import CanFeed
-from bywire.tools.monitor_model import BusModel
-from bywire.tools.monitor_view import COLUMNS, cells
+from bywire.monitor.feed import CanFeed
+from bywire.monitor.model import BusModel
+from bywire.monitor.view import COLUMNS, cells
 
 REFRESH_S = 0.25
 
