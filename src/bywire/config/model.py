@@ -7,7 +7,7 @@ is the simulator's: `RobotConfig()` equals the packaged `bywire/defaults/sim.tom
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, fields
 from typing import Literal
 
 from bywire.config.security import SecuritySection
@@ -234,16 +234,21 @@ class RobotConfig:
     security: SecuritySection = field(default_factory=SecuritySection)
 
 
-OUTPUT_LINE_KEYS: dict[str, str] = {
-    name: f"{section}.{name}"
-    for section, names in (
-        ("drive", ("motors_enable", "motors_forward", "motors_reverse")),
-        ("ebrake", ("ebrake_release",)),
-        ("lights", ("brake_light", "reverse_light", "turn_left_light", "turn_right_light")),
-        ("lights", ("low_beam", "error_led")),
-    )
-    for name in names
-}
+OUTPUT_SECTIONS = ("drive", "ebrake", "lights")
+"""The sections whose GPIO lines are digital outputs."""
+
+
+def _output_line_keys() -> dict[str, str]:
+    defaults = RobotConfig()
+    return {
+        field.name: f"{section}.{field.name}"
+        for section in OUTPUT_SECTIONS
+        for field in fields(getattr(defaults, section))
+        if isinstance(getattr(getattr(defaults, section), field.name), GpioLine)
+    }
+
+
+OUTPUT_LINE_KEYS: dict[str, str] = _output_line_keys()
 """Every digital output, named like `bywire.hal.hardware.DigitalOutputs`' fields, to its key."""
 
 
