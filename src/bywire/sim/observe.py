@@ -1,4 +1,5 @@
-"""What a scenario can see of the simulated robot at one instant, and its expectation conditions.
+"""What a scenario can see of the simulated robot at one instant (its expectations are judged on
+it: `bywire.sim.conditions`).
 
 Observations read the simulated hardware (DAC volts, GPIO levels, PWM duty, the vehicle), not the
 controller's intentions, so "safe within 110 ms" means the outputs really were safe.
@@ -6,10 +7,7 @@ controller's intentions, so "safe within 110 ms" means the outputs really were s
 
 from __future__ import annotations
 
-import operator
-from collections.abc import Callable
 from dataclasses import dataclass
-from typing import Any
 
 from bywire.control.controller import ControlOutputs
 from bywire.hal.sim.world import SimWorld
@@ -86,26 +84,3 @@ def observe(
         error_led=gpio["error_led"].level,
         error_flags=outputs.error_flags,
     )
-
-
-_BOUNDS: dict[str, tuple[str, Callable[[float, float], bool]]] = {
-    "throttle_volts_max": ("throttle_volts", operator.le),
-    "throttle_volts_min": ("throttle_volts", operator.ge),
-    "speed_min_mps": ("speed_mps", operator.ge),
-    "speed_max_mps": ("speed_mps", operator.le),
-    "hydrobrake_duty_min": ("hydrobrake_duty", operator.ge),
-}
-
-
-def _holds(observation: Observation, key: str, wanted: Any) -> bool:
-    if key == "mode":
-        return observation.mode.name.lower() == str(wanted).lower()
-    if key in _BOUNDS:
-        field_name, compare = _BOUNDS[key]
-        return compare(getattr(observation, field_name), float(wanted))
-    return bool(getattr(observation, key)) is bool(wanted)
-
-
-def conditions_hold(observation: Observation, conditions: dict[str, Any]) -> bool:
-    """True when every condition of an expectation holds in this observation."""
-    return all(_holds(observation, key, wanted) for key, wanted in conditions.items())

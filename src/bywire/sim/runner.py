@@ -26,8 +26,9 @@ from bywire.runtime.settings import RuntimeConfig
 from bywire.runtime.watchdog import POLL_S as WATCHDOG_POLL_S
 from bywire.security.session import SecocReceiver
 from bywire.security.setup import configured_key, controller_receiver, sender_signer
+from bywire.sim.conditions import conditions_hold
 from bywire.sim.faults import BY_NAME
-from bywire.sim.observe import Observation, conditions_hold, observe
+from bywire.sim.observe import Observation, observe
 from bywire.sim.scenario import Event, Expectation, Scenario
 
 RECORD_PERIOD_S = 0.010  # the plot's resolution; expectations see every pass of the loop

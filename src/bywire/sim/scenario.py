@@ -41,8 +41,9 @@ from typing import Any
 import tomli_w
 
 from bywire.errors import ConfigError
+from bywire.sim.conditions import CONDITIONS as CONDITION_TABLE
 from bywire.sim.faults import FAULTS as FAULT_TABLE
-from bywire.sim.scenario_values import ACTION_VALUES, CONDITION_VALUES, FAULT_VALUES, Check
+from bywire.sim.scenario_values import ACTION_VALUES, FAULT_VALUES, Check
 
 RC_KEYS = {"steering", "throttle", "mode", "gear", "low_beam", "hazard"}
 HLC_KEYS = {"steering", "throttle", "brake", "gear"}
@@ -55,21 +56,8 @@ ACTIONS = {
     "hlc_control": HLC_CONTROL_KEYS,
 }
 FAULTS = {fault.name: fault.description for fault in FAULT_TABLE}
-CONDITIONS = {
-    "mode": "control mode: stop, rc or can",
-    "latched": "STOP is latched (true/false)",
-    "throttle_volts_max": "throttle DAC output at most this (V)",
-    "throttle_volts_min": "throttle DAC output at least this (V)",
-    "motors_enabled": "the motors' enable line",
-    "ebrake_engaged": "the emergency brake is engaged",
-    "speed_min_mps": "vehicle speed at least this (m/s, signed)",
-    "speed_max_mps": "vehicle speed at most this (m/s, signed)",
-    "brake_light": "brake lights on",
-    "reverse_light": "reverse lights on",
-    "error_led": "error LED on",
-    "low_beam": "low beam on",
-    "hydrobrake_duty_min": "hydraulic brake PWM duty at least this",
-}
+CONDITIONS = {condition.key: condition.description for condition in CONDITION_TABLE}
+CONDITION_VALUES = {condition.key: condition.check for condition in CONDITION_TABLE}
 EVENT_KEYS = {"at_s", "label", "fault", "count", "load", "stall_s", *ACTIONS}
 EXPECT_KEYS = {"after", "within_s", "during_s", "at_s", "label", *CONDITIONS}
 

@@ -74,20 +74,3 @@ FAULT_VALUES: dict[str, Check] = {
     "load": UNIT,
     "stall_s": number(0.001, 10.0, "s"),
 }
-
-CONDITION_VALUES: dict[str, Check] = {
-    "mode": one_of(MODES),
-    "latched": flag,
-    "throttle_volts_max": number(0.0, 5.5, "V"),
-    "throttle_volts_min": number(0.0, 5.5, "V"),
-    "motors_enabled": flag,
-    "ebrake_engaged": flag,
-    "speed_min_mps": number(-30.0, 30.0, "m/s"),
-    "speed_max_mps": number(-30.0, 30.0, "m/s"),
-    "brake_light": flag,
-    "reverse_light": flag,
-    "error_led": flag,
-    "low_beam": flag,
-    "hydrobrake_duty_min": UNIT,
-}
-"""Every expectation condition, with what its value may be."""

@@ -1,0 +1,68 @@
+"""Every condition an expectation of a scenario may state, in one table: its key, what it means,
+what its value may be (checked when the scenario loads) and when it holds in an observation.
+
+A new condition is a row here (and, if the robot shows something new, a field of
+`Observation`).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass
+from typing import Any
+
+from bywire.sim.observe import Observation
+from bywire.sim.scenario_values import MODES, UNIT, Check, flag, number, one_of
+
+Holds = Callable[[Observation, Any], bool]
+
+
+@dataclass(frozen=True, slots=True)
+class Condition:
+    """One expectation condition: `key = value` in a scenario's `[[expect]]`."""
+
+    key: str
+    description: str
+    check: Check
+    holds: Holds
+
+
+VOLTS = number(0.0, 5.5, "V")
+SPEED = number(-30.0, 30.0, "m/s")
+
+# fmt: off
+CONDITIONS: tuple[Condition, ...] = (
+    Condition("mode", "control mode: stop, rc or can", one_of(MODES),
+              lambda o, wanted: o.mode.name.lower() == str(wanted).lower()),
+    Condition("latched", "STOP is latched (true/false)", flag,
+              lambda o, wanted: o.latched is bool(wanted)),
+    Condition("throttle_volts_max", "throttle DAC output at most this (V)", VOLTS,
+              lambda o, wanted: o.throttle_volts <= float(wanted)),
+    Condition("throttle_volts_min", "throttle DAC output at least this (V)", VOLTS,
+              lambda o, wanted: o.throttle_volts >= float(wanted)),
+    Condition("motors_enabled", "the motors' enable line", flag,
+              lambda o, wanted: o.motors_enabled is bool(wanted)),
+    Condition("ebrake_engaged", "the emergency brake is engaged", flag,
+              lambda o, wanted: o.ebrake_engaged is bool(wanted)),
+    Condition("speed_min_mps", "vehicle speed at least this (m/s, signed)", SPEED,
+              lambda o, wanted: o.speed_mps >= float(wanted)),
+    Condition("speed_max_mps", "vehicle speed at most this (m/s, signed)", SPEED,
+              lambda o, wanted: o.speed_mps <= float(wanted)),
+    Condition("brake_light", "brake lights on", flag,
+              lambda o, wanted: o.brake_light is bool(wanted)),
+    Condition("reverse_light", "reverse lights on", flag,
+              lambda o, wanted: o.reverse_light is bool(wanted)),
+    Condition("error_led", "error LED on", flag,
+              lambda o, wanted: o.error_led is bool(wanted)),
+    Condition("low_beam", "low beam on", flag,
+              lambda o, wanted: o.low_beam is bool(wanted)),
+    Condition("hydrobrake_duty_min", "hydraulic brake PWM duty at least this", UNIT,
+              lambda o, wanted: o.hydrobrake_duty >= float(wanted)),
+)
+# fmt: on
+BY_KEY: dict[str, Condition] = {condition.key: condition for condition in CONDITIONS}
+
+
+def conditions_hold(observation: Observation, conditions: Mapping[str, Any]) -> bool:
+    """True when every condition of an expectation holds in this observation."""
+    return all(BY_KEY[key].holds(observation, wanted) for key, wanted in conditions.items())
