@@ -25,7 +25,7 @@ from typing import Any
 import pytest
 
 from bywire.cli.main import main
-from bywire.model import ControlMode, Gear
+from bywire.model import ControlMode
 from tests.hal.linux import fake_gpiod
 from tests.hal.linux.bench import Bench, make_bench
 from tests.hal.linux.fake_sysfs import make_can_netdev
@@ -111,16 +111,6 @@ def _holds(condition: Callable[[], bool]) -> bool:
         return condition()
     except (OSError, ValueError, KeyError):
         return False  # a file the process has not written yet
-
-
-@pytest.fixture
-def line(tmp_path: Path) -> Iterator[PtyRcLine]:
-    rc = PtyRcLine(tmp_path / "ttyRC")
-    rc.transmitter.set_mode(ControlMode.STOP)
-    rc.transmitter.set_gear(Gear.FORWARD)
-    rc.start()
-    yield rc
-    rc.close()
 
 
 def _stop_armed(robot: Robot) -> dict[str, Any]:

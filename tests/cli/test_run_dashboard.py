@@ -23,7 +23,7 @@ from pathlib import Path
 import pytest
 
 from bywire.cli.main import main
-from bywire.model import ControlMode, Gear
+from bywire.model import ControlMode
 from tests.cli.test_run import LAUNCHER, LIMIT_S, _assert_de_energised
 from tests.hal.linux.bench import Bench, make_bench
 from tests.hal.linux.pty_rc import PtyRcLine
@@ -130,10 +130,7 @@ def test_the_view_on_the_robot_stand_ins_and_the_end_is_de_energised(
     tmp_path: Path, how: str
 ) -> None:
     bench = make_bench(tmp_path)
-    line = PtyRcLine(bench.rc_link)
-    line.transmitter.set_mode(ControlMode.STOP)
-    line.transmitter.set_gear(Gear.FORWARD)
-    line.start()
+    line = PtyRcLine.at_rest(bench.rc_link)
     try:
         screen = Screen(bench)
         screen.wait_for("flags: ")
@@ -194,10 +191,7 @@ def test_a_stop_signal_ends_safe_with_stopping_within_a_second_whatever_the_view
     tmp_path: Path, how: str, notifications: Notifications
 ) -> None:
     bench = make_bench(tmp_path)
-    line = PtyRcLine(bench.rc_link)
-    line.transmitter.set_mode(ControlMode.STOP)
-    line.transmitter.set_gear(Gear.FORWARD)
-    line.start()
+    line = PtyRcLine.at_rest(bench.rc_link)
     try:
         screen = Screen(bench, notify_socket=notifications.path)
         screen.wait_for("speed")
@@ -228,10 +222,7 @@ def test_a_stop_signal_ends_safe_with_stopping_within_a_second_whatever_the_view
 
 def test_a_killed_view_changes_nothing_in_the_controller(tmp_path: Path) -> None:
     bench = make_bench(tmp_path)
-    line = PtyRcLine(bench.rc_link)
-    line.transmitter.set_mode(ControlMode.STOP)
-    line.transmitter.set_gear(Gear.FORWARD)
-    line.start()
+    line = PtyRcLine.at_rest(bench.rc_link)
     try:
         screen = Screen(bench)
         screen.wait_for("hydrobrake")

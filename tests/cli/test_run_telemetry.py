@@ -9,7 +9,6 @@ import json
 import re
 import signal
 import threading
-from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
@@ -17,23 +16,12 @@ import pytest
 from mcap.reader import make_reader
 
 from bywire.dashboard.client import FeedClient
-from bywire.model import ControlMode, Gear
+from bywire.model import ControlMode
 from bywire.protocol import dbc
 from bywire.telemetry.schemas import CAN_TOPIC, EVENTS_TOPIC, STATE_TOPIC
 from tests.cli.test_run import LIMIT_S, Robot, _assert_de_energised, _stop_armed
 from tests.hal.linux.bench import make_bench
 from tests.hal.linux.pty_rc import PtyRcLine
-
-
-@pytest.fixture
-def line(tmp_path: Path) -> Iterator[PtyRcLine]:
-    """The RC receiver on a pty, the transmitter's switch at STOP (as tests/cli/test_run.py)."""
-    rc = PtyRcLine(tmp_path / "ttyRC")
-    rc.transmitter.set_mode(ControlMode.STOP)
-    rc.transmitter.set_gear(Gear.FORWARD)
-    rc.start()
-    yield rc
-    rc.close()
 
 
 def read_mcap(path: Path) -> list[tuple[str, dict[str, Any]]]:

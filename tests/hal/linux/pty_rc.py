@@ -19,6 +19,7 @@ from pathlib import Path
 from bywire.hal.sim.clock import RealtimeClock
 from bywire.hal.sim.rc_transmitter import SimRcTransmitter
 from bywire.hal.sim.uart import BITS_PER_BYTE_8N1
+from bywire.model import ControlMode, Gear
 from bywire.protocol import ibus
 
 BYTE_TIME_S = BITS_PER_BYTE_8N1 / ibus.BAUD_RATE
@@ -45,6 +46,16 @@ class PtyRcLine:
         """The receiver sends a frame every period from now."""
         self.transmitter.start()
         self._thread.start()
+
+    @classmethod
+    def at_rest(cls, link: Path) -> PtyRcLine:
+        """A receiver sending from now, its transmitter's switch at STOP in gear forward: the
+        operator's starting position in the tests of `bywire run`."""
+        line = cls(link)
+        line.transmitter.set_mode(ControlMode.STOP)
+        line.transmitter.set_gear(Gear.FORWARD)
+        line.start()
+        return line
 
     def transmit(self, data: bytes, start_s: float | None = None) -> float:
         """Called by the transmitter: put `data` on the line at 115200 baud from `start_s`."""
