@@ -2,6 +2,9 @@
 
 from __future__ import annotations
 
+import subprocess
+import sys
+
 import pytest
 
 from bywire.config import parse_config
@@ -118,3 +121,13 @@ def test_the_schedule_table_rows_carry_their_tasks_and_the_configuration_overrid
 def test_a_task_name_the_schedule_does_not_have_fails_at_load() -> None:
     with pytest.raises(ConfigError, match=r"tasks\.light_rate_hz"):
         parse_config("[tasks]\nlight_rate_hz = 10")
+
+
+def test_the_configuration_reads_the_schedule_without_loading_the_codecs() -> None:
+    # The table's rows name their task functions; importing them must stay light, or every
+    # command that only reads a robot file pays for cantools and the DBC.
+    code = "import sys, bywire.config; print('cantools' in sys.modules)"
+    result = subprocess.run(
+        [sys.executable, "-c", code], capture_output=True, text=True, check=True
+    )
+    assert result.stdout.strip() == "False"

@@ -26,13 +26,16 @@ from bywire.control.controller import (
 from bywire.control.error_flags import ErrorFlag
 from bywire.control.rc_mapping import RcRequest
 from bywire.control.supervisor import Cause
-from bywire.control.validity import Stamped
+from bywire.control.validity import Stamped, age_s
 from bywire.hal.hardware import Hardware
+from bywire.hal.ports import CanFrame
 from bywire.model import Command, ControlCommand, ControlMode, LightsCommand, MovementCommand
+from bywire.protocol import dbc
 from bywire.runtime import tasks
 from bywire.runtime.actuators import Actuators
 from bywire.runtime.readers import CanReader, IbusReader
 from bywire.runtime.recent_fault import RecentFault, active_flags
+from bywire.runtime.reports import Health, build_reports
 from bywire.runtime.schedule import PeriodicTask, TaskFn
 from bywire.runtime.sensors import SensorReadings, read_sensors
 from bywire.runtime.settings import RuntimeConfig
@@ -277,3 +280,26 @@ class Runtime:
         if self.watchdog is not None:
             self.watchdog.reset()
         self.actuators.gate.reset()
+
+    def send_reports(self, outputs: ControlOutputs, now: float) -> None:
+        """Send one full set of reports; on the first refusal give up until the next period.
+
+        Backing off instead of retrying is the fix for §5.2: with the bus unplugged no mailbox
+        ever frees, and a task that keeps retrying starves everything below it.
+        """
+        health = Health(
+            uptime_s=now - self.started_at,
+            overrun_count=self.overrun_count,
+            rc_age_s=age_s(self.inputs.rc, now),
+            can_age_s=age_s(self.inputs.movement, now),
+            wheel_speeds_mps=self.sensors.wheel_speeds_mps,
+            steering_setpoint_norm=self.state.steering.setpoint_norm,
+            steering_measured_norm=self.sensors.steering_measured_norm,
+            encoder_valid_limit_norm=self.config.control.monitors.encoder_valid_limit_norm,
+        )
+        for report in build_reports(outputs, health):
+            frame_id, payload = dbc.encode_report(report)
+            if not self.hardware.can.send(CanFrame(frame_id, payload, now)):
+                self.tx_faults.happened(now)
+                return
+            self.reports_sent += 1
