@@ -69,3 +69,24 @@ def test_the_readme_cites_the_thesis_and_links_the_requirements() -> None:
         assert part in references
     assert "2020" in references
     assert "(docs/REQUIREMENTS.md)" in references
+
+
+SAFETY = ROOT / "docs" / "SAFETY.md"
+TEST_REFERENCE = re.compile(r"`(tests/[\w/]+\.py)?(?:::(\w+))?`")
+
+
+def test_every_test_the_hazard_table_names_exists() -> None:
+    """`tests/x.py::test_y`, and `::test_z` after it for the same file, as SAFETY.md writes them."""
+    missing: list[str] = []
+    current: Path | None = None
+    for match in TEST_REFERENCE.finditer(SAFETY.read_text(encoding="utf-8")):
+        file, test = match.groups()
+        if file:
+            current = ROOT / file
+            if not current.is_file():
+                missing.append(file)
+                continue
+        defined = rf"^(?:async )?def {test}\("
+        if test and current and not re.search(defined, current.read_text("utf-8"), re.M):
+            missing.append(f"{current.relative_to(ROOT)}::{test}")
+    assert missing == []

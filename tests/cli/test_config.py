@@ -30,6 +30,24 @@ def test_a_valid_file_prints_what_it_resolved_to() -> None:
     assert 'interface = "socketcan"' in out
 
 
+def test_the_receive_check_of_each_can_command_is_shown_with_its_own_timeout(
+    tmp_path: Path,
+) -> None:
+    robot = tmp_path / "robot.toml"
+    robot.write_text("[timeouts.can_message_timeout_s]\nLightsCommand = 0.5\n")
+    status, out, _ = _check(str(robot))
+    assert status == 0
+    checks = [line for line in out.splitlines() if line.startswith("#   ")]
+    assert checks == [
+        "#   ControlCommand 0x100: 3 bytes, counter mod 16, CRC-8 in the last byte,"
+        " every 20 ms, lost after 100 ms",
+        "#   MovementCommand 0x101: 8 bytes, counter mod 16, CRC-8 in the last byte,"
+        " every 20 ms, lost after 100 ms",
+        "#   LightsCommand 0x102: 3 bytes, counter mod 16, CRC-8 in the last byte,"
+        " every 20 ms, lost after 500 ms",
+    ]
+
+
 def test_json_gives_the_same_values() -> None:
     status, out, _ = _check(str(ALBERT), "--json")
     assert status == 0

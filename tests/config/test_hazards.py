@@ -14,6 +14,10 @@ UNSAFE = [
         ("timeouts.can_command_timeout_s", "timeouts.watchdog_s"),
     ),
     (
+        "[timeouts.can_message_timeout_s]\nMovementCommand = 0.5",
+        ("timeouts.can_message_timeout_s.MovementCommand", "timeouts.watchdog_s"),
+    ),
+    (
         "[timeouts]\nrc_timeout_s = 0.3\nwatchdog_s = 0.2",
         ("timeouts.rc_timeout_s", "timeouts.watchdog_s"),
     ),
@@ -45,6 +49,11 @@ def test_each_unsafe_combination_is_reported_with_its_keys(
     message = str(found[0])
     assert all(key in message for key in keys)
     assert "allowed" in message
+
+
+def test_a_slow_lights_command_is_no_hazard_it_moves_nothing() -> None:
+    text = "[timeouts.can_message_timeout_s]\nLightsCommand = 0.5\nControlCommand = 0.5"
+    assert unsafe_combinations(parse_config(text, "robot.toml")) == []
 
 
 def test_the_limit_itself_is_safe() -> None:

@@ -251,11 +251,49 @@ def test_any_out_of_range_pulse_is_refused(pulse_s: float) -> None:
     assert "0.0005..0.0025 s" in message
 
 
-@given(TIMEOUT, TIMEOUT)
+CAN_TIMEOUT = st.floats(0.040, 1.0)  # at least two 20 ms periods of every command (the DBC)
+
+
+@given(TIMEOUT, CAN_TIMEOUT)
 def test_any_in_range_timeouts_load(rc_s: float, can_s: float) -> None:
     text = f"[timeouts]\nrc_timeout_s = {rc_s!r}\ncan_command_timeout_s = {can_s!r}"
     timeouts = parse_config(text).timeouts
     assert (timeouts.rc_timeout_s, timeouts.can_command_timeout_s) == (rc_s, can_s)
+    assert {timeout_s for _, timeout_s in timeouts.can_message_timeout_s} == {can_s}
+
+
+@given(st.floats(0.020, 0.0399))
+def test_a_can_timeout_shorter_than_two_dbc_periods_is_refused(can_s: float) -> None:
+    message = _refusal(f"[timeouts]\ncan_command_timeout_s = {can_s!r}")
+    assert "timeouts.can_command_timeout_s" in message
+    assert "ControlCommand, MovementCommand, LightsCommand" in message
+    assert "GenMsgCycleTime" in message
+    assert "allowed >= 0.04 s" in message
+
+
+def test_a_message_named_gets_its_own_timeout_and_the_others_the_default() -> None:
+    text = (
+        "[timeouts]\ncan_command_timeout_s = 0.08\n"
+        "[timeouts.can_message_timeout_s]\nLightsCommand = 0.4"
+    )
+    timeouts = parse_config(text).timeouts
+    assert timeouts.can_timeout_s("LightsCommand") == 0.4
+    assert timeouts.can_timeout_s("MovementCommand") == 0.08
+    assert timeouts.can_timeout_s("ControlCommand") == 0.08
+
+
+def test_a_message_timeout_is_refused_under_its_own_key() -> None:
+    message = _refusal("[timeouts.can_message_timeout_s]\nMovementCommand = 0.03")
+    assert message.count("timeouts.can_message_timeout_s.MovementCommand = 0.03") == 1
+    assert "allowed >= 0.04 s" in message
+    assert "can_command_timeout_s =" not in message
+
+
+def test_a_message_the_dbc_does_not_command_is_refused_with_the_names_it_knows() -> None:
+    message = _refusal("[timeouts.can_message_timeout_s]\nMovementComand = 0.2")
+    assert "timeouts.can_message_timeout_s.MovementComand" in message
+    assert "did you mean timeouts.can_message_timeout_s.MovementCommand?" in message
+    assert "known keys: ControlCommand, MovementCommand, LightsCommand" in message
 
 
 @given(OUTSIDE_TIMEOUT)

@@ -205,6 +205,27 @@ def test_can_lights_apply_in_can_mode_only() -> None:
     assert not run(rc_steps)[-1].lights.low_beam
 
 
+@pytest.mark.parametrize(("lights_timeout_s", "low_beam"), [(0.1, False), (0.4, True)])
+def test_each_can_command_is_judged_against_its_own_timeout(
+    lights_timeout_s: float, low_beam: bool
+) -> None:
+    """LightsCommand sent once, MovementCommand every step: 0.28 s later the lamps follow the
+    old LightsCommand only if its own timeout (not the movement's) allows it."""
+    lights = Stamped(LightsCommand(False, False, False, low_beam=True, counter=0), 0.02)
+    movement = MovementCommand(0.0, 0.0, 0.0, Gear.FORWARD, counter=1)
+
+    def can(now: float) -> ControlInputs:
+        return ControlInputs(
+            rc=rc_at(now, mode=ControlMode.CAN), movement=Stamped(movement, now), lights=lights
+        )
+
+    steps = [*armed_rc(0.0, mode=ControlMode.RC), *held(0.02, 0.3, can)]
+    config = replace(CONFIG, lights_timeout_s=lights_timeout_s)
+    last = run(steps, config)[-1]
+    assert last.mode is ControlMode.CAN
+    assert last.lights.low_beam is low_beam
+
+
 def test_rc_low_beam_and_hazard_in_rc_mode() -> None:
     last = run(armed_rc(0.0, mode=ControlMode.RC, low_beam=True, hazard=True))[-1]
     assert last.lights.low_beam

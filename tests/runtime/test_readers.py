@@ -5,16 +5,25 @@ from __future__ import annotations
 
 import pytest
 
+from bywire.config import TimeoutsSection
 from bywire.control.command_edges import CommandEdges
 from bywire.control.rc_mapping import RcMapping
+from bywire.control.validity import is_fresh
 from bywire.hal.ports import CanFrame
 from bywire.hal.sim.can_bus import SimCanBus
 from bywire.hal.sim.clock import VirtualClock
 from bywire.hal.sim.uart import SimUart
-from bywire.model import ControlCommand, Gear, MovementCommand
+from bywire.model import ControlCommand, Gear, LightsCommand, MovementCommand
 from bywire.protocol import dbc, ibus
-from bywire.runtime.readers import COUNTER_MISS_LIMIT, COUNTER_WINDOW, CanReader, IbusReader
+from bywire.runtime.readers import (
+    COUNTER_MISS_LIMIT,
+    COUNTER_WINDOW,
+    CanReader,
+    IbusReader,
+    arrival,
+)
 from bywire.runtime.recent_fault import FAULT_HOLD_S, RecentFault
+from bywire.runtime.rx_checks import rx_checks
 
 CHANNELS = (1750, 1500, 1500, 1500, 1500, 1000, 1500) + (1500,) * 7
 FRAME = ibus.encode_frame(CHANNELS)
@@ -26,11 +35,11 @@ MOVEMENT_ID = dbc.frame_id(MovementCommand)
 class Link:
     """A sender and the controller's reader on one simulated bus."""
 
-    def __init__(self, gap_s: float = 0.1) -> None:
+    def __init__(self) -> None:
         self.clock = VirtualClock()
         bus = SimCanBus(self.clock)
         self.sender = bus.attach("hlc", tx_mailboxes=64)
-        self.reader = CanReader(bus.attach("bywire", True), gap_s=gap_s)
+        self.reader = CanReader(bus.attach("bywire", True))
 
     def queue(self, *counters: int, data: bytes | None = None) -> None:
         for counter in counters:
@@ -278,3 +287,42 @@ def test_the_reader_keeps_the_newest_raw_channels_and_stamps_its_parser() -> Non
     now = rx.poll_after(FRAME)
     assert rx.reader.last_channels == CHANNELS
     assert rx.reader.parser.last_frame_at == now
+
+
+# --- CAN: when a frame arrived ------------------------------------------------------------------
+
+
+def test_a_command_is_stamped_when_its_frame_arrived_not_when_the_loop_read_it() -> None:
+    link = Link()
+    link.queue(1)
+    link.clock.advance(0.001)  # on the wire: the frame is in the controller's receive queue
+    arrived_at = link.clock.now()
+    link.clock.advance(0.15)  # the loop was busy: the frame waited, the sender fell silent
+    now = link.clock.now()
+    (stamped,) = link.reader.poll(now)
+    assert stamped.received_at <= arrived_at
+    assert stamped.received_at > 0.0
+    # 151 ms old: stale for a 100 ms timeout, however fresh it looks to the loop
+    assert not is_fresh(stamped, now, 0.100)
+
+
+def test_a_stamp_from_the_future_or_none_is_not_believed() -> None:
+    now = 2.0
+    assert arrival(CanFrame(MOVEMENT_ID, b"", 1.5), now) == 1.5
+    assert arrival(CanFrame(MOVEMENT_ID, b"", 2.5), now) == now
+    assert arrival(CanFrame(MOVEMENT_ID, b""), now) == now
+
+
+def test_only_ids_with_a_receive_check_are_taken() -> None:
+    clock = VirtualClock()
+    bus = SimCanBus(clock)
+    sender = bus.attach("hlc", tx_mailboxes=8)
+    movement_only = [
+        check for check in rx_checks(TimeoutsSection()) if check.kind is not LightsCommand
+    ]
+    reader = CanReader(bus.attach("bywire", True), movement_only)
+    frame_id, payload = dbc.encode_command(LightsCommand(True, False, False, False, 0))
+    sender.send(CanFrame(frame_id, payload))
+    clock.advance(0.01)
+    assert reader.poll(clock.now()) == []
+    assert reader.ignored_frames == 1

@@ -1,7 +1,8 @@
 """`bywire config check FILE`: validate a robot configuration and print what it resolved to.
 
 The output is the whole resolved configuration as TOML (defaults filled in), which loads back to
-the same values, or as JSON with `--json`. A bad file exits 2 with every problem, each naming its
+the same values, headed by comments (whether commands are authenticated, and the receive check of
+each CAN command: its DBC period and its timeout), or as JSON with `--json`. A bad file exits 2 with every problem, each naming its
 key and the allowed range. Combinations of valid numbers that are unsafe together (see
 `bywire.config.hazards`) are warned about on stderr; `bywire verify` refuses them.
 """
@@ -15,6 +16,7 @@ from pathlib import Path
 
 from bywire.config import RobotConfig, as_dict, describe, load_config
 from bywire.config.hazards import unsafe_combinations
+from bywire.runtime.rx_checks import rx_checks
 from bywire.security.keys import read_key_file
 
 
@@ -50,5 +52,8 @@ def run(args: argparse.Namespace) -> int:
         return 0
     print(f"# {args.file}: valid; robot {config.name!r}, backend {config.backend!r}")
     print(f"# {authentication_line(config)}")
+    print("# CAN commands received (DBC and [timeouts]):")
+    for check in rx_checks(config.timeouts):
+        print(f"#   {check.describe()}")
     print(describe(config), end="")
     return 0

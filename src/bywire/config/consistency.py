@@ -14,11 +14,13 @@ CONTROL_TASKS = ("steering", "driving", "hydrobrake")  # the actuator tasks the 
 RC_AXES = ("steering", "throttle_brake")
 RC_FUNCTIONS = (*RC_AXES, "mode_switch", "gear_switch", "low_beam_switch", "hazard_switch")
 WATCHDOG_PERIODS = 2  # a watchdog shorter than two control periods would bite a healthy loop
+CAN_TIMEOUT_PERIODS = 2  # a CAN command's timeout spans two DBC periods: a lost frame is no STOP
 
 
 def check_consistency(config: RobotConfig, problems: Problems) -> None:
     """Record every problem that no single key shows; keys that already failed are skipped."""
-    for check in (_calibrations, _rc_channels, _dac, _outputs, _bit_timing, _watchdog):
+    checks = (_calibrations, _rc_channels, _dac, _outputs, _bit_timing, _watchdog, _can_timeouts)
+    for check in checks:
         check(config, problems)
 
 
@@ -122,4 +124,42 @@ def _watchdog(config: RobotConfig, problems: Problems) -> None:
             f"timeouts.watchdog_s = {show(config.timeouts.watchdog_s)}: shorter than"
             f" {WATCHDOG_PERIODS} periods of tasks.{slowest}_rate_hz = {show(slowest_hz)};"
             f" allowed >= {number_text(minimum_s)} s",
+        )
+
+
+def _can_timeouts(config: RobotConfig, problems: Problems) -> None:
+    """Each CAN command's timeout spans CAN_TIMEOUT_PERIODS of its period in the DBC. A message
+    on the section's default is reported under `can_command_timeout_s`, the key to change."""
+    from bywire.model import COMMAND_TYPES  # noqa: PLC0415 (cantools only when a file is checked)
+    from bywire.protocol import dbc  # noqa: PLC0415
+
+    timeouts = config.timeouts
+    default_key = "timeouts.can_command_timeout_s"
+    if problems.affects(default_key, "timeouts.can_message_timeout_s"):
+        return
+    on_default: list[str] = []
+    least_s = 0.0
+    for kind in COMMAND_TYPES:
+        name = kind.__name__
+        timeout_s = timeouts.can_timeout_s(name)
+        minimum_s = CAN_TIMEOUT_PERIODS * dbc.period_s(dbc.frame_id(kind))
+        if timeout_s >= minimum_s - 1e-9:
+            continue
+        if timeout_s == timeouts.can_command_timeout_s:
+            on_default.append(name)
+            least_s = max(least_s, minimum_s)
+            continue
+        key = f"timeouts.can_message_timeout_s.{name}"
+        problems.add(
+            key,
+            f"{key} = {show(timeout_s)}: shorter than {CAN_TIMEOUT_PERIODS} periods of {name}"
+            f" (GenMsgCycleTime in the DBC): one late frame would stop the robot;"
+            f" allowed >= {number_text(minimum_s)} s",
+        )
+    if on_default:
+        problems.add(
+            default_key,
+            f"{default_key} = {show(timeouts.can_command_timeout_s)}: shorter than"
+            f" {CAN_TIMEOUT_PERIODS} periods of {', '.join(on_default)} (GenMsgCycleTime in the"
+            f" DBC): one late frame would stop the robot; allowed >= {number_text(least_s)} s",
         )

@@ -11,6 +11,7 @@ from dataclasses import dataclass
 
 from bywire.config.model import RobotConfig
 from bywire.config.reader import number_text
+from bywire.model import MovementCommand
 
 
 @dataclass(frozen=True, slots=True)
@@ -30,9 +31,17 @@ def unsafe_combinations(robot: RobotConfig) -> list[UnsafeCombination]:
     found: list[UnsafeCombination] = []
     timeouts, interlocks = robot.timeouts, robot.interlocks
     watchdog_s = timeouts.watchdog_s
+    # The movement command is the one that drives: its age limit is the one that matters here
+    # (a stale LightsCommand or ControlCommand moves nothing).
+    movement_s = timeouts.can_timeout_s(MovementCommand.__name__)
+    movement_key = (
+        "timeouts.can_command_timeout_s"
+        if movement_s == timeouts.can_command_timeout_s
+        else f"timeouts.can_message_timeout_s.{MovementCommand.__name__}"
+    )
     for key, timeout_s, what in (
         ("timeouts.rc_timeout_s", timeouts.rc_timeout_s, "a lost RC link"),
-        ("timeouts.can_command_timeout_s", timeouts.can_command_timeout_s, "a silent computer"),
+        (movement_key, movement_s, "a silent computer"),
     ):
         if timeout_s > watchdog_s:
             found.append(

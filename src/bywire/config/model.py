@@ -19,6 +19,7 @@ from bywire.control.monitors import MonitorConfig
 from bywire.control.rc_mapping import RcMapping
 from bywire.control.steering import SteeringConfig
 from bywire.control.supervisor import SupervisorConfig
+from bywire.model import COMMAND_TYPES
 from bywire.runtime.schedule import SCHEDULE
 
 Backend = Literal["sim", "linux"]
@@ -130,13 +131,29 @@ class LightsSection:
     error_led: GpioLine = field(default_factory=lambda: _line("ERROR_LED"))
 
 
+CAN_COMMAND_NAMES = tuple(kind.__name__ for kind in COMMAND_TYPES)
+"""The CAN command messages by their DBC names: the keys of `[timeouts.can_message_timeout_s]`."""
+
+
 @dataclass(frozen=True, slots=True)
 class TimeoutsSection:
-    """How old an input may get before STOP, and how long the loop may stall (R-TIMEOUT)."""
+    """How old an input may get before STOP, and how long the loop may stall (R-TIMEOUT).
+
+    Each CAN command message has its own age limit, `can_message_timeout_s` (by DBC name, one
+    per command, resolved): `[timeouts.can_message_timeout_s] <Message> = s` where a message is
+    named, else `can_command_timeout_s`. The receive checks (`bywire.runtime.rx_checks`) hold it.
+    """
 
     rc_timeout_s: float = 0.100
     can_command_timeout_s: float = 0.100
     watchdog_s: float = 0.200
+    can_message_timeout_s: tuple[tuple[str, float], ...] = tuple(
+        (name, 0.100) for name in CAN_COMMAND_NAMES
+    )
+
+    def can_timeout_s(self, message: str) -> float:
+        """The age limit of the CAN command `message` (KeyError for no such command)."""
+        return dict(self.can_message_timeout_s)[message]
 
 
 @dataclass(frozen=True, slots=True)

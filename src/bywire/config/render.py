@@ -41,6 +41,8 @@ def _table(node: object, chip: str) -> dict[str, object]:
             continue
         if isinstance(value, TasksSection):
             table[field.name] = {f"{name}_rate_hz": rate for name, rate in value.rates_hz}
+        elif _pairs(value):
+            table[field.name] = dict(value)
         elif isinstance(value, GpioLine):
             explicit = {"chip": value.chip, "line": value.line}
             table[field.name] = value.line if value.chip == chip else explicit
@@ -51,6 +53,15 @@ def _table(node: object, chip: str) -> dict[str, object]:
         else:
             table[field.name] = value
     return table
+
+
+def _pairs(value: object) -> bool:
+    """A tuple of (key, value) pairs: a TOML table (`[timeouts.can_message_timeout_s]`)."""
+    if not isinstance(value, tuple) or not value:
+        return False
+    return all(
+        isinstance(item, tuple) and len(item) == 2 and isinstance(item[0], str) for item in value
+    )
 
 
 def _emit(table: Mapping[str, object], path: str, lines: list[str]) -> None:

@@ -37,6 +37,7 @@ from bywire.config.limits import (
 )
 from bywire.config.model import (
     ALL_CPUS,
+    CAN_COMMAND_NAMES,
     GC_MODES,
     SCHEDULERS,
     CanSection,
@@ -167,13 +168,22 @@ def pwm(table: Table, default: PwmOutput, frequencies: Interval) -> PwmOutput:
 
 
 def timeouts_section(table: Table) -> TimeoutsSection:
+    """The input timeouts; `[timeouts.can_message_timeout_s]` names CAN command messages whose
+    own limit differs from `can_command_timeout_s` (any other name is refused)."""
     default = TimeoutsSection()
+    can_default_s = table.number(
+        "can_command_timeout_s", default.can_command_timeout_s, INPUT_TIMEOUT_S
+    )
+    messages = table.table("can_message_timeout_s")
+    per_message = tuple(
+        (name, messages.number(name, can_default_s, INPUT_TIMEOUT_S)) for name in CAN_COMMAND_NAMES
+    )
+    messages.close()
     section = TimeoutsSection(
         rc_timeout_s=table.number("rc_timeout_s", default.rc_timeout_s, INPUT_TIMEOUT_S),
-        can_command_timeout_s=table.number(
-            "can_command_timeout_s", default.can_command_timeout_s, INPUT_TIMEOUT_S
-        ),
+        can_command_timeout_s=can_default_s,
         watchdog_s=table.number("watchdog_s", default.watchdog_s, WATCHDOG_S),
+        can_message_timeout_s=per_message,
     )
     table.close()
     return section

@@ -45,7 +45,9 @@ class ControlConfig:
     rc_mapping: RcMapping = field(default_factory=RcMapping)
     hydrobrake_threshold_norm: float = DEFAULT_THRESHOLD_NORM
     rc_timeout_s: float = 0.100
-    can_command_timeout_s: float = 0.100
+    movement_timeout_s: float = 0.100  # each CAN command's own age limit (its receive check)
+    control_timeout_s: float = 0.100
+    lights_timeout_s: float = 0.100
     blink_rate_hz: float = BLINK_RATE_HZ
     interlocks: InterlockConfig = field(default_factory=InterlockConfig)
     monitors: MonitorConfig = field(default_factory=MonitorConfig)
@@ -123,12 +125,11 @@ class _Sources:
 
 
 def _sources(inputs: ControlInputs, now: float, config: ControlConfig) -> _Sources:
-    timeout_s = config.can_command_timeout_s
     return _Sources(
         rc=fresh(inputs.rc, now, config.rc_timeout_s),
-        can_movement=fresh(inputs.movement, now, timeout_s),
-        control=fresh(inputs.control, now, timeout_s),
-        lights=fresh(inputs.lights, now, timeout_s),
+        can_movement=fresh(inputs.movement, now, config.movement_timeout_s),
+        control=fresh(inputs.control, now, config.control_timeout_s),
+        lights=fresh(inputs.lights, now, config.lights_timeout_s),
     )
 
 

@@ -171,6 +171,12 @@ def message_names() -> dict[int, str]:
     return {message.frame_id: message.name for message in database().messages}
 
 
+def length_bytes(frame: int) -> int:
+    """The data length of a message, in bytes, as the DBC gives it."""
+    length: int = _message(frame).length
+    return length
+
+
 def period_s(frame: int) -> float:
     """The nominal period of a message, from its ``GenMsgCycleTime`` attribute."""
     cycle_time_ms = _message(frame).cycle_time

@@ -83,7 +83,7 @@ class Runtime:
         self.config = config
         self.clock = hardware.clock
         self.ibus = IbusReader(hardware.rc_uart, config.control.rc_mapping)
-        self.can = CanReader(hardware.can, gap_s=config.control.can_command_timeout_s, secoc=secoc)
+        self.can = CanReader(hardware.can, config.rx_checks, secoc=secoc)
         self.actuators = Actuators(hardware, config.actuators)
         self.started_at = self.clock.now()
         self.tasks = [PeriodicTask(spec, self.started_at) for spec in config.schedule]

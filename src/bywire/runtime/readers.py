@@ -10,14 +10,16 @@ from __future__ import annotations
 from collections import Counter, deque
 from collections.abc import Sequence
 
+from bywire.config import TimeoutsSection
 from bywire.control.command_edges import NO_EDGES, CommandEdges, command_edges
 from bywire.control.rc_mapping import RcMapping, RcRequest, rc_request
 from bywire.control.validity import Stamped
-from bywire.hal.ports import ByteStream, CanPort
+from bywire.hal.ports import ByteStream, CanFrame, CanPort
 from bywire.model import Command, ControlCommand
 from bywire.protocol import dbc
 from bywire.protocol.ibus import IbusParser
 from bywire.runtime.recent_fault import RecentFault
+from bywire.runtime.rx_checks import RxCheck, rx_check, rx_checks
 from bywire.security.session import AuthFailure, SecocReceiver
 
 COUNTER_WINDOW = 16  # the last frames of a command message whose counters are judged
@@ -52,7 +54,17 @@ class IbusReader:
         self.last_channels = frames[-1]
         requests = [rc_request(channels, self._mapping) for channels in frames]
         # One implausible frame in the batch makes the input suspect at once (R-FAILSAFE).
-        return Stamped(None if None in requests else requests[-1], now)
+        arrived_at = self.parser.last_frame_at
+        value = None if None in requests else requests[-1]
+        return Stamped(value, now if arrived_at is None else arrived_at)
+
+
+def arrival(frame: CanFrame, now: float) -> float:
+    """When `frame` arrived: its port's timestamp (taken by the receive thread, or the simulated
+    bus, on the loop's clock), so a frame that waited while the loop was busy is judged by its
+    true age. A stamp from the future, or none, is not believed: `now` then."""
+    stamp = frame.timestamp_s
+    return stamp if 0.0 < stamp <= now else now
 
 
 class _CounterTrust:
@@ -93,14 +105,20 @@ class CanReader:
     """
 
     def __init__(
-        self, port: CanPort, gap_s: float = 0.100, secoc: SecocReceiver | None = None
+        self,
+        port: CanPort,
+        checks: Sequence[RxCheck] | None = None,
+        secoc: SecocReceiver | None = None,
     ) -> None:
+        """`checks`: the receive check of each command message (default: every command of the
+        DBC with the default timeouts); ids without a row are ignored."""
+        checks = rx_checks(TimeoutsSection()) if checks is None else checks
         self._port = port
         self._secoc = secoc
         self.auth_failures: Counter[AuthFailure] = Counter()
         self.auth_faults = RecentFault()
-        self._gap_s = gap_s
-        self._command_ids = frozenset(dbc.command_ids())
+        self._gap_s = rx_check(checks, ControlCommand).timeout_s
+        self._command_ids = frozenset(check.frame_id for check in checks)
         self._control_id = dbc.frame_id(ControlCommand)
         self._previous_counter: dict[int, int | None] = dict.fromkeys(self._command_ids)
         self.trust = {frame_id: _CounterTrust() for frame_id in self._command_ids}
@@ -142,9 +160,10 @@ class CanReader:
                 if frame_id == self._control_id:
                     self._previous_control = None
                 continue
+            arrived_at = arrival(frame, now)
             if isinstance(command, ControlCommand):
-                self._edges(command, now)
-            accepted.append(Stamped(command, now))
+                self._edges(command, arrived_at)
+            accepted.append(Stamped(command, arrived_at))
         return accepted
 
     def _checked(self, frame_id: int, data: bytes, now: float) -> Command | None:

@@ -4,32 +4,40 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field, replace
 
-from bywire.config import RobotConfig
+from bywire.config import RobotConfig, TimeoutsSection
 from bywire.control.controller import ControlConfig
+from bywire.model import ControlCommand, LightsCommand, MovementCommand
 from bywire.runtime.actuators import ActuatorConfig
+from bywire.runtime.rx_checks import RxCheck, rx_checks
 from bywire.runtime.schedule import SCHEDULE, TaskSpec
 
 
 @dataclass(frozen=True, slots=True)
 class RuntimeConfig:
-    """Everything the runtime needs: the decision's configuration, the actuators', the schedule."""
+    """Everything the runtime needs: the decision's configuration, the actuators', the schedule,
+    the watchdog and the receive check of each CAN command message."""
 
     control: ControlConfig = field(default_factory=ControlConfig)
     actuators: ActuatorConfig = field(default_factory=ActuatorConfig)
     schedule: tuple[TaskSpec, ...] = SCHEDULE
     watchdog_s: float | None = None  # None: no watchdog thread (virtual time has no stalls)
+    rx_checks: tuple[RxCheck, ...] = field(default_factory=lambda: rx_checks(TimeoutsSection()))
 
     @classmethod
     def from_robot(cls, robot: RobotConfig) -> RuntimeConfig:
         """The runtime's view of a robot's validated configuration."""
         servo = robot.steering.servo
+        checks = rx_checks(robot.timeouts)
+        timeout_s = {check.kind: check.timeout_s for check in checks}
         control = ControlConfig(
             steering=servo,
             drive=robot.drive.limits,
             rc_mapping=robot.rc.mapping,
             hydrobrake_threshold_norm=robot.hydrobrake.threshold_norm,
             rc_timeout_s=robot.timeouts.rc_timeout_s,
-            can_command_timeout_s=robot.timeouts.can_command_timeout_s,
+            movement_timeout_s=timeout_s[MovementCommand],
+            control_timeout_s=timeout_s[ControlCommand],
+            lights_timeout_s=timeout_s[LightsCommand],
             blink_rate_hz=robot.lights.blink_rate_hz,
             interlocks=robot.interlocks,
             monitors=robot.monitors,
@@ -43,4 +51,4 @@ class RuntimeConfig:
             safe_steering_pulse_s=servo.center_pulse_s,
         )
         schedule = tuple(replace(spec, rate_hz=robot.tasks.rate_hz(spec.name)) for spec in SCHEDULE)
-        return cls(control, actuators, schedule, robot.timeouts.watchdog_s)
+        return cls(control, actuators, schedule, robot.timeouts.watchdog_s, checks)

@@ -29,7 +29,7 @@ from dataclasses import dataclass, field
 from bywire.config.consistency import CONTROL_TASKS
 from bywire.config.model import RobotConfig
 from bywire.hal.sim.world import SimWorld
-from bywire.model import ControlMode
+from bywire.model import ControlMode, MovementCommand
 
 CAN_PERIOD_S = 0.020  # the simulated computer's movement commands
 CAN_STALE_S = CAN_PERIOD_S + 0.005  # a CAN value may still be seen a period (and wire time) late
@@ -59,7 +59,7 @@ class OracleTiming:
             frame_s=robot.sim.rc_frame_period_s,
             debounce_frames=robot.supervisor.debounce_frames,
             rc_timeout_s=robot.timeouts.rc_timeout_s,
-            can_timeout_s=robot.timeouts.can_command_timeout_s,
+            can_timeout_s=robot.timeouts.can_timeout_s(MovementCommand.__name__),
             watchdog_s=robot.timeouts.watchdog_s,
             control_period_s=1.0 / slowest_hz,
             standstill_mps=robot.interlocks.standstill_speed_mps,
