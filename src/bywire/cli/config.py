@@ -1,10 +1,11 @@
 """`bywire config check FILE`: validate a robot configuration and print what it resolved to.
 
 The output is the whole resolved configuration as TOML (defaults filled in), which loads back to
-the same values, headed by comments (whether commands are authenticated, and the receive check of
-each CAN command: its DBC period and its timeout), or as JSON with `--json`. A bad file exits 2 with every problem, each naming its
-key and the allowed range. Combinations of valid numbers that are unsafe together (see
-`bywire.config.hazards`) are warned about on stderr; `bywire verify` refuses them.
+the same values, headed by comments (whether commands are authenticated, and the receive check
+of each CAN command: its DBC period and its timeout), or as JSON with `--json`. A bad file exits
+2 with every problem, each naming its key and the allowed range. Combinations of valid numbers
+that are unsafe together (see `bywire.config.hazards`) are warned about on stderr; `bywire
+verify` refuses them.
 """
 
 from __future__ import annotations
