@@ -18,8 +18,8 @@ import pytest
 
 from bywire.cli.main import main
 from bywire.model import Gear, MovementCommand
+from bywire.netbus import socketcand
 from bywire.protocol import dbc
-from bywire.tools import socketcand
 
 SIM_S = 3.0
 TIMEOUT_S = 20.0

@@ -11,7 +11,7 @@ from matplotlib import image
 
 from bywire.cli.main import main
 from bywire.sim.plot import DPI, SIZE_IN
-from tests.tools import tesla_drive
+from tests.canlog import tesla_drive
 
 PNG_SIGNATURE = b"\x89PNG\r\n\x1a\n"
 

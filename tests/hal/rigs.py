@@ -1,24 +1,37 @@
 """One test rig per backend: the ports, a way to feed their inputs, and read-back of their outputs.
 
 The simulated rig reads the simulated devices; the Linux rigs open the real backends through
-`open_hardware` on the stand-ins of `tests.hal.linux` and read what they wrote there.
+`open_hardware` on the stand-ins of `tests.hal.linux` and read what they wrote there. The tape
+backend has two rigs: the simulated ports under taped ports (read back from the simulated devices,
+each read-back and each close also checking that the tape holds what crossed), and the playback
+ports as `bywire replay` runs the controller on them (read back from the tape it compares).
+
+A conformance test that cannot apply to a backend is named in its rig's `NOT_APPLICABLE`, with
+the reason; the suite then does not generate it for that backend (nothing is skipped silently).
 """
 
 from __future__ import annotations
 
 import contextlib
-from collections.abc import Callable
+import dataclasses
+from collections.abc import Callable, Iterable, Mapping
 from pathlib import Path
+from typing import ClassVar
 
 import can
 import pytest
 
 from bywire.config import DacOutput, parse_config
+from bywire.errors import HardwareError
 from bywire.hal.hardware import Hardware
 from bywire.hal.linux import dac_smbus2, gpio_gpiod
 from bywire.hal.opening import LinuxPaths, de_energise, open_hardware
+from bywire.hal.ports import ByteStream, CanFrame, CanPort, I2cDevice
 from bywire.hal.sim.clock import VirtualClock
 from bywire.hal.sim.world import SimWorld
+from bywire.hal.tape.playback import replay_hardware
+from bywire.hal.tape.run_record import Event, RecordedRun, RecordHeader
+from bywire.hal.tape.taped import Tape, taped_hardware
 from bywire.protocol import dac6574
 from tests.hal.linux import fake_gpiod
 from tests.hal.linux.bench import Bench, make_bench
@@ -26,11 +39,13 @@ from tests.hal.linux.fake_smbus import RecordingSMBus
 from tests.hal.linux.pty_rc import PtyRcLine
 
 SETTLE_S = 0.01
-BACKENDS = ("sim", "linux-iio", "linux-smbus2")
+PWM_NAMES = {"steering": "steering_pwm", "hydrobrake": "hydrobrake_pwm"}
 
 
 class SimRig:
     """The simulated robot's ports on virtual time; a second node on its bus is the peer."""
+
+    NOT_APPLICABLE: ClassVar[Mapping[str, str]] = {}
 
     def __init__(self) -> None:
         self.clock = VirtualClock()
@@ -55,8 +70,6 @@ class SimRig:
         self.world.uart.transmit(data)
 
     def peer_send(self, frame_id: int, data: bytes) -> None:
-        from bywire.hal.ports import CanFrame  # noqa: PLC0415
-
         self.peer.send(CanFrame(frame_id, data))
 
     def peer_frames(self) -> list[tuple[int, bytes]]:
@@ -68,6 +81,8 @@ class SimRig:
 
 class LinuxRig:
     """The Linux backends through `open_hardware`, on a temporary sysfs, pty, virtual CAN."""
+
+    NOT_APPLICABLE: ClassVar[Mapping[str, str]] = {}
 
     def __init__(self, root: Path, monkeypatch: pytest.MonkeyPatch, *, smbus: bool) -> None:
         monkeypatch.setattr(gpio_gpiod, "gpiod", fake_gpiod)
@@ -124,13 +139,279 @@ class LinuxRig:
         self._stack.close()
 
 
-Rig = SimRig | LinuxRig
+def _noted(tape: Tape, name: str) -> list[tuple[float, object]]:
+    """Every value the tape noted for output `name`, with its time."""
+    return [(e["t"], e["value"]) for e in tape.events if e["kind"] == "out" and e["name"] == name]
+
+
+def _last_noted(tape: Tape, name: str, default: object) -> object:
+    noted = _noted(tape, name)
+    return noted[-1][1] if noted else default
+
+
+class _Witness:
+    """What crossed the RC line, CAN port and DAC beneath the tape, counted apart from the tape."""
+
+    def __init__(self, hardware: Hardware) -> None:
+        self.rc = bytearray()
+        self.received: list[CanFrame] = []
+        self.sent: list[tuple[CanFrame, bool]] = []
+        self.dac_writes: list[tuple[bytes, bool]] = []
+        self.hardware = dataclasses.replace(
+            hardware,
+            rc_uart=_WitnessUart(hardware.rc_uart, self),
+            can=_WitnessCan(hardware.can, self),
+            dac=_WitnessDac(hardware.dac, self),
+        )
+
+
+class _WitnessUart:
+    def __init__(self, inner: ByteStream, witness: _Witness) -> None:
+        self._inner, self._witness = inner, witness
+
+    def read_available(self) -> bytes:
+        data = self._inner.read_available()
+        self._witness.rc.extend(data)
+        return data
+
+
+class _WitnessCan:
+    def __init__(self, inner: CanPort, witness: _Witness) -> None:
+        self._inner, self._witness = inner, witness
+
+    def send(self, frame: CanFrame) -> bool:
+        accepted = self._inner.send(frame)
+        self._witness.sent.append((frame, accepted))
+        return accepted
+
+    def receive(self) -> list[CanFrame]:
+        frames = self._inner.receive()
+        self._witness.received.extend(frames)
+        return frames
+
+
+class _WitnessDac:
+    def __init__(self, inner: I2cDevice, witness: _Witness) -> None:
+        self._inner, self._witness = inner, witness
+
+    def write(self, data: bytes) -> None:
+        try:
+            self._inner.write(data)
+        except HardwareError:
+            self._witness.dac_writes.append((data, False))
+            raise
+        self._witness.dac_writes.append((data, True))
+
+
+class TapedSimRig(SimRig):
+    """The simulated ports under taped ports: every promise of the simulated backend, through the
+    tape, and the tape holding what crossed.
+
+    Read-backs come from the simulated devices (the far side). Every read-back, every settle and
+    closing also check the whole tape (`check_tape`): each line's and pulse's changes at their
+    times as the simulated devices saw them, and, against a witness beneath the tape, the RC bytes
+    and CAN frames received, the frames sent and refused, the DAC frames written and refused.
+    """
+
+    def __init__(self) -> None:
+        super().__init__()
+        self.tape = Tape(self.clock)
+        self.witness = _Witness(self.world.hardware)
+        self.hardware = taped_hardware(self.witness.hardware, self.tape)
+
+    def settle(self) -> None:
+        super().settle()
+        self.check_tape()
+
+    def level(self, name: str) -> bool:
+        self.check_tape()
+        return super().level(name)
+
+    def pulse_s(self, name: str) -> float:
+        self.check_tape()
+        return super().pulse_s(name)
+
+    def dac_code(self, channel: int) -> int:
+        self.check_tape()
+        return super().dac_code(channel)
+
+    def peer_frames(self) -> list[tuple[int, bytes]]:
+        self.check_tape()
+        return super().peer_frames()
+
+    def close(self) -> None:
+        super().close()
+        self.check_tape()
+
+    def check_tape(self) -> None:
+        """AssertionError unless the tape holds exactly what crossed the ports beneath it."""
+        events, witness = self.tape.events, self.witness
+        for name, line in self.world.gpio.items():
+            noted = _noted(self.tape, f"gpio.{name}")
+            assert noted == line.history, f"tape: {name} {noted}, the line: {line.history}"
+        for name, channel in (
+            ("steering", self.world.pwm.steering),
+            ("hydrobrake", self.world.pwm.hydrobrake),
+        ):
+            noted = _noted(self.tape, PWM_NAMES[name])
+            assert noted == channel.history, f"tape: {name} {noted}, the PWM: {channel.history}"
+        rc = b"".join(bytes.fromhex(e["hex"]) for e in events if e["kind"] == "rc_bytes")
+        assert rc == witness.rc, f"tape: RC bytes {rc.hex()}, read: {witness.rc.hex()}"
+        received = [
+            CanFrame(frame_id, bytes.fromhex(data), stamp_s)
+            for e in events
+            if e["kind"] == "can_rx"
+            for frame_id, data, stamp_s in e["frames"]
+        ]
+        assert received == witness.received, f"tape: {received}, received: {witness.received}"
+        sent = [(n, v) for _, n, v in _outs(events) if n.startswith("can_tx.")]
+        expected = [(f"can_tx.0x{f.arbitration_id:03X}", f.data.hex()) for f, _ in witness.sent]
+        assert sent == expected, f"tape: sent {sent}, sent: {expected}"
+        assert _refused(events, "can_tx") == [i for i, (_, ok) in enumerate(witness.sent) if not ok]
+        assert _refused(events, "dac") == [
+            i for i, (_, ok) in enumerate(witness.dac_writes) if not ok
+        ]
+        dac = [(n, v) for _, n, v in _outs(events) if n.startswith("dac")]
+        written = _changes(
+            (f"dac.{dac6574.decode_frame(data).channel}", data.hex())
+            for data, ok in witness.dac_writes
+            if ok
+        )
+        assert dac == written, f"tape: DAC {dac}, written: {written}"
+
+
+def _outs(events: list[Event]) -> list[tuple[float, str, object]]:
+    return [(e["t"], str(e["name"]), e["value"]) for e in events if e["kind"] == "out"]
+
+
+def _refused(events: list[Event], name: str) -> list[int]:
+    return [e["call"] for e in events if e["kind"] == "refused" and e["name"] == name]
+
+
+def _changes(writes: Iterable[tuple[str, str]]) -> list[tuple[str, str]]:
+    """Each name's first value and every change of it, in write order."""
+    last: dict[str, str] = {}
+    changes = []
+    for name, value in writes:
+        if last.get(name) != value:
+            changes.append((name, value))
+            last[name] = value
+    return changes
+
+
+PLAYBACK_HEADER = RecordHeader(
+    "conformance", 0.0, 0.0, {"steering": 0.020, "hydrobrake": 0.001}, (), ""
+)
+
+
+class PlaybackRig:
+    """The playback ports as `bywire replay` runs the controller on them: under taped ports.
+
+    A record's inputs are known before a replay starts; the conformance tests feed theirs as they
+    go. So each feed is a record of its own, arriving at the instant it is fed and played by a
+    playback bundle of its own (`replay_hardware`, which also schedules its wake-up); the rig's RC
+    line and CAN port hand up, in feeding order, what those bundles' ports give. Everything else
+    (outputs, sends, refusals) is the first bundle's. What was written is read back from the tape,
+    as `bywire replay` compares it with the record; a sent frame reaches no other node, it is kept.
+    """
+
+    NOT_APPLICABLE: ClassVar[Mapping[str, str]] = {
+        "test_command_frames_arrive_and_other_ids_are_filtered": (
+            "a record holds the frames the controller received, after the recording port's"
+            " filter: playback hands back exactly those and has no filter of its own to test"
+        ),
+    }
+
+    def __init__(self) -> None:
+        self.clock = VirtualClock()
+        self.tape = Tape(self.clock)
+        self._fed: list[Hardware] = []
+        played = replay_hardware(RecordedRun(PLAYBACK_HEADER), self.clock)
+        fed = dataclasses.replace(
+            played, rc_uart=_FedUart(self._fed), can=_FedCan(played.can, self._fed)
+        )
+        self.hardware = taped_hardware(fed, self.tape)
+        self._sends_seen = 0
+
+    def _feed(self, record: RecordedRun) -> None:
+        self._fed.append(replay_hardware(record, self.clock))
+
+    def settle(self) -> None:
+        self.clock.advance(SETTLE_S)
+
+    def level(self, name: str) -> bool:
+        return bool(_last_noted(self.tape, f"gpio.{name}", False))
+
+    def pulse_s(self, name: str) -> float:
+        pulse_s = _last_noted(self.tape, PWM_NAMES[name], 0.0)
+        assert isinstance(pulse_s, float)
+        return pulse_s
+
+    def dac_code(self, channel: int) -> int:
+        frame = _last_noted(self.tape, f"dac.{channel}", None)
+        return 0 if frame is None else dac6574.decode_write(bytes.fromhex(str(frame)))[1]
+
+    def feed_rc(self, data: bytes) -> None:
+        self._feed(RecordedRun(PLAYBACK_HEADER, rc_bytes=[(self.clock.now(), data)]))
+
+    def peer_send(self, frame_id: int, data: bytes) -> None:
+        now_s = self.clock.now()
+        self._feed(
+            RecordedRun(PLAYBACK_HEADER, can_rx=[(now_s, [CanFrame(frame_id, data, now_s)])])
+        )
+
+    def peer_frames(self) -> list[tuple[int, bytes]]:
+        sent = [(n, str(v)) for _, n, v in _outs(self.tape.events) if n.startswith("can_tx.")]
+        new, self._sends_seen = sent[self._sends_seen :], len(sent)
+        return [(int(name.removeprefix("can_tx."), 16), bytes.fromhex(data)) for name, data in new]
+
+    def close(self) -> None:
+        de_energise(self.hardware, DacOutput())
+
+
+class _FedUart:
+    def __init__(self, fed: list[Hardware]) -> None:
+        self._fed = fed
+
+    def read_available(self) -> bytes:
+        return b"".join(hardware.rc_uart.read_available() for hardware in self._fed)
+
+
+class _FedCan:
+    def __init__(self, played: CanPort, fed: list[Hardware]) -> None:
+        self._played, self._fed = played, fed
+
+    def send(self, frame: CanFrame) -> bool:
+        return self._played.send(frame)
+
+    def receive(self) -> list[CanFrame]:
+        return [frame for hardware in self._fed for frame in hardware.can.receive()]
+
+
+Rig = SimRig | LinuxRig | PlaybackRig
+RIGS: dict[str, type[Rig]] = {
+    "sim": SimRig,
+    "linux-iio": LinuxRig,
+    "linux-smbus2": LinuxRig,
+    "sim-taped": TapedSimRig,
+    "playback": PlaybackRig,
+}
+BACKENDS = tuple(RIGS)
 
 
 def make_rig(backend: str, root: Path, monkeypatch: pytest.MonkeyPatch) -> Rig:
     if backend == "sim":
         return SimRig()
+    if backend == "sim-taped":
+        return TapedSimRig()
+    if backend == "playback":
+        return PlaybackRig()
     return LinuxRig(root, monkeypatch, smbus=backend == "linux-smbus2")
+
+
+def not_applicable(backend: str) -> Mapping[str, str]:
+    """The conformance tests that cannot apply to `backend`'s rig, each with the reason."""
+    return RIGS[backend].NOT_APPLICABLE
 
 
 def settle_until(rig: Rig, condition: Callable[[], bool], *, attempts: int = 500) -> bool:

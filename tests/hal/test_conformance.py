@@ -3,7 +3,9 @@
 Write → read back through the backend's stand-in, inputs fed on the far side arrive, filters
 hold, bad requests fail the same way, closing de-energises every output, and closing twice is
 harmless. Linux-only: a missing device is one clear HardwareError, and what was already opened
-is closed again.
+is closed again. The tape backend runs it too: taped simulated ports (and the tape must hold what
+crossed) and the playback ports `bywire replay` runs on; a test that cannot apply to a rig is left
+out by that rig's `NOT_APPLICABLE`, which says why.
 """
 
 from __future__ import annotations
@@ -18,18 +20,45 @@ from bywire.errors import FrameError, HardwareError
 from bywire.hal.hardware import DigitalOutputs
 from bywire.hal.ports import CanFrame
 from bywire.protocol import dac6574, dbc, ibus
-from tests.hal.rigs import BACKENDS, Rig, make_rig, settle_until
+from tests.hal.rigs import (
+    BACKENDS,
+    Rig,
+    TapedSimRig,
+    make_rig,
+    not_applicable,
+    settle_until,
+)
 
 LINES = [line.name for line in fields(DigitalOutputs)]
 
 
-@pytest.fixture(params=BACKENDS)
+def pytest_generate_tests(metafunc: pytest.Metafunc) -> None:
+    """Every test on every backend, but those a rig names as not applicable (with its reason)."""
+    if "rig" in metafunc.fixturenames:
+        test = metafunc.function.__name__
+        backends = [backend for backend in BACKENDS if test not in not_applicable(backend)]
+        metafunc.parametrize("rig", backends, indirect=True)
+
+
+@pytest.fixture
 def rig(
     request: pytest.FixtureRequest, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> Iterator[Rig]:
     opened = make_rig(request.param, tmp_path, monkeypatch)
     yield opened
     opened.close()
+
+
+def test_every_test_a_rig_leaves_out_exists_and_has_a_reason() -> None:
+    tests = {name for name in globals() if name.startswith("test_")}
+    left_out = {
+        (backend, test): why
+        for backend in BACKENDS
+        for test, why in not_applicable(backend).items()
+    }
+    assert {test for _, test in left_out} <= tests
+    assert all(len(why.split()) >= 5 for why in left_out.values())
+    assert ("playback", "test_command_frames_arrive_and_other_ids_are_filtered") in left_out
 
 
 @pytest.mark.parametrize("name", LINES)
@@ -156,3 +185,19 @@ def test_closing_twice_is_harmless(rig: Rig) -> None:
     rig.close()
     rig.close()
     _assert_de_energised(rig)
+
+
+def test_the_taped_rig_fails_a_tape_that_lost_what_crossed() -> None:
+    rig = TapedSimRig()
+    rig.hardware.outputs.low_beam.set(True)
+    assert rig.level("low_beam") is True
+    rig.tape.events.pop()  # the tape loses the line's change
+    with pytest.raises(AssertionError, match="low_beam"):
+        rig.level("low_beam")
+    rig.tape.events.clear()
+    rig.world.gpio["low_beam"].history.clear()
+    rig.feed_rc(b"\x20\x40")
+    assert settle_until(rig, lambda: bool(rig.hardware.rc_uart.read_available()))
+    rig.tape.events.clear()  # the tape loses the bytes read
+    with pytest.raises(AssertionError, match="RC bytes"):
+        rig.check_tape()

@@ -13,13 +13,13 @@ from textual.widgets import DataTable
 from bywire.config import default_sim_config
 from bywire.hal.sim.can_bus import SimCanBus
 from bywire.hal.sim.clock import VirtualClock
+from bywire.loopback import Endpoint
 from bywire.monitor.app import MonitorApp
 from bywire.monitor.feed import CanFeed, open_bus
 from bywire.monitor.model import BusModel
+from bywire.netbus.bridge import serve_bus
 from bywire.sim.catalog import find_scenario
 from bywire.sim.runner import SimRun
-from bywire.tools.loopback import Endpoint
-from bywire.tools.sim_bridge import serve_bus
 
 RUN_S = 4.0
 TIMEOUT_S = 10.0

@@ -9,9 +9,9 @@ from dataclasses import replace
 import pytest
 from rich.console import Console
 
+from bywire.canlog.write import BusTally
 from bywire.config import default_sim_config
 from bywire.runtime.schedule import SCHEDULE
-from bywire.sim.canlog import BusTally
 from bywire.sim.runner import SimRun
 from bywire.sim.scenario import parse_scenario
 from bywire.sim.summary import LabelledEvent, Summary, build_summary, render

@@ -19,10 +19,10 @@ import threading
 
 from bywire.hal.sim.can_bus import LoggedFrame
 from bywire.hal.sim.world import SimWorld
+from bywire.loopback import Endpoint
 from bywire.runtime.app import Runtime
 from bywire.telemetry.capture import TelemetryTap
 from bywire.telemetry.feed import FeedOptions, new_outbox, open_sinks
-from bywire.tools.loopback import Endpoint
 
 LOOKING_PHASES = ("feed", "dashboard")
 STOP_GRACE_S = 2.0

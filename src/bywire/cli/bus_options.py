@@ -10,8 +10,8 @@ from typing import Any
 
 import can
 
+from bywire.loopback import DEFAULT_HOST, DEFAULT_PORT
 from bywire.monitor.feed import open_bus
-from bywire.tools.loopback import DEFAULT_HOST, DEFAULT_PORT
 
 
 def _keyword(text: str) -> tuple[str, Any]:

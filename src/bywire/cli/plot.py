@@ -6,10 +6,10 @@ import argparse
 import sys
 from pathlib import Path
 
+from bywire.canlog.plot import check_png_path, choose_signals, is_albert_log, write_log_plot
+from bywire.canlog.read import FORMATS, SUFFIXES, check_log_suffix, read_can_log
 from bywire.cli.dbc import load_user_dbc
 from bywire.protocol import dbc
-from bywire.tools.log_decode import FORMATS, SUFFIXES, check_log_suffix, read_can_log
-from bywire.tools.logplot import check_png_path, choose_signals, is_albert_log, write_log_plot
 
 
 def configure(parser: argparse.ArgumentParser) -> None:

@@ -10,12 +10,12 @@ import argparse
 import json
 from pathlib import Path
 
+from bywire.canlog.read import SUFFIXES
 from bywire.config import load_config
 from bywire.errors import ConfigError
-from bywire.tools.divergence import dac_volts
-from bywire.tools.log_decode import SUFFIXES
-from bywire.tools.replay import recorded_robot, replay
-from bywire.tools.run_record import read_record
+from bywire.hal.tape.run_record import read_record
+from bywire.replay.divergence import dac_volts
+from bywire.replay.runner import recorded_robot, replay
 
 
 def configure(parser: argparse.ArgumentParser) -> None:

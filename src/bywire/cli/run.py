@@ -33,6 +33,7 @@ from bywire.errors import BywireError, HardwareError
 from bywire.hal.linux.device_errors import reason
 from bywire.hal.linux.systemd import notify
 from bywire.hal.opening import LinuxPaths, open_hardware, preflight
+from bywire.loopback import DEFAULT_HOST, Endpoint, ListenAddress, parse_listen_address
 from bywire.runtime.app import Runtime
 from bywire.runtime.realtime import RealtimeReport, apply_collector, apply_process
 from bywire.runtime.settings import RuntimeConfig
@@ -47,7 +48,6 @@ from bywire.telemetry.feed import (
     new_outbox,
     open_sinks,
 )
-from bywire.tools.loopback import DEFAULT_HOST, Endpoint, ListenAddress, parse_listen_address
 
 STOP_SIGNALS = (signal.SIGINT, signal.SIGTERM, signal.SIGHUP)  # SIGHUP: the terminal closed
 LOG_FORMAT = "bywire run: %(levelname)s %(name)s: %(message)s"

@@ -24,11 +24,14 @@ from rich.markup import escape
 from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 from rich.table import Table
 
+from bywire.canlog.write import BusTally, CanLog, check_log_path
 from bywire.cli.arguments import positive_hertz, positive_seconds
 from bywire.config import RobotConfig, default_sim_config, load_config
 from bywire.errors import ConfigError
 from bywire.hal.sim.clock import RealtimeClock
-from bywire.sim.canlog import BusTally, CanLog, check_log_path
+from bywire.loopback import Endpoint, parse_endpoint
+from bywire.netbus.bridge import serve_bus
+from bywire.replay.recorder import SimRunRecorder
 from bywire.sim.catalog import DEFAULT_SCENARIO, find_scenario, packaged_scenarios
 from bywire.sim.plot import check_plot_path, write_plot
 from bywire.sim.runner import SimRun
@@ -36,9 +39,6 @@ from bywire.sim.suite import collect, junit_xml, run_case
 from bywire.sim.summary import build_summary, render
 from bywire.telemetry.capture import DEFAULT_RATE_HZ
 from bywire.telemetry.feed import FeedOptions, check_mcap_path, open_feed
-from bywire.tools.loopback import Endpoint, parse_endpoint
-from bywire.tools.sim_bridge import serve_bus
-from bywire.tools.sim_record import SimRunRecorder
 
 PROGRESS_PERIOD_S = 0.1  # simulated seconds between progress updates
 STOP_SIGNALS = (signal.SIGINT, signal.SIGTERM, signal.SIGHUP)

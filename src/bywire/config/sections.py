@@ -63,7 +63,7 @@ from bywire.control.rc_mapping import (
 from bywire.control.steering import SteeringConfig
 from bywire.control.supervisor import SupervisorConfig
 from bywire.errors import ConfigError
-from bywire.tools.loopback import parse_listen_address
+from bywire.loopback import parse_listen_address
 
 
 def can_section(table: Table) -> CanSection:

@@ -1,1 +1,1 @@
-"""Hardware abstraction: the ports (the seam) and their simulated and Linux backends."""
+"""Hardware abstraction: the ports (the seam), their simulated and Linux backends, and the tape."""

@@ -2,8 +2,9 @@
 
 Everything above this module (control, runtime) sees only these protocols. Backends live in
 `bywire.hal.sim` (in-memory, virtual time) and `bywire.hal.linux` (python-can, pyserial, smbus2,
-sysfs, libgpiod). Reads never block: the runtime waits on the `Clock`, which wakes it when an input
-port has something to read or a deadline has come.
+sysfs, libgpiod); `bywire.hal.tape` wraps either in taped ports and plays recorded runs back.
+Reads never block: the runtime waits on the `Clock`, which wakes it when an input port has
+something to read or a deadline has come.
 """
 
 from __future__ import annotations

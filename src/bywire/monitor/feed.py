@@ -17,8 +17,8 @@ from typing import Any
 
 import can
 
+from bywire.canlog.write import WRITERS, check_log_path
 from bywire.errors import ConfigError, HardwareError
-from bywire.sim.canlog import WRITERS, check_log_path
 
 RECEIVE_TIMEOUT_S = 0.1  # how often the reader looks at its stop flag
 SILENT_S = 3.0  # no frame for this long: the connection is opened again

@@ -9,9 +9,9 @@ from rich.console import Console
 from rich.markup import escape
 from rich.table import Table
 
+from bywire.canlog.write import BusTally
 from bywire.control.error_flags import flag_names
 from bywire.runtime.schedule import PeriodicTask
-from bywire.sim.canlog import BusTally
 from bywire.sim.runner import SimRun, Verdict
 from bywire.sim.scenario import FAULTS, Scenario
 

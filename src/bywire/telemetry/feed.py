@@ -14,11 +14,11 @@ from pathlib import Path
 from typing import Protocol
 
 from bywire.errors import ConfigError
+from bywire.loopback import Endpoint, ListenAddress
 from bywire.runtime.app import Runtime
 from bywire.telemetry.capture import DEFAULT_RATE_HZ, Capture, TelemetryTap
 from bywire.telemetry.outbox import DEFAULT_CAPACITY, Outbox
 from bywire.telemetry.writer import TelemetryWriter
-from bywire.tools.loopback import Endpoint, ListenAddress
 
 
 @dataclass(frozen=True, slots=True)

@@ -18,11 +18,11 @@ import foxglove
 from foxglove.websocket import WebSocketServer
 
 from bywire.errors import ConfigError
+from bywire.loopback import Endpoint, ListenAddress
 from bywire.telemetry.capture import Capture
 from bywire.telemetry.messages import message
 from bywire.telemetry.outbox import Outbox
 from bywire.telemetry.schemas import SCHEMAS
-from bywire.tools.loopback import Endpoint, ListenAddress
 
 POLL_S = 0.05  # how long the writer waits for a capture before looking at `closed` again
 

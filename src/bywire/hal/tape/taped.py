@@ -1,7 +1,7 @@
 """Taped ports: wrappers around a Hardware bundle that note every input and output on a tape.
 
 They sit exactly on the seam (`bywire.hal.ports`), so a tape holds everything the controller
-received and everything it wrote, whatever the backend; `bywire.tools.run_record` describes the
+received and everything it wrote, whatever the backend; `bywire.hal.tape.run_record` describes the
 events. The wrappers only forward and note: the controller cannot tell them from the ports.
 """
 
@@ -14,8 +14,8 @@ from typing import Generic, TypeVar
 from bywire.errors import FrameError, HardwareError
 from bywire.hal.hardware import DigitalOutputs, Hardware
 from bywire.hal.ports import ByteStream, CanFrame, CanPort, Clock, DigitalOut, I2cDevice, PwmChannel
+from bywire.hal.tape.run_record import Event, OutputValue
 from bywire.protocol import dac6574
-from bywire.tools.run_record import Event, OutputValue
 
 V = TypeVar("V")
 _UNSET = object()

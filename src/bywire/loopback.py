@@ -1,7 +1,11 @@
-"""Where the simulator's bus transport may listen: loopback only, parsed from ``[HOST:]PORT``.
+"""Where bywire's servers may listen: loopback only, parsed from ``[HOST:]PORT``.
 
-The transport has no authentication: anyone who can reach it can put frames on the robot's bus.
-So it binds to the loopback interface only and refuses every other address, 0.0.0.0 included.
+The simulated bus's socketcand server (`bywire.netbus`) and the telemetry feed's Foxglove server
+(`bywire.telemetry`) have no authentication: anyone who can reach the bus server can put frames on
+the robot's bus. So `Endpoint` binds to the loopback interface only and refuses every other
+address, 0.0.0.0 included; `ListenAddress` is the exception a robot configuration may ask for
+(`allow_remote`). A module of its own, as errors.py, because the servers and the configuration
+all read it.
 """
 
 from __future__ import annotations

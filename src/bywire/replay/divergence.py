@@ -5,9 +5,9 @@ from __future__ import annotations
 from collections.abc import Sequence
 from dataclasses import dataclass
 
+from bywire.hal.tape.run_record import Output, OutputValue
 from bywire.protocol import dac6574
 from bywire.protocol.dac6574 import DEFAULT_VREF_VOLTS
-from bywire.tools.run_record import Output, OutputValue
 
 Instant = tuple[float, list[Output]]
 

@@ -9,9 +9,9 @@ import can
 from bywire.hal.ports import CanFrame
 from bywire.hal.sim.can_bus import SimCanBus
 from bywire.hal.sim.clock import VirtualClock
-from bywire.tools.loopback import Endpoint
-from bywire.tools.sim_bridge import serve_bus
-from tests.tools.test_transport import TIMEOUT_S, receive, wait_for
+from bywire.loopback import Endpoint
+from bywire.netbus.bridge import serve_bus
+from tests.netbus.test_server import TIMEOUT_S, receive, wait_for
 
 
 def test_bus_frames_reach_a_client_and_its_frames_reach_the_bus() -> None:

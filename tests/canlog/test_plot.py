@@ -7,20 +7,20 @@ from pathlib import Path
 import can
 import pytest
 
-from bywire.control.error_flags import ErrorFlag
-from bywire.errors import ConfigError
-from bywire.model import ControlMode, ErrorReport, Gear, ModeReport, MovementCommand
-from bywire.protocol import dbc
-from bywire.sim.plot import DPI, SIZE_IN
-from bywire.tools.log_decode import decode_messages, read_can_log, read_messages
-from bywire.tools.logplot import (
+from bywire.canlog.plot import (
     choose_signals,
     error_flags_seen,
     error_flags_up,
     is_albert_log,
     write_log_plot,
 )
-from tests.tools import tesla_drive
+from bywire.canlog.read import decode_messages, read_can_log, read_messages
+from bywire.control.error_flags import ErrorFlag
+from bywire.errors import ConfigError
+from bywire.model import ControlMode, ErrorReport, Gear, ModeReport, MovementCommand
+from bywire.protocol import dbc
+from bywire.sim.plot import DPI, SIZE_IN
+from tests.canlog import tesla_drive
 
 PNG_SIGNATURE = b"\x89PNG\r\n\x1a\n"
 

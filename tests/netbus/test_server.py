@@ -10,9 +10,9 @@ from collections.abc import Callable, Iterator
 import can
 import pytest
 
-from bywire.tools.loopback import Endpoint
-from bywire.tools.socketcand import SendRequest
-from bywire.tools.transport import SocketcandServer
+from bywire.loopback import Endpoint
+from bywire.netbus.server import SocketcandServer
+from bywire.netbus.socketcand import SendRequest
 
 TIMEOUT_S = 10.0  # generous: only a broken server takes this long
 

@@ -24,11 +24,11 @@ from cantools.database.can import Database
 from matplotlib.axes import Axes
 from matplotlib.figure import Figure
 
+from bywire.canlog.read import DecodedLog, Signal
 from bywire.control.error_flags import ErrorFlag
 from bywire.errors import ConfigError
 from bywire.model import ControlMode
 from bywire.sim.plot import DPI, SIZE_IN
-from bywire.tools.log_decode import DecodedLog, Signal
 
 LIGHTS = ("brake", "reverse", "turn_left", "turn_right", "hazard", "low_beam", "error_led")
 LANE_HEIGHT = 0.8

@@ -8,7 +8,7 @@ import pytest
 from bywire.hal.ports import CanFrame
 from bywire.hal.sim.can_bus import SimCanBus
 from bywire.hal.sim.clock import VirtualClock
-from bywire.teleop.simbus import SimPortBus
+from bywire.netbus.inprocess import SimPortBus
 
 
 def make() -> tuple[VirtualClock, SimCanBus, SimPortBus]:

@@ -1,10 +1,10 @@
-"""Replay a run record through the controller in virtual time and compare what it writes.
+"""Playback ports: a run record's inputs handed back to the controller at their recorded instants.
 
-No vehicle, transmitter or higher-level computer: the controller (the real `Runtime`, readers
-and codecs included) runs on ports that hand it exactly what it received in the recorded run,
-at the recorded instants: the RC UART's bytes and the CAN frames (each arrival wakes the loop, as
-the port's interrupt did), the sensors' readings in read order, the refused sends and DAC writes.
-Its outputs are taped like the recording's and compared instant by instant.
+No vehicle, transmitter or higher-level computer: the ports hand the controller exactly what it
+received in the recorded run, at the recorded instants: the RC UART's bytes and the CAN frames
+(each arrival wakes the loop, as the port's interrupt did), the sensors' readings in read order,
+the refused sends and DAC writes. What the controller writes is kept by simulated outputs (the
+DAC checks every frame); `bywire.replay.runner` tapes them and compares with the record.
 """
 
 from __future__ import annotations
@@ -12,21 +12,16 @@ from __future__ import annotations
 import dataclasses
 from collections import deque
 from collections.abc import Sequence
-from dataclasses import dataclass
 from typing import Generic, TypeVar
 
-from bywire.config import RobotConfig, parse_config
-from bywire.errors import HardwareError
+from bywire.errors import FrameError, HardwareError
 from bywire.hal.hardware import DigitalOutputs, Hardware
 from bywire.hal.ports import CanFrame, I2cDevice
+from bywire.hal.sim.can_port import MAX_DATA_BYTES, MAX_STANDARD_ID
 from bywire.hal.sim.clock import VirtualClock
 from bywire.hal.sim.dac import SimDac6574
 from bywire.hal.sim.gpio_pwm import SimDigitalOut, SimPwmChannel
-from bywire.runtime.app import Runtime
-from bywire.runtime.settings import RuntimeConfig
-from bywire.tools.divergence import Divergence, first_divergence
-from bywire.tools.port_tape import Tape, taped_hardware
-from bywire.tools.run_record import Output, RecordedRun, SensorValue, outputs_of
+from bywire.hal.tape.run_record import RecordedRun, SensorValue
 
 T = TypeVar("T")
 
@@ -69,7 +64,13 @@ class ReplayCanPort:
         self._sends = 0
 
     def send(self, frame: CanFrame) -> bool:
+        """Accepted unless the record says this call was refused; FrameError, as every CAN port
+        raises it, for a frame classic CAN cannot carry (counted as a call, as the tape counts)."""
         call, self._sends = self._sends, self._sends + 1
+        if not 0 <= frame.arbitration_id <= MAX_STANDARD_ID:
+            raise FrameError(f"CAN id 0x{frame.arbitration_id:X} is not an 11-bit standard id")
+        if len(frame.data) > MAX_DATA_BYTES:
+            raise FrameError(f"classic CAN carries at most 8 data bytes, got {len(frame.data)}")
         return call not in self._refused_calls
 
     def receive(self) -> list[CanFrame]:
@@ -147,30 +148,3 @@ def replay_hardware(record: RecordedRun, clock: VirtualClock) -> Hardware:
         hydrobrake_pressure_bar=analog("hydrobrake_pressure_bar"),
         steering_encoder_norm=analog("steering_encoder_norm"),
     )
-
-
-@dataclass(frozen=True, slots=True)
-class ReplayResult:
-    """The recorded and the replayed outputs, and the first divergence (None: identical)."""
-
-    recorded: list[Output]
-    replayed: list[Output]
-    divergence: Divergence | None
-
-
-def recorded_robot(record: RecordedRun) -> RobotConfig:
-    """The robot configuration the run was recorded with."""
-    return parse_config(record.header.config_toml, "the run record's configuration")
-
-
-def replay(record: RecordedRun, robot: RobotConfig | None = None) -> ReplayResult:
-    """Run the controller on the record's inputs (with `robot`, default: the recorded one)."""
-    robot = recorded_robot(record) if robot is None else robot
-    clock = VirtualClock(record.header.start_s)
-    tape = Tape(clock)
-    hardware = taped_hardware(replay_hardware(record, clock), tape)
-    # Virtual time: a watchdog thread would only watch how fast the replay runs.
-    config = dataclasses.replace(RuntimeConfig.from_robot(robot), watchdog_s=None)
-    Runtime(hardware, config).run(until_s=record.header.end_s)
-    replayed = outputs_of(tape.events)
-    return ReplayResult(record.outputs, replayed, first_divergence(record.outputs, replayed))

@@ -8,9 +8,9 @@ from pathlib import Path
 import can
 import pytest
 
+from bywire.canlog.write import BusTally, CanLog, check_log_path
 from bywire.errors import ConfigError
 from bywire.hal.sim.can_bus import LoggedFrame
-from bywire.sim.canlog import BusTally, CanLog, check_log_path
 
 WALL_START_S = 1_750_000_000.0  # June 2025: what the log's reader should show as the date
 FRAMES = [

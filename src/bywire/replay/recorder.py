@@ -2,7 +2,7 @@
 
 `SimRunRecorder.attach(sim)` puts the controller of a `SimRun` on taped ports before it runs
 (a fresh `Runtime` on the taped bundle, taking over the run's cycle observers); after the run,
-`write()` saves the record (`bywire.tools.run_record`).
+`write()` saves the record (`bywire.hal.tape.run_record`).
 """
 
 from __future__ import annotations
@@ -12,10 +12,10 @@ from pathlib import Path
 from bywire.config import describe
 from bywire.errors import ConfigError
 from bywire.hal.sim.clock import RealtimeClock
+from bywire.hal.tape.run_record import SENSOR_NAMES, RecordHeader, write_record
+from bywire.hal.tape.taped import Tape, taped_hardware
 from bywire.runtime.app import Runtime
 from bywire.sim.runner import SimRun
-from bywire.tools.port_tape import Tape, taped_hardware
-from bywire.tools.run_record import SENSOR_NAMES, RecordHeader, write_record
 
 
 def check_record_path(path: Path) -> None:

@@ -8,8 +8,8 @@ import pytest
 
 from bywire.cli.main import main
 from bywire.errors import ConfigError
-from bywire.tools.loopback import Endpoint, parse_endpoint
-from bywire.tools.transport import SocketcandServer
+from bywire.loopback import Endpoint, parse_endpoint
+from bywire.netbus.server import SocketcandServer
 
 
 @pytest.mark.parametrize(

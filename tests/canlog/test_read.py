@@ -15,9 +15,9 @@ import cantools
 import pytest
 from cantools.database.can import Database
 
+from bywire.canlog.read import decode_messages, read_can_log, read_log
 from bywire.errors import ConfigError
-from bywire.tools.log_decode import decode_messages, read_can_log, read_log
-from tests.tools import tesla_drive
+from tests.canlog import tesla_drive
 
 DATA = Path(__file__).resolve().parents[1] / "data"
 MSXII_LOG = DATA / "cantools/msxii_battery_vt.candump"

@@ -19,8 +19,8 @@ from collections.abc import Callable
 from dataclasses import dataclass, field
 
 from bywire.errors import ConfigError, FrameError
-from bywire.tools import socketcand
-from bywire.tools.loopback import Endpoint
+from bywire.loopback import Endpoint
+from bywire.netbus import socketcand
 
 CHANNEL = "can0"
 OUTBOX_FRAMES = 10_000  # 30 s of the robot's traffic

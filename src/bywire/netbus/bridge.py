@@ -23,8 +23,8 @@ from bywire.hal.ports import CanFrame
 from bywire.hal.sim.can_bus import LoggedFrame, SimCanBus
 from bywire.hal.sim.can_port import SimCanPort
 from bywire.hal.sim.timers import PeriodicTimer
-from bywire.tools.loopback import Endpoint
-from bywire.tools.transport import SocketcandServer
+from bywire.loopback import Endpoint
+from bywire.netbus.server import SocketcandServer
 
 POLL_PERIOD_S = 0.002
 NODE_PREFIX = "remote"

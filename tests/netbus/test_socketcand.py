@@ -7,7 +7,7 @@ import pytest
 from can.interfaces.socketcand import socketcand as client
 
 from bywire.errors import FrameError
-from bywire.tools import socketcand
+from bywire.netbus import socketcand
 
 
 @pytest.mark.parametrize(
