@@ -174,6 +174,10 @@ class _WitnessUart:
         self._witness.rc.extend(data)
         return data
 
+    @property
+    def arrived_at_s(self) -> float | None:
+        return self._inner.arrived_at_s
+
 
 class _WitnessCan:
     def __init__(self, inner: CanPort, witness: _Witness) -> None:
@@ -352,7 +356,8 @@ class PlaybackRig:
         return 0 if frame is None else dac6574.decode_write(bytes.fromhex(str(frame)))[1]
 
     def feed_rc(self, data: bytes) -> None:
-        self._feed(RecordedRun(PLAYBACK_HEADER, rc_bytes=[(self.clock.now(), data)]))
+        now_s = self.clock.now()
+        self._feed(RecordedRun(PLAYBACK_HEADER, rc_bytes=[(now_s, data, now_s)]))
 
     def peer_send(self, frame_id: int, data: bytes) -> None:
         now_s = self.clock.now()
@@ -375,6 +380,11 @@ class _FedUart:
 
     def read_available(self) -> bytes:
         return b"".join(hardware.rc_uart.read_available() for hardware in self._fed)
+
+    @property
+    def arrived_at_s(self) -> float | None:
+        stamps = [hardware.rc_uart.arrived_at_s for hardware in self._fed]
+        return max((stamp for stamp in stamps if stamp is not None), default=None)
 
 
 class _FedCan:

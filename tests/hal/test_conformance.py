@@ -110,6 +110,17 @@ def test_rc_bytes_arrive_whole_and_in_order(rig: Rig) -> None:
     assert bytes(received) == sent
 
 
+def test_rc_bytes_carry_when_they_arrived_not_when_they_were_read(rig: Rig) -> None:
+    clock = rig.hardware.clock
+    fed_at_s = clock.now()
+    rig.feed_rc(ibus.encode_frame([1500] * ibus.CHANNEL_COUNT))
+    received = bytearray()
+    assert settle_until(rig, lambda: _collect(rig, received) >= ibus.FRAME_LENGTH)
+    arrived_at_s = rig.hardware.rc_uart.arrived_at_s
+    assert arrived_at_s is not None
+    assert fed_at_s <= arrived_at_s <= clock.now()
+
+
 def _collect(rig: Rig, into: bytearray) -> int:
     into.extend(rig.hardware.rc_uart.read_available())
     return len(into)

@@ -235,16 +235,32 @@ class Receiver:
 
 
 @pytest.mark.parametrize("chunk", [1, 5, 32, 64])
-def test_ibus_reader_returns_the_newest_request_stamped_now(chunk: int) -> None:
+def test_ibus_reader_returns_the_newest_request_stamped_when_its_last_byte_arrived(
+    chunk: int,
+) -> None:
     rx = Receiver()
     for start in range(0, len(FRAME), chunk):
         rx.uart.transmit(FRAME[start : start + chunk])
     rx.clock.advance(0.01)
     stamped = rx.reader.poll(rx.clock.now())
     assert stamped is not None
-    assert stamped.received_at == rx.clock.now()
+    # the frame's last stop bit, not the poll 10 ms later: bytes that waited are not fresh
+    assert stamped.received_at == pytest.approx(rx.uart.line_free_at_s, abs=1e-12)
+    assert stamped.received_at < rx.clock.now() - 0.005
     assert stamped.value is not None
     assert stamped.value.steering_norm == pytest.approx(0.5)
+
+
+def test_rc_frames_that_waited_while_the_loop_was_busy_are_stale() -> None:
+    """The transmitter's last frame arrives, then the loop is busy for 150 ms: read now, the
+    frame is 150 ms old, stale for a 100 ms timeout (a read-time stamp would call it fresh)."""
+    rx = Receiver()
+    rx.uart.transmit(FRAME)
+    rx.clock.advance(0.15)
+    now = rx.clock.now()
+    stamped = rx.reader.poll(now)
+    assert stamped is not None
+    assert not is_fresh(stamped, now, 0.100)
 
 
 def test_ibus_reader_marks_a_failsafe_frame_as_suspect() -> None:
@@ -284,9 +300,9 @@ def test_resyncs_are_counted_per_realignment_and_stamped_with_the_poll_time() ->
 def test_the_reader_keeps_the_newest_raw_channels_and_stamps_its_parser() -> None:
     rx = Receiver()
     assert rx.reader.last_channels is None
-    now = rx.poll_after(FRAME)
+    rx.poll_after(FRAME)
     assert rx.reader.last_channels == CHANNELS
-    assert rx.reader.parser.last_frame_at == now
+    assert rx.reader.parser.last_frame_at == rx.uart.arrived_at_s == rx.uart.line_free_at_s
 
 
 # --- CAN: when a frame arrived ------------------------------------------------------------------

@@ -123,7 +123,9 @@ def _linux_openers(config: RobotConfig, paths: LinuxPaths, clock: LinuxClock) ->
         return open_pwm
 
     def rc(stack: contextlib.ExitStack) -> object:
-        port = PyserialStream(paths.device(config.rc.port), clock.notify_input, baud=config.rc.baud)
+        port = PyserialStream(
+            paths.device(config.rc.port), clock.notify_input, baud=config.rc.baud, now_s=clock.now
+        )
         stack.callback(port.close)
         return port
 

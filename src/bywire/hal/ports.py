@@ -41,6 +41,13 @@ class ByteStream(Protocol):
         """Every byte received since the last call (possibly none); never blocks."""
         ...
 
+    @property
+    def arrived_at_s(self) -> float | None:
+        """When the newest byte the last `read_available` returned arrived, on the clock's time
+        (None: the backend cannot tell, or nothing was read). Bytes that waited in a buffer
+        while the loop was busy are judged by this, not by when the loop read them."""
+        ...
+
 
 class I2cDevice(Protocol):
     """One device on an I2C bus, written with raw transfers (the DAC6574)."""

@@ -43,7 +43,7 @@ class IbusReader:
         if not data:
             return None
         before = self.parser.stats
-        frames = self.parser.feed(data, now)
+        frames = self.parser.feed(data, _believed(self._stream.arrived_at_s, now))
         after = self.parser.stats
         if after.checksum_errors > before.checksum_errors:
             self.checksum_faults.happened(now, after.checksum_errors - before.checksum_errors)
@@ -63,8 +63,12 @@ def arrival(frame: CanFrame, now: float) -> float:
     """When `frame` arrived: its port's timestamp (taken by the receive thread, or the simulated
     bus, on the loop's clock), so a frame that waited while the loop was busy is judged by its
     true age. A stamp from the future, or none, is not believed: `now` then."""
-    stamp = frame.timestamp_s
-    return stamp if 0.0 < stamp <= now else now
+    return _believed(frame.timestamp_s, now)
+
+
+def _believed(stamp: float | None, now: float) -> float:
+    """A port's arrival stamp if it can be true (after 0, not after `now`), else `now`."""
+    return stamp if stamp is not None and 0.0 < stamp <= now else now
 
 
 class _CounterTrust:

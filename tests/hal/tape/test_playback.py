@@ -12,13 +12,17 @@ from bywire.hal.tape.playback import ReplayByteStream, ReplayCanPort, ReplayDac
 
 def test_replayed_inputs_arrive_at_their_recorded_instants() -> None:
     clock = VirtualClock()
-    stream = ReplayByteStream(clock, [(0.1, b"\x20"), (0.1, b"\x40"), (0.2, b"\x01")])
+    stream = ReplayByteStream(
+        clock, [(0.1, b"\x20", 0.09), (0.1, b"\x40", 0.095), (0.2, b"\x01", None)]
+    )
     port = ReplayCanPort(clock, [(0.15, [CanFrame(0x101, b"", 0.15)])], set())
     assert stream.read_available() == b""
     clock.advance(0.1)
     assert (stream.read_available(), port.receive()) == (b"\x20\x40", [])
+    assert stream.arrived_at_s == 0.095  # the newest byte's recorded stamp
     clock.advance(0.1)
     assert stream.read_available() == b"\x01"
+    assert stream.arrived_at_s is None  # a record made before stamps were kept
     assert port.receive() == [CanFrame(0x101, b"", 0.15)]
 
 

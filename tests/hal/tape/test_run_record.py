@@ -19,6 +19,7 @@ HEADER = RecordHeader("tiny", 0.0, 1.0, {"steering": 0.02, "hydrobrake": 0.001},
 def test_the_record_round_trips_every_value_exactly(name: str, tmp_path: Path) -> None:
     events = [
         {"t": 0.1 + 0.2, "kind": "rc_bytes", "hex": "2040"},
+        {"t": 0.35, "kind": "rc_bytes", "hex": "01", "at": 0.3499},
         {"t": 0.5, "kind": "can_rx", "frames": [[0x101, "00ff", 0.49]]},
         {"t": 0.5, "kind": "sensor", "name": "wheel_speeds", "read": 3, "value": (0.1, -0.3)},
         {"t": 0.6, "kind": "refused", "name": "dac", "call": 7},
@@ -28,7 +29,7 @@ def test_the_record_round_trips_every_value_exactly(name: str, tmp_path: Path) -
     assert write_record(tmp_path / name, HEADER, events) == len(events)
     run = read_record(tmp_path / name)
     assert run.header == HEADER
-    assert run.rc_bytes == [(0.1 + 0.2, b"\x20\x40")]
+    assert run.rc_bytes == [(0.1 + 0.2, b"\x20\x40", None), (0.35, b"\x01", 0.3499)]
     assert run.can_rx == [(0.5, [CanFrame(0x101, b"\x00\xff", 0.49)])]
     assert run.sensor_reads == {"wheel_speeds": [(3, (0.1, -0.3))]}
     assert run.refusals == {"dac": {7}}

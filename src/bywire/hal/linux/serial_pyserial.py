@@ -36,8 +36,14 @@ class PyserialStream:
         *,
         baud: int = 115_200,
         reopen_period_s: float = REOPEN_PERIOD_S,
+        now_s: Callable[[], float] | None = None,
     ) -> None:
+        """`now_s`: the loop's clock, read by the thread as each chunk arrives (None: no
+        arrival stamps; the reader then takes the time it read the bytes)."""
         self.port = port
+        self._now_s = now_s
+        self._buffer_arrived_at_s: float | None = None
+        self._arrived_at_s: float | None = None
         self._baud = baud
         self._wake = wake
         self._reopen_period_s = reopen_period_s
@@ -57,7 +63,15 @@ class PyserialStream:
         with self._lock:
             data = bytes(self._buffer)
             self._buffer.clear()
+            if data:
+                self._arrived_at_s = self._buffer_arrived_at_s
         return data
+
+    @property
+    def arrived_at_s(self) -> float | None:
+        """When the thread received the newest chunk the last read returned (None without a
+        clock)."""
+        return self._arrived_at_s
 
     @property
     def connected(self) -> bool:
@@ -105,8 +119,10 @@ class PyserialStream:
                 self._lost(error)
                 continue
             if data:
+                arrived_at_s = None if self._now_s is None else self._now_s()
                 with self._lock:
                     self._buffer.extend(data)
+                    self._buffer_arrived_at_s = arrived_at_s
                 self.bytes_received += len(data)
                 self._wake()
 

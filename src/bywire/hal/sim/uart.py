@@ -48,6 +48,7 @@ class SimUart:
         self._line_free_at_s = -math.inf
         self.bytes_sent = 0
         self.bytes_read = 0
+        self._arrived_at_s: float | None = None
 
     def transmit(self, data: bytes, start_s: float | None = None) -> float:
         """Put ``data`` on the line from ``start_s`` (default now) or when the line is free.
@@ -75,12 +76,18 @@ class SimUart:
             if arrived > burst.read:
                 chunks.append(burst.data[burst.read : arrived])
                 burst.read = arrived
+                self._arrived_at_s = burst.first_arrival_s + (arrived - 1) * self.byte_time_s
             if burst.read < len(burst.data):
                 break
             self._bursts.popleft()
         data = b"".join(chunks)
         self.bytes_read += len(data)
         return data
+
+    @property
+    def arrived_at_s(self) -> float | None:
+        """When the newest byte read so far arrived (its stop bit's end); None before any."""
+        return self._arrived_at_s
 
     @property
     def line_free_at_s(self) -> float:

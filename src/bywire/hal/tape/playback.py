@@ -41,13 +41,25 @@ class _Arrivals(Generic[T]):
 
 
 class ReplayByteStream:
-    """The RC UART: each recorded read's bytes, at its instant."""
+    """The RC UART: each recorded read's bytes, at its instant, with its arrival stamp."""
 
-    def __init__(self, clock: VirtualClock, chunks: Sequence[tuple[float, bytes]]) -> None:
-        self._arrivals = _Arrivals(clock, chunks)
+    def __init__(
+        self, clock: VirtualClock, chunks: Sequence[tuple[float, bytes, float | None]]
+    ) -> None:
+        self._arrivals = _Arrivals(clock, [(t, (data, at)) for t, data, at in chunks])
+        self._arrived_at_s: float | None = None
 
     def read_available(self) -> bytes:
-        return b"".join(self._arrivals.due())
+        due = self._arrivals.due()
+        if due:
+            self._arrived_at_s = due[-1][1]
+        return b"".join(data for data, _ in due)
+
+    @property
+    def arrived_at_s(self) -> float | None:
+        """The recorded stamp of the last read's newest byte (None in records made before
+        stamps were recorded: the reader then takes the read's time, as it did then)."""
+        return self._arrived_at_s
 
 
 class ReplayCanPort:
@@ -124,7 +136,7 @@ class ReplayWheelSpeeds(_ReadOrder):
 
 def replay_hardware(record: RecordedRun, clock: VirtualClock) -> Hardware:
     """Ports that replay `record` on `clock`, with a wake-up at every recorded arrival."""
-    for time_s in sorted({t for t, _ in record.rc_bytes} | {t for t, _ in record.can_rx}):
+    for time_s in sorted({t for t, _, _ in record.rc_bytes} | {t for t, _ in record.can_rx}):
         clock.call_at(time_s, clock.notify_input)
     periods, reads, present = record.header.pwm_period_s, record.sensor_reads, record.header.sensors
     lines = {

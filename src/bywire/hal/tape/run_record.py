@@ -10,7 +10,8 @@ floats are written as Python's shortest round-trip repr, so every value reads ba
     then    one event per line, in the order it happened: {"t": <s>, "kind": <kind>, ...}
 
     kind      fields                          meaning
-    rc_bytes  hex                             bytes one read of the RC UART returned
+    rc_bytes  hex, at (optional)              bytes one read of the RC UART returned, and when
+                                              the newest of them arrived (the port's stamp)
     can_rx    frames: [[id, hex, stamp_s]]    frames one receive() of the CAN port returned
     sensor    name, read, value               the read-th read (from 0) of a sensor, when its
                                               value differs from the read before (null: none)
@@ -96,7 +97,8 @@ class RecordedRun:
     """A record, split by kind: what replay feeds in, and the outputs it must reproduce."""
 
     header: RecordHeader
-    rc_bytes: list[tuple[float, bytes]] = field(default_factory=list)
+    rc_bytes: list[tuple[float, bytes, float | None]] = field(default_factory=list)
+    """(read time, bytes, arrival stamp of the newest byte or None) of each RC UART read."""
     can_rx: list[tuple[float, list[CanFrame]]] = field(default_factory=list)
     sensor_reads: dict[str, list[tuple[int, SensorValue]]] = field(default_factory=dict)
     refusals: dict[str, set[int]] = field(default_factory=dict)
@@ -106,7 +108,9 @@ class RecordedRun:
         """File one event; KeyError, TypeError or ValueError when it is malformed."""
         time_s, kind = float(event["t"]), event["kind"]
         if kind == "rc_bytes":
-            self.rc_bytes.append((time_s, bytes.fromhex(event["hex"])))
+            at = event.get("at")
+            arrived_at_s = None if at is None else float(at)
+            self.rc_bytes.append((time_s, bytes.fromhex(event["hex"]), arrived_at_s))
         elif kind == "can_rx":
             frames = [CanFrame(int(i), bytes.fromhex(h), float(s)) for i, h, s in event["frames"]]
             self.can_rx.append((time_s, frames))

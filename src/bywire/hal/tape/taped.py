@@ -49,8 +49,14 @@ class TapedByteStream:
     def read_available(self) -> bytes:
         data = self._inner.read_available()
         if data:
-            self._tape.add("rc_bytes", hex=data.hex())
+            arrived_at_s = self._inner.arrived_at_s
+            stamp = {} if arrived_at_s is None else {"at": arrived_at_s}
+            self._tape.add("rc_bytes", hex=data.hex(), **stamp)
         return data
+
+    @property
+    def arrived_at_s(self) -> float | None:
+        return self._inner.arrived_at_s
 
 
 class TapedCanPort:
