@@ -20,9 +20,9 @@ import pytest
 
 from bywire.cli.main import main
 from bywire.protocol import dbc
+from tests.runtime.test_schedule import TABLE_1
 
 COURSE_MODES = ["STOP", "RC", "CAN", "RC", "STOP"]
-NOMINAL_RATES_HZ = {"steering": 100, "driving": 100, "hydrobrake": 100, "can_tx": 50, "lights": 20}
 
 FAILING = """
 name = "failing"
@@ -96,7 +96,7 @@ def test_the_default_run_prints_the_summary_of_the_course() -> None:
     stop = re.search(r"Time to STOP: (\d+\.\d) ms after 'STOP' .* within 110\.0 ms", text)
     assert stop is not None
     assert 0 < float(stop.group(1)) <= 110
-    for name, rate_hz in NOMINAL_RATES_HZ.items():
+    for name, rate_hz in TABLE_1.items():
         row = re.search(rf"^{name}\s+(\d+\.\d) Hz\s+\d+\s+\d+\.\d+ %", text, flags=re.MULTILINE)
         assert row is not None, name
         assert float(row.group(1)) == pytest.approx(rate_hz, rel=0.01)
@@ -118,7 +118,7 @@ def test_json_has_the_figures_as_numbers(course: CourseRun) -> None:
     assert stop["deadline_s"] == 0.110
     assert 0 < stop["time_to_safe_s"] <= stop["deadline_s"]
     rates = {task["name"]: task["rate_hz"] for task in summary["tasks"]}
-    assert rates == pytest.approx(NOMINAL_RATES_HZ, rel=0.01)
+    assert {name: rates.get(name) for name in TABLE_1} == pytest.approx(TABLE_1, rel=0.01)
     assert all(task["overruns"] == 0 for task in summary["tasks"])
     assert {e["status"] for e in summary["expectations"]} == {"pass"}
     assert summary["passed"] is True
