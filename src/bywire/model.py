@@ -10,7 +10,7 @@ Units in names: ``_norm`` is a normalised set-point (steering −1…1, throttle
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, fields
 from enum import IntEnum
 
 from bywire.control.error_flags import ErrorFlag
@@ -69,6 +69,13 @@ class LightsCommand:
     low_beam: bool
     counter: int
 
+
+LIGHT_REQUESTS = tuple(
+    request.name for request in fields(LightsCommand) if request.name != "counter"
+)
+"""What a LightsCommand can ask for, by signal name (every field but its counter)."""
+LIGHTS_OFF = LightsCommand(**dict.fromkeys(LIGHT_REQUESTS, False), counter=0)
+"""Nothing requested: every request of a LightsCommand off."""
 
 Command = ControlCommand | MovementCommand | LightsCommand
 """Any command frame's content."""

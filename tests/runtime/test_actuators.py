@@ -7,7 +7,7 @@ import math
 import pytest
 
 from bywire.control.drive import DriveOutputs
-from bywire.control.lights import LightOutputs
+from bywire.control.lights import LIGHT_LINES, LightOutputs
 from bywire.hal.sim.clock import VirtualClock
 from bywire.hal.sim.world import SimWorld
 from bywire.runtime.actuators import DAC_LEAK, ActuatorConfig, Actuators
@@ -230,3 +230,23 @@ def test_a_write_in_flight_when_the_watchdog_trips_is_undone_before_the_port_is_
         0.0,
     ]
     assert not enabled(world)
+
+
+def test_each_light_output_drives_its_own_line_and_only_that() -> None:
+    for name, light in LIGHT_LINES:
+        world, actuators = rig()
+        actuators.write_lights(LightOutputs(**{name: True}))
+        lit = [line for line, out in world.gpio.items() if out.level]
+        assert lit == [light.line], name
+
+
+def test_a_watchdog_trip_writes_each_light_lines_own_safe_level_and_holds_the_others() -> None:
+    world, actuators = rig()
+    lit = LightOutputs(**{name: True for name, _ in LIGHT_LINES})
+    actuators.write_lights(lit)
+    actuators.watchdog_trip()
+    levels = {light.line: world.gpio[light.line].level for _, light in LIGHT_LINES}
+    assert levels == {
+        light.line: True if light.tripped is None else light.tripped for _, light in LIGHT_LINES
+    }
+    assert world.gpio["error_led"].level

@@ -3,13 +3,14 @@
 from __future__ import annotations
 
 import itertools
+from dataclasses import replace
 from pathlib import Path
 
 import pytest
 
 from bywire.config import default_sim_config
 from bywire.control.error_flags import ErrorFlag
-from bywire.model import ControlMode, Gear, ModeReport, StatusReport
+from bywire.model import LIGHTS_OFF, ControlMode, Gear, ModeReport, StatusReport
 from bywire.sim.runner import SimRun
 from bywire.sim.scenario import load_scenario
 from tests.system.harness import Robot
@@ -34,7 +35,7 @@ def can_driving(throttle: float = 0.5, **lights: bool) -> Robot:
     robot.arm_rc()
     robot.at(0.3, lambda: robot.world.rc.set_mode(ControlMode.CAN))
     robot.at(0.5, lambda: hlc.set_movement(0.2, throttle, 0.0, Gear.FORWARD))
-    robot.at(0.5, lambda: hlc.set_lights(**lights))
+    robot.at(0.5, lambda: hlc.set_lights(replace(LIGHTS_OFF, **lights)))
     return robot
 
 

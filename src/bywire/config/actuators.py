@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from dataclasses import fields, replace
+
 from bywire.config.limits import (
     BLINK_HZ,
     BRAKE_PWM_HZ,
@@ -86,21 +88,15 @@ def ebrake_section(table: Table, chip: str) -> EbrakeSection:
 
 
 def lights_section(table: Table, chip: str) -> LightsSection:
+    """Every `GpioLine` field of `LightsSection` is a key here: a new lamp needs no reader."""
     default = LightsSection()
-
-    def line(name: str) -> GpioLine:
-        default_line: GpioLine = getattr(default, name)
-        return gpio_line(table, name, GpioLine(chip, default_line.line))
-
-    section = LightsSection(
-        blink_rate_hz=table.number("blink_rate_hz", default.blink_rate_hz, BLINK_HZ),
-        brake_light=line("brake_light"),
-        reverse_light=line("reverse_light"),
-        turn_left_light=line("turn_left_light"),
-        turn_right_light=line("turn_right_light"),
-        low_beam=line("low_beam"),
-        error_led=line("error_led"),
-    )
+    blink_rate_hz = table.number("blink_rate_hz", default.blink_rate_hz, BLINK_HZ)
+    lines = {
+        field.name: gpio_line(table, field.name, GpioLine(chip, line.line))
+        for field in fields(LightsSection)
+        if isinstance(line := getattr(default, field.name), GpioLine)
+    }
+    section = replace(default, blink_rate_hz=blink_rate_hz, **lines)
     table.close()
     return section
 

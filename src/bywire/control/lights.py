@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field, fields
 
 BRAKE_LIGHT_THRESHOLD_NORM = 0.10
 BLINK_RATE_HZ = 1.5
@@ -23,15 +23,44 @@ class LightRequest:
 
 
 @dataclass(frozen=True, slots=True)
-class LightOutputs:
-    """The level of every light output at one instant."""
+class LightLine:
+    """Where one light output goes and what it is, read from `LightOutputs`' own fields.
 
-    brake: bool = False
-    reverse: bool = False
-    turn_left: bool = False
-    turn_right: bool = False
-    low_beam: bool = False
-    error_led: bool = False
+    `line`: its digital line (a field of `DigitalOutputs`, a key of `[lights]`); `description`:
+    what it is (scenarios expect `<line> = true` of a steady one as "<description> on");
+    `blinks`: its level flashes, so no scenario expects it; `tripped`: its level when the
+    watchdog trips (None: it holds what the loop last wrote).
+    """
+
+    line: str
+    description: str
+    blinks: bool = False
+    tripped: bool | None = None
+
+
+def _light(
+    line: str, description: str, *, blinks: bool = False, tripped: bool | None = None
+) -> bool:
+    return field(default=False, metadata={"light": LightLine(line, description, blinks, tripped)})
+
+
+@dataclass(frozen=True, slots=True)
+class LightOutputs:
+    """The level of every light output at one instant: each field names its line (`LightLine`),
+    so the writes, the watchdog's safe levels, the telemetry and the scenarios follow from here."""
+
+    brake: bool = _light("brake_light", "brake lights")
+    reverse: bool = _light("reverse_light", "reverse lights")
+    turn_left: bool = _light("turn_left_light", "left turn signal", blinks=True)
+    turn_right: bool = _light("turn_right_light", "right turn signal", blinks=True)
+    low_beam: bool = _light("low_beam", "low beam")
+    error_led: bool = _light("error_led", "error LED", tripped=True)
+
+
+LIGHT_LINES: tuple[tuple[str, LightLine], ...] = tuple(
+    (output.name, output.metadata["light"]) for output in fields(LightOutputs)
+)
+"""Every light output by its `LightOutputs` field name, with its line, in field order."""
 
 
 def blink_phase_on(now: float, rate_hz: float = BLINK_RATE_HZ) -> bool:

@@ -20,7 +20,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 from bywire.control.drive import DriveOutputs
-from bywire.control.lights import LightOutputs
+from bywire.control.lights import LIGHT_LINES, LightOutputs
 from bywire.errors import HardwareError
 from bywire.hal.hardware import Hardware
 from bywire.protocol import dac6574
@@ -62,7 +62,7 @@ class Actuators:
                 "dac": lambda: self._write_dac_pair(0.0, 0.0, None),
                 "hydrobrake": lambda: self._write_brakes(config.safe_hydrobrake_duty, True),
                 "steering": None,  # holds where it is
-                "lights": lambda: lines.error_led.set(True),
+                "lights": self._write_lights_tripped,
             }
         )
 
@@ -126,12 +126,15 @@ class Actuators:
 
     def _write_lights(self, lights: LightOutputs) -> None:
         lines = self._hardware.outputs
-        lines.brake_light.set(lights.brake)
-        lines.reverse_light.set(lights.reverse)
-        lines.turn_left_light.set(lights.turn_left)
-        lines.turn_right_light.set(lights.turn_right)
-        lines.low_beam.set(lights.low_beam)
-        lines.error_led.set(lights.error_led)
+        for name, light in LIGHT_LINES:
+            getattr(lines, light.line).set(getattr(lights, name))
+
+    def _write_lights_tripped(self) -> None:
+        """Each light's own safe level (`LightLine.tripped`): the error LED on, the rest held."""
+        lines = self._hardware.outputs
+        for _, light in LIGHT_LINES:
+            if light.tripped is not None:
+                getattr(lines, light.line).set(light.tripped)
 
     def _write_dac_pair(self, throttle_volts: float, regen_volts: float, now: float | None) -> None:
         self._write_dac(self._config.dac_throttle_channel, throttle_volts, now)

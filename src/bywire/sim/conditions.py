@@ -2,7 +2,7 @@
 what its value may be (checked when the scenario loads) and when it holds in an observation.
 
 A new condition is a row here (and, if the robot shows something new, a field of
-`Observation`).
+`Observation`); a new light output is a condition by itself (`LAMPS`).
 """
 
 from __future__ import annotations
@@ -11,6 +11,7 @@ from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from typing import Any
 
+from bywire.control.lights import LIGHT_LINES, LightLine
 from bywire.sim.observe import Observation
 from bywire.sim.scenario_values import MODES, UNIT, Check, flag, number, one_of
 
@@ -26,6 +27,19 @@ class Condition:
     check: Check
     holds: Holds
 
+
+def _lamp(name: str, light: LightLine) -> Condition:
+    """`<line> = true/false`: the light output `name` (a field of `LightOutputs`) on its line."""
+    return Condition(
+        light.line,
+        f"{light.description} on",
+        flag,
+        lambda o, wanted: getattr(o.lights, name) is bool(wanted),
+    )
+
+
+LAMPS = tuple(_lamp(name, light) for name, light in LIGHT_LINES if not light.blinks)
+"""One condition per steady light output (a blinking one has no level to expect)."""
 
 VOLTS = number(0.0, 5.5, "V")
 SPEED = number(-30.0, 30.0, "m/s")
@@ -48,14 +62,7 @@ CONDITIONS: tuple[Condition, ...] = (
               lambda o, wanted: o.speed_mps >= float(wanted)),
     Condition("speed_max_mps", "vehicle speed at most this (m/s, signed)", SPEED,
               lambda o, wanted: o.speed_mps <= float(wanted)),
-    Condition("brake_light", "brake lights on", flag,
-              lambda o, wanted: o.brake_light is bool(wanted)),
-    Condition("reverse_light", "reverse lights on", flag,
-              lambda o, wanted: o.reverse_light is bool(wanted)),
-    Condition("error_led", "error LED on", flag,
-              lambda o, wanted: o.error_led is bool(wanted)),
-    Condition("low_beam", "low beam on", flag,
-              lambda o, wanted: o.low_beam is bool(wanted)),
+    *LAMPS,
     Condition("hydrobrake_duty_min", "hydraulic brake PWM duty at least this", UNIT,
               lambda o, wanted: o.hydrobrake_duty >= float(wanted)),
 )

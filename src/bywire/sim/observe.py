@@ -10,6 +10,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 from bywire.control.controller import ControlOutputs
+from bywire.control.lights import LIGHT_LINES, LightOutputs
 from bywire.hal.sim.world import SimWorld
 from bywire.model import ControlMode, Gear
 
@@ -34,12 +35,7 @@ class Observation:
     speed_mps: float
     steering_actual_norm: float
     distance_m: float
-    brake_light: bool
-    reverse_light: bool
-    turn_left_light: bool
-    turn_right_light: bool
-    low_beam: bool
-    error_led: bool
+    lights: LightOutputs  # as the lines show them, each read from its own (`LIGHT_LINES`)
     error_flags: int
 
     @property
@@ -76,11 +72,6 @@ def observe(
         speed_mps=state.speed_mps,
         steering_actual_norm=state.steering_norm,
         distance_m=state.distance_m,
-        brake_light=gpio["brake_light"].level,
-        reverse_light=gpio["reverse_light"].level,
-        turn_left_light=gpio["turn_left_light"].level,
-        turn_right_light=gpio["turn_right_light"].level,
-        low_beam=gpio["low_beam"].level,
-        error_led=gpio["error_led"].level,
+        lights=LightOutputs(**{name: gpio[light.line].level for name, light in LIGHT_LINES}),
         error_flags=outputs.error_flags,
     )

@@ -20,7 +20,7 @@ from bywire.hal.sim.can_bus import LoggedFrame
 from bywire.hal.sim.clock import RealtimeClock, VirtualClock
 from bywire.hal.sim.timers import PeriodicTimer
 from bywire.hal.sim.world import SimWorld
-from bywire.model import ControlMode, Gear
+from bywire.model import LIGHTS_OFF, ControlMode, Gear
 from bywire.runtime.app import Runtime
 from bywire.runtime.settings import RuntimeConfig
 from bywire.runtime.watchdog import POLL_S as WATCHDOG_POLL_S
@@ -217,7 +217,8 @@ class SimRun:
         )
 
     def _apply_hlc_lights(self, values: dict[str, Any]) -> None:
-        self.world.hlc.set_lights(**{key: bool(value) for key, value in values.items()})
+        requests = {key: bool(value) for key, value in values.items()}
+        self.world.hlc.set_lights(replace(LIGHTS_OFF, **requests))
 
     def _apply_hlc_control(self, values: dict[str, Any]) -> None:
         self.world.hlc.set_control(

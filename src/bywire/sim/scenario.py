@@ -8,7 +8,7 @@ A scenario file::
 
     [[event]]                       # every event: at_s, optional label, one action
     at_s = 0.5
-    rc = { mode = "stop" }          # RC sticks and switches (see RC_KEYS)
+    rc = { mode = "stop" }          # RC sticks and switches (see ACTIONS)
     [[event]]
     at_s = 1.0
     rc = { mode = "rc", gear = "forward", throttle = 0.4 }
@@ -26,8 +26,9 @@ A scenario file::
     ebrake_engaged = true
 
 Other actions: `hlc = { steering, throttle, brake, gear }` (the simulated higher-level computer's
-movement command), `hlc_lights = { turn_left, turn_right, hazard, low_beam }`, `hlc_control =
-{ remote_stop, re_enable }`. Expectation conditions are listed in CONDITIONS.
+movement command), `hlc_lights = { turn_left, ... }` (a LightsCommand's requests),
+`hlc_control = { remote_stop, re_enable }`. Actions are listed in ACTIONS, conditions in
+CONDITIONS.
 """
 
 from __future__ import annotations
@@ -45,16 +46,8 @@ from bywire.sim.conditions import CONDITIONS as CONDITION_TABLE
 from bywire.sim.faults import FAULTS as FAULT_TABLE
 from bywire.sim.scenario_values import ACTION_VALUES, FAULT_VALUES, Check
 
-RC_KEYS = {"steering", "throttle", "mode", "gear", "low_beam", "hazard"}
-HLC_KEYS = {"steering", "throttle", "brake", "gear"}
-HLC_LIGHTS_KEYS = {"turn_left", "turn_right", "hazard", "low_beam"}
-HLC_CONTROL_KEYS = {"remote_stop", "re_enable"}
-ACTIONS = {
-    "rc": RC_KEYS,
-    "hlc": HLC_KEYS,
-    "hlc_lights": HLC_LIGHTS_KEYS,
-    "hlc_control": HLC_CONTROL_KEYS,
-}
+ACTIONS = {action: set(keys) for action, keys in ACTION_VALUES.items()}
+"""Every action and its keys, from the table that also checks their values."""
 FAULTS = {fault.name: fault.description for fault in FAULT_TABLE}
 CONDITIONS = {condition.key: condition.description for condition in CONDITION_TABLE}
 CONDITION_VALUES = {condition.key: condition.check for condition in CONDITION_TABLE}

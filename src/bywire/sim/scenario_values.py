@@ -6,6 +6,8 @@ from __future__ import annotations
 from collections.abc import Callable
 from typing import Any
 
+from bywire.model import LIGHT_REQUESTS
+
 Check = Callable[[Any], str | None]
 """A value's check: None when it is allowed, else what is allowed."""
 
@@ -64,7 +66,7 @@ ACTION_VALUES: dict[str, dict[str, Check]] = {
         "hazard": flag,
     },
     "hlc": {"steering": NORM, "throttle": UNIT, "brake": UNIT, "gear": one_of(GEARS)},
-    "hlc_lights": dict.fromkeys(("turn_left", "turn_right", "hazard", "low_beam"), flag),
+    "hlc_lights": dict.fromkeys(LIGHT_REQUESTS, flag),
     "hlc_control": {"remote_stop": flag, "re_enable": flag},
 }
 """Every key of every action, with what its value may be."""

@@ -15,7 +15,7 @@ from bywire.control.validity import age_s
 from bywire.model import ControlMode, MovementCommand
 from bywire.runtime.schedule import TaskSpec
 from bywire.telemetry.capture import Capture, EventCapture, StateCapture, TaskCounters
-from bywire.telemetry.schemas import CAN_TOPIC, EVENTS_TOPIC, STATE_TOPIC
+from bywire.telemetry.schemas import CAN_TOPIC, EVENTS_TOPIC, LIGHTS, STATE_TOPIC
 
 Message = dict[str, Any]
 
@@ -95,14 +95,7 @@ def _outputs(capture: StateCapture) -> Message:
         "ebrake_engaged": outputs.ebrake_engaged,
         "steering_pulse_ms": outputs.steering_pulse_s * 1000.0,
         "hydrobrake_duty": outputs.hydrobrake_duty,
-        "lights": {
-            "brake": lights.brake,
-            "reverse": lights.reverse,
-            "turn_left": lights.turn_left,
-            "turn_right": lights.turn_right,
-            "low_beam": lights.low_beam,
-            "error_led": lights.error_led,
-        },
+        "lights": {name: getattr(lights, name) for name in LIGHTS},
     }
 
 

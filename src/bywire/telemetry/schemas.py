@@ -9,6 +9,8 @@ from __future__ import annotations
 
 from typing import Any
 
+from bywire.control.lights import LIGHT_LINES
+
 STATE_TOPIC = "/bywire/state"
 EVENTS_TOPIC = "/bywire/events"
 CAN_TOPIC = "/bywire/can"
@@ -44,7 +46,8 @@ _MOVEMENT = _object(
 )
 _OPTIONAL_MOVEMENT: Schema = {"anyOf": [_MOVEMENT, {"type": "null"}]}
 
-LIGHTS = ("brake", "reverse", "turn_left", "turn_right", "low_beam", "error_led")
+LIGHTS = tuple(name for name, _ in LIGHT_LINES)
+"""The light outputs the state reports, by `LightOutputs`' field names."""
 _LIGHTS = _object(dict.fromkeys(LIGHTS, _BOOLEAN))
 
 _OUTPUTS = _object(

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import itertools
+from dataclasses import replace
 
 import pytest
 
@@ -13,6 +14,7 @@ from bywire.hal.sim.can_port import SimCanPort
 from bywire.hal.sim.clock import VirtualClock
 from bywire.hal.sim.hlc import Corruption, SimHigherLevelComputer, out_of_range_payload
 from bywire.model import (
+    LIGHTS_OFF,
     ControlCommand,
     ControlMode,
     Gear,
@@ -48,7 +50,7 @@ def decode_all(frames: list[CanFrame]) -> dict[int, list[object]]:
 def test_three_commands_every_20_ms_with_consecutive_counters() -> None:
     clock, _, hlc, controller = hlc_on_bus()
     hlc.set_movement(0.25, 0.5, 0.0, Gear.FORWARD)
-    hlc.set_lights(turn_left=True)
+    hlc.set_lights(replace(LIGHTS_OFF, turn_left=True))
     hlc.set_control(remote_stop=False, re_enable=True)
     hlc.start()
     clock.advance(0.999)

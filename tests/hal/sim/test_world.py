@@ -2,7 +2,9 @@
 
 from __future__ import annotations
 
-from bywire.hal.hardware import Hardware
+from dataclasses import fields
+
+from bywire.hal.hardware import DigitalOutputs, Hardware
 from bywire.hal.sim.clock import RealtimeClock, VirtualClock
 from bywire.hal.sim.world import SimWorld
 from bywire.model import ControlMode, Gear, MovementCommand
@@ -19,7 +21,7 @@ def test_world_builds_the_hardware_bundle_from_its_parts() -> None:
     assert hardware.steering_pwm.period_s == 0.02
     assert hardware.hydrobrake_pwm.period_s == 0.002
     assert hardware.outputs.ebrake_release is world.gpio["ebrake_release"]
-    assert len(world.gpio) == 10
+    assert list(world.gpio) == [line.name for line in fields(DigitalOutputs)]
     assert hardware.wheel_speeds is not None
     assert hardware.wheel_speeds.read() == (0.0, 0.0)
 

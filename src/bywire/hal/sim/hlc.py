@@ -19,6 +19,7 @@ from bywire.hal.sim.can_port import SimCanPort
 from bywire.hal.sim.timers import PeriodicTimer, SimClock
 from bywire.model import (
     COMMAND_TYPES,
+    LIGHTS_OFF,
     Command,
     ControlCommand,
     Gear,
@@ -69,7 +70,7 @@ class SimHigherLevelComputer:
         self._port = port
         self._timer = PeriodicTimer(clock, period_s, self._send_commands)
         self.movement = MovementCommand(0.0, 0.0, 1.0, Gear.NEUTRAL, 0)
-        self.lights = LightsCommand(False, False, False, False, 0)
+        self.lights = LIGHTS_OFF
         self.control = ControlCommand(remote_stop=False, re_enable=False, counter=0)
         self._counters: dict[type[Command], int] = dict.fromkeys(COMMAND_TYPES, 0)
         self._corruptions: dict[type[Command], deque[Corruption]] = {
@@ -113,15 +114,9 @@ class SimHigherLevelComputer:
         """
         self.movement = _checked(MovementCommand(steering_norm, throttle_norm, brake_norm, gear, 0))
 
-    def set_lights(
-        self,
-        turn_left: bool = False,
-        turn_right: bool = False,
-        hazard: bool = False,
-        low_beam: bool = False,
-    ) -> None:
-        """The light requests of the next frames."""
-        self.lights = _checked(LightsCommand(turn_left, turn_right, hazard, low_beam, 0))
+    def set_lights(self, lights: LightsCommand) -> None:
+        """The light requests of the next frames (their counter is this sender's own)."""
+        self.lights = _checked(lights)
 
     def set_control(self, remote_stop: bool, re_enable: bool) -> None:
         """Remote stop and re-enable (acted on at its rising edge) of the next frames."""
