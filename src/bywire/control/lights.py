@@ -3,13 +3,14 @@
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+
+from bywire.control.values import value
 
 BRAKE_LIGHT_THRESHOLD_NORM = 0.10
 BLINK_RATE_HZ = 1.5
 
 
-@dataclass(frozen=True, slots=True)
+@value
 class LightRequest:
     """What the lights task is asked for: the active command, gear and error state."""
 
@@ -22,7 +23,7 @@ class LightRequest:
     low_beam: bool = False
 
 
-@dataclass(frozen=True, slots=True)
+@value
 class LightOutputs:
     """The level of every light output at one instant."""
 
