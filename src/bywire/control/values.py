@@ -1,4 +1,4 @@
-"""`@value`: the decision's immutable value types, built in half the time a frozen dataclass takes.
+"""`@value`: immutable value types built in half the time a frozen dataclass takes.
 
 `@value` is `@dataclass(frozen=True, slots=True)` and nothing else changes (fields, defaults,
 `field(default_factory=...)`, `__post_init__`, equality, hashing, repr, `dataclasses.replace`,
@@ -6,7 +6,9 @@ and assignment to a field raising FrozenInstanceError), except how `__init__` st
 A frozen dataclass's `__init__` stores each one with `object.__setattr__(self, "name", value)`,
 a generic attribute lookup by name per field; ours calls each field's slot descriptor directly.
 The decision builds a dozen such values on every pass of the loop (about 100 fields), which made
-this a sixth of its time (bench/RESULTS.md, run J).
+this a sixth of its time (bench/RESULTS.md, run J); the sensor readings, the simulated vehicle's
+state and the simulator's observations are built as often and use it too. Values built once (the
+configuration) keep the plain decorator.
 """
 
 from __future__ import annotations

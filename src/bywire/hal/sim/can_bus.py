@@ -13,8 +13,8 @@ from __future__ import annotations
 import itertools
 from collections import deque
 from collections.abc import Callable, Iterable
-from dataclasses import dataclass
 
+from bywire.control.values import value
 from bywire.errors import FrameError
 from bywire.hal.ports import CanFrame
 from bywire.hal.sim.can_port import SimCanPort
@@ -39,7 +39,7 @@ def frame_bits(dlc: int) -> int:
     return 47 + 8 * dlc + (stuffable_bits - 1) // 4
 
 
-@dataclass(frozen=True, slots=True)
+@value
 class LoggedFrame:
     """One frame as it crossed the bus: end-of-frame time, id, payload and sending node."""
 
