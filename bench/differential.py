@@ -1,18 +1,20 @@
-"""The differential check's recorder: what the simulated hardware did, run by run, for comparison.
+"""The differential check: what the simulated hardware did, run by run, bit for bit.
 
-A speed-up of the simulator or the controller must not change what the robot does. This module
-plays every packaged scenario that runs on virtual time and a few dozen `bywire verify` campaigns
-of a fixed seed, and records every output the hardware saw: each GPIO line's and PWM channel's
-change history and write count, the DAC's history and write counts, every frame that crossed the
-CAN bus (commands and reports, with their times), and the verdicts, oracle findings and supervisor
-transitions of the run. `test_differential.py` compares their digests with the stored ones.
+A speed-up of the simulator or the controller must not change what the robot does. This script
+plays every packaged scenario that runs on virtual time and 30 `bywire verify` campaigns of a
+fixed seed, and records every output the hardware saw: each GPIO line's and PWM channel's change
+history and write count, the DAC's history and write counts, every frame that crossed the CAN
+bus (commands and reports, with their times), and the verdicts, oracle findings and supervisor
+transitions of the run. `check` compares their digests with those stored beside it
+(`differential.json`); about a minute on one core, too long for CI, so it is run by hand
+before and after each change meant to be faster, not different:
 
-Run it as a script to see where a run diverged, or to store new digests after a change that is
-meant to change behaviour:
+    python bench/differential.py check           # exit 1 naming each run that diverged
+    python bench/differential.py dump DIR        # every run's full history, one JSON each
+    python bench/differential.py compare DIR     # the first difference of each run from a dump
+    python bench/differential.py digests         # store new digests (a change of behaviour)
 
-    python -m tests.system.differential dump DIR       # every run's full history, one JSON each
-    python -m tests.system.differential compare DIR    # the first difference of each run
-    python -m tests.system.differential digests        # rewrite the stored digests
+Authenticated runs sign with a fixed key written to a temporary folder, so that they repeat.
 """
 
 from __future__ import annotations
@@ -36,7 +38,7 @@ from bywire.sim.catalog import packaged_scenarios
 from bywire.sim.runner import SimRun
 from bywire.sim.verify import draw_campaign
 
-DIGESTS = Path(__file__).parent / "data" / "differential.json"
+DIGESTS = Path(__file__).with_name("differential.json")
 CAMPAIGN_SEED = 12
 CAMPAIGNS = 30
 FIXED_KEY = bytes(range(16))  # authenticated runs sign with this, not a random key
@@ -161,8 +163,8 @@ def _first_difference(path: str, before: object, after: object) -> str | None:
 
 
 def main(argv: list[str]) -> int:
-    parser = argparse.ArgumentParser(prog="python -m tests.system.differential")
-    parser.add_argument("action", choices=("dump", "compare", "digests"))
+    parser = argparse.ArgumentParser(prog="python bench/differential.py")
+    parser.add_argument("action", choices=("check", "dump", "compare", "digests"))
     parser.add_argument("folder", nargs="?", type=Path)
     args = parser.parse_args(argv)
     with tempfile.TemporaryDirectory() as folder:
@@ -171,12 +173,16 @@ def main(argv: list[str]) -> int:
 
 def _act(args: argparse.Namespace, robot: RobotConfig) -> int:
     digests: dict[str, str] = {}
+    stored = stored_digests() if args.action == "check" else {}
     differing = 0
     for name, play in runs().items():
         history = play(robot)
         digests[name] = digest(history)
         file = None if args.folder is None else args.folder / (name.replace(":", "-") + ".json")
-        if args.action == "dump" and file is not None:
+        if args.action == "check" and digests[name] != stored.get(name):
+            differing += 1
+            print(f"{name}: DIVERGED (dump before and after, then compare, to see where)")
+        elif args.action == "dump" and file is not None:
             args.folder.mkdir(parents=True, exist_ok=True)
             file.write_text(canonical(history), encoding="utf-8")
         elif args.action == "compare" and file is not None:
@@ -187,6 +193,12 @@ def _act(args: argparse.Namespace, robot: RobotConfig) -> int:
     if args.action == "digests":
         DIGESTS.parent.mkdir(parents=True, exist_ok=True)
         DIGESTS.write_text(json.dumps(digests, indent=1) + "\n", encoding="utf-8")
+    if args.action == "check":
+        missing = sorted(set(stored) ^ set(digests))
+        differing += len(missing)
+        for name in missing:
+            print(f"{name}: in only one of the stored digests and this run")
+        print(f"{len(digests) - differing} of {len(digests)} runs identical")
     return 1 if differing else 0
 
 
