@@ -10,12 +10,11 @@ there is no previous frame to compare with.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
-
+from bywire.control.values import value
 from bywire.model import ControlCommand
 
 
-@dataclass(frozen=True, slots=True)
+@value
 class CommandEdges:
     """What a ControlCommand frame changed against the frame before it."""
 

@@ -28,6 +28,7 @@ from bywire.control.supervisor import (
     supervisor_step,
 )
 from bywire.control.validity import Stamped, fresh, is_fresh
+from bywire.control.values import value
 from bywire.model import ControlCommand, ControlMode, Gear, LightsCommand, MovementCommand
 
 MONITOR_CAUSES = (
@@ -54,7 +55,7 @@ class ControlConfig:
     supervisor: SupervisorConfig = field(default_factory=SupervisorConfig)
 
 
-@dataclass(frozen=True, slots=True)
+@value
 class ControlInputs:
     """The latest value of every input, stamped; None until first seen.
 
@@ -82,7 +83,7 @@ class ControlInputs:
     steering_measured_norm: float | None = None  # None without a steering encoder
 
 
-@dataclass(frozen=True, slots=True)
+@value
 class ControlState:
     """What the decision remembers between steps."""
 
@@ -97,7 +98,7 @@ class ControlState:
     control_frames_seen: int = 0
 
 
-@dataclass(frozen=True, slots=True)
+@value
 class ControlOutputs:
     """Every output level at one instant, and why."""
 
@@ -114,7 +115,7 @@ class ControlOutputs:
     error_flags: int
 
 
-@dataclass(frozen=True, slots=True)
+@value
 class _Sources:
     """The inputs usable at one instant: None means missing, stale or invalid."""
 

@@ -8,13 +8,13 @@ the DAC for more than its configured maximum. Brake beats throttle.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
 
 from bywire.control.mux import Movement
+from bywire.control.values import value
 from bywire.model import Gear
 
 
-@dataclass(frozen=True, slots=True)
+@value
 class DriveConfig:
     """Voltage limits of the motor controllers' analogue inputs."""
 
@@ -22,7 +22,7 @@ class DriveConfig:
     max_regen_volts: float = 5.0
 
 
-@dataclass(frozen=True, slots=True)
+@value
 class DriveOutputs:
     """Levels for Table 2's five signals."""
 

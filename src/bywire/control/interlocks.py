@@ -26,9 +26,9 @@ So the applied throttle never exceeds the clamped requested throttle; every outp
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
 
 from bywire.control.mux import Movement
+from bywire.control.values import value
 from bywire.model import Gear
 
 # Without a speed sensor the dwell cannot prove standstill; 1.5 s is about what full regenerative
@@ -37,7 +37,7 @@ from bywire.model import Gear
 UNKNOWN_SPEED_DWELL_S = 1.5
 
 
-@dataclass(frozen=True, slots=True)
+@value
 class InterlockConfig:
     """Thresholds of the interlocks; every value must be finite and ≥ 0 (slew > 0)."""
 
@@ -70,7 +70,7 @@ class InterlockConfig:
             raise ValueError("throttle_slew_up_per_s must be finite and > 0")
 
 
-@dataclass(frozen=True, slots=True)
+@value
 class InterlockState:
     """What the interlocks remember: the applied command and since when the robot is settled.
 

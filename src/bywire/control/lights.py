@@ -5,11 +5,13 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, field, fields
 
+from bywire.control.values import value
+
 BRAKE_LIGHT_THRESHOLD_NORM = 0.10
 BLINK_RATE_HZ = 1.5
 
 
-@dataclass(frozen=True, slots=True)
+@value
 class LightRequest:
     """What the lights task is asked for: the active command, gear and error state."""
 
@@ -44,7 +46,7 @@ def _light(
     return field(default=False, metadata={"light": LightLine(line, description, blinks, tripped)})
 
 
-@dataclass(frozen=True, slots=True)
+@value
 class LightOutputs:
     """The level of every light output at one instant: each field names its line (`LightLine`),
     so the writes, the watchdog's safe levels, the telemetry and the scenarios follow from here."""

@@ -20,16 +20,16 @@ appears. Which flags demand STOP is configuration (`stop_flags`, default: both, 
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
 
 from bywire.control.error_flags import ErrorFlag
 from bywire.control.interlocks import elapsed_since
 from bywire.control.steering import clamp_norm, step_towards
+from bywire.control.values import value
 
 NO_FLAGS = ErrorFlag(0)
 
 
-@dataclass(frozen=True, slots=True)
+@value
 class MonitorConfig:
     """Thresholds of the monitors; times and tolerances must be finite and ≥ 0, speeds > 0."""
 
@@ -60,7 +60,7 @@ class MonitorConfig:
 DEFAULT_MONITOR_CONFIG = MonitorConfig()
 
 
-@dataclass(frozen=True, slots=True)
+@value
 class MonitorInputs:
     """The command and the optional measurements at one instant; None means no sensor."""
 
@@ -70,7 +70,7 @@ class MonitorInputs:
     steering_measured_norm: float | None = None
 
 
-@dataclass(frozen=True, slots=True)
+@value
 class MonitorState:
     """Since when each condition holds, and the slow-servo model of the encoder monitor.
 

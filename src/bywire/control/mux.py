@@ -7,13 +7,12 @@ fall-back to the other source.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
-
 from bywire.control.rc_mapping import RcRequest
+from bywire.control.values import value
 from bywire.model import ControlMode, Gear, MovementCommand
 
 
-@dataclass(frozen=True, slots=True)
+@value
 class Movement:
     """The movement set-point the actuators follow, whichever source it came from."""
 

@@ -9,14 +9,15 @@ suspect: the caller treats that like a lost link, at once.
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import field
 
+from bywire.control.values import value
 from bywire.model import ControlMode, Gear
 
 PLAUSIBLE_RAW = range(800, 2201)  # µs; anything else is a corrupt or failsafe-flagged channel
 
 
-@dataclass(frozen=True, slots=True)
+@value
 class AxisCalibration:
     """One stick axis: channel index, raw end points and centre, deadband (normalised), reverse."""
 
@@ -28,7 +29,7 @@ class AxisCalibration:
     reverse: bool = False
 
 
-@dataclass(frozen=True, slots=True)
+@value
 class SwitchCalibration:
     """One switch: channel index and whether its positions run the other way."""
 
@@ -36,7 +37,7 @@ class SwitchCalibration:
     reverse: bool = False
 
 
-@dataclass(frozen=True, slots=True)
+@value
 class FailsafeSignature:
     """How to recognise the receiver's failsafe output (R-FAILSAFE, Table 4).
 
@@ -49,7 +50,7 @@ class FailsafeSignature:
     below_raw: int = 950
 
 
-@dataclass(frozen=True, slots=True)
+@value
 class RcMapping:
     """Which channel does what; the modes and gears are listed from the low to the high position."""
 
@@ -68,7 +69,7 @@ class RcMapping:
     failsafe: FailsafeSignature = field(default_factory=FailsafeSignature)
 
 
-@dataclass(frozen=True, slots=True)
+@value
 class RcRequest:
     """What the RC transmitter asks for, in command units."""
 

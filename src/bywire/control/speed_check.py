@@ -15,12 +15,12 @@ the longer dwell) until the next arming event clears the fault.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
 
 from bywire.control.interlocks import InterlockConfig, elapsed_since
+from bywire.control.values import value
 
 
-@dataclass(frozen=True, slots=True)
+@value
 class SpeedCheckState:
     """The last reading, since when the robot is driven without moving, and the latched fault."""
 

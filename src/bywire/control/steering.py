@@ -9,10 +9,11 @@ value is estimated from the servo's configured speed.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+
+from bywire.control.values import value
 
 
-@dataclass(frozen=True, slots=True)
+@value
 class SteeringConfig:
     """Servo calibration and dynamics; validated by `bywire.config`."""
 
@@ -25,7 +26,7 @@ class SteeringConfig:
     servo_speed_norm_per_s: float = 3.0
 
 
-@dataclass(frozen=True, slots=True)
+@value
 class SteeringState:
     """Rate-limited set-point, estimated servo position, and when they were computed."""
 

@@ -30,9 +30,10 @@ state. The rules, in the order `supervisor_step` applies them:
 from __future__ import annotations
 
 import enum
-from dataclasses import dataclass, replace
+from dataclasses import replace
 
 from bywire.control.error_flags import ErrorFlag
+from bywire.control.values import value
 from bywire.model import ControlMode
 
 DEFAULT_DEBOUNCE_FRAMES = 3
@@ -82,7 +83,7 @@ ACKNOWLEDGED_BY_ARMING = frozenset({Cause.POWER_UP, Cause.WATCHDOG})
 DRIVING_MODES = (ControlMode.RC, ControlMode.CAN)
 
 
-@dataclass(frozen=True, slots=True)
+@value
 class SupervisorConfig:
     """How many consecutive RC frames a switch position needs before it counts (≥ 1)."""
 
@@ -93,7 +94,7 @@ class SupervisorConfig:
             raise ValueError(f"debounce_frames must be 1..50, got {self.debounce_frames}")
 
 
-@dataclass(frozen=True, slots=True)
+@value
 class SupervisorInputs:
     """What the supervisor sees at one step, as levels and edges; no times.
 
@@ -117,7 +118,7 @@ class SupervisorInputs:
         return self.rc_throttle_zero if source is ControlMode.RC else self.can_throttle_zero
 
 
-@dataclass(frozen=True, slots=True)
+@value
 class SupervisorState:
     """Mode, latched causes, the debounced switch and the arming and handover gates.
 

@@ -7,13 +7,14 @@ is not older than its timeout at the instant of the decision.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
 from typing import Generic, TypeVar
+
+from bywire.control.values import value
 
 T = TypeVar("T")
 
 
-@dataclass(frozen=True, slots=True)
+@value
 class Stamped(Generic[T]):
     """A value with the clock time at which it arrived."""
 

@@ -10,15 +10,15 @@ reading".
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
 
+from bywire.control.values import value
 from bywire.hal.hardware import Hardware
 
 NO_READING = math.nan
 """What the decision gets from a fitted sensor that gave no reading: an invalid one."""
 
 
-@dataclass(frozen=True, slots=True)
+@value
 class SensorReadings:
     """One reading of every sensor; None where none is fitted or it gave no reading, and which
     sensors are fitted."""

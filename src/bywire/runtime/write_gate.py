@@ -27,6 +27,7 @@ class WriteGate:
         self._safe = dict(safe_actions)
         self._locks = {port: threading.Lock() for port in safe_actions}
         self._owners: dict[str, int | None] = dict.fromkeys(safe_actions)
+        self._holders = {port: _Held(self, port) for port in safe_actions}  # one each, reused
         self._tripped = False
 
     @property
@@ -84,11 +85,12 @@ class WriteGate:
             action()
 
     def _held(self, port: str) -> _Held:
-        return _Held(self, port)
+        return self._holders[port]
 
 
 class _Held:
-    """The port's lock, with its owner recorded so the watchdog never waits on itself."""
+    """The port's lock, with its owner recorded so the watchdog never waits on itself. It keeps
+    no state of its own, so the loop and the watchdog's thread share one per port."""
 
     def __init__(self, gate: WriteGate, port: str) -> None:
         self._gate, self._port = gate, port

@@ -413,9 +413,14 @@ class Campaign:
         """Play the steps, then `TAIL_S` more; the oracle has seen every pass."""
         return self.run_scenario(compile_steps(steps, self.robot))
 
-    def run_scenario(self, scenario: Scenario) -> CampaignResult:
-        """Play a compiled campaign (or any scenario) with the oracle watching."""
+    def run_scenario(
+        self, scenario: Scenario, prepare: Callable[[SimRun], None] | None = None
+    ) -> CampaignResult:
+        """Play a compiled campaign (or any scenario) with the oracle watching; `prepare` is
+        called with the run before it starts (a test attaching its own recorders)."""
         run = SimRun(self.robot, scenario)
+        if prepare is not None:
+            prepare(run)
         clock = cast(VirtualClock, run.world.clock)
         timing = OracleTiming.for_robot(self.robot)
         oracle = HazardOracle(run.world, self.robot.drive.dac.throttle_channel, timing=timing)

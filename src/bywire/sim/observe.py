@@ -7,15 +7,14 @@ controller's intentions, so "safe within 110 ms" means the outputs really were s
 
 from __future__ import annotations
 
-from dataclasses import dataclass
-
 from bywire.control.controller import ControlOutputs
 from bywire.control.lights import LIGHT_LINES, LightOutputs
+from bywire.control.values import value
 from bywire.hal.sim.world import SimWorld
 from bywire.model import ControlMode, Gear
 
 
-@dataclass(frozen=True, slots=True)
+@value
 class Observation:
     """The robot at `time_s`: commands chosen, actuator outputs, vehicle and lamps."""
 

@@ -13,8 +13,8 @@ from __future__ import annotations
 import itertools
 from collections import deque
 from collections.abc import Callable, Iterable
-from dataclasses import dataclass
 
+from bywire.control.values import value
 from bywire.errors import FrameError
 from bywire.hal.ports import CanFrame
 from bywire.hal.sim.can_port import SimCanPort
@@ -39,7 +39,7 @@ def frame_bits(dlc: int) -> int:
     return 47 + 8 * dlc + (stuffable_bits - 1) // 4
 
 
-@dataclass(frozen=True, slots=True)
+@value
 class LoggedFrame:
     """One frame as it crossed the bus: end-of-frame time, id, payload and sending node."""
 
@@ -139,12 +139,18 @@ class SimCanBus:
         self.clock.call_at(start_s, lambda: self._arbitrate(start_s))
 
     def _arbitrate(self, start_s: float) -> None:
-        offers = [(port.next_pending(), port) for port in self._ports]
-        contenders = [(offer, port) for offer, port in offers if offer is not None]
-        if not self.plugged or not contenders:
+        best: tuple[int, int, CanFrame] | None = None
+        sender: SimCanPort | None = None
+        if self.plugged:
+            for port in self._ports:
+                offer = port.next_pending()
+                # (id, queue order) decides; the order is unique, so frames are never compared
+                if offer is not None and (best is None or offer < best):
+                    best, sender = offer, port
+        if best is None or sender is None:
             self._busy = False
             return
-        (_, _, frame), sender = min(contenders, key=lambda offer: offer[0][:2])
+        frame = best[2]
         bits = frame_bits(len(frame.data))
         end_s = start_s + bits / self.bitrate_bps
         self._busy = True

@@ -99,7 +99,7 @@ class SimCanPort:
         """The mailbox the controller offers for arbitration: lowest id, then oldest."""
         if self.bus_off or not self._pending:
             return None
-        return min(self._pending, key=lambda entry: (entry[0], entry[1]))
+        return min(self._pending)  # (id, queue order, frame): the order is unique
 
     def transmitted(self, frame: CanFrame) -> None:
         """The bus acknowledged ``frame``: free its mailbox."""

@@ -12,6 +12,8 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, field
 
+from bywire.control.values import value
+
 
 @dataclass(frozen=True, slots=True)
 class VehicleConfig:
@@ -50,7 +52,7 @@ class VehicleConfig:
             raise ValueError("speeds, lengths and full_scale_volts must be > 0")
 
 
-@dataclass(frozen=True, slots=True)
+@value
 class ActuatorInputs:
     """What the actuators receive: Table 2's signals, the e-brake line and the two PWM outputs."""
 
@@ -64,7 +66,7 @@ class ActuatorInputs:
     steering_pulse_s: float = 0.0
 
 
-@dataclass(frozen=True, slots=True)
+@value
 class VehicleState:
     """Where the robot is and how it moves; ``distance_m`` counts both directions."""
 

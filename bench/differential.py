@@ -1,0 +1,206 @@
+"""The differential check: what the simulated hardware did, run by run, bit for bit.
+
+A speed-up of the simulator or the controller must not change what the robot does. This script
+plays every packaged scenario that runs on virtual time and 30 `bywire verify` campaigns of a
+fixed seed, and records every output the hardware saw: each GPIO line's and PWM channel's change
+history and write count, the DAC's history and write counts, every frame that crossed the CAN
+bus (commands and reports, with their times), and the verdicts, oracle findings and supervisor
+transitions of the run. `check` compares their digests with those stored beside it
+(`differential.json`); about a minute on one core, too long for CI, so it is run by hand
+before and after each change meant to be faster, not different:
+
+    python bench/differential.py check           # exit 1 naming each run that diverged
+    python bench/differential.py dump DIR        # every run's full history, one JSON each
+    python bench/differential.py compare DIR     # the first difference of each run from a dump
+    python bench/differential.py digests         # store new digests (a change of behaviour)
+
+Authenticated runs sign with a fixed key written to a temporary folder, so that they repeat.
+"""
+
+from __future__ import annotations
+
+import argparse
+import functools
+import hashlib
+import json
+import os
+import sys
+import tempfile
+from collections.abc import Callable
+from dataclasses import replace
+from pathlib import Path
+from typing import Any
+
+from bywire.config import RobotConfig, default_sim_config
+from bywire.hal.sim.can_bus import LoggedFrame
+from bywire.sim.campaign import Campaign, compile_steps
+from bywire.sim.catalog import packaged_scenarios
+from bywire.sim.runner import SimRun
+from bywire.sim.verify import draw_campaign
+
+DIGESTS = Path(__file__).with_name("differential.json")
+CAMPAIGN_SEED = 12
+CAMPAIGNS = 30
+FIXED_KEY = bytes(range(16))  # authenticated runs sign with this, not a random key
+
+
+History = dict[str, Any]
+
+
+class _Recorder:
+    """Attached to a run before it starts: keeps every CAN frame; reads the rest at the end."""
+
+    def __init__(self, run: SimRun) -> None:
+        self.run = run
+        self.frames: list[list[object]] = []
+        run.add_can_monitor(self._frame)
+
+    def _frame(self, frame: LoggedFrame) -> None:
+        self.frames.append([frame.time_s, frame.arbitration_id, frame.data.hex(), frame.sender])
+
+    def history(self) -> History:
+        world = self.run.world
+        return {
+            "gpio": {
+                name: [[list(entry) for entry in line.history], line.writes]
+                for name, line in sorted(world.gpio.items())
+            },
+            "pwm": {
+                channel.name: [[list(entry) for entry in channel.history], channel.writes]
+                for channel in (world.pwm.steering, world.pwm.hydrobrake)
+            },
+            "dac": [
+                [list(entry) for entry in world.dac.history],
+                world.dac.writes,
+                world.dac.failed_writes,
+            ],
+            "can": self.frames,
+            "verdicts": [[v.passed, v.measured_s] for v in self.run.record.verdicts],
+        }
+
+
+def robot_with_fixed_key(folder: Path) -> RobotConfig:
+    """The simulator's robot whose authenticated runs use `FIXED_KEY` (written to `folder`), so
+    that their authenticators are the same on every run."""
+    path = folder / "differential.key"
+    if not path.exists():
+        descriptor = os.open(path, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o600)
+        with os.fdopen(descriptor, "w", encoding="ascii") as file:
+            file.write(FIXED_KEY.hex() + "\n")
+    robot = default_sim_config()
+    return replace(robot, security=replace(robot.security, key_file=str(path)))
+
+
+def scenario_history(robot: RobotConfig, name: str) -> History:
+    """A packaged scenario played on virtual time."""
+    run = SimRun(robot, packaged_scenarios()[name])
+    recorder = _Recorder(run)
+    run.run()
+    return recorder.history()
+
+
+def campaign_history(robot: RobotConfig, index: int) -> History:
+    """Campaign `index` of the fixed seed, played with the hazard oracle watching."""
+    recorders: list[_Recorder] = []
+    scenario = compile_steps(draw_campaign(CAMPAIGN_SEED, index), robot)
+    result = Campaign(robot).run_scenario(scenario, lambda run: recorders.append(_Recorder(run)))
+    history = recorders[0].history()
+    history["findings"] = [[v.invariant, v.time_s, v.detail] for v in result.oracle.violations]
+    history["transitions"] = sorted(result.transitions)
+    return history
+
+
+def _scenario_history(name: str, robot: RobotConfig) -> History:
+    return scenario_history(robot, name)
+
+
+def _campaign_history(index: int, robot: RobotConfig) -> History:
+    return campaign_history(robot, index)
+
+
+def runs() -> dict[str, Callable[[RobotConfig], History]]:
+    """Every run of the check by name: the virtual-time scenarios, then the campaigns."""
+    table: dict[str, Callable[[RobotConfig], History]] = {}
+    for name, scenario in packaged_scenarios().items():
+        if not scenario.realtime:
+            table[f"scenario:{name}"] = functools.partial(_scenario_history, name)
+    for index in range(CAMPAIGNS):
+        table[f"campaign:{index}"] = functools.partial(_campaign_history, index)
+    return table
+
+
+def canonical(history: History) -> str:
+    """The history as one string: floats in Python's shortest exact form, keys sorted."""
+    return json.dumps(history, sort_keys=True, separators=(",", ":"))
+
+
+def digest(history: History) -> str:
+    return hashlib.sha256(canonical(history).encode()).hexdigest()
+
+
+def stored_digests() -> dict[str, str]:
+    loaded: dict[str, str] = json.loads(DIGESTS.read_text(encoding="utf-8"))
+    return loaded
+
+
+def _first_difference(path: str, before: object, after: object) -> str | None:
+    """Where two histories first differ, as a path into them and the two values."""
+    if isinstance(before, dict) and isinstance(after, dict):
+        for key in sorted(set(before) | set(after)):
+            found = _first_difference(f"{path}.{key}", before.get(key), after.get(key))
+            if found is not None:
+                return found
+        return None
+    if isinstance(before, list) and isinstance(after, list):
+        for index, (old, new) in enumerate(zip(before, after, strict=False)):
+            found = _first_difference(f"{path}[{index}]", old, new)
+            if found is not None:
+                return found
+        if len(before) != len(after):
+            return f"{path}: {len(before)} entries before, {len(after)} now"
+        return None
+    return None if before == after else f"{path}: {before!r} before, {after!r} now"
+
+
+def main(argv: list[str]) -> int:
+    parser = argparse.ArgumentParser(prog="python bench/differential.py")
+    parser.add_argument("action", choices=("check", "dump", "compare", "digests"))
+    parser.add_argument("folder", nargs="?", type=Path)
+    args = parser.parse_args(argv)
+    with tempfile.TemporaryDirectory() as folder:
+        return _act(args, robot_with_fixed_key(Path(folder)))
+
+
+def _act(args: argparse.Namespace, robot: RobotConfig) -> int:
+    digests: dict[str, str] = {}
+    stored = stored_digests() if args.action == "check" else {}
+    differing = 0
+    for name, play in runs().items():
+        history = play(robot)
+        digests[name] = digest(history)
+        file = None if args.folder is None else args.folder / (name.replace(":", "-") + ".json")
+        if args.action == "check" and digests[name] != stored.get(name):
+            differing += 1
+            print(f"{name}: DIVERGED (dump before and after, then compare, to see where)")
+        elif args.action == "dump" and file is not None:
+            args.folder.mkdir(parents=True, exist_ok=True)
+            file.write_text(canonical(history), encoding="utf-8")
+        elif args.action == "compare" and file is not None:
+            before = json.loads(file.read_text(encoding="utf-8"))
+            found = _first_difference(name, before, json.loads(canonical(history)))
+            differing += found is not None
+            print(found or f"{name}: identical")
+    if args.action == "digests":
+        DIGESTS.parent.mkdir(parents=True, exist_ok=True)
+        DIGESTS.write_text(json.dumps(digests, indent=1) + "\n", encoding="utf-8")
+    if args.action == "check":
+        missing = sorted(set(stored) ^ set(digests))
+        differing += len(missing)
+        for name in missing:
+            print(f"{name}: in only one of the stored digests and this run")
+        print(f"{len(digests) - differing} of {len(digests)} runs identical")
+    return 1 if differing else 0
+
+
+if __name__ == "__main__":
+    sys.exit(main(sys.argv[1:]))
