@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import contextlib
 import socket
 import threading
 from pathlib import Path
@@ -54,3 +55,23 @@ def test_notify_without_systemd_or_with_a_dead_socket_is_quiet(
     notify("READY=1")
     monkeypatch.setenv("NOTIFY_SOCKET", str(tmp_path / "gone"))
     notify("WATCHDOG=1")
+
+
+def test_notify_never_waits_on_a_manager_that_stopped_reading(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    path = tmp_path / "notify"
+    with (
+        socket.socket(socket.AF_UNIX, socket.SOCK_DGRAM) as manager,
+        socket.socket(socket.AF_UNIX, socket.SOCK_DGRAM) as filler,
+    ):
+        manager.bind(str(path))
+        filler.setblocking(False)
+        with contextlib.suppress(BlockingIOError):
+            while True:  # fill the manager's queue: it never reads
+                filler.sendto(b"STATUS=filler", str(path))
+        monkeypatch.setenv("NOTIFY_SOCKET", str(path))
+        sender = threading.Thread(target=notify, args=("WATCHDOG=1",), daemon=True)
+        sender.start()
+        sender.join(timeout=10.0)  # a guard against a hang, not a timing figure
+        assert not sender.is_alive(), "notify blocked on a full notify socket"

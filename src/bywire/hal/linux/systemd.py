@@ -12,7 +12,9 @@ log = logging.getLogger(__name__)
 def notify(state: str) -> None:
     """Send `state` to the service manager; nothing happens when not run by systemd.
 
-    Never raises: a service manager that went away must not stop the controller.
+    Never raises: a service manager that went away must not stop the controller. Never waits
+    either: the datagram is sent without blocking, so a manager that stopped reading its socket
+    (its queue full) costs this notification, not the watchdog thread that sends it.
     """
     address = os.environ.get("NOTIFY_SOCKET")
     if not address:
@@ -21,6 +23,7 @@ def notify(state: str) -> None:
         address = "\0" + address[1:]
     try:
         with socket.socket(socket.AF_UNIX, socket.SOCK_DGRAM) as sock:
+            sock.setblocking(False)
             sock.sendto(state.encode(), address)
     except OSError as error:
         log.warning("sd_notify %s failed: %s", state, error)
