@@ -12,6 +12,11 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Protocol
 
+from bywire.errors import FrameError
+
+MAX_STANDARD_ID = 0x7FF
+MAX_DATA_BYTES = 8
+
 
 @dataclass(frozen=True, slots=True)
 class CanFrame:
@@ -20,6 +25,14 @@ class CanFrame:
     arbitration_id: int
     data: bytes
     timestamp_s: float = 0.0
+
+
+def check_can_frame(frame: CanFrame) -> None:
+    """FrameError for a frame classic CAN cannot carry; every `CanPort.send` checks this first."""
+    if not 0 <= frame.arbitration_id <= MAX_STANDARD_ID:
+        raise FrameError(f"CAN id 0x{frame.arbitration_id:X} is not an 11-bit standard id")
+    if len(frame.data) > MAX_DATA_BYTES:
+        raise FrameError(f"classic CAN carries at most 8 data bytes, got {len(frame.data)}")
 
 
 class CanPort(Protocol):

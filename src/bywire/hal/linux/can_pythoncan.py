@@ -19,10 +19,10 @@ from typing import Any
 
 import can
 
-from bywire.errors import FrameError, HardwareError
+from bywire.errors import HardwareError
 from bywire.hal.linux.can_open import BusSettings, open_bus
 from bywire.hal.linux.device_errors import reason
-from bywire.hal.ports import CanFrame
+from bywire.hal.ports import CanFrame, check_can_frame
 
 log = logging.getLogger(__name__)
 RECEIVE_TIMEOUT_S = 0.1
@@ -32,8 +32,6 @@ BUS_OFF_REOPEN_S = 1.0  # a bus-off the driver does not recover from by then get
 RX_CAPACITY = 1024
 CAN_ERR_BUSOFF = 0x40  # linux/can/error.h, in an error frame's id
 CAN_ERR_RESTARTED = 0x100
-MAX_STANDARD_ID = 0x7FF
-MAX_DATA_BYTES = 8
 
 BusFactory = Callable[[BusSettings], can.BusABC]
 
@@ -73,7 +71,7 @@ class PythonCanPort:
         self._thread.start()
 
     def send(self, frame: CanFrame) -> bool:
-        _check_frame(frame)
+        check_can_frame(frame)
         bus = self._bus
         if bus is None or self.health is BusHealth.DOWN:
             self.send_refused += 1
@@ -204,10 +202,3 @@ class PythonCanPort:
     def __repr__(self) -> str:
         counts: dict[str, Any] = {"sent": self.frames_sent, "refused": self.send_refused}
         return f"PythonCanPort({self.settings}, {self.health.value}, {counts})"
-
-
-def _check_frame(frame: CanFrame) -> None:
-    if not 0 <= frame.arbitration_id <= MAX_STANDARD_ID:
-        raise FrameError(f"CAN id 0x{frame.arbitration_id:X} is not an 11-bit standard id")
-    if len(frame.data) > MAX_DATA_BYTES:
-        raise FrameError(f"classic CAN carries at most 8 data bytes, got {len(frame.data)}")

@@ -11,14 +11,11 @@ from collections import deque
 from collections.abc import Callable, Iterable
 from typing import TYPE_CHECKING
 
-from bywire.errors import FrameError
-from bywire.hal.ports import CanFrame
+from bywire.hal.ports import CanFrame, check_can_frame
 
 if TYPE_CHECKING:
     from bywire.hal.sim.can_bus import SimCanBus
 
-MAX_STANDARD_ID = 0x7FF
-MAX_DATA_BYTES = 8
 DEFAULT_RX_CAPACITY = 1024
 
 
@@ -53,7 +50,7 @@ class SimCanPort:
 
     def send(self, frame: CanFrame) -> bool:
         """Queue a frame for the bus; False when every mailbox is busy or the node is bus-off."""
-        _check_frame(frame)
+        check_can_frame(frame)
         if self.bus_off or len(self._pending) >= self._tx_mailboxes:
             self.send_refused += 1
             return False
@@ -122,10 +119,3 @@ class SimCanPort:
             self._rx.append(frame)
         if self.wake_on_receive:
             self._bus.clock.notify_input()
-
-
-def _check_frame(frame: CanFrame) -> None:
-    if not 0 <= frame.arbitration_id <= MAX_STANDARD_ID:
-        raise FrameError(f"CAN id 0x{frame.arbitration_id:X} is not an 11-bit standard id")
-    if len(frame.data) > MAX_DATA_BYTES:
-        raise FrameError(f"classic CAN carries at most 8 data bytes, got {len(frame.data)}")

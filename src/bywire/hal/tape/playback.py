@@ -14,10 +14,9 @@ from collections import deque
 from collections.abc import Sequence
 from typing import Generic, TypeVar
 
-from bywire.errors import FrameError, HardwareError
+from bywire.errors import HardwareError
 from bywire.hal.hardware import DigitalOutputs, Hardware
-from bywire.hal.ports import CanFrame, I2cDevice
-from bywire.hal.sim.can_port import MAX_DATA_BYTES, MAX_STANDARD_ID
+from bywire.hal.ports import CanFrame, I2cDevice, check_can_frame
 from bywire.hal.sim.clock import VirtualClock
 from bywire.hal.sim.dac import SimDac6574
 from bywire.hal.sim.gpio_pwm import SimDigitalOut, SimPwmChannel
@@ -79,10 +78,7 @@ class ReplayCanPort:
         """Accepted unless the record says this call was refused; FrameError, as every CAN port
         raises it, for a frame classic CAN cannot carry (counted as a call, as the tape counts)."""
         call, self._sends = self._sends, self._sends + 1
-        if not 0 <= frame.arbitration_id <= MAX_STANDARD_ID:
-            raise FrameError(f"CAN id 0x{frame.arbitration_id:X} is not an 11-bit standard id")
-        if len(frame.data) > MAX_DATA_BYTES:
-            raise FrameError(f"classic CAN carries at most 8 data bytes, got {len(frame.data)}")
+        check_can_frame(frame)
         return call not in self._refused_calls
 
     def receive(self) -> list[CanFrame]:
