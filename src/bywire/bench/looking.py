@@ -20,6 +20,7 @@ import threading
 from bywire.hal.sim.can_bus import LoggedFrame
 from bywire.hal.sim.world import SimWorld
 from bywire.loopback import Endpoint
+from bywire.priority import leave_realtime
 from bywire.runtime.app import Runtime
 from bywire.telemetry.capture import TelemetryTap
 from bywire.telemetry.feed import FeedOptions, new_outbox, open_sinks
@@ -71,6 +72,7 @@ class Onlookers:
             self.tap.can_frame(frame.time_s, frame.arbitration_id, frame.data, frame.sender)
 
     def _spawn(self, phase: str) -> None:
+        leave_realtime()  # the harness's helpers run as `bywire run --dashboard`'s do
         if phase == "feed":
             command = [sys.executable, "-m", "bywire.bench.onlooker", self.url]
             self._process = subprocess.Popen(command, stdout=subprocess.PIPE, text=True)
@@ -90,6 +92,7 @@ class Onlookers:
         threading.Thread(target=_discard, args=(master,), daemon=True).start()
 
     def _end(self, phase: str, helper: threading.Thread | None) -> None:
+        leave_realtime()
         if helper is not None:
             helper.join()
         process = self._process

@@ -17,6 +17,8 @@ import os
 import threading
 import time
 
+from bywire.priority import leave_realtime
+
 HELD_LINES = 1000  # the newest ones are kept when more come while the terminal is held
 
 
@@ -72,6 +74,7 @@ class BackgroundLog(logging.Handler):
         return True
 
     def _write(self) -> None:
+        leave_realtime()  # a log line never competes with the loop at its priority
         while True:
             with self._ready:
                 while self._held or not self._pending:

@@ -25,6 +25,7 @@ import time
 from collections.abc import Callable, Sequence
 
 from bywire.errors import BywireError
+from bywire.priority import leave_realtime
 
 STOP_GRACE_S = 0.2  # how long a view has to leave after SIGTERM before SIGKILL
 TERMINAL_RESET = b"\x1b[?1049l\x1b[?25h\x1b[0m"  # leave the alternate screen, show the cursor
@@ -95,6 +96,7 @@ class ViewProcess:
             self._write_raw(TERMINAL_RESET)
 
     def _watch(self) -> None:
+        leave_realtime()
         assert self.process is not None
         status = self.process.wait()
         if self._stopping:
@@ -138,6 +140,7 @@ class SimFeed:
         raise BywireError(f"the simulated robot did not start: {last.removeprefix('bywire ')}")
 
     def _keep_reading(self) -> None:
+        leave_realtime()
         assert self.process.stderr is not None
         for line in self.process.stderr:
             self.lines.append(line.rstrip("\n"))

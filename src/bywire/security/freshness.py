@@ -24,6 +24,7 @@ import threading
 from pathlib import Path
 
 from bywire.errors import ConfigError
+from bywire.priority import leave_realtime
 from bywire.protocol.secoc import SecocKey
 
 DEFAULT_BLOCK = 32
@@ -129,6 +130,7 @@ class FreshnessStore:
         self._pending.set()
 
     def _write_loop(self) -> None:
+        leave_realtime()  # persisting counters never competes with the loop at its priority
         while not self._closed:
             self._pending.wait()
             self._pending.clear()

@@ -15,6 +15,7 @@ from typing import Protocol
 
 from bywire.errors import ConfigError
 from bywire.loopback import Endpoint, ListenAddress
+from bywire.priority import outside_realtime
 from bywire.runtime.app import Runtime
 from bywire.telemetry.capture import DEFAULT_RATE_HZ, Capture, TelemetryTap
 from bywire.telemetry.outbox import DEFAULT_CAPACITY, Outbox
@@ -94,15 +95,22 @@ def open_sinks(
     if outbox is None:
         outbox = new_outbox(options, virtual_time=virtual_time)
     offset_s = 0.0 if virtual_time else time.time() - clock.now()
-    writer = TelemetryWriter(outbox, log_offset_s=offset_s)
+    # Built outside the loop's real-time priority: the SDK's threads and the writer's inherit it.
+    writer = outside_realtime(lambda: TelemetryWriter(outbox, log_offset_s=offset_s))
     try:
-        if options.mcap_path is not None:
-            writer.record(options.mcap_path)
-        port = None if options.foxglove is None else writer.serve(options.foxglove)
-        writer.start()
+        port = outside_realtime(lambda: _start(writer, options))
         yield FeedSinks(outbox, writer, port)
     finally:
         writer.close(close_timeout_s)
+
+
+def _start(writer: TelemetryWriter, options: FeedOptions) -> int | None:
+    """Open the sinks and start the writer's thread; the server's port, if it serves."""
+    if options.mcap_path is not None:
+        writer.record(options.mcap_path)
+    port = None if options.foxglove is None else writer.serve(options.foxglove)
+    writer.start()
+    return port
 
 
 @contextlib.contextmanager

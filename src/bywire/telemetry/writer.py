@@ -19,6 +19,7 @@ from foxglove.websocket import WebSocketServer
 
 from bywire.errors import ConfigError
 from bywire.loopback import Endpoint, ListenAddress
+from bywire.priority import leave_realtime
 from bywire.telemetry.capture import Capture
 from bywire.telemetry.messages import message
 from bywire.telemetry.outbox import Outbox
@@ -80,6 +81,7 @@ class TelemetryWriter:
             self._server.stop()
 
     def _drain(self) -> None:
+        leave_realtime()  # looking never competes with the loop at its priority
         outbox = self._outbox
         while True:
             captures = outbox.take(POLL_S)
