@@ -59,3 +59,28 @@ def test_missing_and_unknown_arguments_are_refused() -> None:
         Inner()  # type: ignore[call-arg]
     with pytest.raises(TypeError):
         Inner(1.0, c=2.0)  # type: ignore[call-arg]
+
+
+def test_fields_its_init_cannot_store_are_refused_where_the_class_is_made() -> None:
+    with pytest.raises(TypeError, match="Hidden: every field"):
+
+        @value
+        class Hidden:
+            a: float
+            b: float = dataclasses.field(init=False, default=0.0)
+
+    with pytest.raises(TypeError, match="KeywordOnly: every field"):
+
+        @value
+        class KeywordOnly:
+            a: float = dataclasses.field(kw_only=True, default=0.0)
+
+    with pytest.raises(TypeError, match="WithInitVar: every field"):
+
+        @value
+        class WithInitVar:
+            a: float
+            scale: dataclasses.InitVar[float] = 1.0
+
+            def __post_init__(self, scale: float) -> None:
+                pass

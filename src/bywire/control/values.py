@@ -14,6 +14,7 @@ configuration) keep the plain decorator.
 from __future__ import annotations
 
 import dataclasses
+import inspect
 from collections.abc import Callable
 from typing import Any, TypeVar, dataclass_transform
 
@@ -24,8 +25,23 @@ T = TypeVar("T")
 def value(cls: type[T]) -> type[T]:
     """A frozen, slotted dataclass whose `__init__` stores fields through their slots."""
     built = dataclasses.dataclass(frozen=True, slots=True)(cls)
+    _check_plain_fields(built)
     built.__init__ = _slot_init(built)  # type: ignore[method-assign]
     return built
+
+
+def _check_plain_fields(cls: type[Any]) -> None:
+    """TypeError unless the dataclass' own `__init__` takes exactly its fields, in order, each by
+    position or keyword: `_slot_init` knows no `init=False`, `kw_only` or `InitVar`, and must not
+    make an `__init__` that differs from the one it replaces."""
+    parameters = list(inspect.signature(cls.__init__).parameters.values())[1:]
+    names = [parameter.name for parameter in parameters]
+    plain = all(parameter.kind is parameter.POSITIONAL_OR_KEYWORD for parameter in parameters)
+    if not plain or names != [field.name for field in dataclasses.fields(cls)]:
+        raise TypeError(
+            f"@value {cls.__qualname__}: every field must be an ordinary init field"
+            " (no init=False, kw_only or InitVar); use @dataclass(frozen=True, slots=True)"
+        )
 
 
 _FACTORY = object()  # the default of a field that has a default_factory: call it
