@@ -1,7 +1,8 @@
 """What the telemetry feed costs the controller's loop: the tap's time per call, measured.
 
 ``python bench/telemetry_cost.py [--duration S] [--realtime]`` plays the trial run with the
-feed recording to a temporary MCAP file (the writer thread running, as in ``bywire sim --mcap``)
+feed recording to a temporary MCAP file (as ``bywire sim --mcap``: the writer a thread on virtual
+time; with ``--realtime`` a process of its own, which the tap ships to after each pass)
 and times, with ``time.perf_counter_ns``, every call the loop makes into the feed: the tap after
 each pass (split into passes that queue a state capture and passes that only check for events)
 and the bus monitor's ``can_frame``. The percentiles are of those calls; the figure excludes the
@@ -56,8 +57,8 @@ def main() -> None:
     parser.add_argument(
         "--no-writer",
         action="store_true",
-        help="queue captures but start no writer thread: the loop's own share, without the"
-        " interpreter lock shared with the writer",
+        help="queue captures but start no writer: the tap's own share, without the interpreter"
+        " lock shared with a writer thread or the shipping to a writer process",
     )
     args = parser.parse_args()
     sim = SimRun(
@@ -104,7 +105,11 @@ def main() -> None:
         dropped = outbox.dropped
     overhead_ns = _timer_overhead_ns()
     clock = "real" if args.realtime else "virtual"
-    writer = "no writer thread" if args.no_writer else "writer thread recording an MCAP"
+    writer = (
+        "no writer"
+        if args.no_writer
+        else f"writer {'process' if args.realtime else 'thread'} recording an MCAP"
+    )
     print(
         f"trial run, {args.duration:g} s on {clock} time, {writer};"
         f" timer overhead {overhead_ns:.0f} ns (subtracted)"

@@ -110,15 +110,21 @@ from bywire.telemetry.feed import FeedOptions, open_sinks
 
 os.sched_setscheduler(0, os.SCHED_FIFO, os.sched_param(10))  # as `bywire run` with fifo
 options = FeedOptions(mcap_path=Path(sys.argv[1]), foxglove=Endpoint("127.0.0.1", 0))
-with open_sinks(options, VirtualClock(), virtual_time=False) as sinks:
-    policies = {}
-    for tid in os.listdir("/proc/self/task"):
-        stat = Path(f"/proc/self/task/{tid}/stat").read_text()
+
+def policies(pid):
+    seen = {}
+    for tid in os.listdir(f"/proc/{pid}/task"):
+        stat = Path(f"/proc/{pid}/task/{tid}/stat").read_text()
         policy = int(stat.rsplit(")", 1)[1].split()[38])
-        name = Path(f"/proc/self/task/{tid}/comm").read_text().strip()
-        policies[f"{name} {tid}"] = policy
+        name = Path(f"/proc/{pid}/task/{tid}/comm").read_text().strip()
+        seen[f"{name} {tid}"] = policy
+    return seen
+
+with open_sinks(options, VirtualClock(), virtual_time=False) as sinks:
     main = f"{Path('/proc/self/comm').read_text().strip()} {os.getpid()}"
-    print(json.dumps({"main": main, "policies": policies}))
+    print(json.dumps({
+        "main": main, "policies": policies("self"), "writer": policies(sinks.writer.pid)
+    }))
 """
 
 
@@ -126,8 +132,10 @@ with open_sinks(options, VirtualClock(), virtual_time=False) as sinks:
 def test_the_feeds_threads_are_born_under_the_normal_policy_in_a_fifo_process(
     tmp_path: Path,
 ) -> None:
-    """The telemetry writer and foxglove-sdk's server and file threads, started by a process
-    whose main thread runs under SCHED_FIFO (as `bywire run` with `scheduler = "fifo"`)."""
+    """The telemetry writer's process with foxglove-sdk's server and file threads (and any
+    thread the feed leaves in the controller's process), started by a process whose main thread
+    runs under SCHED_FIFO (as `bywire run` with `scheduler = "fifo"`). The writer's threads run
+    under SCHED_BATCH, which never preempts the loop when the pipe wakes them."""
     done = subprocess.run(
         [sys.executable, "-c", CHILD, str(tmp_path / "feed.mcap")],
         capture_output=True,
@@ -138,6 +146,8 @@ def test_the_feeds_threads_are_born_under_the_normal_policy_in_a_fifo_process(
     report = json.loads(done.stdout)
     policies: dict[str, int] = report["policies"]
     assert policies.pop(report["main"]) == os.SCHED_FIFO  # the loop's thread keeps it
-    assert len(policies) >= 2, f"expected the writer and the SDK's threads, saw {policies}"
-    fifo = [name for name, policy in policies.items() if policy == os.SCHED_FIFO]
+    writer: dict[str, int] = report["writer"]
+    assert len(writer) >= 3, f"expected the writer's and the SDK's threads, saw {writer}"
+    fifo = [name for name, policy in {**policies, **writer}.items() if policy == os.SCHED_FIFO]
     assert fifo == [], f"threads serving the feed at the loop's priority: {fifo}"
+    assert set(writer.values()) == {os.SCHED_BATCH}, writer

@@ -1,9 +1,10 @@
 """Threads that serve looking, logging or persistence leave the control loop's real-time priority.
 
 `bywire run` may put the process under SCHED_FIFO (`[realtime] scheduler = "fifo"`), and Linux
-gives every thread the policy of the thread that created it: the telemetry writer, foxglove-sdk's
-server and file threads, the log writer and the freshness writer would then compete with the
-control loop at its own priority, each able to keep it off a CPU. The loop and the threads that
+gives every thread (and child process) the policy of the thread that created it: the telemetry
+shipper and writer process, foxglove-sdk's server and file threads, the log writer and the
+freshness writer would then compete with the control loop at its own priority, each able to
+keep it off a CPU. The loop and the threads that
 deliver its input (CAN, UART) and watch it (the watchdog) keep the real-time policy; every other
 thread calls `leave_realtime()` first. Lowering one's own policy needs no privilege.
 

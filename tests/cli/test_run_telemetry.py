@@ -9,6 +9,7 @@ import json
 import re
 import signal
 import threading
+import time
 from pathlib import Path
 from typing import Any
 
@@ -23,8 +24,17 @@ from tests.cli.test_run import LIMIT_S, Robot, _assert_de_energised, _stop_armed
 from tests.hal.linux.bench import make_bench
 from tests.hal.linux.pty_rc import PtyRcLine
 
+MCAP_MAGIC = b"\x89MCAP0\r\n"  # an MCAP file begins and, once finished, ends with it
+FINISH_WAIT_S = 30.0  # generous: only a writer that never finishes reaches it
+
 
 def read_mcap(path: Path) -> list[tuple[str, dict[str, Any]]]:
+    """The messages of a finished file. The writer's process finishes it after the controller
+    has exited (it sees the pipe close), so this waits for the closing magic first."""
+    deadline = time.monotonic() + FINISH_WAIT_S
+    while not path.read_bytes().endswith(MCAP_MAGIC):
+        assert time.monotonic() < deadline, f"{path} was never finished"
+        time.sleep(0.02)
     with path.open("rb") as stream:
         return [
             (channel.topic, json.loads(message.data))

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import marshal
+
 import pytest
 
 from bywire.config import default_sim_config
@@ -50,14 +52,18 @@ def test_latches_and_flags_are_events_when_they_come_and_when_they_clear() -> No
     assert events.index(("flag_cleared", "NOT_ARMED")) > events.index(("flag_raised", "NOT_ARMED"))
 
 
-def test_a_state_capture_holds_the_decision_and_copies_of_the_counters() -> None:
+def test_a_state_capture_holds_plain_values_and_copies_of_the_counters() -> None:
     sim, outbox = _tapped(3.0)
-    last = [c for c in outbox.take(0.0) if isinstance(c, StateCapture)][-1]
-    assert last.outputs is not None
-    assert [spec.name for spec in last.task_specs] == [task.spec.name for task in sim.runtime.tasks]
+    captures = outbox.take(0.0)
+    last = [c for c in captures if isinstance(c, StateCapture)][-1]
+    assert last.mode == sim.runtime.mode_log[-1][1].name
+    assert [row[0] for row in last.tasks] == [task.spec.name for task in sim.runtime.tasks]
     # The loop ran on after the capture: the copies kept the counts of their instant.
     steering = sim.runtime.tasks[0]
-    assert 0 < last.tasks[0].runs < steering.stats.runs
+    assert 0 < last.tasks[0][2] < steering.stats.runs
+    # Plain values only: what `marshal` (the pipe to the writer's process) can carry.
+    for capture in captures:
+        assert marshal.loads(marshal.dumps(tuple(capture))) == tuple(capture)
 
 
 def test_a_stuck_consumer_loses_the_oldest_captures_never_the_loops_passes() -> None:

@@ -7,24 +7,16 @@ import json
 import pytest
 from jsonschema import Draft202012Validator
 
-from bywire.config import default_sim_config
-from bywire.sim.catalog import find_scenario
-from bywire.sim.runner import SimRun
-from bywire.telemetry.capture import CanCapture, Capture, StateCapture, TelemetryTap
+from bywire.telemetry.capture import CanCapture, Capture, StateCapture
 from bywire.telemetry.messages import message
-from bywire.telemetry.outbox import Outbox
 from bywire.telemetry.schemas import CAN_TOPIC, EVENTS_TOPIC, SCHEMAS, STATE_TOPIC
+from tests.telemetry.conftest import course_captures
 
 
 @pytest.fixture(scope="module")
 def captures() -> list[Capture]:
     """The course up to CAN driving at full set-point (23.1 s), with every bus frame."""
-    sim = SimRun(default_sim_config(), find_scenario("test-course"), duration_s=24.0)
-    outbox: Outbox[Capture] = Outbox(1_000_000)
-    tap = TelemetryTap(sim.runtime, outbox).attach()
-    sim.add_can_monitor(lambda f: tap.can_frame(f.time_s, f.arbitration_id, f.data, f.sender))
-    sim.run()
-    return outbox.take(0.0)
+    return course_captures(24.0)
 
 
 def test_every_schema_is_a_valid_json_schema_with_a_title() -> None:

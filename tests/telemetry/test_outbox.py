@@ -76,3 +76,13 @@ def test_close_wakes_a_waiting_consumer() -> None:
 def test_an_outbox_holds_at_least_one_item() -> None:
     with pytest.raises(ValueError, match="capacity"):
         Outbox(0)
+
+
+def test_take_ready_takes_at_most_its_limit_oldest_first_without_waiting() -> None:
+    outbox: Outbox[int] = Outbox(10)
+    assert outbox.take_ready(4) == []  # empty: returns at once
+    for item in range(6):
+        outbox.put(item)
+    assert outbox.take_ready(4) == [0, 1, 2, 3]
+    assert outbox.take_ready(4) == [4, 5]
+    assert len(outbox) == 0

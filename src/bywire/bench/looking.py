@@ -22,7 +22,6 @@ from bywire.hal.sim.world import SimWorld
 from bywire.loopback import Endpoint
 from bywire.priority import leave_realtime
 from bywire.runtime.app import Runtime
-from bywire.telemetry.capture import TelemetryTap
 from bywire.telemetry.feed import FeedOptions, new_outbox, open_sinks
 
 LOOKING_PHASES = ("feed", "dashboard")
@@ -40,7 +39,7 @@ class Onlookers:
             open_sinks(options, runtime.clock, virtual_time=False, outbox=outbox)
         )
         self.url = f"ws://127.0.0.1:{sinks.port}"
-        self.tap = TelemetryTap(runtime, outbox)
+        self.tap = sinks.tap(runtime)
         self._active = False
         world.bus.add_monitor(self._frame)
         self._process: subprocess.Popen[str] | None = None

@@ -40,7 +40,6 @@ from bywire.runtime.settings import RuntimeConfig
 from bywire.security.session import SecocReceiver
 from bywire.security.setup import configured_key, controller_receiver
 from bywire.telemetry.can_tap import TappedCanPort
-from bywire.telemetry.capture import TelemetryTap
 from bywire.telemetry.feed import (
     FeedOptions,
     FeedSinks,
@@ -132,7 +131,7 @@ def _run(args: argparse.Namespace, logs: background_log.BackgroundLog) -> int:
         _device_errors(),
         open_hardware(robot, paths) as opened,
     ):
-        hardware, outbox = opened, None
+        hardware, sinks = opened, None
         if options is not None:
             outbox = new_outbox(options, virtual_time=False)
             hardware = dataclasses.replace(opened, can=TappedCanPort(opened.can, outbox))
@@ -156,8 +155,8 @@ def _run(args: argparse.Namespace, logs: background_log.BackgroundLog) -> int:
         realtime.extend(apply_collector(robot.realtime, runtime).report)
         _report_realtime(realtime)
         _start_schedule_now(runtime)
-        if options is not None and outbox is not None:
-            TelemetryTap(runtime, outbox, rate_hz=options.rate_hz).attach()
+        if options is not None and sinks is not None:
+            sinks.tap(runtime, rate_hz=options.rate_hz).attach()
         if requests.signals:  # one came while the hardware opened: stop before driving
             runtime.request_stop()
         log.info("running %s (%s backend)", robot.name, robot.backend)  # signals handled

@@ -1,7 +1,8 @@
 """One telemetry feed for a run: the loop's tap, the outbox, the writer and its sinks, together.
 
 `open_feed` is what a command uses: it attaches to a `Runtime` before the run, and on leaving
-writes what is queued and closes the file and the server, whatever ended the run.
+writes what is queued and closes the file and the server, whatever ended the run. On real time the
+writer is a process of its own (`writer_process`), on virtual time a thread (`writer`).
 """
 
 from __future__ import annotations
@@ -20,6 +21,9 @@ from bywire.runtime.app import Runtime
 from bywire.telemetry.capture import DEFAULT_RATE_HZ, Capture, TelemetryTap
 from bywire.telemetry.outbox import DEFAULT_CAPACITY, Outbox
 from bywire.telemetry.writer import TelemetryWriter
+from bywire.telemetry.writer_process import WriterProcess
+
+Writer = TelemetryWriter | WriterProcess
 
 
 @dataclass(frozen=True, slots=True)
@@ -42,7 +46,7 @@ class TelemetryFeed:
 
     tap: TelemetryTap
     outbox: Outbox[Capture]
-    writer: TelemetryWriter
+    writer: Writer
     port: int | None
 
 
@@ -64,8 +68,13 @@ class FeedSinks:
     """The writer and its sinks, running before any tap feeds them: `port` the server's."""
 
     outbox: Outbox[Capture]
-    writer: TelemetryWriter
+    writer: Writer
     port: int | None
+
+    def tap(self, runtime: Runtime, *, rate_hz: float = DEFAULT_RATE_HZ) -> TelemetryTap:
+        """The loop's tap into this feed (not yet attached); it ships to a writer process."""
+        ship = self.writer.ship if isinstance(self.writer, WriterProcess) else None
+        return TelemetryTap(runtime, self.outbox, rate_hz=rate_hz, ship=ship)
 
 
 class Clock(Protocol):
@@ -81,7 +90,8 @@ def open_sinks(
     outbox: Outbox[Capture] | None = None,
     close_timeout_s: float = 5.0,
 ) -> Iterator[FeedSinks]:
-    """The MCAP file, the server and the writer thread, for the duration of the block.
+    """The MCAP file, the server and the writer, for the duration of the block: on real time a
+    process of its own (`WriterProcess`), on virtual time a thread of this one.
 
     Started before the controller is built (`bywire run`): the server's start takes tens of ms,
     which the loop's first deadlines must not wait for. `clock` is the controller's clock (the
@@ -90,16 +100,25 @@ def open_sinks(
     the log times are wall-clock (epoch) times and a full outbox drops its oldest capture.
     `outbox`: one made beforehand with `new_outbox` (a `TappedCanPort` built with the hardware
     already queues into it). `close_timeout_s` bounds how long the end waits for the writer to
-    encode what is queued.
+    encode what is queued (a writer process still finishing its file is left to finish it).
     """
-    if outbox is None:
-        outbox = new_outbox(options, virtual_time=virtual_time)
-    offset_s = 0.0 if virtual_time else time.time() - clock.now()
-    # Built outside the loop's real-time priority: the SDK's threads and the writer's inherit it.
-    writer = outside_realtime(lambda: TelemetryWriter(outbox, log_offset_s=offset_s))
+    queue = new_outbox(options, virtual_time=virtual_time) if outbox is None else outbox
+    if not virtual_time:
+        offset_s = time.time() - clock.now()
+        # Spawned outside the loop's real-time priority: the child and its threads inherit it.
+        process = outside_realtime(
+            lambda: WriterProcess(
+                queue, mcap_path=options.mcap_path, foxglove=options.foxglove, log_offset_s=offset_s
+            )
+        )
+        try:
+            yield FeedSinks(queue, process, process.port)
+        finally:
+            process.close(close_timeout_s)
+        return
+    writer = TelemetryWriter(queue)
     try:
-        port = outside_realtime(lambda: _start(writer, options))
-        yield FeedSinks(outbox, writer, port)
+        yield FeedSinks(queue, writer, _start(writer, options))
     finally:
         writer.close(close_timeout_s)
 
@@ -130,7 +149,7 @@ def open_feed(
         outbox=outbox,
         close_timeout_s=close_timeout_s,
     ) as sinks:
-        tap = TelemetryTap(runtime, sinks.outbox, rate_hz=options.rate_hz).attach()
+        tap = sinks.tap(runtime, rate_hz=options.rate_hz).attach()
         try:
             yield TelemetryFeed(tap, sinks.outbox, sinks.writer, sinks.port)
         finally:

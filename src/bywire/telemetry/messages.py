@@ -1,7 +1,7 @@
-"""Captures to messages: pure functions, run in the writer's thread, never in the loop.
+"""Captures to messages: pure functions, run by the writer, never in the loop.
 
 Each returns `(topic, message)` where the message is the plain object its topic's JSON Schema
-(`schemas`) describes. Times are the controller's clock; ages are taken at the capture's instant.
+(`schemas`) describes. Times are the controller's clock; ages were taken at the capture's instant.
 """
 
 from __future__ import annotations
@@ -9,18 +9,13 @@ from __future__ import annotations
 from typing import Any
 
 from bywire.control.error_flags import flag_names
-from bywire.control.mux import Movement
-from bywire.control.rc_mapping import RcRequest
-from bywire.control.validity import age_s
-from bywire.model import ControlMode, MovementCommand
-from bywire.runtime.schedule import TaskSpec
-from bywire.telemetry.capture import Capture, EventCapture, StateCapture, TaskCounters
+from bywire.telemetry.capture import Capture, EventCapture, MovementValues, StateCapture, TaskRow
 from bywire.telemetry.schemas import CAN_TOPIC, EVENTS_TOPIC, LIGHTS, STATE_TOPIC
 
 Message = dict[str, Any]
 
-SETPOINT_SOURCES = {ControlMode.STOP: "none", ControlMode.RC: "rc", ControlMode.CAN: "can"}
-MODE_CODES = {ControlMode.STOP: 0, ControlMode.RC: 1, ControlMode.CAN: 2}  # for plots
+SETPOINT_SOURCES = {"STOP": "none", "RC": "rc", "CAN": "can"}
+MODE_CODES = {"STOP": 0, "RC": 1, "CAN": 2}  # for plots
 
 
 def message(capture: Capture) -> tuple[str, Message]:
@@ -45,89 +40,86 @@ def message(capture: Capture) -> tuple[str, Message]:
 
 
 def state_message(capture: StateCapture) -> Message:
-    outputs = capture.outputs
-    causes = sorted(cause.name for cause in outputs.causes)
+    causes = list(capture.latched_causes)
     return {
         "time_s": capture.time_s,
         "elapsed_s": capture.elapsed_s,
-        "mode": outputs.mode.name,
-        "mode_code": MODE_CODES[outputs.mode],
+        "mode": capture.mode,
+        "mode_code": MODE_CODES[capture.mode],
         "armed": not causes,
         "latched_causes": causes,
-        "direction_change_held": outputs.direction_change_held,
-        "setpoint_source": SETPOINT_SOURCES[outputs.mode],
-        "setpoint": _movement(outputs.movement),
+        "direction_change_held": capture.direction_change_held,
+        "setpoint_source": SETPOINT_SOURCES[capture.mode],
+        "setpoint": _movement(capture.setpoint),
         "outputs": _outputs(capture),
         "inputs": _inputs(capture),
-        "speed_mps": capture.sensors.speed_mps,
-        "error_flags": flag_names(outputs.error_flags),
-        "error_flags_bits": outputs.error_flags,
+        "speed_mps": capture.speed_mps,
+        "error_flags": flag_names(capture.error_flags),
+        "error_flags_bits": capture.error_flags,
         "watchdog_tripped": capture.watchdog_tripped,
         "reports_sent": capture.reports_sent,
         "telemetry_dropped": capture.telemetry_dropped,
-        "tasks": [
-            _task(spec, counters, capture.elapsed_s)
-            for spec, counters in zip(capture.task_specs, capture.tasks, strict=True)
-        ],
+        "tasks": [_task(row, capture.elapsed_s) for row in capture.tasks],
     }
 
 
-def _movement(movement: Movement | MovementCommand | RcRequest) -> Message:
+def _movement(movement: MovementValues) -> Message:
+    steering_norm, throttle_norm, brake_norm, gear = movement
     return {
-        "steering_norm": movement.steering_norm,
-        "throttle_norm": movement.throttle_norm,
-        "brake_norm": movement.brake_norm,
-        "gear": movement.gear.name,
+        "steering_norm": steering_norm,
+        "throttle_norm": throttle_norm,
+        "brake_norm": brake_norm,
+        "gear": gear,
     }
+
+
+def _optional_movement(movement: MovementValues | None) -> Message | None:
+    return None if movement is None else _movement(movement)
 
 
 def _outputs(capture: StateCapture) -> Message:
-    outputs = capture.outputs
-    drive, lights = outputs.drive, outputs.lights
     return {
-        "motors_enabled": drive.enable,
-        "forward": drive.forward,
-        "reverse": drive.reverse,
-        "throttle_volts": drive.throttle_volts,
-        "regen_volts": drive.regen_volts,
+        "motors_enabled": capture.motors_enabled,
+        "forward": capture.forward,
+        "reverse": capture.reverse,
+        "throttle_volts": capture.throttle_volts,
+        "regen_volts": capture.regen_volts,
         "dac_throttle_volts": capture.dac_throttle_volts,
         "dac_regen_volts": capture.dac_regen_volts,
-        "ebrake_engaged": outputs.ebrake_engaged,
-        "steering_pulse_ms": outputs.steering_pulse_s * 1000.0,
-        "hydrobrake_duty": outputs.hydrobrake_duty,
-        "lights": {name: getattr(lights, name) for name in LIGHTS},
+        "ebrake_engaged": capture.ebrake_engaged,
+        "steering_pulse_ms": capture.steering_pulse_s * 1000.0,
+        "hydrobrake_duty": capture.hydrobrake_duty,
+        "lights": dict(zip(LIGHTS, capture.lights, strict=True)),
     }
 
 
 def _inputs(capture: StateCapture) -> Message:
-    inputs, sensors, now = capture.inputs, capture.sensors, capture.time_s
-    rc = None if inputs.rc is None else inputs.rc.value
-    wheels = sensors.wheel_speeds_mps
     return {
-        "rc_age_s": age_s(inputs.rc, now),
-        "can_movement_age_s": age_s(inputs.movement, now),
-        "can_lights_age_s": age_s(inputs.lights, now),
-        "can_control_age_s": age_s(inputs.control, now),
-        "rc_frames": inputs.rc_frames,
-        "can_control_frames": inputs.control_frames,
-        "rc_request": None if rc is None else _movement(rc),
-        "can_movement": None if inputs.movement is None else _movement(inputs.movement.value),
-        "speed_mps": sensors.speed_mps,
-        "wheel_left_mps": None if wheels is None else wheels[0],
-        "wheel_right_mps": None if wheels is None else wheels[1],
-        "hydrobrake_pressure_bar": sensors.hydrobrake_pressure_bar,
-        "steering_measured_norm": sensors.steering_measured_norm,
+        "rc_age_s": capture.rc_age_s,
+        "can_movement_age_s": capture.can_movement_age_s,
+        "can_lights_age_s": capture.can_lights_age_s,
+        "can_control_age_s": capture.can_control_age_s,
+        "rc_frames": capture.rc_frames,
+        "can_control_frames": capture.can_control_frames,
+        "rc_request": _optional_movement(capture.rc_request),
+        "can_movement": _optional_movement(capture.can_movement),
+        "speed_mps": capture.speed_mps,
+        "wheel_left_mps": capture.wheel_left_mps,
+        "wheel_right_mps": capture.wheel_right_mps,
+        "hydrobrake_pressure_bar": capture.hydrobrake_pressure_bar,
+        "steering_measured_norm": capture.steering_measured_norm,
     }
 
 
-def _task(spec: TaskSpec, task: TaskCounters, elapsed_s: float) -> Message:
+def _task(row: TaskRow, elapsed_s: float) -> Message:
+    name, nominal_rate_hz, runs, overruns, budget_exceeded, max_jitter_s, spent_s = row
     return {
-        "name": spec.name,
-        "nominal_rate_hz": spec.rate_hz,
-        "rate_hz": task.runs / elapsed_s if elapsed_s > 0 else 0.0,
-        "runs": task.runs,
-        "overruns": task.overruns,
-        "budget_exceeded": task.budget_exceeded,
-        "max_jitter_ms": task.max_jitter_s * 1000.0,
-        "spent_s": task.spent_s,
+        "name": name,
+        "nominal_rate_hz": nominal_rate_hz,
+        "rate_hz": runs / elapsed_s if elapsed_s > 0 else 0.0,
+        "runs": runs,
+        "overruns": overruns,
+        "budget_exceeded": budget_exceeded,
+        "max_jitter_ms": max_jitter_s * 1000.0,
+        "spent_s": spent_s,
     }

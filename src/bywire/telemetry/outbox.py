@@ -18,7 +18,8 @@ DEFAULT_CAPACITY = 4096  # 80 s of state at 50 Hz, or a few seconds of a busy CA
 
 
 class Outbox(Generic[Item]):
-    """A bounded FIFO between one producer (the loop) and one consumer (the writer thread).
+    """A bounded FIFO between one producer (the loop) and one consumer (the writer's thread, or
+    on real time the thread that ships to the writer's process).
 
     `put` never blocks unless `wait_when_full` (virtual time only); `take` blocks for at most
     `timeout_s`. `dropped` counts the items a full queue threw away, oldest first.
@@ -59,6 +60,19 @@ class Outbox(Generic[Item]):
             if self._wait_when_full:
                 self._ready.notify_all()
             return items
+
+    def take_ready(self, limit: int) -> list[Item]:
+        """At most `limit` queued items, oldest first, without waiting (the loop calls this)."""
+        with self._ready:
+            items = self._items
+            if len(items) <= limit:
+                taken = list(items)
+                items.clear()
+            else:
+                taken = [items.popleft() for _ in range(limit)]
+            if taken and self._wait_when_full:
+                self._ready.notify_all()
+            return taken
 
     def close(self) -> None:
         """No more items will come: wake the consumer (and a producer waiting for room)."""

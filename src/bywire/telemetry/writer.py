@@ -1,5 +1,8 @@
 """The consumer of the feed: a thread that turns captures into messages and hands them to sinks.
 
+On virtual time it runs in the controller's process; on real time in a process of its own
+(`writer_process`), where the interpreter time it takes is no time the loop can wait for.
+
 Sinks are foxglove-sdk's: an MCAP file (`open_mcap`) and the Foxglove WebSocket server
 (`start_server`), both bound to one `foxglove.Context` that holds a channel per topic with its
 JSON Schema. The SDK writes files and serves clients in its own threads, outside the interpreter
