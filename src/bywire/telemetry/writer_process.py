@@ -204,9 +204,9 @@ def serve_pipe(fd: int, writer: TelemetryWriter, outbox: Outbox[Capture]) -> int
 
 
 def _step_aside() -> None:
-    """Run behind the controller: under SCHED_BATCH, which the kernel never lets preempt a task
-    when it wakes (the loop's every write to the pipe wakes this process, on the loop's CPU as
-    often as not), and at niceness `WRITER_NICENESS`. Its threads inherit both."""
+    """Run behind the controller: under SCHED_BATCH, which the kernel never lets preempt a running
+    task when it wakes (its poll timer wakes it 50 times a second, on the loop's CPU as often as
+    not), and at niceness `WRITER_NICENESS`. Its threads inherit both."""
     leave_realtime()
     with contextlib.suppress(AttributeError, OSError):  # not Linux
         os.sched_setscheduler(0, os.SCHED_BATCH, os.sched_param(0))
