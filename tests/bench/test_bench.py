@@ -380,7 +380,16 @@ def test_bench_quick_json_runs_end_to_end_and_gives_every_figure(
     document = json.loads(capsys.readouterr().out)
     figures = {figure["key"]: figure for figure in document["figures"]}
     assert set(figures) == EXPECTED_KEYS | SECOC_KEYS
-    assert all(isinstance(figure["value"], float) for figure in figures.values())
+    for key, figure in figures.items():
+        if figure["value"] is None:
+            # A quick phase lasts 1 s: a host stall past the input timeouts stops the robot, and
+            # a path may then pair no command at all. Only such a path's figures may be null,
+            # and its sample count says why.
+            assert "_latency_" in key, key
+            path = key[: key.index("_latency_")]
+            assert figures[f"{path}_latency_samples"]["value"] == 0.0, key
+        else:
+            assert isinstance(figure["value"], float), key
     assert figures["secoc_cost_p99_ms"]["target"] == "≤ 0.05 ms"
     assert document["secoc"]["authenticated"]["samples"] == 2000
     assert document["settings"]["quick"] is True
