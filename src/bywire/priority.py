@@ -2,8 +2,8 @@
 
 `bywire run` may put the process under SCHED_FIFO (`[realtime] scheduler = "fifo"`), and Linux
 gives every thread (and child process) the policy of the thread that created it: the telemetry
-shipper and writer process, foxglove-sdk's server and file threads, the log writer and the
-freshness writer would then compete with the control loop at its own priority, each able to
+writer's process with foxglove-sdk's server and file threads, the log writer and the freshness
+writer would then compete with the control loop at its own priority, each able to
 keep it off a CPU. The loop and the threads that
 deliver its input (CAN, UART) and watch it (the watchdog) keep the real-time policy; every other
 thread calls `leave_realtime()` first. Lowering one's own policy needs no privilege.

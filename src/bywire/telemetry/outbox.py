@@ -18,8 +18,8 @@ DEFAULT_CAPACITY = 4096  # 80 s of state at 50 Hz, or a few seconds of a busy CA
 
 
 class Outbox(Generic[Item]):
-    """A bounded FIFO between one producer (the loop) and one consumer (the writer's thread, or
-    on real time the thread that ships to the writer's process).
+    """A bounded FIFO between one producer (the loop) and one consumer: the writer's thread, or
+    on real time the loop itself, which takes with `take_ready` and ships to the writer's process.
 
     `put` never blocks unless `wait_when_full` (virtual time only); `take` blocks for at most
     `timeout_s`. `dropped` counts the items a full queue threw away, oldest first.

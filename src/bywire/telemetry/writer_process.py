@@ -86,7 +86,7 @@ class WriterProcess:
         assert self._process.stdout is not None
         self._pipe: IO[bytes] = self._process.stdin
         try:
-            answer = _answer(self._process, self._process.stdout, start_timeout_s)
+            port = _answer(self._process, self._process.stdout, start_timeout_s)
         except BaseException:
             self._process.kill()
             self._process.wait()
@@ -97,7 +97,7 @@ class WriterProcess:
         with contextlib.suppress(OSError):  # a smaller pipe only means fewer captures in flight
             fcntl.fcntl(self._fd, fcntl.F_SETPIPE_SZ, PIPE_BYTES)
         os.set_blocking(self._fd, False)
-        self.port: int | None = answer.get("port")
+        self.port = port
         self.pid = self._process.pid
         self.broken = False  # the child has gone: nothing more is shipped
         self._unsent = memoryview(b"")  # the rest of a frame the pipe had no room for
@@ -108,12 +108,8 @@ class WriterProcess:
         if now < self._next_ship_s or self.broken:
             return
         self._next_ship_s = now + SHIP_PERIOD_S
-        if not self._unsent:
-            captures = self._outbox.take_ready(SHIP_BATCH)
-            if not captures:
-                return
-            self._unsent = memoryview(pack(captures))
-        self._write()
+        if self._frame_to_send():
+            self._write()
 
     @property
     def unsent_bytes(self) -> int:
@@ -126,18 +122,22 @@ class WriterProcess:
         not read within the time loses what it has not read."""
         deadline = time.monotonic() + timeout_s
         self._outbox.close()
-        while not self.broken and time.monotonic() < deadline:
-            if not self._unsent:
-                captures = self._outbox.take_ready(SHIP_BATCH)
-                if not captures:
-                    break
-                self._unsent = memoryview(pack(captures))
+        while not self.broken and time.monotonic() < deadline and self._frame_to_send():
             select.select([], [self._fd], [], max(deadline - time.monotonic(), 0.0))
             self._write()
         with contextlib.suppress(OSError):  # a broken pipe has nothing left to flush
             self._pipe.close()
         with contextlib.suppress(subprocess.TimeoutExpired):
             self._process.wait(max(deadline - time.monotonic(), 0.0))
+
+    def _frame_to_send(self) -> bool:
+        """Whether a frame waits to be written: the rest of the last one, or a new one packed
+        from at most `SHIP_BATCH` queued captures."""
+        if not self._unsent:
+            captures = self._outbox.take_ready(SHIP_BATCH)
+            if captures:
+                self._unsent = memoryview(pack(captures))
+        return bool(self._unsent)
 
     def _write(self) -> None:
         try:
@@ -151,9 +151,7 @@ class WriterProcess:
         self._unsent = self._unsent[written:]
 
 
-def _answer(
-    process: subprocess.Popen[bytes], stdout: IO[bytes], timeout_s: float
-) -> dict[str, int]:
+def _answer(process: subprocess.Popen[bytes], stdout: IO[bytes], timeout_s: float) -> int | None:
     """The child's start-up answer: its server's port, or a ConfigError with its reason."""
     readable, _, _ = select.select([stdout], [], [], timeout_s)
     line = stdout.readline() if readable else b""
@@ -168,7 +166,8 @@ def _answer(
     if "error" in answer:
         process.wait()
         raise ConfigError(str(answer["error"]))
-    return {"port": answer["port"]} if answer.get("port") is not None else {}
+    port: int | None = answer["port"]
+    return port
 
 
 def serve_pipe(fd: int, writer: TelemetryWriter, outbox: Outbox[Capture]) -> int:
