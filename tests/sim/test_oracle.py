@@ -175,3 +175,86 @@ def test_h2_still_flags_a_handover_to_rc_after_can_had_settled() -> None:
     oracle.set_switch(RC, 1.5)  # CAN held long past the debounce: a real handover
     oracle._h2(1.5 + oracle.timing.settle_s + 0.001, 1.0)
     assert [v.invariant for v in oracle.violations] == ["H2"]
+
+
+# --- H1: a CAN re-enable re-arms only what CAN may clear (S8) -----------------------------------
+
+
+def _stopped_by(kind: str, began_s: float, ended_s: float) -> HazardOracle:
+    """Armed in CAN, then `kind` from `began_s` to `ended_s`, the switch left at CAN."""
+    oracle = _oracle()
+    _armed_in_can(oracle)
+    oracle.fault(kind, True, began_s)
+    oracle.fault(kind, False, ended_s)
+    return oracle
+
+
+def _drives_after_re_enable(oracle: HazardOracle, at_s: float) -> list[str]:
+    oracle.re_enable(at_s)
+    oracle._h1(at_s + 0.2, True, True, True, 0.0)
+    return [v.invariant for v in oracle.violations]
+
+
+def test_a_re_enable_after_a_lost_rc_link_is_no_arming_act() -> None:
+    oracle = _stopped_by("rc_link_lost", 1.0, 1.5)  # RC_LOST latched: only the switch clears it
+    assert _drives_after_re_enable(oracle, 2.0) == ["H1"]
+
+
+def test_a_re_enable_after_a_lost_can_link_arms() -> None:
+    oracle = _stopped_by("can_lost", 1.0, 1.5)  # CAN_LOST: what a re-enable is for
+    assert _drives_after_re_enable(oracle, 2.0) == []
+
+
+def test_an_rc_link_lost_shorter_than_its_deadline_may_never_have_latched() -> None:
+    deadline_s = _oracle().timing.deadline_s("rc_link_lost")
+    oracle = _stopped_by("rc_link_lost", 1.0, 1.0 + deadline_s - 0.001)
+    assert _drives_after_re_enable(oracle, 2.0) == []
+
+
+def test_failing_dac_writes_still_in_force_refuse_a_re_enable_once_surely_latched() -> None:
+    oracle = _oracle()
+    _armed_in_can(oracle)
+    oracle.fault("dac_fail", True, 1.0)
+    assert oracle._owed(1.1) == set()  # not yet for sure: a re-enable may still arm
+    assert oracle._owed(1.3) == {"dac_fail"}
+
+
+def test_after_a_visit_to_stop_a_re_enable_arms_again() -> None:
+    oracle = _stopped_by("rc_link_lost", 1.0, 1.5)
+    oracle.set_switch(ControlMode.STOP, 1.6)
+    oracle.set_switch(CAN, 1.7)  # the switch's own arming may be refused (throttle): then…
+    oracle.armed_ok = False
+    assert _drives_after_re_enable(oracle, 2.0) == []  # …the computer's re-enable arms
+
+
+def test_a_watchdog_trip_is_owed_to_the_switch_unless_it_came_at_stop() -> None:
+    oracle = _oracle()
+    _armed_in_can(oracle)
+    oracle.stall(1.0, 1.25)
+    assert oracle._owed(1.2) == set()
+    assert oracle._owed(1.3) == {"watchdog"}
+    at_stop = _oracle()
+    at_stop.set_switch(ControlMode.STOP, 0.5)
+    at_stop.stall(1.0, 1.25)
+    assert at_stop._owed(1.3) == set()
+
+
+def test_implausible_frames_that_corruption_may_have_hidden_refuse_no_re_enable() -> None:
+    seen = _oracle()
+    _armed_in_can(seen)
+    seen.stop_event("rc_implausible", 1.0)
+    assert seen._owed(1.1) == {"rc_implausible"}
+    hidden = _oracle()
+    _armed_in_can(hidden)
+    hidden.stop_event("rc_implausible", 1.0)
+    hidden.blind(RC, 1.005, 1.05)  # the frames were still to be sent
+    assert hidden._owed(1.1) == set()
+
+
+def test_failsafe_frames_sent_while_the_link_was_lost_are_not_held_against_a_re_enable() -> None:
+    oracle = _oracle()
+    _armed_in_can(oracle)
+    oracle.fault("rc_link_lost", True, 1.0)
+    oracle.fault("rc_failsafe", True, 1.01)
+    assert "rc_failsafe" not in oracle._owed(1.5)
+    assert "rc_link_lost" in oracle._owed(1.5)

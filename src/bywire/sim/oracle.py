@@ -10,7 +10,9 @@ and the vehicle's true speed) and checks the output invariants of `docs/SAFETY.m
   DAC writes, a watchdog trip), once its deadline has passed, the drive outputs are safe until
   a deliberate arming act: the switch held at STOP for two frame periods and moved to RC or CAN
   with that source's throttle at zero and no fault in force, or a CAN re-enable request while
-  the switch is at CAN.
+  the switch is at CAN. A re-enable re-arms only what CAN may clear (S8): after a stop that only
+  the switch acknowledges (a lost or implausible RC link, failing DAC writes, a watchdog trip),
+  it does not count until the switch has been to STOP.
 - H2 **bumpless handover.** Once the switch has settled on a source, throttle volts above zero
   mean that source has been seen at zero throttle since the switch moved to it.
 - H3 **a watchdog trip is final.** After a trip, until the switch is put to STOP, the enable line
@@ -118,6 +120,14 @@ CAN_SILENT = frozenset({"can_lost", "can_unplugged"})
 """Faults in which nothing the computer sends arrives."""
 CAN_ONLY = frozenset({*CAN_SILENT, "can_impostor", "remote_stop"})
 """Faults that stop CAN mode and refuse arming into CAN, never RC."""
+SWITCH_ONLY = frozenset({"rc_link_lost", "rc_failsafe", "dac_fail"})
+"""Faults whose latched cause only the operator's switch clears, never a CAN re-enable (S8);
+implausible frames (`stop_event`) and the watchdog's trip (`HazardOracle.stall`) are such too.
+A second sender (CAN_UNTRUSTED) is one as well, but whether its frames were judged untrusted
+depends on how they interleaved, so the oracle does not hold a re-enable against it."""
+DAC_LATCH_S = 0.200
+"""A DAC failing this long has certainly latched DAC_FAULT: every other write failing trips the
+leaky count after eight writes, 80 ms at 100 Hz; the rest is margin."""
 
 
 @dataclass(slots=True)
@@ -173,6 +183,9 @@ class HazardOracle:
     rc_blind_from: float = -1.0  # IBUS frames may be lost to corruption from then…
     rc_blind_until: float = -1.0  # …until then
     can_blind_until: float = -1.0  # the computer's frames may be dropped until then
+    # What only the switch may clear, and from when it is latched for sure (`_owed`).
+    owed_to_switch: dict[str, float] = field(default_factory=dict)
+    dac_writes_from: float = -1.0  # the loop writes the DAC (no watchdog trip holds the gate)
 
     # --- what was done ----------------------------------------------------------------------------
 
@@ -182,6 +195,8 @@ class HazardOracle:
         silenced = {"rc_link_lost"} if kind != "switch_stop" else {"rc_link_lost", "rc_failsafe"}
         if kind in RC_BORNE and self.faults & silenced:
             return
+        if kind == "rc_implausible" and now > self.rc_blind_until:
+            self.owed_to_switch[kind] = now + self.timing.deadline_s(kind)
         # Frames being corrupted may hide the event until they are over.
         blind_until = self.rc_blind_until if kind in RC_BORNE else now
         deadline = max(now, blind_until) + self.timing.deadline_s(kind)
@@ -215,6 +230,9 @@ class HazardOracle:
         self.faults.discard(kind)
         if kind == "dac_fail":
             self.dac_back_at = now
+        latched_s = self._latched_from(kind)
+        if latched_s is not None and latched_s < now:
+            self.owed_to_switch[kind] = latched_s
         began_s, armed_before = self.began.pop(kind, (now, False))
         if armed_before and now - began_s < self.timing.unnoticed_s(kind):
             self.armed_ok, self.drive_allowed_until = True, None  # it may have passed unseen
@@ -223,6 +241,9 @@ class HazardOracle:
         """Frames of `source` may be lost (corrupted, garbled) from `from_s` until `until_s`:
         what they carry may reach the controller that much later, or never."""
         if source is ControlMode.RC:
+            # Implausible frames not yet sent when the corruption began may never be seen.
+            if self.owed_to_switch.get("rc_implausible", -1.0) >= from_s:
+                del self.owed_to_switch["rc_implausible"]
             if from_s > self.rc_blind_until:
                 self.rc_blind_from = from_s  # a new blind stretch, not a longer one
             self.rc_blind_until = max(self.rc_blind_until, until_s)
@@ -239,7 +260,13 @@ class HazardOracle:
         was = self.switch
         self.switch, self.switch_at = mode, now
         self.left_at[was] = now  # via STOP too: a glimpse of STOP may have gone unseen
+        if was is ControlMode.STOP:
+            # Held at STOP, the switch cleared whatever was over (leaning to allowing: even a
+            # glimpse); what is still in force stays latched, and `_owed` finds it by its start.
+            self.owed_to_switch.clear()
         if mode is ControlMode.STOP:
+            if self.tripped_at is not None:  # the gate opens once the STOP is acknowledged
+                self.dac_writes_from = now + self.timing.settle_s
             if self.pending_arm is not None:  # cut short: it may have armed meanwhile
                 self._arm_now(now, self.pending_arm[1])
                 self.pending_arm = None
@@ -301,9 +328,34 @@ class HazardOracle:
         return deadline is not None and now < deadline and self.stopped_by <= CAN_ONLY
 
     def re_enable(self, now: float) -> None:
-        """A CAN re-enable request (a 0→1 change) was sent."""
-        if self.switch is ControlMode.CAN:
+        """A CAN re-enable request (a 0→1 change) was sent: it arms only if nothing that the
+        switch alone may clear is latched."""
+        if self.switch is ControlMode.CAN and not self._owed(now):
             self._arm_now(now, ControlMode.CAN)
+
+    def _latched_from(self, kind: str) -> float | None:
+        """From when the fault `kind`, if it lasts, has latched its cause whatever the
+        controller's timing (None: not one that only the switch clears, or never for sure)."""
+        if kind not in SWITCH_ONLY or kind not in self.began:
+            return None
+        began_s = self.began[kind][0]
+        if kind == "dac_fail":  # counted only while the loop's writes reach the DAC
+            return max(began_s, self.dac_writes_from) + DAC_LATCH_S
+        if kind == "rc_failsafe":  # carried by frames: none while lost, late while corrupted
+            if "rc_link_lost" in self.faults:
+                return None
+            began_s = max(began_s, self.rc_blind_until)
+        return began_s + self.timing.deadline_s(kind)
+
+    def _owed(self, now: float) -> set[str]:
+        """What only the switch may clear now: latched for sure since the switch's last visit
+        to STOP, whether over or still in force."""
+        owed = {kind for kind, since_s in self.owed_to_switch.items() if since_s < now}
+        for kind in self.faults:
+            latched_s = self._latched_from(kind)
+            if latched_s is not None and latched_s < now:
+                owed.add(kind)
+        return owed
 
     def stall(self, started_s: float, trips_at_s: float) -> None:
         """A write hangs from `started_s` past the watchdog's limit: it trips at `trips_at_s`.
@@ -312,6 +364,8 @@ class HazardOracle:
         if self.switch is not ControlMode.STOP:
             self.tripped_at = trips_at_s
             self.held_pulse_s = None
+            self.owed_to_switch["watchdog"] = trips_at_s
+            self.dac_writes_from = float("inf")  # the gate refuses them until STOP
         self.stop_event("watchdog", started_s)
 
     # --- what the hardware shows -----------------------------------------------------------------
