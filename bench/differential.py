@@ -35,8 +35,8 @@ from bywire.config import RobotConfig, default_sim_config
 from bywire.hal.sim.can_bus import LoggedFrame
 from bywire.sim.campaign import Campaign, compile_steps
 from bywire.sim.catalog import packaged_scenarios
+from bywire.sim.draw import draw_campaign
 from bywire.sim.runner import SimRun
-from bywire.sim.verify import draw_campaign
 
 DIGESTS = Path(__file__).with_name("differential.json")
 CAMPAIGN_SEED = 12

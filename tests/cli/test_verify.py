@@ -37,7 +37,10 @@ def test_the_default_budget_on_the_default_robot_is_clean(
     transitions = summary["transitions"]
     assert isinstance(transitions, dict)
     assert transitions["of"] == len(TRANSITIONS)
-    assert transitions["exercised"] >= 0.7 * len(TRANSITIONS)
+    # Every row of the transition table, the clearing ones included: those need a fault to end
+    # and the right source to re-arm, which the campaigns' episodes provide (sim/draw.py).
+    assert transitions["exercised"] == len(TRANSITIONS)
+    assert transitions["never"] == []
 
 
 def test_the_same_seed_gives_the_same_run_on_any_number_of_processes(
@@ -79,7 +82,7 @@ def test_a_failure_is_shrunk_and_written_as_a_scenario_sim_replays(
 ) -> None:
     OLD_BUGS["row_3_a_refused_arming_is_remembered"](monkeypatch)
     status, summary = _verify(
-        capsys, "--budget", "10", "--jobs", "1", "--seed", "0", "--out", str(tmp_path)
+        capsys, "--budget", "12", "--jobs", "1", "--seed", "0", "--out", str(tmp_path)
     )
     assert status == 1
     failures = summary["failures"]

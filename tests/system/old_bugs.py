@@ -21,6 +21,12 @@ from bywire.runtime import actuators, readers, write_gate
 OldBug = Callable[[pytest.MonkeyPatch], None]
 
 
+def row_23_a_can_re_enable_clears_every_cause(monkeypatch: pytest.MonkeyPatch) -> None:
+    # Issue 10 row 1: the computer's re-enable cleared what only the operator may (a lost RC
+    # link, failing DAC writes, a watchdog trip), and the robot drove on.
+    monkeypatch.setattr(supervisor, "CAN_CLEARABLE", frozenset(supervisor.Cause))
+
+
 def row_3_a_refused_arming_is_remembered(monkeypatch: pytest.MonkeyPatch) -> None:
     original = supervisor._from_stop
 
@@ -77,6 +83,7 @@ def row_12_a_leaky_counter_half_an_impostor_balances(monkeypatch: pytest.MonkeyP
 OLD_BUGS: dict[str, OldBug] = {
     bug.__name__: bug
     for bug in (
+        row_23_a_can_re_enable_clears_every_cause,
         row_3_a_refused_arming_is_remembered,
         row_4_a_handover_without_the_throttle_gate,
         row_6_no_debounce,

@@ -32,9 +32,9 @@ from bywire.cli.arguments import positive_seconds, whole_number
 from bywire.config import RobotConfig, default_sim_config, load_config
 from bywire.config.hazards import UnsafeCombination, unsafe_combinations
 from bywire.control.supervisor_check import TRANSITIONS
+from bywire.sim.draw import CAMPAIGN_S
 from bywire.sim.scenario import scenario_toml
 from bywire.sim.verify import (
-    CAMPAIGN_S,
     INVARIANTS,
     CampaignJob,
     Outcome,

@@ -3,28 +3,22 @@ the hazard oracle; a failing one shrunk to a short scenario that replays the fai
 
 Campaign `index` of seed `seed` is drawn from its own random source (`draw_campaign`), so a run
 is the same for a given seed and budget however many processes share it, and any one campaign
-can be drawn again alone. A campaign starts armed and driving (by RC or by CAN), then goes on
-at random over every action of `campaign.VOCABULARY` until `campaign_s` of simulated time.
+can be drawn again alone (`sim/draw.py` says how campaigns are drawn).
 """
 
 from __future__ import annotations
 
 import multiprocessing
-import random
 import time
 from collections.abc import Callable, Iterator
 from dataclasses import dataclass, field, replace
 from typing import Any
 
 from bywire.config import RobotConfig, default_sim_config
-from bywire.model import ControlMode
-from bywire.sim.campaign import OPERATOR, TAIL_S, VOCABULARY, Campaign, Step, compile_steps
+from bywire.sim.campaign import TAIL_S, VOCABULARY, Campaign, Step, compile_steps
+from bywire.sim.draw import draw_campaign
 from bywire.sim.scenario import Expectation, Scenario
 
-CAMPAIGN_S = 10.0
-DELAY_S = (0.005, 0.6)  # the wait before each step, drawn uniformly, to the millisecond
-WEIGHTS = {action: 4.0 if action in OPERATOR else 1.0 for action in VOCABULARY}
-WEIGHTS.update(ebrake=0.25, encoder=0.25)  # lasting faults: rarer, or the robot stays stopped
 SHRINK_RUNS = 300  # at most this many campaigns to shrink one failure
 INVARIANTS = ("H1", "H2", "H3", "H4")
 # What the hardware should have shown where each invariant broke: the expectation of the
@@ -57,24 +51,6 @@ class Outcome:
     checks: int
     findings: list[Finding]
     transitions: set[str]
-
-
-def draw_campaign(seed: int, index: int, campaign_s: float = CAMPAIGN_S) -> list[Step]:
-    """Campaign `index` of `seed`: armed and driving first, then random steps to `campaign_s`."""
-    rng = random.Random(f"bywire-verify:{seed}:{index}")
-    mode = rng.choice([ControlMode.RC, ControlMode.CAN])
-    throttle = rng.choice([0.0, 0.3, 0.6, 0.6])
-    source = "rc_throttle" if mode is ControlMode.RC else "can_throttle"
-    steps = [Step(0.2, "arm", mode), Step(0.15, source, throttle)]
-    actions, weights = list(WEIGHTS), list(WEIGHTS.values())
-    at_s = sum(step.delay_s for step in steps)
-    while True:
-        delay_s = round(rng.uniform(*DELAY_S), 3)
-        if at_s + delay_s > campaign_s - TAIL_S:
-            return steps
-        at_s += delay_s
-        action = rng.choices(actions, weights)[0]
-        steps.append(Step(delay_s, action, rng.choice(VOCABULARY[action])))
 
 
 def run_campaign(robot: RobotConfig, steps: list[Step], index: int = 0) -> Outcome:

@@ -1,0 +1,119 @@
+"""Drawing `bywire verify`'s campaigns: random steps, and the episodes an operator makes of them.
+
+Campaign `index` of seed `seed` is drawn from its own random source, so a run is the same for a
+given seed and budget however many processes share it, and any one campaign can be drawn again
+alone. A campaign starts armed and driving (by RC or by CAN), then goes on at random over every
+action of `campaign.VOCABULARY` until `campaign_s` of simulated time.
+
+Pure chance rarely strings together what happens on purpose, and the rules that are easiest to
+get wrong sit exactly there: clearing a latched cause. So some steps bring a follow-up, each
+with `FOLLOW_UP_CHANCE`, after a wait of `FOLLOW_UP_DELAY_S`:
+
+- a fault that begins (`ENDINGS`) may end a while later, as a cable is plugged back in;
+- a fault that ends may be followed by a re-arming: at CAN by the computer's re-enable (its
+  throttle at zero first) or by the switch through STOP, at RC by the switch (`RE_ARM`);
+- a brake or servo that breaks may meet a request that needs it (`DEMANDS`).
+
+A follow-up is a step like any other: it may bring its own, and the shrinker drops it alone.
+"""
+
+from __future__ import annotations
+
+import random
+from typing import cast
+
+from bywire.model import ControlMode
+from bywire.sim.campaign import OPERATOR, TAIL_S, VOCABULARY, Step
+
+RC, CAN, STOP = ControlMode.RC, ControlMode.CAN, ControlMode.STOP
+CAMPAIGN_S = 10.0
+DELAY_S = (0.005, 0.6)  # the wait before each step, drawn uniformly, to the millisecond
+WEIGHTS = {action: 4.0 if action in OPERATOR else 1.0 for action in VOCABULARY}
+WEIGHTS.update(ebrake=0.25, encoder=0.25)  # lasting faults: rarer, or the robot stays stopped
+FOLLOW_UP_CHANCE = 0.5
+FOLLOW_UP_DELAY_S = (0.05, 1.2)
+
+Episode = tuple[Step, ...]
+"""Steps in order, each `delay_s` after the one before (the first's is drawn instead)."""
+
+ENDINGS: dict[tuple[str, object], Step] = {
+    ("rc_link", False): Step(0.0, "rc_link", True),
+    ("rc_failsafe", True): Step(0.0, "rc_failsafe", False),
+    ("can_link", False): Step(0.0, "can_link", True),
+    ("can_cable", False): Step(0.0, "can_cable", True),
+    ("remote_stop", True): Step(0.0, "remote_stop", False),
+    ("dac", "fail"): Step(0.0, "dac", "restore"),
+    ("dac", "alternate"): Step(0.0, "dac", "restore"),
+    ("wheel_sensor", False): Step(0.0, "wheel_sensor", True),
+    ("hydrobrake", False): Step(0.0, "hydrobrake", True),
+    ("servo", False): Step(0.0, "servo", True),
+}
+"""A fault's beginning, and the step that ends it."""
+RE_ENABLE: Episode = (Step(0.0, "can_throttle", 0.0), Step(0.05, "re_enable"))
+RE_ARM: dict[ControlMode, tuple[Episode, ...]] = {
+    CAN: (RE_ENABLE, RE_ENABLE, (Step(0.0, "arm", CAN),)),
+    RC: ((Step(0.0, "arm", RC),),),
+}
+"""How the source the switch is at may be armed again once a fault is over."""
+DEMANDS: dict[tuple[str, object], dict[ControlMode, Episode]] = {
+    ("hydrobrake", False): {
+        CAN: (Step(0.0, "can_brake", 1.0),),
+        RC: (Step(0.0, "rc_throttle", -1.0),),
+    },
+    ("servo", False): {
+        CAN: (Step(0.0, "can_steer", 0.5),),
+        RC: (Step(0.0, "rc_steer", 0.5),),
+    },
+}
+"""What the source the switch is at asks of an actuator that just broke."""
+ENDED = frozenset((step.action, step.value) for step in ENDINGS.values())
+
+
+def switch_after(switch: ControlMode, step: Step) -> ControlMode:
+    """Where the mode switch is after `step`, as the campaign compiler moves it."""
+    if step.action in {"arm", "switch"}:
+        return cast(ControlMode, step.value)
+    if step.action == "handover":
+        return CAN if switch is RC else RC
+    return switch
+
+
+def follow_ups(switch: ControlMode, step: Step) -> list[Episode]:
+    """The episodes that may follow `step` on purpose, the switch at `switch` after it."""
+    key = (step.action, step.value)
+    episodes: list[Episode] = []
+    if key in DEMANDS and switch in DEMANDS[key]:
+        episodes.append(DEMANDS[key][switch])
+    if key in ENDINGS:
+        episodes.append((ENDINGS[key],))
+    if key in ENDED:
+        episodes.extend(RE_ARM.get(switch, ()))
+    return episodes
+
+
+def draw_campaign(seed: int, index: int, campaign_s: float = CAMPAIGN_S) -> list[Step]:
+    """Campaign `index` of `seed`: armed and driving first, then random steps to `campaign_s`."""
+    rng = random.Random(f"bywire-verify:{seed}:{index}")
+    mode = rng.choice([RC, CAN])
+    throttle = rng.choice([0.0, 0.3, 0.6, 0.6])
+    source = "rc_throttle" if mode is RC else "can_throttle"
+    steps = [Step(0.2, "arm", mode), Step(0.15, source, throttle)]
+    actions, weights = list(WEIGHTS), list(WEIGHTS.values())
+    at_s, switch = sum(step.delay_s for step in steps), mode
+    upcoming: list[Step] = []
+    while True:
+        if upcoming:
+            step = upcoming.pop(0)
+        else:
+            action = rng.choices(actions, weights)[0]
+            step = Step(round(rng.uniform(*DELAY_S), 3), action, rng.choice(VOCABULARY[action]))
+        if at_s + step.delay_s > campaign_s - TAIL_S:
+            return steps
+        at_s = round(at_s + step.delay_s, 3)
+        steps.append(step)
+        switch = switch_after(switch, step)
+        episodes = follow_ups(switch, step)
+        if episodes and rng.random() < FOLLOW_UP_CHANCE:
+            first, *rest = rng.choice(episodes)
+            wait_s = round(rng.uniform(*FOLLOW_UP_DELAY_S), 3)
+            upcoming[:0] = [Step(wait_s, first.action, first.value), *rest]

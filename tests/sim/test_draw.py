@@ -1,0 +1,87 @@
+"""How `bywire verify` draws its campaigns: the same for a seed and index, over the whole
+vocabulary, and with the episodes an operator makes on purpose (a fault that ends, a re-arming
+after it, a request that needs what just broke)."""
+
+from __future__ import annotations
+
+from itertools import pairwise
+
+from bywire.model import ControlMode
+from bywire.sim.campaign import VOCABULARY, Step
+from bywire.sim.draw import (
+    DEMANDS,
+    ENDINGS,
+    RE_ENABLE,
+    draw_campaign,
+    follow_ups,
+    switch_after,
+)
+
+RC, CAN, STOP = ControlMode.RC, ControlMode.CAN, ControlMode.STOP
+CAMPAIGNS = [draw_campaign(0, index) for index in range(300)]
+
+
+def test_a_campaign_is_drawn_the_same_for_its_seed_and_index() -> None:
+    assert draw_campaign(3, 7) == draw_campaign(3, 7)
+    assert draw_campaign(3, 7) != draw_campaign(3, 8)
+    assert draw_campaign(3, 7) != draw_campaign(4, 7)
+
+
+def test_campaigns_last_their_length_and_start_armed_and_driving() -> None:
+    steps = draw_campaign(0, 0, campaign_s=10.0)
+    assert steps[0].action == "arm"
+    assert steps[1].action in {"rc_throttle", "can_throttle"}
+    assert 9.0 < sum(step.delay_s for step in steps) <= 9.5
+
+
+def test_campaigns_draw_every_action_and_value_of_the_vocabulary() -> None:
+    drawn = [step for steps in CAMPAIGNS for step in steps[2:]]
+    assert {step.action for step in drawn} == set(VOCABULARY)
+    for action, values in VOCABULARY.items():
+        seen = {step.value for step in drawn if step.action == action}
+        assert seen <= set(values)
+        if not isinstance(values, range):
+            assert seen == set(values), action
+
+
+def test_the_switch_is_followed_through_arming_switching_and_handovers() -> None:
+    assert switch_after(RC, Step(0.1, "arm", CAN)) is CAN
+    assert switch_after(CAN, Step(0.1, "switch", STOP)) is STOP
+    assert switch_after(RC, Step(0.1, "handover", 0.2)) is CAN
+    assert switch_after(CAN, Step(0.1, "handover", 0.2)) is RC
+    assert switch_after(STOP, Step(0.1, "handover", 0.2)) is RC  # the compiler goes to RC
+    assert switch_after(CAN, Step(0.1, "flick", 0.05)) is CAN  # through STOP and back
+    assert switch_after(CAN, Step(0.1, "rc_link", False)) is CAN
+
+
+def test_a_fault_may_end_and_its_end_may_be_followed_by_a_re_arming_by_the_right_source() -> None:
+    assert follow_ups(CAN, Step(0.1, "rc_link", False)) == [(ENDINGS[("rc_link", False)],)]
+    at_can = follow_ups(CAN, Step(0.1, "rc_link", True))
+    assert RE_ENABLE in at_can
+    assert (Step(0.0, "arm", CAN),) in at_can
+    assert follow_ups(RC, Step(0.1, "rc_link", True)) == [(Step(0.0, "arm", RC),)]
+    assert follow_ups(STOP, Step(0.1, "rc_link", True)) == []  # at STOP: the operator's move
+    assert follow_ups(RC, Step(0.1, "rc_throttle", 0.3)) == []
+
+
+def test_a_broken_actuator_meets_a_request_from_the_source_in_command() -> None:
+    assert follow_ups(CAN, Step(0.1, "hydrobrake", False))[0] == DEMANDS[("hydrobrake", False)][CAN]
+    assert follow_ups(RC, Step(0.1, "servo", False))[0] == (Step(0.0, "rc_steer", 0.5),)
+
+
+def _pairs(first: tuple[str, object], then: tuple[str, object]) -> int:
+    """Campaigns in which `then` comes straight after `first`."""
+    return sum(
+        any(
+            (a.action, a.value) == first and (b.action, b.value) == then for a, b in pairwise(steps)
+        )
+        for steps in CAMPAIGNS
+    )
+
+
+def test_campaigns_string_faults_endings_and_re_enables_together() -> None:
+    # Drawn independently, an ending would follow its own fault straight away in about one
+    # campaign of a hundred (a weight of 1 in about 50 for each step).
+    assert _pairs(("rc_link", False), ("rc_link", True)) >= 30
+    assert _pairs(("dac", "fail"), ("dac", "restore")) >= 10
+    assert _pairs(("can_throttle", 0.0), ("re_enable", None)) >= 30
