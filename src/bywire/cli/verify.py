@@ -3,9 +3,11 @@
 Random fault campaigns (every action and fault the scenarios know: sticks, switches and their
 chatter, RC loss, failsafe, implausible and garbled frames, CAN silence, corruption, a second
 sender, a pulled cable and a flooded bus, remote stops and re-enables, DAC NAKs and stalls inside
-a write, dead sensors, failing brakes and steering) run on the simulated robot built from the
-configuration, in virtual time, on every core. After every pass of the control loop the hazard
-oracle checks the output invariants H1–H4 of docs/SAFETY.md on the simulated hardware.
+a write, dead sensors, failing brakes and steering), partly strung into episodes (a fault that
+ends, then a re-arming; a broken brake or servo, then a request that needs it), run on the
+simulated robot built from the configuration, in virtual time, on every core. After every pass
+of the control loop the hazard oracle checks the output invariants H1–H4 of docs/SAFETY.md on
+the simulated hardware.
 
 A violation is shrunk to a short scenario written to --out; `bywire sim --scenario FILE` replays
 it and fails. Exit status: 0 clean, 1 a violation or an unsafe combination of numbers, 2 a bad
