@@ -10,13 +10,16 @@ from __future__ import annotations
 
 import textwrap
 
+import pytest
+
 from bywire.config import default_sim_config
 from bywire.hal.sim.clock import VirtualClock
 from bywire.hal.sim.world import SimWorld
 from bywire.model import ControlMode
-from bywire.sim.campaign import Campaign
+from bywire.sim.campaign import Campaign, Step
 from bywire.sim.oracle import HazardOracle
 from bywire.sim.scenario import parse_scenario
+from bywire.sim.verify import run_campaign
 
 RC, CAN = ControlMode.RC, ControlMode.CAN
 
@@ -39,7 +42,7 @@ def _violations(events: str, duration_s: float) -> list[str]:
 def _oracle() -> HazardOracle:
     robot = default_sim_config()
     world = SimWorld.from_robot(VirtualClock(), robot)
-    return HazardOracle(world, robot.drive.dac.throttle_channel)
+    return HazardOracle(world, robot.drive.dac.throttle_channel, robot.drive.dac.regen_channel)
 
 
 # --- H2: the switch's move travels in IBUS frames that corruption may delay ---------------------
@@ -95,7 +98,7 @@ def test_h1_still_flags_rc_driving_after_a_can_stop_the_controller_must_have_tak
     deadline_s = oracle.drive_allowed_until
     assert deadline_s is not None
     oracle.set_switch(RC, deadline_s + 0.001)  # too late: the controller had stopped by then
-    oracle._h1(deadline_s + 0.1, True, True, True, 0.0)
+    oracle._h1(deadline_s + 0.1, True, True, 0.0)
     assert [v.invariant for v in oracle.violations] == ["H1"]
 
 
@@ -105,7 +108,7 @@ def test_h1_still_flags_a_handover_that_an_rc_bound_stop_forbids() -> None:
     oracle.fault("can_impostor", True, 1.0)
     oracle.fault("dac_fail", True, 1.01)  # stops every source, not only CAN
     oracle.set_switch(RC, 1.02)
-    oracle._h1(1.5, True, True, True, 0.0)
+    oracle._h1(1.5, True, True, 0.0)
     assert [v.invariant for v in oracle.violations] == ["H1"]
 
 
@@ -133,7 +136,7 @@ def _driving_after_a_stop(back_s: float) -> list[str]:
     oracle.set_switch(ControlMode.STOP, 1.03)
     oracle.set_switch(CAN, back_s)
     oracle._resolve_arming(1.5)  # the debounce is over: back at CAN with the throttle pushed
-    oracle._h1(1.5, True, True, True, 1.0)
+    oracle._h1(1.5, True, True, 1.0)
     return [v.invariant for v in oracle.violations]
 
 
@@ -177,6 +180,46 @@ def test_h2_still_flags_a_handover_to_rc_after_can_had_settled() -> None:
     assert [v.invariant for v in oracle.violations] == ["H2"]
 
 
+def test_a_handover_the_lost_link_never_showed_leaves_rc_driving_until_its_timeout() -> None:
+    # verify seed 0, campaign 549: RC drives at 0.3, the switch moves to CAN (asking 0.2) and
+    # the link dies 15 ms later, before the debounce's frames: the controller rightly stays RC.
+    steps = [
+        Step(6.6, "arm", RC),
+        Step(0.6, "rc_throttle", 0.3),
+        Step(0.44, "handover", 0.2),
+        Step(0.06, "rc_link", False),
+    ]
+    outcome = run_campaign(default_sim_config(), steps)
+    assert outcome.checks > 0
+    assert outcome.findings == []
+
+
+def _moved_to_can_at_speed() -> HazardOracle:
+    oracle = _oracle()
+    oracle.set_throttle(CAN, 0.2, 0.9)
+    oracle.set_switch(CAN, 1.0)
+    return oracle
+
+
+def test_h2_judges_a_move_the_lost_link_hid_once_the_link_is_back() -> None:
+    oracle = _moved_to_can_at_speed()
+    oracle.fault("rc_link_lost", True, 1.01)
+    oracle._h2(1.3, 1.0)
+    oracle.fault("rc_link_lost", False, 1.5)
+    settled_s = 1.5 + oracle.timing.settle_s
+    oracle._h2(settled_s - 0.001, 1.0)
+    assert oracle.violations == []
+    oracle._h2(settled_s + 0.001, 1.0)
+    assert [v.invariant for v in oracle.violations] == ["H2"]
+
+
+def test_h2_judges_a_move_the_frames_showed_before_the_link_was_lost() -> None:
+    oracle = _moved_to_can_at_speed()
+    oracle.fault("rc_link_lost", True, 1.0 + oracle.timing.settle_s + 0.001)
+    oracle._h2(1.0 + oracle.timing.settle_s + 0.002, 1.0)
+    assert [v.invariant for v in oracle.violations] == ["H2"]
+
+
 # --- H1: a CAN re-enable re-arms only what CAN may clear (S8) -----------------------------------
 
 
@@ -191,7 +234,7 @@ def _stopped_by(kind: str, began_s: float, ended_s: float) -> HazardOracle:
 
 def _drives_after_re_enable(oracle: HazardOracle, at_s: float) -> list[str]:
     oracle.re_enable(at_s)
-    oracle._h1(at_s + 0.2, True, True, True, 0.0)
+    oracle._h1(at_s + 0.2, True, True, 0.0)
     return [v.invariant for v in oracle.violations]
 
 
@@ -258,3 +301,50 @@ def test_failsafe_frames_sent_while_the_link_was_lost_are_not_held_against_a_re_
     oracle.fault("rc_failsafe", True, 1.01)
     assert "rc_failsafe" not in oracle._owed(1.5)
     assert "rc_link_lost" in oracle._owed(1.5)
+
+
+# --- H5: STOP brakes with the hydraulic brake and holds the steering ---------------------------
+
+
+def _in_stop(steering_pulse_s: float = 0.0015, duty: float = 1.0) -> HazardOracle:
+    """At power-up (the drive must be cut), the brake and the steering as given."""
+    oracle = _oracle()
+    pwm = oracle.world.pwm
+    pwm.hydrobrake.set_pulse(duty * pwm.hydrobrake.period_s)
+    pwm.steering.set_pulse(steering_pulse_s)
+    return oracle
+
+
+def test_h5_flags_a_stop_without_the_hydraulic_brake_at_full_duty() -> None:
+    oracle = _in_stop(duty=0.5)
+    oracle.observe(0.01)
+    assert [(v.invariant, v.expected) for v in oracle.violations] == [
+        ("H5", {"hydrobrake_duty_min": 1.0})
+    ]
+
+
+def test_h5_flags_a_steering_pulse_that_moves_in_stop_and_names_where_it_was_held() -> None:
+    oracle = _in_stop(steering_pulse_s=0.0017)
+    oracle.observe(0.01)
+    assert oracle.violations == []
+    oracle.world.pwm.steering.set_pulse(0.0016)
+    oracle.observe(0.02)
+    assert [v.invariant for v in oracle.violations] == ["H5"]
+    assert oracle.violations[0].expected["steering_pulse_ms"] == pytest.approx(1.7)
+
+
+def test_h5_holds_the_steering_from_when_the_drive_must_be_cut_not_from_the_stop() -> None:
+    # Armed, the steering turns; a remote stop: until its deadline the controller may still
+    # steer, then the pulse must stay where it was at the deadline.
+    oracle = _in_stop()
+    oracle._arm_now(1.0, CAN)
+    oracle.world.pwm.steering.set_pulse(0.0017)
+    oracle.observe(1.5)
+    oracle.stop_event("remote_stop", 2.0)
+    oracle.world.pwm.steering.set_pulse(0.0018)
+    oracle.observe(2.01)  # before the deadline: the controller may not have acted yet
+    oracle.observe(2.5)
+    assert oracle.violations == []
+    oracle.world.pwm.steering.set_pulse(0.0015)
+    oracle.observe(2.6)
+    assert [v.invariant for v in oracle.violations] == ["H5"]

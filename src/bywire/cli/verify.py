@@ -6,7 +6,7 @@ sender, a pulled cable and a flooded bus, remote stops and re-enables, DAC NAKs 
 a write, dead sensors, failing brakes and steering), partly strung into episodes (a fault that
 ends, then a re-arming; a broken brake or servo, then a request that needs it), run on the
 simulated robot built from the configuration, in virtual time, on every core. After every pass
-of the control loop the hazard oracle checks the output invariants H1–H4 of docs/SAFETY.md on
+of the control loop the hazard oracle checks the output invariants H1–H6 of docs/SAFETY.md on
 the simulated hardware.
 
 A violation is shrunk to a short scenario written to --out; `bywire sim --scenario FILE` replays
@@ -35,9 +35,9 @@ from bywire.config import RobotConfig, default_sim_config, load_config
 from bywire.config.hazards import UnsafeCombination, unsafe_combinations
 from bywire.control.supervisor_check import TRANSITIONS
 from bywire.sim.draw import CAMPAIGN_S
+from bywire.sim.oracle import INVARIANTS
 from bywire.sim.scenario import scenario_toml
 from bywire.sim.verify import (
-    INVARIANTS,
     CampaignJob,
     Outcome,
     Reproduction,

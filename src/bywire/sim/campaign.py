@@ -423,7 +423,8 @@ class Campaign:
             prepare(run)
         clock = cast(VirtualClock, run.world.clock)
         timing = OracleTiming.for_robot(self.robot)
-        oracle = HazardOracle(run.world, self.robot.drive.dac.throttle_channel, timing=timing)
+        dac = self.robot.drive.dac
+        oracle = HazardOracle(run.world, dac.throttle_channel, dac.regen_channel, timing=timing)
         run.on_event.append(OracleWitness(oracle, clock))
         log = TransitionLog(run)
         run.runtime.on_cycle.append(oracle.observe)

@@ -43,6 +43,7 @@ LAMPS = tuple(_lamp(name, light) for name, light in LIGHT_LINES if not light.bli
 
 VOLTS = number(0.0, 5.5, "V")
 SPEED = number(-30.0, 30.0, "m/s")
+PULSE_MS = number(0.0, 20.0, "ms")
 
 # fmt: off
 CONDITIONS: tuple[Condition, ...] = (
@@ -65,6 +66,8 @@ CONDITIONS: tuple[Condition, ...] = (
     *LAMPS,
     Condition("hydrobrake_duty_min", "hydraulic brake PWM duty at least this", UNIT,
               lambda o, wanted: o.hydrobrake_duty >= float(wanted)),
+    Condition("steering_pulse_ms", "steering servo pulse is this (ms, to the microsecond)",
+              PULSE_MS, lambda o, wanted: abs(o.steering_pulse_s * 1000 - float(wanted)) < 1e-3),
 )
 # fmt: on
 BY_KEY: dict[str, Condition] = {condition.key: condition for condition in CONDITIONS}

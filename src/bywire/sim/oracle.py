@@ -13,12 +13,20 @@ and the vehicle's true speed) and checks the output invariants of `docs/SAFETY.m
   the switch is at CAN. A re-enable re-arms only what CAN may clear (S8): after a stop that only
   the switch acknowledges (a lost or implausible RC link, failing DAC writes, a watchdog trip),
   it does not count until the switch has been to STOP.
-- H2 **bumpless handover.** Once the switch has settled on a source, throttle volts above zero
-  mean that source has been seen at zero throttle since the switch moved to it.
+- H2 **bumpless handover.** Once the switch has settled on a source (its debounce's frames
+  arrived), throttle volts above zero mean that source has been seen at zero throttle since the
+  switch moved to it.
 - H3 **a watchdog trip is final.** After a trip, until the switch is put to STOP, the enable line
   stays low, the e-brake engaged, the throttle at 0 V and the steering pulse where it was.
 - H4 **direction against motion.** With a working speed sensor, the motors are never driven with
   throttle against the direction the robot really moves faster than the standstill threshold.
+- H5 **STOP is the whole STOP.** Whenever H1 wants the drive cut, the hydraulic brake is at full
+  duty and the steering pulse stays where it was when that began (centring at speed is a swerve).
+- H6 **brake beats throttle.** With the motors enabled, throttle volts above zero never come with
+  a brake: regenerative volts or hydraulic duty above zero.
+
+Each violation carries what the hardware should have shown (`Violation.expected`, conditions of
+a scenario's expectation), so `bywire verify` can write it as a scenario that fails there.
 
 Where the controller's timing makes the expected level uncertain (a debounce in progress, a
 fault just injected) the oracle leans towards allowing: it must never flag a correct robot.
@@ -27,6 +35,7 @@ fault just injected) the oracle leans towards allowing: it must never flag a cor
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from typing import Any
 
 from bywire.config.consistency import CONTROL_TASKS
 from bywire.config.model import RobotConfig
@@ -130,13 +139,28 @@ DAC_LATCH_S = 0.200
 leaky count after eight writes, 80 ms at 100 Hz; the rest is margin."""
 
 
+INVARIANTS = ("H1", "H2", "H3", "H4", "H5", "H6")
+SAFE_LEVELS: dict[str, dict[str, Any]] = {
+    "H1": {"motors_enabled": False, "ebrake_engaged": True},
+    "H2": {"throttle_volts_max": 0.0},
+    "H3": {"motors_enabled": False, "ebrake_engaged": True, "throttle_volts_max": 0.0},
+    "H4": {"throttle_volts_max": 0.0},
+    "H5": {"hydrobrake_duty_min": 1.0},
+    "H6": {"throttle_volts_max": 0.0},
+}
+"""What the hardware should show where each invariant broke (a held steering pulse is added
+where that is what broke): the conditions of a scenario's expectation."""
+FULL_DUTY = 1.0
+
+
 @dataclass(slots=True)
 class Violation:
-    """One broken invariant: which, when, and what the hardware showed."""
+    """One broken invariant: which, when, what the hardware showed and should have shown."""
 
     invariant: str
     time_s: float
     detail: str
+    expected: dict[str, Any] = field(default_factory=dict)
 
 
 # How long a source's old value may still be what the controller sees after it changed: one
@@ -153,15 +177,17 @@ class _Source:
 
 @dataclass(slots=True)
 class HazardOracle:
-    """Told every action; `observe` after every pass checks H1-H4 on the world's hardware."""
+    """Told every action; `observe` after every pass checks H1-H6 on the world's hardware."""
 
     world: SimWorld
     throttle_channel: int = 0
+    regen_channel: int = 1
     timing: OracleTiming = field(default_factory=OracleTiming)
     violations: list[Violation] = field(default_factory=list)
     checks: int = 0
     switch: ControlMode = ControlMode.STOP
     switch_at: float = 0.0
+    switch_shown_s: float = 0.0  # from when frames may show the switch's position (`_h2`)
     armed_ok: bool = False
     drive_allowed_until: float | None = None
     stopped_by: set[str] = field(default_factory=set)  # what set `drive_allowed_until`
@@ -172,7 +198,8 @@ class HazardOracle:
     )
     pending_arm: tuple[float, ControlMode] | None = None
     tripped_at: float | None = None
-    held_pulse_s: float | None = None
+    held_pulse_s: float | None = None  # the steering pulse a watchdog trip holds (H3)
+    stop_pulse_s: float | None = None  # the steering pulse STOP holds (H5)
     sensor_dead: bool = False
     armed_before_stop: bool = False
     source_before_stop: ControlMode = ControlMode.STOP
@@ -216,6 +243,8 @@ class HazardOracle:
         if active == (kind in self.faults):
             return
         self.fault_changed_at = now
+        if kind == "rc_link_lost":
+            self._link_hides_switch(active, now)
         if active:
             self.faults.add(kind)
             self.began[kind] = (now, self.armed_ok)
@@ -236,6 +265,14 @@ class HazardOracle:
         began_s, armed_before = self.began.pop(kind, (now, False))
         if armed_before and now - began_s < self.timing.unnoticed_s(kind):
             self.armed_ok, self.drive_allowed_until = True, None  # it may have passed unseen
+
+    def _link_hides_switch(self, lost: bool, now: float) -> None:
+        """A link lost before the debounce's frames showed the switch's last move hides the
+        move until the link is back (the controller rightly stays where it was)."""
+        if lost and now < self.switch_shown_s + self.timing.settle_s:
+            self.switch_shown_s = float("inf")
+        elif not lost and self.switch_shown_s == float("inf"):
+            self.switch_shown_s = now
 
     def blind(self, source: ControlMode, from_s: float, until_s: float) -> None:
         """Frames of `source` may be lost (corrupted, garbled) from `from_s` until `until_s`:
@@ -259,6 +296,7 @@ class HazardOracle:
         held_s = now - self.switch_at
         was = self.switch
         self.switch, self.switch_at = mode, now
+        self.switch_shown_s = float("inf") if "rc_link_lost" in self.faults else now
         self.left_at[was] = now  # via STOP too: a glimpse of STOP may have gone unseen
         if was is ControlMode.STOP:
             # Held at STOP, the switch cleared whatever was over (leaning to allowing: even a
@@ -378,12 +416,12 @@ class HazardOracle:
         enable = world.gpio["motors_enable"].level
         released = world.gpio["ebrake_release"].level
         volts = world.dac.volts(self.throttle_channel)
-        # A failed DAC may hold its last voltage: the enable line is what stops the motors.
-        driving = enable or released
-        self._h1(now, driving, enable, released, volts)
+        allowed = self._h1(now, enable, released, volts)
         self._h2(now, volts if enable else 0.0)
         self._h3(now, enable, released, volts)
         self._h4(now, enable, volts)
+        self._h5(now, allowed)
+        self._h6(now, enable, volts)
 
     def _resolve_arming(self, now: float) -> None:
         if self.pending_arm is None or now < self.pending_arm[0] + self.timing.settle_s:
@@ -401,25 +439,38 @@ class HazardOracle:
         if not (blocking and settled):
             self.armed_ok, self.drive_allowed_until = True, None
 
-    def _flag(self, invariant: str, now: float, detail: str) -> None:
-        self.violations.append(Violation(invariant, now, detail))
+    def _flag(self, invariant: str, now: float, detail: str, **expected: float) -> None:
+        wanted = {**SAFE_LEVELS[invariant], **expected}
+        self.violations.append(Violation(invariant, now, detail, wanted))
 
-    def _h1(self, now: float, driving: bool, enable: bool, released: bool, volts: float) -> None:
+    def _drive_allowed(self, now: float) -> bool:
+        """H1: may the drive outputs drive now? Armed, a debounce in progress that may arm, or
+        a stop whose deadline has not passed."""
         deadline = self.drive_allowed_until
-        allowed = (
+        return (
             self.armed_ok
-            or self.pending_arm is not None  # a debounce in progress may arm
+            or self.pending_arm is not None
             or (deadline is not None and now < deadline)
         )
-        if driving and not allowed:
-            self._flag(
-                "H1", now, f"enable={enable} ebrake_release={released} throttle={volts:.2f} V"
-            )
+
+    def _h1(self, now: float, enable: bool, released: bool, volts: float) -> bool:
+        """Flags driving that is not allowed; returns whether it is."""
+        allowed = self._drive_allowed(now)
+        # A failed DAC may hold its last voltage: the enable line is what stops the motors.
+        if (enable or released) and not allowed:
+            detail = f"enable={enable} ebrake_release={released} throttle={volts:.2f} V"
+            self._flag("H1", now, detail)
+        return allowed
+
+    def _dac_unsure(self, now: float) -> bool:
+        """A DAC whose writes fail may hold an old voltage until a period after they work."""
+        rewrite_s = self.dac_back_at + 2 * self.timing.control_period_s
+        return "dac_fail" in self.faults or now <= rewrite_s
 
     def _h2(self, now: float, volts: float) -> None:
         mode = self.switch
-        # The switch's position travels in the IBUS frames: corrupted ones delay it.
-        settled_s = max(self.switch_at, self.rc_blind_until) + self.timing.settle_s
+        # The switch's position travels in the IBUS frames: corrupted or lost ones delay it.
+        settled_s = max(self.switch_shown_s, self.rc_blind_until) + self.timing.settle_s
         if volts <= 0.0 or mode is ControlMode.STOP or now < settled_s:
             return
         if not self.sources[mode].seen_zero:
@@ -431,15 +482,14 @@ class HazardOracle:
         pulse = self.world.pwm.steering.pulse_s
         if self.held_pulse_s is None:
             self.held_pulse_s = pulse
-        # A DAC that failed may still hold its old voltage until the next period rewrites it.
-        rewrite_s = self.dac_back_at + 2 * self.timing.control_period_s
-        stuck_dac = "dac_fail" in self.faults or now <= rewrite_s
+        stuck_dac = self._dac_unsure(now)
         if enable or released or (volts > 0.0 and not stuck_dac) or pulse != self.held_pulse_s:
             self._flag(
                 "H3",
                 now,
                 f"after the trip: enable={enable} ebrake_release={released} "
                 f"throttle={volts:.2f} V pulse={pulse * 1000:.3f} ms",
+                steering_pulse_ms=self.held_pulse_s * 1000,
             )
 
     def _h4(self, now: float, enable: bool, volts: float) -> None:
@@ -451,3 +501,30 @@ class HazardOracle:
         if (reverse and speed > standstill) or (forward and speed < -standstill):
             direction = "reverse" if reverse else "forward"
             self._flag("H4", now, f"driven {direction} at {speed:.2f} m/s")
+
+    def _h5(self, now: float, allowed: bool) -> None:
+        if allowed:
+            self.stop_pulse_s = None
+            return
+        duty, pulse = self.world.pwm.hydrobrake.duty, self.world.pwm.steering.pulse_s
+        if self.stop_pulse_s is None:
+            self.stop_pulse_s = pulse
+        if duty < FULL_DUTY:
+            self._flag("H5", now, f"in STOP: hydraulic brake at {duty:.2f} duty")
+        if pulse != self.stop_pulse_s:
+            held_ms = self.stop_pulse_s * 1000
+            self._flag(
+                "H5",
+                now,
+                f"in STOP: steering pulse {pulse * 1000:.3f} ms, held at {held_ms:.3f} ms",
+                steering_pulse_ms=held_ms,
+            )
+
+    def _h6(self, now: float, enable: bool, volts: float) -> None:
+        if not enable or volts <= 0.0 or self._dac_unsure(now):
+            return
+        regen = self.world.dac.volts(self.regen_channel)
+        duty = self.world.pwm.hydrobrake.duty
+        if regen > 0.0 or duty > 0.0:
+            detail = f"throttle {volts:.2f} V with regen {regen:.2f} V, hydraulic duty {duty:.2f}"
+            self._flag("H6", now, detail)

@@ -20,15 +20,6 @@ from bywire.sim.draw import draw_campaign
 from bywire.sim.scenario import Expectation, Scenario
 
 SHRINK_RUNS = 300  # at most this many campaigns to shrink one failure
-INVARIANTS = ("H1", "H2", "H3", "H4")
-# What the hardware should have shown where each invariant broke: the expectation of the
-# scenario a failure is written as (it fails when replayed, at the instant the oracle flagged).
-SAFE_LEVELS: dict[str, dict[str, Any]] = {
-    "H1": {"motors_enabled": False, "ebrake_engaged": True},
-    "H2": {"throttle_volts_max": 0.0},
-    "H3": {"motors_enabled": False, "ebrake_engaged": True, "throttle_volts_max": 0.0},
-    "H4": {"throttle_volts_max": 0.0},
-}
 
 
 @dataclass(frozen=True, slots=True)
@@ -38,6 +29,7 @@ class Finding:
     invariant: str
     time_s: float
     detail: str
+    expected: dict[str, Any]  # what the hardware should have shown (expectation conditions)
 
 
 @dataclass(slots=True)
@@ -57,7 +49,7 @@ def run_campaign(robot: RobotConfig, steps: list[Step], index: int = 0) -> Outco
     """Play `steps` on `robot` with the oracle watching every pass."""
     result = Campaign(robot).run(steps)
     oracle = result.oracle
-    findings = [Finding(v.invariant, v.time_s, v.detail) for v in oracle.violations]
+    findings = [Finding(v.invariant, v.time_s, v.detail, v.expected) for v in oracle.violations]
     return Outcome(
         index,
         steps,
@@ -245,9 +237,7 @@ def reproduction(
     for, at the instant the oracle found them broken (so replaying it fails there)."""
     compiled = compile_steps(steps, robot, name=name)
     label = f"{finding.invariant} at {finding.time_s:.4f} s: {finding.detail}"
-    expectation = Expectation(
-        conditions=dict(SAFE_LEVELS[finding.invariant]), at_s=finding.time_s, label=label
-    )
+    expectation = Expectation(conditions=dict(finding.expected), at_s=finding.time_s, label=label)
     description = (
         f"found by bywire verify: {finding.invariant} broken ({finding.detail}); {len(steps)} steps"
     )
