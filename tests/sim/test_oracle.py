@@ -348,3 +348,10 @@ def test_h5_holds_the_steering_from_when_the_drive_must_be_cut_not_from_the_stop
     oracle.world.pwm.steering.set_pulse(0.0015)
     oracle.observe(2.6)
     assert [v.invariant for v in oracle.violations] == ["H5"]
+
+
+def test_driving_on_in_stop_is_h1_alone_not_h5_as_well() -> None:
+    oracle = _in_stop(duty=0.0)
+    oracle.world.gpio["motors_enable"].set(True)
+    oracle.observe(0.01)
+    assert [v.invariant for v in oracle.violations] == ["H1"]

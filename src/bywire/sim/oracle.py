@@ -20,8 +20,9 @@ and the vehicle's true speed) and checks the output invariants of `docs/SAFETY.m
   stays low, the e-brake engaged, the throttle at 0 V and the steering pulse where it was.
 - H4 **direction against motion.** With a working speed sensor, the motors are never driven with
   throttle against the direction the robot really moves faster than the standstill threshold.
-- H5 **STOP is the whole STOP.** Whenever H1 wants the drive cut, the hydraulic brake is at full
-  duty and the steering pulse stays where it was when that began (centring at speed is a swerve).
+- H5 **STOP is the whole STOP.** Whenever H1 wants the drive cut (and it is), the hydraulic brake
+  is at full duty and the steering pulse stays where it was when that began (centring at speed
+  is a swerve).
 - H6 **brake beats throttle.** With the motors enabled, throttle volts above zero never come with
   a brake: regenerative volts or hydraulic duty above zero.
 
@@ -420,7 +421,7 @@ class HazardOracle:
         self._h2(now, volts if enable else 0.0)
         self._h3(now, enable, released, volts)
         self._h4(now, enable, volts)
-        self._h5(now, allowed)
+        self._h5(now, allowed or enable or released)
         self._h6(now, enable, volts)
 
     def _resolve_arming(self, now: float) -> None:
@@ -502,8 +503,9 @@ class HazardOracle:
             direction = "reverse" if reverse else "forward"
             self._flag("H4", now, f"driven {direction} at {speed:.2f} m/s")
 
-    def _h5(self, now: float, allowed: bool) -> None:
-        if allowed:
+    def _h5(self, now: float, driving: bool) -> None:
+        """Judged once the drive must be cut and is (driving on is H1's)."""
+        if driving:
             self.stop_pulse_s = None
             return
         duty, pulse = self.world.pwm.hydrobrake.duty, self.world.pwm.steering.pulse_s
