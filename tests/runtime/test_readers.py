@@ -13,7 +13,7 @@ from bywire.hal.ports import CanFrame
 from bywire.hal.sim.can_bus import SimCanBus
 from bywire.hal.sim.clock import VirtualClock
 from bywire.hal.sim.uart import SimUart
-from bywire.model import ControlCommand, Gear, LightsCommand, MovementCommand
+from bywire.model import ControlCommand, ControlMode, Gear, LightsCommand, MovementCommand
 from bywire.protocol import dbc, ibus
 from bywire.runtime.readers import (
     COUNTER_MISS_LIMIT,
@@ -279,6 +279,26 @@ def test_one_failsafe_frame_anywhere_in_a_batch_makes_the_batch_suspect() -> Non
     stamped = rx.reader.poll(rx.clock.now())
     assert stamped is not None
     assert stamped.value is None
+
+
+def test_one_frame_at_stop_anywhere_in_a_batch_means_stop() -> None:
+    # The loop held up by a hanging write reads a bouncing switch's frames at once: STOP, then
+    # RC again. A move to STOP acts on one frame, so the batch reads STOP (with its sticks).
+    at_stop = ibus.encode_frame((*CHANNELS[:6], 1000, *CHANNELS[7:]))
+    rx = Receiver()
+    rx.uart.transmit(FRAME + at_stop + FRAME)
+    rx.clock.advance(0.05)
+    stamped = rx.reader.poll(rx.clock.now())
+    assert stamped is not None
+    assert stamped.value is not None
+    assert stamped.value.mode is ControlMode.STOP
+    assert stamped.value.steering_norm == pytest.approx(0.5)
+    rx.uart.transmit(FRAME)
+    rx.clock.advance(0.01)
+    alone = rx.reader.poll(rx.clock.now())
+    assert alone is not None
+    assert alone.value is not None
+    assert alone.value.mode is ControlMode.RC
 
 
 def test_checksum_faults_are_counted_per_bad_frame_and_stamped_with_the_poll_time() -> None:

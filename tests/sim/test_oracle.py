@@ -355,3 +355,28 @@ def test_driving_on_in_stop_is_h1_alone_not_h5_as_well() -> None:
     oracle.world.gpio["motors_enable"].set(True)
     oracle.observe(0.01)
     assert [v.invariant for v in oracle.violations] == ["H1"]
+
+
+# --- a write that hangs the loop, short of a watchdog trip ---------------------------------------
+
+
+def test_a_stop_that_comes_while_a_write_hangs_is_judged_after_the_loop_runs_again() -> None:
+    oracle = _oracle()
+    _armed_in_can(oracle)
+    oracle.hang(1.0, 1.06)
+    oracle.stop_event("remote_stop", 1.01)
+    after_s = 1.06 + 2 * oracle.timing.control_period_s
+    assert 1.01 + oracle.timing.deadline_s("remote_stop") < after_s
+    oracle._h1(after_s - 0.001, True, True, 0.0)
+    assert oracle.violations == []
+    oracle._h1(after_s + 0.001, True, True, 0.0)
+    assert [v.invariant for v in oracle.violations] == ["H1"]
+
+
+def test_a_stop_whose_deadline_had_passed_before_the_hang_is_not_extended() -> None:
+    oracle = _oracle()
+    _armed_in_can(oracle)
+    oracle.stop_event("remote_stop", 1.0)
+    oracle.hang(1.2, 1.25)
+    oracle._h1(1.21, True, True, 0.0)
+    assert [v.invariant for v in oracle.violations] == ["H1"]

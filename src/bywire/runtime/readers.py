@@ -9,13 +9,14 @@ from __future__ import annotations
 
 from collections import Counter, deque
 from collections.abc import Sequence
+from dataclasses import replace
 
 from bywire.config import TimeoutsSection
 from bywire.control.command_edges import NO_EDGES, CommandEdges, command_edges
 from bywire.control.rc_mapping import RcMapping, RcRequest, rc_request
 from bywire.control.validity import Stamped
 from bywire.hal.ports import ByteStream, CanFrame, CanPort
-from bywire.model import Command, ControlCommand
+from bywire.model import Command, ControlCommand, ControlMode
 from bywire.protocol import dbc
 from bywire.protocol.ibus import IbusParser
 from bywire.runtime.recent_fault import RecentFault
@@ -53,10 +54,21 @@ class IbusReader:
             return None
         self.last_channels = frames[-1]
         requests = [rc_request(channels, self._mapping) for channels in frames]
-        # One implausible frame in the batch makes the input suspect at once (R-FAILSAFE).
         arrived_at = self.parser.last_frame_at
-        value = None if None in requests else requests[-1]
-        return Stamped(value, now if arrived_at is None else arrived_at)
+        return Stamped(_batch_request(requests), now if arrived_at is None else arrived_at)
+
+
+def _batch_request(requests: Sequence[RcRequest | None]) -> RcRequest | None:
+    """The newest request of the frames one poll read, judged by the worst of them: one
+    implausible frame makes the input suspect at once (R-FAILSAFE), and one frame at STOP
+    means STOP (a move to STOP acts on one frame, even when the loop was held up and read
+    several at once)."""
+    newest = requests[-1]
+    if newest is None or None in requests:
+        return None
+    if any(request is not None and request.mode is ControlMode.STOP for request in requests):
+        return replace(newest, mode=ControlMode.STOP)
+    return newest
 
 
 def arrival(frame: CanFrame, now: float) -> float:

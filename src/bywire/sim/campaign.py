@@ -386,6 +386,8 @@ class OracleWitness:
             # The next DAC write (within one control period) hangs; the watchdog's poll trips.
             trips_s = now + timing.control_period_s + timing.watchdog_s + 2 * WATCHDOG_POLL_S
             self.oracle.stall(now, trips_s)
+        else:  # the next DAC write (within one control period) hangs, short of a trip
+            self.oracle.hang(now, now + timing.control_period_s + stall_s)
 
 
 # --- running a campaign ------------------------------------------------------------------------

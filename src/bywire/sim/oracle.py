@@ -214,6 +214,7 @@ class HazardOracle:
     # What only the switch may clear, and from when it is latched for sure (`_owed`).
     owed_to_switch: dict[str, float] = field(default_factory=dict)
     dac_writes_from: float = -1.0  # the loop writes the DAC (no watchdog trip holds the gate)
+    hung_until: float = -1.0  # a write hangs the loop (short of a trip) until then (`hang`)
 
     # --- what was done ----------------------------------------------------------------------------
 
@@ -228,6 +229,7 @@ class HazardOracle:
         # Frames being corrupted may hide the event until they are over.
         blind_until = self.rc_blind_until if kind in RC_BORNE else now
         deadline = max(now, blind_until) + self.timing.deadline_s(kind)
+        deadline = max(deadline, self._after_hang_s(now))
         if kind in RC_BORNE:
             self.rc_borne_at = now
         if self.armed_ok:
@@ -396,6 +398,21 @@ class HazardOracle:
                 owed.add(kind)
         return owed
 
+    def hang(self, from_s: float, until_s: float) -> None:
+        """The loop's next write after `from_s` hangs until `until_s`, too short to trip the
+        watchdog: whatever the loop had still to act on waits until it runs again."""
+        self.hung_until = max(self.hung_until, until_s)
+        deadline = self.drive_allowed_until
+        if deadline is not None and deadline > from_s:
+            self.drive_allowed_until = max(deadline, self._after_hang_s(from_s))
+
+    def _after_hang_s(self, now: float) -> float:
+        """When a loop hung at `now` has read its inputs and written again: the rest of the
+        hung pass, then one more."""
+        if now > self.hung_until:
+            return now
+        return self.hung_until + 2 * self.timing.control_period_s
+
     def stall(self, started_s: float, trips_at_s: float) -> None:
         """A write hangs from `started_s` past the watchdog's limit: it trips at `trips_at_s`.
         With the switch already at STOP the trip is acknowledged as it happens (S2): H3 has
@@ -471,7 +488,8 @@ class HazardOracle:
     def _h2(self, now: float, volts: float) -> None:
         mode = self.switch
         # The switch's position travels in the IBUS frames: corrupted or lost ones delay it.
-        settled_s = max(self.switch_shown_s, self.rc_blind_until) + self.timing.settle_s
+        shown_s = max(self.switch_shown_s, self.rc_blind_until)
+        settled_s = max(shown_s + self.timing.settle_s, self._after_hang_s(shown_s))
         if volts <= 0.0 or mode is ControlMode.STOP or now < settled_s:
             return
         if not self.sources[mode].seen_zero:
