@@ -83,7 +83,7 @@ def test_a_failure_is_shrunk_and_written_as_a_scenario_sim_replays(
 ) -> None:
     OLD_BUGS["row_3_a_refused_arming_is_remembered"](monkeypatch)
     status, summary = _verify(
-        capsys, "--budget", "12", "--jobs", "1", "--seed", "0", "--out", str(tmp_path)
+        capsys, "--budget", "4", "--jobs", "1", "--seed", "0", "--out", str(tmp_path)
     )
     assert status == 1
     failures = summary["failures"]

@@ -1,17 +1,19 @@
 """How `bywire verify` draws its campaigns: the same for a seed and index, over the whole
 vocabulary, and with the episodes an operator makes on purpose (a fault that ends, a re-arming
-after it, a request that needs what just broke)."""
+after it, a request that needs what just broke, a brake, a reversal or a stop in motion)."""
 
 from __future__ import annotations
 
 from itertools import pairwise
 
-from bywire.model import ControlMode
+from bywire.model import ControlMode, Gear
 from bywire.sim.campaign import VOCABULARY, Step
 from bywire.sim.draw import (
+    BRAKE_ON_THROTTLE,
     DEMANDS,
     ENDINGS,
     RE_ENABLE,
+    REVERSE_ROLLING,
     draw_campaign,
     follow_ups,
     switch_after,
@@ -64,6 +66,31 @@ def test_a_fault_may_end_and_its_end_may_be_followed_by_a_re_arming_by_the_right
     assert follow_ups(RC, Step(0.1, "rc_throttle", 0.3)) == []
 
 
+def test_in_motion_the_source_in_command_may_brake_reverse_or_stop() -> None:
+    assert follow_ups(CAN, Step(0.1, "can_throttle", 0.6)) == [
+        BRAKE_ON_THROTTLE,
+        REVERSE_ROLLING[CAN],
+    ]
+    assert follow_ups(RC, Step(0.1, "rc_throttle", 0.8)) == [REVERSE_ROLLING[RC]]
+    assert follow_ups(RC, Step(0.1, "rc_steer", 0.5)) == [(Step(0.0, "switch", STOP),)]
+    assert follow_ups(CAN, Step(0.1, "can_steer", -0.5)) == [(Step(0.0, "remote_stop", True),)]
+    assert follow_ups(RC, Step(0.1, "can_throttle", 0.6)) == []  # CAN is not in command
+
+
+def test_a_reversal_waits_for_speed_first() -> None:
+    # The episode's own first delay is the least wait: the robot has had a second of throttle.
+    let_go = [
+        b.delay_s
+        for steps in CAMPAIGNS
+        for a, b, c in zip(steps, steps[1:], steps[2:], strict=False)
+        if (a.action, a.value) == ("rc_throttle", 0.8)
+        and (b.action, b.value) == ("rc_throttle", 0.0)
+        and (c.action, c.value) == ("rc_gear", Gear.REVERSE)
+    ]
+    assert len(let_go) >= 5
+    assert min(let_go) >= 1.0
+
+
 def test_a_broken_actuator_meets_a_request_from_the_source_in_command() -> None:
     assert follow_ups(CAN, Step(0.1, "hydrobrake", False))[0] == DEMANDS[("hydrobrake", False)][CAN]
     assert follow_ups(RC, Step(0.1, "servo", False))[0] == (Step(0.0, "rc_steer", 0.5),)
@@ -85,3 +112,4 @@ def test_campaigns_string_faults_endings_and_re_enables_together() -> None:
     assert _pairs(("rc_link", False), ("rc_link", True)) >= 30
     assert _pairs(("dac", "fail"), ("dac", "restore")) >= 10
     assert _pairs(("can_throttle", 0.0), ("re_enable", None)) >= 30
+    assert _pairs(("can_throttle", 0.6), ("can_brake", 1.0)) >= 10

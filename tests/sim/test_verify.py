@@ -61,6 +61,10 @@ def _first_failure(limit: int = SEARCH_LIMIT) -> Outcome:
         "row_8_a_write_in_flight_lands_after_the_trip",
         "row_12_a_leaky_counter_half_an_impostor_balances",
         "row_23_a_can_re_enable_clears_every_cause",
+        "hazard_6_stop_spares_the_hydraulic_brake",
+        "hazard_19_the_interlock_takes_the_robot_for_standing",
+        "hazard_20_throttle_beats_brake",
+        "stop_centres_the_steering",
     ],
 )
 def test_a_reintroduced_bug_is_found_shrunk_and_replayed(

@@ -1,8 +1,10 @@
-"""Old behaviours of issue 10, each put back by monkeypatch: the checks must find every one.
+"""Old behaviours of issue 10, and STOP levels gone wrong, each put back by monkeypatch: the
+checks must find every one.
 
-Each function takes pytest's `monkeypatch` and re-introduces one safety bug that the hazard
-table (docs/SAFETY.md) names by its row; `bywire verify`'s tests (`tests/sim/test_verify.py`,
-`tests/cli/test_verify.py`) put each back and find it.
+Each function takes pytest's `monkeypatch` and re-introduces one safety bug. Those of issue 10
+are named by that issue's row (`row_…`), the others by the hazard table's row or the part of
+STOP they break (`hazard_…`, `stop_…`, docs/SAFETY.md); `bywire verify`'s tests
+(`tests/sim/test_verify.py`, `tests/cli/test_verify.py`) put each back and find it.
 """
 
 from __future__ import annotations
@@ -13,8 +15,12 @@ from typing import Any
 
 import pytest
 
-from bywire.control import controller, supervisor
-from bywire.control.supervisor import DRIVING_MODES, SupervisorState
+from bywire.control import controller, mux, supervisor
+from bywire.control.drive import drive_outputs
+from bywire.control.interlocks import interlock_step
+from bywire.control.mux import Movement
+from bywire.control.steering import steering_step
+from bywire.control.supervisor import DRIVING_MODES, SupervisorState, supervisor_step
 from bywire.model import ControlMode
 from bywire.runtime import actuators, readers, write_gate
 
@@ -80,6 +86,52 @@ def row_12_a_leaky_counter_half_an_impostor_balances(monkeypatch: pytest.MonkeyP
     monkeypatch.setattr(readers._CounterTrust, "record", leaky)
 
 
+def hazard_6_stop_spares_the_hydraulic_brake(monkeypatch: pytest.MonkeyPatch) -> None:
+    # "The spring brake holds in STOP, spare the pump": with the e-brake broken (hazard row 6)
+    # nothing stops a rolling robot.
+    monkeypatch.setattr(mux, "STOPPED", replace(mux.STOPPED, brake_norm=0.0))
+
+
+def hazard_20_throttle_beats_brake(monkeypatch: pytest.MonkeyPatch) -> None:
+    # Throttle and brake asked together both reach the motors (hazard row 20: brake beats it).
+    def interlock(state: Any, wanted: Movement, *rest: Any) -> Any:
+        after, movement, held = interlock_step(state, replace(wanted, brake_norm=0.0), *rest)
+        return after, replace(movement, brake_norm=wanted.brake_norm), held
+
+    def drive(movement: Movement, enabled: bool, config: Any) -> Any:
+        outputs = drive_outputs(movement, enabled, config)
+        unbraked = drive_outputs(replace(movement, brake_norm=0.0), enabled, config)
+        return replace(outputs, throttle_volts=unbraked.throttle_volts)
+
+    monkeypatch.setattr(controller, "interlock_step", interlock)
+    monkeypatch.setattr(controller, "drive_outputs", drive)
+
+
+def hazard_19_the_interlock_takes_the_robot_for_standing(monkeypatch: pytest.MonkeyPatch) -> None:
+    # The direction interlock's dwell runs on zero throttle alone, as if the wheels stood still:
+    # reverse engages while the robot still rolls forward (hazard row 19).
+    def standing(state: Any, wanted: Movement, speed_mps: float | None, *rest: Any) -> Any:
+        return interlock_step(state, wanted, 0.0, *rest)
+
+    monkeypatch.setattr(controller, "interlock_step", standing)
+
+
+def stop_centres_the_steering(monkeypatch: pytest.MonkeyPatch) -> None:
+    # In STOP the steering turns back to the centre: at speed, a swerve (STOP holds it).
+    mode = [ControlMode.STOP]
+
+    def watched(*args: Any) -> SupervisorState:
+        after = supervisor_step(*args)
+        mode[0] = after.mode
+        return after
+
+    def centring(state: Any, target_norm: float, *rest: Any) -> Any:
+        return steering_step(state, 0.0 if mode[0] is ControlMode.STOP else target_norm, *rest)
+
+    monkeypatch.setattr(controller, "supervisor_step", watched)
+    monkeypatch.setattr(controller, "steering_step", centring)
+
+
 OLD_BUGS: dict[str, OldBug] = {
     bug.__name__: bug
     for bug in (
@@ -90,5 +142,9 @@ OLD_BUGS: dict[str, OldBug] = {
         row_7_only_consecutive_dac_failures_count,
         row_8_a_write_in_flight_lands_after_the_trip,
         row_12_a_leaky_counter_half_an_impostor_balances,
+        hazard_6_stop_spares_the_hydraulic_brake,
+        hazard_19_the_interlock_takes_the_robot_for_standing,
+        hazard_20_throttle_beats_brake,
+        stop_centres_the_steering,
     )
 }

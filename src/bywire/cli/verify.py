@@ -4,7 +4,8 @@ Random fault campaigns (every action and fault the scenarios know: sticks, switc
 chatter, RC loss, failsafe, implausible and garbled frames, CAN silence, corruption, a second
 sender, a pulled cable and a flooded bus, remote stops and re-enables, DAC NAKs and stalls inside
 a write, dead sensors, failing brakes and steering), partly strung into episodes (a fault that
-ends, then a re-arming; a broken brake or servo, then a request that needs it), run on the
+ends, then a re-arming; a broken brake or servo, then a request that needs it; a brake asked
+with the throttle held, a reversal while rolling, a stop with the steering turned), run on the
 simulated robot built from the configuration, in virtual time, on every core. After every pass
 of the control loop the hazard oracle checks the output invariants H1–H6 of docs/SAFETY.md on
 the simulated hardware.

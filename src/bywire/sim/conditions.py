@@ -43,7 +43,7 @@ LAMPS = tuple(_lamp(name, light) for name, light in LIGHT_LINES if not light.bli
 
 VOLTS = number(0.0, 5.5, "V")
 SPEED = number(-30.0, 30.0, "m/s")
-PULSE_MS = number(0.0, 20.0, "ms")
+TIME = number(0.0, 1e6, "s")
 
 # fmt: off
 CONDITIONS: tuple[Condition, ...] = (
@@ -66,8 +66,8 @@ CONDITIONS: tuple[Condition, ...] = (
     *LAMPS,
     Condition("hydrobrake_duty_min", "hydraulic brake PWM duty at least this", UNIT,
               lambda o, wanted: o.hydrobrake_duty >= float(wanted)),
-    Condition("steering_pulse_ms", "steering servo pulse is this (ms, to the microsecond)",
-              PULSE_MS, lambda o, wanted: abs(o.steering_pulse_s * 1000 - float(wanted)) < 1e-3),
+    Condition("steering_held_since_s", "the steering pulse has not changed since this time (s)",
+              TIME, lambda o, wanted: o.steering_changed_at_s <= float(wanted)),
 )
 # fmt: on
 BY_KEY: dict[str, Condition] = {condition.key: condition for condition in CONDITIONS}

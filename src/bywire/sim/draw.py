@@ -12,7 +12,9 @@ with `FOLLOW_UP_CHANCE`, after a wait of `FOLLOW_UP_DELAY_S`:
 - a fault that begins (`ENDINGS`) may end a while later, as a cable is plugged back in;
 - a fault that ends may be followed by a re-arming: at CAN by the computer's re-enable (its
   throttle at zero first) or by the switch through STOP, at RC by the switch (`RE_ARM`);
-- a brake or servo that breaks may meet a request that needs it (`DEMANDS`).
+- a brake or servo that breaks may meet a request that needs it (`DEMANDS`);
+- a throttle or a turn may be met by a brake, a reversal or a stop while the robot moves
+  (`IN_MOTION`).
 
 A follow-up is a step like any other: it may bring its own, and the shrinker drops it alone.
 """
@@ -22,7 +24,7 @@ from __future__ import annotations
 import random
 from typing import cast
 
-from bywire.model import ControlMode
+from bywire.model import ControlMode, Gear
 from bywire.sim.campaign import OPERATOR, TAIL_S, VOCABULARY, Step
 
 RC, CAN, STOP = ControlMode.RC, ControlMode.CAN, ControlMode.STOP
@@ -34,7 +36,8 @@ FOLLOW_UP_CHANCE = 0.5
 FOLLOW_UP_DELAY_S = (0.05, 1.2)
 
 Episode = tuple[Step, ...]
-"""Steps in order, each `delay_s` after the one before (the first's is drawn instead)."""
+"""Steps in order, each `delay_s` after the one before (the first's wait is drawn and added to
+its `delay_s`, which is then the least wait)."""
 
 ENDINGS: dict[tuple[str, object], Step] = {
     ("rc_link", False): Step(0.0, "rc_link", True),
@@ -66,6 +69,29 @@ DEMANDS: dict[tuple[str, object], dict[ControlMode, Episode]] = {
     },
 }
 """What the source the switch is at asks of an actuator that just broke."""
+BRAKE_ON_THROTTLE: Episode = (Step(0.0, "can_brake", 1.0), Step(0.4, "can_brake", 0.0))
+REVERSE_ROLLING: dict[ControlMode, Episode] = {  # up to speed, let go; reverse past the dwell
+    RC: (
+        Step(1.0, "rc_throttle", 0.0),
+        Step(0.6, "rc_gear", Gear.REVERSE),
+        Step(0.05, "rc_throttle", 0.8),
+    ),
+    CAN: (
+        Step(1.0, "can_throttle", 0.0),
+        Step(0.6, "can_gear", Gear.REVERSE),
+        Step(0.05, "can_throttle", 0.6),
+    ),
+}
+IN_MOTION: dict[tuple[str, object], dict[ControlMode, tuple[Episode, ...]]] = {
+    **{("can_throttle", t): {CAN: (BRAKE_ON_THROTTLE, REVERSE_ROLLING[CAN])} for t in (0.2, 0.6)},
+    ("rc_throttle", 0.8): {RC: (REVERSE_ROLLING[RC],)},
+    **{("rc_steer", s): {RC: ((Step(0.0, "switch", STOP),),)} for s in (-0.6, 0.5)},
+    **{("can_steer", s): {CAN: ((Step(0.0, "remote_stop", True),),)} for s in (-0.5, 0.5)},
+}
+"""What may happen while the robot moves: the computer brakes without taking its throttle back
+(the brake must win); the source in command lets go and reverses while the robot still rolls
+(the interlock holds the gear until standstill); the operator or the computer stops it with the
+steering turned (STOP holds the steering where it is)."""
 ENDED = frozenset((step.action, step.value) for step in ENDINGS.values())
 
 
@@ -82,8 +108,9 @@ def follow_ups(switch: ControlMode, step: Step) -> list[Episode]:
     """The episodes that may follow `step` on purpose, the switch at `switch` after it."""
     key = (step.action, step.value)
     episodes: list[Episode] = []
-    if key in DEMANDS and switch in DEMANDS[key]:
+    if switch in DEMANDS.get(key, {}):
         episodes.append(DEMANDS[key][switch])
+    episodes.extend(IN_MOTION.get(key, {}).get(switch, ()))
     if key in ENDINGS:
         episodes.append((ENDINGS[key],))
     if key in ENDED:
@@ -115,5 +142,5 @@ def draw_campaign(seed: int, index: int, campaign_s: float = CAMPAIGN_S) -> list
         episodes = follow_ups(switch, step)
         if episodes and rng.random() < FOLLOW_UP_CHANCE:
             first, *rest = rng.choice(episodes)
-            wait_s = round(rng.uniform(*FOLLOW_UP_DELAY_S), 3)
+            wait_s = round(first.delay_s + rng.uniform(*FOLLOW_UP_DELAY_S), 3)
             upcoming[:0] = [Step(wait_s, first.action, first.value), *rest]

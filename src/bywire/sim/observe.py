@@ -26,6 +26,7 @@ class Observation:
     throttle_cmd_norm: float
     brake_cmd_norm: float
     steering_pulse_s: float
+    steering_changed_at_s: float  # when the steering pulse last changed (0: never set)
     throttle_volts: float
     regen_volts: float
     hydrobrake_duty: float
@@ -63,6 +64,7 @@ def observe(
         throttle_cmd_norm=outputs.movement.throttle_norm,
         brake_cmd_norm=outputs.movement.brake_norm,
         steering_pulse_s=world.pwm.steering.pulse_s,
+        steering_changed_at_s=_changed_at_s(world.pwm.steering.history),
         throttle_volts=world.dac.volts(throttle_channel),
         regen_volts=world.dac.volts(regen_channel),
         hydrobrake_duty=world.pwm.hydrobrake.duty,
@@ -74,3 +76,7 @@ def observe(
         lights=LightOutputs(**{name: gpio[light.line].level for name, light in LIGHT_LINES}),
         error_flags=outputs.error_flags,
     )
+
+
+def _changed_at_s(history: list[tuple[float, float]]) -> float:
+    return history[-1][0] if history else 0.0

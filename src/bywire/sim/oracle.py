@@ -149,8 +149,8 @@ SAFE_LEVELS: dict[str, dict[str, Any]] = {
     "H5": {"hydrobrake_duty_min": 1.0},
     "H6": {"throttle_volts_max": 0.0},
 }
-"""What the hardware should show where each invariant broke (a held steering pulse is added
-where that is what broke): the conditions of a scenario's expectation."""
+"""What the hardware should show where each invariant broke (a steering pulse held since the
+stop is added where that is what broke): the conditions of a scenario's expectation."""
 FULL_DUTY = 1.0
 
 
@@ -199,8 +199,10 @@ class HazardOracle:
     )
     pending_arm: tuple[float, ControlMode] | None = None
     tripped_at: float | None = None
-    held_pulse_s: float | None = None  # the steering pulse a watchdog trip holds (H3)
-    stop_pulse_s: float | None = None  # the steering pulse STOP holds (H5)
+    held_pulse_s: float | None = None  # the steering pulse a watchdog trip holds (H3)…
+    held_from_s: float = 0.0  # …from then
+    stop_pulse_s: float | None = None  # the steering pulse STOP holds (H5)…
+    stop_from_s: float = 0.0  # …from then
     sensor_dead: bool = False
     armed_before_stop: bool = False
     source_before_stop: ControlMode = ControlMode.STOP
@@ -500,7 +502,7 @@ class HazardOracle:
             return
         pulse = self.world.pwm.steering.pulse_s
         if self.held_pulse_s is None:
-            self.held_pulse_s = pulse
+            self.held_pulse_s, self.held_from_s = pulse, now
         stuck_dac = self._dac_unsure(now)
         if enable or released or (volts > 0.0 and not stuck_dac) or pulse != self.held_pulse_s:
             self._flag(
@@ -508,7 +510,7 @@ class HazardOracle:
                 now,
                 f"after the trip: enable={enable} ebrake_release={released} "
                 f"throttle={volts:.2f} V pulse={pulse * 1000:.3f} ms",
-                steering_pulse_ms=self.held_pulse_s * 1000,
+                steering_held_since_s=self.held_from_s,
             )
 
     def _h4(self, now: float, enable: bool, volts: float) -> None:
@@ -528,7 +530,7 @@ class HazardOracle:
             return
         duty, pulse = self.world.pwm.hydrobrake.duty, self.world.pwm.steering.pulse_s
         if self.stop_pulse_s is None:
-            self.stop_pulse_s = pulse
+            self.stop_pulse_s, self.stop_from_s = pulse, now
         if duty < FULL_DUTY:
             self._flag("H5", now, f"in STOP: hydraulic brake at {duty:.2f} duty")
         if pulse != self.stop_pulse_s:
@@ -537,7 +539,7 @@ class HazardOracle:
                 "H5",
                 now,
                 f"in STOP: steering pulse {pulse * 1000:.3f} ms, held at {held_ms:.3f} ms",
-                steering_pulse_ms=held_ms,
+                steering_held_since_s=self.stop_from_s,
             )
 
     def _h6(self, now: float, enable: bool, volts: float) -> None:
