@@ -9,11 +9,13 @@ flags the hazard once the uncertainty is over.
 from __future__ import annotations
 
 import textwrap
+from dataclasses import replace
 
 from bywire.config import default_sim_config
 from bywire.hal.sim.clock import VirtualClock
 from bywire.hal.sim.world import SimWorld
 from bywire.model import ControlMode
+from bywire.protocol import dac6574
 from bywire.sim.campaign import Campaign, Step
 from bywire.sim.oracle import HazardOracle
 from bywire.sim.scenario import parse_scenario
@@ -378,3 +380,91 @@ def test_a_stop_whose_deadline_had_passed_before_the_hang_is_not_extended() -> N
     oracle.hang(1.2, 1.25)
     oracle._h1(1.21, True, True, 0.0)
     assert [v.invariant for v in oracle.violations] == ["H1"]
+
+
+# --- H6: the brake beats the throttle ------------------------------------------------------------
+
+
+def _driving_with(oracle: HazardOracle, throttle_code: int, duty: float) -> None:
+    world = oracle.world
+    world.dac.write(dac6574.encode_write(oracle.throttle_channel, throttle_code))
+    world.pwm.hydrobrake.set_pulse(duty * world.pwm.hydrobrake.period_s)
+    world.gpio["motors_enable"].set(True)
+    world.gpio["ebrake_release"].set(True)
+
+
+def _h6_after(oracle: HazardOracle, *times_s: float) -> list[str]:
+    for now in times_s:
+        oracle._h6(now, True, oracle.world.dac.volts(oracle.throttle_channel))
+    return [v.invariant for v in oracle.violations]
+
+
+def test_h6_flags_throttle_with_the_brake_for_longer_than_a_control_period() -> None:
+    oracle = _oracle()
+    _driving_with(oracle, 128, 1.0)
+    period_s = oracle.timing.control_period_s
+    assert _h6_after(oracle, 1.0, 1.0 + period_s) == []  # one task a pass ahead of the other
+    assert _h6_after(oracle, 1.0 + period_s + 0.002) == ["H6"]
+
+
+def test_h6_leaves_a_dac_whose_writes_fail_to_the_enable_line() -> None:
+    oracle = _oracle()
+    _driving_with(oracle, 128, 1.0)
+    oracle.fault("dac_fail", True, 0.5)
+    assert _h6_after(oracle, 1.0, 1.1, 1.2) == []
+    assert _h6_after(oracle, 1.0, 1.1, 1.2) == []
+
+
+def test_h6_leaves_throttle_without_a_brake_alone() -> None:
+    oracle = _oracle()
+    _driving_with(oracle, 128, 0.0)
+    assert _h6_after(oracle, 1.0, 1.1, 1.2) == []
+
+
+# --- a robot file with other numbers -------------------------------------------------------------
+
+
+def test_with_a_boosted_steering_the_pulse_may_settle_in_stop_but_the_brake_is_judged() -> None:
+    # A boosted pulse overshoots the set-point while the servo catches up, then settles onto
+    # it: in STOP the set-point is held, and the pulse still moves.
+    robot = default_sim_config()
+    boosted = replace(
+        robot, steering=replace(robot.steering, servo=replace(robot.steering.servo, boost_gain=1.0))
+    )
+    steps = [
+        Step(0.2, "arm", RC),
+        Step(0.15, "rc_steer", 0.5),
+        Step(0.08, "switch", ControlMode.STOP),
+    ]
+    outcome = run_campaign(boosted, steps)
+    assert outcome.checks > 0
+    assert outcome.findings == []
+    oracle = _in_stop(steering_pulse_s=0.0017, duty=0.5)
+    oracle.timing = replace(oracle.timing, steering_boosted=True)
+    oracle.observe(0.01)
+    oracle.world.pwm.steering.set_pulse(0.0016)
+    oracle.observe(0.02)
+    assert [v.detail for v in oracle.violations] == ["in STOP: hydraulic brake at 0.50 duty"] * 2
+
+
+def test_a_brake_task_faster_than_the_driving_task_may_brake_a_pass_before_the_drive_is_cut() -> (
+    None
+):
+    # CAN goes silent while driving: the 200 Hz brake task applies STOP's full duty a pass
+    # before the 100 Hz driving task cuts the enable line and the throttle.
+    robot = default_sim_config()
+    rates = tuple(
+        (name, 200.0 if name == "hydrobrake" else hz) for name, hz in robot.tasks.rates_hz
+    )
+    faster = replace(robot, tasks=replace(robot.tasks, rates_hz=rates))
+    steps = [Step(0.2, "arm", CAN), Step(0.15, "can_throttle", 0.6), Step(1.53, "can_link", False)]
+    outcome = run_campaign(faster, steps)
+    assert outcome.checks > 0
+    assert outcome.findings == []
+
+
+def test_a_hang_long_after_the_switch_settled_does_not_pause_h2() -> None:
+    oracle = _moved_to_can_at_speed()  # CAN never seen at zero since the move at 1.0
+    oracle.hang(2.0, 2.06)
+    oracle._h2(2.05, 1.0)
+    assert [v.invariant for v in oracle.violations] == ["H2"]

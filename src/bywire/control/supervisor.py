@@ -99,10 +99,11 @@ class SupervisorInputs:
     """What the supervisor sees at one step, as levels and edges; no times.
 
     `conditions`: every cause whose condition holds now (for the CAN-bound ones: CAN movement
-    stale, a command id untrusted, a fresh remote stop request). `switch`: the mode switch in the
-    newest plausible RC frame (None while the link is lost or implausible); `rc_frame`: that frame
-    is new at this step. `*_throttle_zero`: the source's requested throttle is zero (False when the
-    source is missing). The two edges are pulses of a new ControlCommand frame.
+    stale, a command id untrusted, a fresh remote stop request). `switch`: the mode switch of the
+    RC frames read at this step (STOP if any of them was at STOP, else the newest's; None while the
+    link is lost or implausible); `rc_frame`: such frames are new at this step. `*_throttle_zero`:
+    the source's requested throttle is zero (False when the source is missing). The two edges are
+    pulses of a new ControlCommand frame.
     """
 
     conditions: frozenset[Cause] = frozenset()

@@ -39,7 +39,9 @@ class IbusReader:
         self.last_channels: tuple[int, ...] | None = None
 
     def poll(self, now: float) -> Stamped[RcRequest | None] | None:
-        """The request carried by the newest complete frame, or None if no frame completed."""
+        """The request of the frames completed since the last poll (`_batch_request`: the newest,
+        at STOP if any of them was, its value None if any was implausible), or None if no frame
+        completed."""
         data = self._stream.read_available()
         if not data:
             return None

@@ -22,9 +22,10 @@ and the vehicle's true speed) and checks the output invariants of `docs/SAFETY.m
   throttle against the direction the robot really moves faster than the standstill threshold.
 - H5 **STOP is the whole STOP.** Whenever H1 wants the drive cut (and it is), the hydraulic brake
   is at full duty and the steering pulse stays where it was when that began (centring at speed
-  is a swerve).
+  is a swerve; with a boosted steering, `boost_gain` > 0, the pulse settles onto the held
+  set-point, and only the brake is judged).
 - H6 **brake beats throttle.** With the motors enabled, throttle volts above zero never come with
-  a brake: regenerative volts or hydraulic duty above zero.
+  a brake (regenerative volts or hydraulic duty above zero) for longer than a control period.
 
 Each violation carries what the hardware should have shown (`Violation.expected`, conditions of
 a scenario's expectation), so `bywire verify` can write it as a scenario that fails there.
@@ -63,6 +64,7 @@ class OracleTiming:
     watchdog_s: float = 0.200
     control_period_s: float = 0.010
     standstill_mps: float = 0.05
+    steering_boosted: bool = False  # the pulse settles onto a held set-point (boost_gain > 0)
 
     @classmethod
     def for_robot(cls, robot: RobotConfig) -> OracleTiming:
@@ -75,6 +77,7 @@ class OracleTiming:
             watchdog_s=robot.timeouts.watchdog_s,
             control_period_s=1.0 / slowest_hz,
             standstill_mps=robot.interlocks.standstill_speed_mps,
+            steering_boosted=robot.steering.servo.boost_gain > 0.0,
         )
 
     @property
@@ -216,7 +219,9 @@ class HazardOracle:
     # What only the switch may clear, and from when it is latched for sure (`_owed`).
     owed_to_switch: dict[str, float] = field(default_factory=dict)
     dac_writes_from: float = -1.0  # the loop writes the DAC (no watchdog trip holds the gate)
-    hung_until: float = -1.0  # a write hangs the loop (short of a trip) until then (`hang`)
+    hung_from: float = -1.0  # a write hangs the loop (short of a trip) from then…
+    hung_until: float = -1.0  # …until then (`hang`)
+    brake_with_throttle_at: float | None = None  # since when H6's combination shows
 
     # --- what was done ----------------------------------------------------------------------------
 
@@ -231,7 +236,7 @@ class HazardOracle:
         # Frames being corrupted may hide the event until they are over.
         blind_until = self.rc_blind_until if kind in RC_BORNE else now
         deadline = max(now, blind_until) + self.timing.deadline_s(kind)
-        deadline = max(deadline, self._after_hang_s(now))
+        deadline = self._past_hang(now, deadline)
         if kind in RC_BORNE:
             self.rc_borne_at = now
         if self.armed_ok:
@@ -403,17 +408,17 @@ class HazardOracle:
     def hang(self, from_s: float, until_s: float) -> None:
         """The loop's next write after `from_s` hangs until `until_s`, too short to trip the
         watchdog: whatever the loop had still to act on waits until it runs again."""
-        self.hung_until = max(self.hung_until, until_s)
+        self.hung_from, self.hung_until = from_s, until_s
         deadline = self.drive_allowed_until
-        if deadline is not None and deadline > from_s:
-            self.drive_allowed_until = max(deadline, self._after_hang_s(from_s))
+        if deadline is not None:
+            self.drive_allowed_until = self._past_hang(-1.0, deadline)
 
-    def _after_hang_s(self, now: float) -> float:
-        """When a loop hung at `now` has read its inputs and written again: the rest of the
-        hung pass, then one more."""
-        if now > self.hung_until:
-            return now
-        return self.hung_until + 2 * self.timing.control_period_s
+    def _past_hang(self, from_s: float, until_s: float) -> float:
+        """`until_s`, the end of something the loop must do from `from_s`; if a hang overlaps
+        that, one pass after the hang instead (the rest of the hung pass, then one more)."""
+        if self.hung_from > until_s or self.hung_until < from_s:
+            return until_s
+        return max(until_s, self.hung_until + 2 * self.timing.control_period_s)
 
     def stall(self, started_s: float, trips_at_s: float) -> None:
         """A write hangs from `started_s` past the watchdog's limit: it trips at `trips_at_s`.
@@ -491,7 +496,7 @@ class HazardOracle:
         mode = self.switch
         # The switch's position travels in the IBUS frames: corrupted or lost ones delay it.
         shown_s = max(self.switch_shown_s, self.rc_blind_until)
-        settled_s = max(shown_s + self.timing.settle_s, self._after_hang_s(shown_s))
+        settled_s = self._past_hang(shown_s, shown_s + self.timing.settle_s)
         if volts <= 0.0 or mode is ControlMode.STOP or now < settled_s:
             return
         if not self.sources[mode].seen_zero:
@@ -504,7 +509,8 @@ class HazardOracle:
         if self.held_pulse_s is None:
             self.held_pulse_s, self.held_from_s = pulse, now
         stuck_dac = self._dac_unsure(now)
-        if enable or released or (volts > 0.0 and not stuck_dac) or pulse != self.held_pulse_s:
+        moved = pulse != self.held_pulse_s and not self.timing.steering_boosted
+        if enable or released or (volts > 0.0 and not stuck_dac) or moved:
             self._flag(
                 "H3",
                 now,
@@ -533,7 +539,7 @@ class HazardOracle:
             self.stop_pulse_s, self.stop_from_s = pulse, now
         if duty < FULL_DUTY:
             self._flag("H5", now, f"in STOP: hydraulic brake at {duty:.2f} duty")
-        if pulse != self.stop_pulse_s:
+        if pulse != self.stop_pulse_s and not self.timing.steering_boosted:
             held_ms = self.stop_pulse_s * 1000
             self._flag(
                 "H5",
@@ -543,10 +549,16 @@ class HazardOracle:
             )
 
     def _h6(self, now: float, enable: bool, volts: float) -> None:
-        if not enable or volts <= 0.0 or self._dac_unsure(now):
-            return
+        """Brake and throttle together for longer than a control period: the brake and the
+        drive may be written by tasks of their own, one a pass ahead of the other."""
         regen = self.world.dac.volts(self.regen_channel)
         duty = self.world.pwm.hydrobrake.duty
-        if regen > 0.0 or duty > 0.0:
+        together = enable and volts > 0.0 and (regen > 0.0 or duty > 0.0)
+        if not together or self._dac_unsure(now):
+            self.brake_with_throttle_at = None
+            return
+        if self.brake_with_throttle_at is None:
+            self.brake_with_throttle_at = now
+        if now - self.brake_with_throttle_at > self.timing.control_period_s + 0.001:
             detail = f"throttle {volts:.2f} V with regen {regen:.2f} V, hydraulic duty {duty:.2f}"
             self._flag("H6", now, detail)
