@@ -11,13 +11,15 @@ from __future__ import annotations
 import textwrap
 from dataclasses import replace
 
+import pytest
+
 from bywire.config import default_sim_config
 from bywire.hal.sim.clock import VirtualClock
 from bywire.hal.sim.world import SimWorld
 from bywire.model import ControlMode
 from bywire.protocol import dac6574
 from bywire.sim.campaign import Campaign, Step
-from bywire.sim.oracle import HazardOracle
+from bywire.sim.oracle import HazardOracle, OracleTiming
 from bywire.sim.scenario import parse_scenario
 from bywire.sim.verify import run_campaign
 
@@ -468,3 +470,19 @@ def test_a_hang_long_after_the_switch_settled_does_not_pause_h2() -> None:
     oracle.hang(2.0, 2.06)
     oracle._h2(2.05, 1.0)
     assert [v.invariant for v in oracle.violations] == ["H2"]
+
+
+def test_with_slower_control_tasks_failing_dac_writes_get_a_longer_deadline() -> None:
+    # At 50 Hz the three failed writes that stop the robot take 60 ms, not 30 ms.
+    robot = default_sim_config()
+    rates = tuple(
+        (name, 50.0 if name in ("steering", "driving", "hydrobrake") else hz)
+        for name, hz in robot.tasks.rates_hz
+    )
+    slower = replace(robot, tasks=replace(robot.tasks, rates_hz=rates))
+    timing = OracleTiming.for_robot(slower)
+    assert timing.deadline_s("dac_fail") == pytest.approx(2 * OracleTiming().deadline_s("dac_fail"))
+    # verify --config (50 Hz) seed 0, campaign 1, shrunk: H1 at the old 60 ms deadline.
+    outcome = run_campaign(slower, [Step(3.1, "arm", RC), Step(3.1, "dac", "alternate")])
+    assert outcome.checks > 0
+    assert outcome.findings == []

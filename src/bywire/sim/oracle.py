@@ -63,6 +63,7 @@ class OracleTiming:
     can_timeout_s: float = 0.100
     watchdog_s: float = 0.200
     control_period_s: float = 0.010
+    driving_period_s: float = 0.010  # the task that writes the DAC
     standstill_mps: float = 0.05
     steering_boosted: bool = False  # the pulse settles onto a held set-point (boost_gain > 0)
 
@@ -76,6 +77,7 @@ class OracleTiming:
             can_timeout_s=robot.timeouts.can_timeout_s(MovementCommand.__name__),
             watchdog_s=robot.timeouts.watchdog_s,
             control_period_s=1.0 / slowest_hz,
+            driving_period_s=1.0 / robot.tasks.rate_hz("driving"),
             standstill_mps=robot.interlocks.standstill_speed_mps,
             steering_boosted=robot.steering.servo.boost_gain > 0.0,
         )
@@ -109,7 +111,8 @@ class OracleTiming:
             "can_lost": self.can_timeout_s + 2 * CAN_PERIOD_S + period,
             "can_unplugged": self.can_timeout_s + 2 * CAN_PERIOD_S + period,
             "can_impostor": 0.200,  # its frames are judged over a window of 16 counters
-            "dac_fail": 0.060,  # the leaky failure count (three failed writes) and a period
+            # Three failed writes (the leaky count), a period to act, and two of margin.
+            "dac_fail": 6 * self.driving_period_s,
             "watchdog": self.watchdog_s + 3 * period,
         }[kind]
 
@@ -123,7 +126,7 @@ class OracleTiming:
             "can_lost": self.can_timeout_s + 0.025,
             "can_unplugged": self.can_timeout_s + 0.025,
             "can_impostor": 0.080,
-            "dac_fail": 0.030,
+            "dac_fail": 3 * self.driving_period_s,
         }.get(kind, 0.0)
 
 
@@ -138,9 +141,9 @@ SWITCH_ONLY = frozenset({"rc_link_lost", "rc_failsafe", "dac_fail"})
 implausible frames (`stop_event`) and the watchdog's trip (`HazardOracle.stall`) are such too.
 A second sender (CAN_UNTRUSTED) is one as well, but whether its frames were judged untrusted
 depends on how they interleaved, so the oracle does not hold a re-enable against it."""
-DAC_LATCH_S = 0.200
-"""A DAC failing this long has certainly latched DAC_FAULT: every other write failing trips the
-leaky count after eight writes, 80 ms at 100 Hz; the rest is margin."""
+DAC_LATCH_WRITES = 20
+"""A DAC failing for this many of the driving task's periods has certainly latched DAC_FAULT:
+every other write failing trips the leaky count after eight writes; the rest is margin."""
 
 
 INVARIANTS = ("H1", "H2", "H3", "H4", "H5", "H6")
@@ -388,7 +391,8 @@ class HazardOracle:
             return None
         began_s = self.began[kind][0]
         if kind == "dac_fail":  # counted only while the loop's writes reach the DAC
-            return max(began_s, self.dac_writes_from) + DAC_LATCH_S
+            latch_s = DAC_LATCH_WRITES * self.timing.driving_period_s
+            return max(began_s, self.dac_writes_from) + latch_s
         if kind == "rc_failsafe":  # carried by frames: none while lost, late while corrupted
             if "rc_link_lost" in self.faults:
                 return None
