@@ -174,7 +174,7 @@ class SimSection:
 
     seed: int = 0
     rc_frame_period_s: float = 0.0077
-    top_speed_mps: float = 5.5
+    top_speed_mps: float = 3.0
 
 
 @dataclass(frozen=True, slots=True)

@@ -2,8 +2,9 @@
 
 from __future__ import annotations
 
-from dataclasses import fields
+from dataclasses import fields, replace
 
+from bywire.config import default_sim_config
 from bywire.hal.hardware import DigitalOutputs, Hardware
 from bywire.hal.sim.clock import RealtimeClock, VirtualClock
 from bywire.hal.sim.world import SimWorld
@@ -124,3 +125,16 @@ def test_the_world_also_runs_on_the_realtime_clock() -> None:
     assert frames >= 5
     # paced by the wall clock: five frames cannot come sooner than four periods after the first
     assert clock.now() - start_s >= 4 * ibus.FRAME_PERIOD_S
+
+
+def test_the_sim_section_of_a_robot_file_sets_the_frame_period_and_the_top_speed() -> None:
+    # Both knobs were read from the file and never reached the simulator.
+    robot = default_sim_config()
+    robot = replace(robot, sim=replace(robot.sim, rc_frame_period_s=0.014, top_speed_mps=1.2))
+    clock = VirtualClock()
+    world = SimWorld.from_robot(clock, robot)
+    world.start(hlc=False, vehicle=False)
+    clock.advance(0.28)
+    frames = len(world.hardware.rc_uart.read_available()) // ibus.FRAME_LENGTH
+    assert 19 <= frames <= 21  # one every 14 ms, not every 7.7 ms (36)
+    assert world.vehicle.model.config.top_speed_mps == 1.2

@@ -31,7 +31,7 @@ from bywire.hal.sim.vehicle import (
     VehicleWiring,
 )
 from bywire.hal.sim.vehicle_model import VehicleConfig
-from bywire.protocol import dbc
+from bywire.protocol import dbc, ibus
 
 if TYPE_CHECKING:
     from bywire.config import RobotConfig
@@ -89,6 +89,7 @@ class SimWorld:
         hydrobrake_period_s: float = DEFAULT_HYDROBRAKE_PERIOD_S,
         seed: int = 0,
         rc_mapping: RcMapping | None = None,
+        rc_frame_period_s: float = ibus.FRAME_PERIOD_S,
         vehicle_config: VehicleConfig | None = None,
         bus_log_limit: int | None = 20_000,
     ) -> SimWorld:
@@ -109,7 +110,9 @@ class SimWorld:
         hlc = SimHigherLevelComputer(clock, bus.attach(HLC_NODE, accept_ids=dbc.report_ids()))
         impostor = SimImpostor(clock, bus.attach(IMPOSTOR_NODE, accept_ids=()), hlc)
         uart = SimUart(clock)
-        rc = SimRcTransmitter(clock, uart, mapping=rc_mapping, seed=seed)
+        rc = SimRcTransmitter(
+            clock, uart, period_s=rc_frame_period_s, mapping=rc_mapping, seed=seed
+        )
         dac = SimDac6574(clock)
         dac.on_stall = clock.advance  # the robot goes on while the controller hangs in a write
         pwm = SimPwm(
@@ -167,7 +170,7 @@ class SimWorld:
         cls, clock: WorldClock, robot: RobotConfig, *, bus_log_limit: int | None = 0
     ) -> SimWorld:
         """The simulated robot wired as a robot configuration says (DAC channels, brake PWM
-        period, RC mapping, seed)."""
+        period, RC mapping, and `[sim]`: seed, IBUS frame period, top speed)."""
         dac = robot.drive.dac
         return cls.create(
             clock,
@@ -176,6 +179,8 @@ class SimWorld:
             hydrobrake_period_s=1.0 / robot.hydrobrake.pwm.frequency_hz,
             seed=robot.sim.seed,
             rc_mapping=robot.rc.mapping,
+            rc_frame_period_s=robot.sim.rc_frame_period_s,
+            vehicle_config=VehicleConfig(top_speed_mps=robot.sim.top_speed_mps),
             bus_log_limit=bus_log_limit,
         )
 
