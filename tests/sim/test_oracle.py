@@ -486,3 +486,19 @@ def test_with_slower_control_tasks_failing_dac_writes_get_a_longer_deadline() ->
     outcome = run_campaign(slower, [Step(3.1, "arm", RC), Step(3.1, "dac", "alternate")])
     assert outcome.checks > 0
     assert outcome.findings == []
+
+
+def test_a_glimpse_away_from_stop_that_no_frame_showed_does_not_end_the_hold() -> None:
+    # verify --config (debounce 5, frames every 14 ms), seed 0, campaign 19: STOP held 60 ms,
+    # RC for no time at all, STOP 20 ms more, then RC. The controller saw one hold of 80 ms
+    # (five frames) and armed, rightly; the oracle counted 20 ms.
+    robot = default_sim_config()
+    robot = replace(
+        robot,
+        sim=replace(robot.sim, rc_frame_period_s=0.014),
+        supervisor=replace(robot.supervisor, debounce_frames=5),
+    )
+    outcome = run_campaign(robot, [Step(6.6, "arm", RC), Step(0.06, "flick", 0.02)])
+    assert outcome.checks > 0
+    assert "STOP->RC: armed by the switch" in outcome.transitions
+    assert outcome.findings == []

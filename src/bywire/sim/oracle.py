@@ -195,6 +195,7 @@ class HazardOracle:
     switch: ControlMode = ControlMode.STOP
     switch_at: float = 0.0
     switch_shown_s: float = 0.0  # from when frames may show the switch's position (`_h2`)
+    stop_since: float = 0.0  # the switch's hold at STOP began (a glimpse away does not end it)
     armed_ok: bool = False
     drive_allowed_until: float | None = None
     stopped_by: set[str] = field(default_factory=set)  # what set `drive_allowed_until`
@@ -306,8 +307,8 @@ class HazardOracle:
     def set_switch(self, mode: ControlMode, now: float) -> None:
         if mode is self.switch:
             return  # not a move: the frames do not change
-        held_s = now - self.switch_at
-        was = self.switch
+        was, entered_s = self.switch, self.switch_at
+        held_s = now - (self.stop_since if was is ControlMode.STOP else entered_s)
         self.switch, self.switch_at = mode, now
         self.switch_shown_s = float("inf") if "rc_link_lost" in self.faults else now
         self.left_at[was] = now  # via STOP too: a glimpse of STOP may have gone unseen
@@ -316,6 +317,10 @@ class HazardOracle:
             # glimpse); what is still in force stays latched, and `_owed` finds it by its start.
             self.owed_to_switch.clear()
         if mode is ControlMode.STOP:
+            # Back at STOP after a glimpse away that no frame may have shown: still one hold.
+            glimpse = held_s < self.timing.unseen_s and self.left_at.get(mode) == entered_s
+            if not glimpse:
+                self.stop_since = now
             if self.tripped_at is not None:  # the gate opens once the STOP is acknowledged
                 self.dac_writes_from = now + self.timing.settle_s
             if self.pending_arm is not None:  # cut short: it may have armed meanwhile
