@@ -14,7 +14,7 @@ from pathlib import Path
 import pytest
 
 from bywire.cli.main import main
-from bywire.config import default_sim_config
+from bywire.config import default_sim_config, parse_config
 from bywire.sim.campaign import VOCABULARY, Campaign, Step, compile_steps
 from bywire.sim.draw import draw_campaign
 from bywire.sim.scenario import parse_scenario, scenario_toml
@@ -87,3 +87,26 @@ def test_a_value_outside_the_vocabulary_is_simplified_to_the_vocabularys_own() -
     # the shrinker must still simplify it, not fail.
     values = {step.value for step in _simpler_values(Step(0.15, "can_throttle", 0.3))}
     assert values == set(VOCABULARY["can_throttle"])
+
+
+OTHER_ROBOTS = {
+    "slow control tasks": "[tasks]\nsteering_rate_hz = 50\ndriving_rate_hz = 50\n"
+    "hydrobrake_rate_hz = 50\n",
+    "boosted steering, fast brake task": "[steering]\nboost_gain = 1.0\n\n"
+    "[tasks]\nhydrobrake_rate_hz = 200\n",
+    "slow frames, long debounce": "[supervisor]\ndebounce_frames = 5\n\n"
+    "[timeouts]\nrc_timeout_s = 0.25\nwatchdog_s = 0.35\n\n"
+    "[interlocks]\ndirection_dwell_s = 0.8\nstandstill_speed_mps = 0.1\n\n"
+    "[sim]\nrc_frame_period_s = 0.014\n",
+}
+
+
+@pytest.mark.parametrize("name", OTHER_ROBOTS)
+def test_campaigns_on_other_legal_numbers_find_nothing_on_a_correct_robot(name: str) -> None:
+    # Each of these once made the oracle flag a correct robot: a figure fixed for the
+    # defaults, or a [sim] knob that never reached the simulator (docs/SAFETY.md).
+    robot = parse_config(f'backend = "sim"\n\n{OTHER_ROBOTS[name]}', f"<{name}>")
+    for index in range(12):
+        outcome = run_campaign(robot, draw_campaign(0, index), index)
+        assert outcome.checks > 0
+        assert outcome.findings == [], (index, outcome.findings[:1])
