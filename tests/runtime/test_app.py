@@ -3,11 +3,13 @@ memory; reports that carry what the sensors measured (issue 10, rows 13-15)."""
 
 from __future__ import annotations
 
+import gc
 import itertools
 from dataclasses import replace
 
 import pytest
 
+from bywire.config import default_sim_config
 from bywire.control import controller
 from bywire.control.controller import ControlConfig, ControlInputs, ControlOutputs, ControlState
 from bywire.hal.sim.clock import VirtualClock
@@ -109,3 +111,19 @@ def test_without_an_encoder_the_report_says_so() -> None:
     report = robot.world.hlc.latest(SteeringReport)
     assert isinstance(report, SteeringReport)
     assert (report.measured_valid, report.measured_norm) == (False, 0.0)
+
+
+@pytest.mark.parametrize("freeze", [True, False])
+def test_the_loop_freezes_start_ups_objects_only_if_the_robot_file_says_so(freeze: bool) -> None:
+    # `[realtime] gc_freeze = false` was read and documented, and the loop froze regardless.
+    robot = default_sim_config()
+    robot = replace(robot, realtime=replace(robot.realtime, gc_freeze=freeze))
+    clock = VirtualClock()
+    world = SimWorld.create(clock)
+    runtime = Runtime(world.hardware, RuntimeConfig.from_robot(robot))
+    gc.unfreeze()
+    try:
+        runtime.run(until_s=0.05)
+        assert (gc.get_freeze_count() > 0) is freeze
+    finally:
+        gc.unfreeze()

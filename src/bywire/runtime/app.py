@@ -132,8 +132,10 @@ class Runtime:
         """Loop until `until_s` (clock time) or `request_stop`; outputs safe before and after."""
         self.actuators.write_safe(self.clock.now(), centre_steering=True)
         # Everything built so far lives as long as the process: keep it out of the collector's
-        # full passes, which otherwise stall the loop for ~10 ms now and then.
-        gc.freeze()
+        # full passes, which otherwise stall the loop for ~10 ms now and then (unless the robot
+        # file says `gc_freeze = false`).
+        if self.config.gc_freeze:
+            gc.freeze()
         self._start_watchdog()
         try:
             while not self._stop_requested:

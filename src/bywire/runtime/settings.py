@@ -15,13 +15,15 @@ from bywire.runtime.schedule import SCHEDULE, TaskSpec
 @dataclass(frozen=True, slots=True)
 class RuntimeConfig:
     """Everything the runtime needs: the decision's configuration, the actuators', the schedule,
-    the watchdog and the receive check of each CAN command message."""
+    the watchdog, the receive check of each CAN command message, and whether start-up's objects
+    are frozen out of the collector's sight (`[realtime] gc_freeze`)."""
 
     control: ControlConfig = field(default_factory=ControlConfig)
     actuators: ActuatorConfig = field(default_factory=ActuatorConfig)
     schedule: tuple[TaskSpec, ...] = SCHEDULE
     watchdog_s: float | None = None  # None: no watchdog thread (virtual time has no stalls)
     rx_checks: tuple[RxCheck, ...] = field(default_factory=lambda: rx_checks(TimeoutsSection()))
+    gc_freeze: bool = True
 
     @classmethod
     def from_robot(cls, robot: RobotConfig) -> RuntimeConfig:
@@ -51,4 +53,11 @@ class RuntimeConfig:
             safe_steering_pulse_s=servo.center_pulse_s,
         )
         schedule = tuple(replace(spec, rate_hz=robot.tasks.rate_hz(spec.name)) for spec in SCHEDULE)
-        return cls(control, actuators, schedule, robot.timeouts.watchdog_s, checks)
+        return cls(
+            control,
+            actuators,
+            schedule,
+            robot.timeouts.watchdog_s,
+            checks,
+            gc_freeze=robot.realtime.gc_freeze,
+        )

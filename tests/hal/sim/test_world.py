@@ -4,6 +4,8 @@ from __future__ import annotations
 
 from dataclasses import fields, replace
 
+import pytest
+
 from bywire.config import default_sim_config
 from bywire.hal.hardware import DigitalOutputs, Hardware
 from bywire.hal.sim.clock import RealtimeClock, VirtualClock
@@ -138,3 +140,15 @@ def test_the_sim_section_of_a_robot_file_sets_the_frame_period_and_the_top_speed
     frames = len(world.hardware.rc_uart.read_available()) // ibus.FRAME_LENGTH
     assert 19 <= frames <= 21  # one every 14 ms, not every 7.7 ms (36)
     assert world.vehicle.model.config.top_speed_mps == 1.2
+
+
+def test_a_robot_file_sets_the_simulated_dacs_reference_and_the_buss_bit_rate() -> None:
+    robot = default_sim_config()
+    dac = replace(robot.drive.dac, vref_volts=3.3)
+    robot = replace(
+        robot, drive=replace(robot.drive, dac=dac), can=replace(robot.can, bitrate_bps=125_000)
+    )
+    world = SimWorld.from_robot(VirtualClock(), robot)
+    assert world.bus.bitrate_bps == 125_000
+    world.dac.write(dac6574.encode_write(0, 1023))
+    assert world.dac.volts(0) == pytest.approx(3.3 * 1023 / 1024, abs=0.01)

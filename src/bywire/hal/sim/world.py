@@ -14,7 +14,7 @@ from typing import TYPE_CHECKING, Protocol
 from bywire.control.rc_mapping import RcMapping
 from bywire.hal.hardware import DigitalOutputs, Hardware
 from bywire.hal.ports import Clock
-from bywire.hal.sim.can_bus import SimCanBus
+from bywire.hal.sim.can_bus import DEFAULT_BITRATE_BPS, SimCanBus
 from bywire.hal.sim.can_port import SimCanPort
 from bywire.hal.sim.dac import SimDac6574
 from bywire.hal.sim.gpio_pwm import SimDigitalOut, SimPwmChannel
@@ -31,7 +31,7 @@ from bywire.hal.sim.vehicle import (
     VehicleWiring,
 )
 from bywire.hal.sim.vehicle_model import VehicleConfig
-from bywire.protocol import dbc, ibus
+from bywire.protocol import dac6574, dbc, ibus
 
 if TYPE_CHECKING:
     from bywire.config import RobotConfig
@@ -90,6 +90,8 @@ class SimWorld:
         seed: int = 0,
         rc_mapping: RcMapping | None = None,
         rc_frame_period_s: float = ibus.FRAME_PERIOD_S,
+        dac_vref_volts: float = dac6574.DEFAULT_VREF_VOLTS,
+        can_bitrate_bps: int = DEFAULT_BITRATE_BPS,
         vehicle_config: VehicleConfig | None = None,
         bus_log_limit: int | None = 20_000,
     ) -> SimWorld:
@@ -100,7 +102,7 @@ class SimWorld:
         transmit queue is SocketCAN's (10 frames), not bxCAN's three mailboxes: a full set of
         six reports fits, and an unplugged bus still fills it within two report periods.
         """
-        bus = SimCanBus(clock, log_limit=bus_log_limit)
+        bus = SimCanBus(clock, bitrate_bps=can_bitrate_bps, log_limit=bus_log_limit)
         controller_can = bus.attach(
             CONTROLLER_NODE,
             True,
@@ -113,7 +115,7 @@ class SimWorld:
         rc = SimRcTransmitter(
             clock, uart, period_s=rc_frame_period_s, mapping=rc_mapping, seed=seed
         )
-        dac = SimDac6574(clock)
+        dac = SimDac6574(clock, vref_volts=dac_vref_volts)
         dac.on_stall = clock.advance  # the robot goes on while the controller hangs in a write
         pwm = SimPwm(
             SimPwmChannel(clock, STEERING_PERIOD_S, "steering"),
@@ -170,7 +172,8 @@ class SimWorld:
         cls, clock: WorldClock, robot: RobotConfig, *, bus_log_limit: int | None = 0
     ) -> SimWorld:
         """The simulated robot wired as a robot configuration says (DAC channels, brake PWM
-        period, RC mapping, and `[sim]`: seed, IBUS frame period, top speed)."""
+        period, DAC reference, CAN bit rate, RC mapping, and `[sim]`: seed, IBUS frame period,
+        top speed)."""
         dac = robot.drive.dac
         return cls.create(
             clock,
@@ -180,6 +183,8 @@ class SimWorld:
             seed=robot.sim.seed,
             rc_mapping=robot.rc.mapping,
             rc_frame_period_s=robot.sim.rc_frame_period_s,
+            dac_vref_volts=dac.vref_volts,
+            can_bitrate_bps=robot.can.bitrate_bps,
             vehicle_config=VehicleConfig(top_speed_mps=robot.sim.top_speed_mps),
             bus_log_limit=bus_log_limit,
         )
