@@ -176,6 +176,23 @@ STALE_S = {ControlMode.RC: 0.0, ControlMode.CAN: CAN_STALE_S}
 
 
 @dataclass(slots=True)
+class _SteeringHold:
+    """A steering pulse that must stay where it was when the hold began (H3, H5)."""
+
+    pulse_s: float | None = None
+    from_s: float = 0.0
+
+    def release(self) -> None:
+        self.pulse_s = None
+
+    def moved(self, pulse_s: float, now: float) -> bool:
+        """Whether `pulse_s` left the held pulse (the first reading begins the hold)."""
+        if self.pulse_s is None:
+            self.pulse_s, self.from_s = pulse_s, now
+        return pulse_s != self.pulse_s
+
+
+@dataclass(slots=True)
 class _Source:
     throttle_norm: float = 0.0
     seen_zero: bool = True
@@ -206,10 +223,8 @@ class HazardOracle:
     )
     pending_arm: tuple[float, ControlMode] | None = None
     tripped_at: float | None = None
-    held_pulse_s: float | None = None  # the steering pulse a watchdog trip holds (H3)…
-    held_from_s: float = 0.0  # …from then
-    stop_pulse_s: float | None = None  # the steering pulse STOP holds (H5)…
-    stop_from_s: float = 0.0  # …from then
+    trip_hold: _SteeringHold = field(default_factory=_SteeringHold)  # a watchdog trip's (H3)
+    stop_hold: _SteeringHold = field(default_factory=_SteeringHold)  # STOP's (H5)
     sensor_dead: bool = False
     armed_before_stop: bool = False
     source_before_stop: ControlMode = ControlMode.STOP
@@ -435,7 +450,7 @@ class HazardOracle:
         nothing to hold, and leaving STOP is an arming like any other."""
         if self.switch is not ControlMode.STOP:
             self.tripped_at = trips_at_s
-            self.held_pulse_s = None
+            self.trip_hold.release()
             self.owed_to_switch["watchdog"] = trips_at_s
             self.dac_writes_from = float("inf")  # the gate refuses them until STOP
         self.stop_event("watchdog", started_s)
@@ -454,7 +469,7 @@ class HazardOracle:
         self._h2(now, volts if enable else 0.0)
         self._h3(now, enable, released, volts)
         self._h4(now, enable, volts)
-        self._h5(now, allowed or enable or released)
+        self._h5(now, cut=not (allowed or enable or released))
         self._h6(now, enable, volts)
 
     def _resolve_arming(self, now: float) -> None:
@@ -515,17 +530,15 @@ class HazardOracle:
         if self.tripped_at is None or now < self.tripped_at + 0.010:
             return
         pulse = self.world.pwm.steering.pulse_s
-        if self.held_pulse_s is None:
-            self.held_pulse_s, self.held_from_s = pulse, now
         stuck_dac = self._dac_unsure(now)
-        moved = pulse != self.held_pulse_s and not self.timing.steering_boosted
+        moved = self.trip_hold.moved(pulse, now) and not self.timing.steering_boosted
         if enable or released or (volts > 0.0 and not stuck_dac) or moved:
             self._flag(
                 "H3",
                 now,
                 f"after the trip: enable={enable} ebrake_release={released} "
                 f"throttle={volts:.2f} V pulse={pulse * 1000:.3f} ms",
-                steering_held_since_s=self.held_from_s,
+                steering_held_since_s=self.trip_hold.from_s,
             )
 
     def _h4(self, now: float, enable: bool, volts: float) -> None:
@@ -538,32 +551,33 @@ class HazardOracle:
             direction = "reverse" if reverse else "forward"
             self._flag("H4", now, f"driven {direction} at {speed:.2f} m/s")
 
-    def _h5(self, now: float, driving: bool) -> None:
-        """Judged once the drive must be cut and is (driving on is H1's)."""
-        if driving:
-            self.stop_pulse_s = None
+    def _h5(self, now: float, cut: bool) -> None:
+        """Judged while the drive must be cut and is (driving on is H1's)."""
+        hold = self.stop_hold
+        if not cut:
+            hold.release()
             return
         duty, pulse = self.world.pwm.hydrobrake.duty, self.world.pwm.steering.pulse_s
-        if self.stop_pulse_s is None:
-            self.stop_pulse_s, self.stop_from_s = pulse, now
         if duty < FULL_DUTY:
             self._flag("H5", now, f"in STOP: hydraulic brake at {duty:.2f} duty")
-        if pulse != self.stop_pulse_s and not self.timing.steering_boosted:
-            held_ms = self.stop_pulse_s * 1000
+        if hold.moved(pulse, now) and not self.timing.steering_boosted:
+            held_ms = (hold.pulse_s or 0.0) * 1000
             self._flag(
                 "H5",
                 now,
                 f"in STOP: steering pulse {pulse * 1000:.3f} ms, held at {held_ms:.3f} ms",
-                steering_held_since_s=self.stop_from_s,
+                steering_held_since_s=hold.from_s,
             )
 
     def _h6(self, now: float, enable: bool, volts: float) -> None:
         """Brake and throttle together for longer than a control period: the brake and the
         drive may be written by tasks of their own, one a pass ahead of the other."""
+        if not enable or volts <= 0.0:  # most passes: nothing to read
+            self.brake_with_throttle_at = None
+            return
         regen = self.world.dac.volts(self.regen_channel)
         duty = self.world.pwm.hydrobrake.duty
-        together = enable and volts > 0.0 and (regen > 0.0 or duty > 0.0)
-        if not together or self._dac_unsure(now):
+        if (regen <= 0.0 and duty <= 0.0) or self._dac_unsure(now):
             self.brake_with_throttle_at = None
             return
         if self.brake_with_throttle_at is None:
