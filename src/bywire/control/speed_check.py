@@ -9,7 +9,16 @@ quietly (drops to 0 while the robot rolls) would let it reverse at speed. Two ch
   `speed_stuck_s` and the sensor keeps reading standstill.
 
 Either latches SPEED_SENSOR_FAULT: from then on the interlock gets no speed (its no-sensor rule,
-the longer dwell) until the next arming event clears the fault.
+the longer dwell with the brake held) until the next arming event clears the fault.
+
+Neither catches a sensor that dies while the robot stands, before it is driven for
+`speed_stuck_s`, nor one whose latched fault an arming event cleared while the robot still
+rolled: in both it reads a standstill it has not seen. So a reading of standstill proves
+standstill only once the sensor has earned it: it is *unproven* (the interlock gets no speed,
+without a fault being raised) from any applied throttle, from a gap in its readings and from the
+clearing of a fault, until it reads motion again. A working sensor reads motion within
+milliseconds of the robot moving; a dead one never does, and the robot reverses only through the
+no-sensor rule.
 """
 
 from __future__ import annotations
@@ -22,12 +31,14 @@ from bywire.control.values import value
 
 @value
 class SpeedCheckState:
-    """The last reading, since when the robot is driven without moving, and the latched fault."""
+    """The last reading, since when the robot is driven without moving, the latched fault, and
+    whether a standstill the sensor reads is unproven (see the module's text)."""
 
     previous_mps: float | None = None
     updated_at: float | None = None
     stuck_since: float | None = None
     faulted: bool = False
+    unproven: bool = False
 
 
 def _jumped(state: SpeedCheckState, speed_mps: float, now: float, config: InterlockConfig) -> bool:
@@ -45,23 +56,27 @@ def speed_check_step(
     config: InterlockConfig,
 ) -> SpeedCheckState:
     """The check after one reading (None: no sensor or no reading, nothing to check)."""
-    if speed_mps is None:
-        return SpeedCheckState(faulted=state.faulted)
+    if speed_mps is None:  # the robot may move unseen until the readings come back
+        return SpeedCheckState(faulted=state.faulted, unproven=True)
     if not math.isfinite(speed_mps):
-        return SpeedCheckState(faulted=True)
-    driven = applied_throttle_norm >= config.speed_stuck_throttle_norm
-    still = driven and abs(speed_mps) <= config.standstill_speed_mps
+        return SpeedCheckState(faulted=True, unproven=True)
+    moving = abs(speed_mps) > config.standstill_speed_mps
+    still = applied_throttle_norm >= config.speed_stuck_throttle_norm and not moving
     stuck_since = (now if state.stuck_since is None else state.stuck_since) if still else None
     stuck = stuck_since is not None and now - stuck_since > config.speed_stuck_s
     faulted = state.faulted or stuck or _jumped(state, speed_mps, now, config)
-    return SpeedCheckState(speed_mps, now, stuck_since, faulted)
+    unproven = not moving and (state.unproven or applied_throttle_norm > 0.0)
+    return SpeedCheckState(speed_mps, now, stuck_since, faulted, unproven)
 
 
 def trusted_speed(state: SpeedCheckState, speed_mps: float | None) -> float | None:
-    """The speed the interlock may use: none once the sensor is faulted."""
-    return None if state.faulted else speed_mps
+    """The speed the interlock may use: none once the sensor is faulted, nor while the
+    standstill it reads is unproven."""
+    return None if state.faulted or state.unproven else speed_mps
 
 
 def cleared(state: SpeedCheckState) -> SpeedCheckState:
-    """After an arming event: trusted again, checked afresh from the next reading."""
-    return SpeedCheckState()
+    """After an arming event: the fault acknowledged and checked afresh from the next reading;
+    but a sensor that was faulted proves nothing until it reads motion again (the robot may be
+    rolling at the arming, and a dead sensor reads standstill)."""
+    return SpeedCheckState(unproven=state.faulted or state.unproven)
