@@ -12,8 +12,11 @@ from bywire.sim.draw import (
     BRAKE_ON_THROTTLE,
     DEMANDS,
     ENDINGS,
+    IN_MOTION,
     RE_ENABLE,
     REVERSE_ROLLING,
+    ROLLING_THROTTLE,
+    SENSOR_DIES_ROLLING,
     draw_campaign,
     follow_ups,
     switch_after,
@@ -70,8 +73,12 @@ def test_in_motion_the_source_in_command_may_brake_reverse_or_stop() -> None:
     assert follow_ups(CAN, Step(0.1, "can_throttle", 0.6)) == [
         BRAKE_ON_THROTTLE,
         REVERSE_ROLLING[CAN],
+        *SENSOR_DIES_ROLLING[CAN],
     ]
-    assert follow_ups(RC, Step(0.1, "rc_throttle", 0.8)) == [REVERSE_ROLLING[RC]]
+    assert follow_ups(RC, Step(0.1, "rc_throttle", 0.8)) == [
+        REVERSE_ROLLING[RC],
+        *SENSOR_DIES_ROLLING[RC],
+    ]
     assert follow_ups(RC, Step(0.1, "rc_steer", 0.5)) == [(Step(0.0, "switch", STOP),)]
     assert follow_ups(CAN, Step(0.1, "can_steer", -0.5)) == [(Step(0.0, "remote_stop", True),)]
     assert follow_ups(RC, Step(0.1, "can_throttle", 0.6)) == []  # CAN is not in command
@@ -93,7 +100,32 @@ def test_a_reversal_waits_for_speed_first() -> None:
 
 def test_a_broken_actuator_meets_a_request_from_the_source_in_command() -> None:
     assert follow_ups(CAN, Step(0.1, "hydrobrake", False))[0] == DEMANDS[("hydrobrake", False)][CAN]
-    assert follow_ups(RC, Step(0.1, "servo", False))[0] == (Step(0.0, "rc_steer", 0.5),)
+    servo = follow_ups(RC, Step(0.1, "servo", False))[0]
+    assert servo[0] == Step(0.0, "rc_steer", 0.5)
+    assert [(step.action, step.value) for step in servo[1:]] == [("servo", True), ("arm", RC)]
+
+
+def test_the_wheel_sensor_dies_while_rolling_then_a_reversal_with_or_without_a_re_arming() -> None:
+    for mode in (RC, CAN):
+        dies, re_armed = SENSOR_DIES_ROLLING[mode]
+        for episode in (dies, re_armed):
+            assert episode[0] == Step(1.0, "wheel_sensor", False)  # a second of throttle first
+            assert episode[-2:] == REVERSE_ROLLING[mode][-2:]
+        assert re_armed[1] == Step(0.05, "arm", mode)
+
+
+def _opens_rolling(steps: list[Step]) -> bool:
+    mode = switch_after(STOP, steps[0])
+    source = "rc_throttle" if mode is RC else "can_throttle"
+    episodes = IN_MOTION[(source, ROLLING_THROTTLE[mode])][mode]
+    firsts = {(episode[0].action, episode[0].value) for episode in episodes}
+    rolling = steps[1] == Step(0.15, source, ROLLING_THROTTLE[mode])
+    return rolling and (steps[2].action, steps[2].value) in firsts
+
+
+def test_a_quarter_of_the_campaigns_open_rolling_with_an_in_motion_episode() -> None:
+    opening = sum(_opens_rolling(steps) for steps in CAMPAIGNS)
+    assert 0.15 * len(CAMPAIGNS) <= opening <= 0.35 * len(CAMPAIGNS)
 
 
 def _pairs(first: tuple[str, object], then: tuple[str, object]) -> int:
@@ -109,7 +141,7 @@ def _pairs(first: tuple[str, object], then: tuple[str, object]) -> int:
 def test_campaigns_string_faults_endings_and_re_enables_together() -> None:
     # Drawn independently, an ending would follow its own fault straight away in about one
     # campaign of a hundred (a weight of 1 in about 50 for each step).
-    assert _pairs(("rc_link", False), ("rc_link", True)) >= 30
+    assert _pairs(("rc_link", False), ("rc_link", True)) >= 25
     assert _pairs(("dac", "fail"), ("dac", "restore")) >= 10
     assert _pairs(("can_throttle", 0.0), ("re_enable", None)) >= 30
     assert _pairs(("can_throttle", 0.6), ("can_brake", 1.0)) >= 10

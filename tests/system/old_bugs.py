@@ -116,6 +116,20 @@ def hazard_19_the_interlock_takes_the_robot_for_standing(monkeypatch: pytest.Mon
     monkeypatch.setattr(controller, "interlock_step", standing)
 
 
+def hazard_19_the_interlock_trusts_a_distrusted_speed(monkeypatch: pytest.MonkeyPatch) -> None:
+    # The speed check catches the dead wheel sensor, and the interlock uses its 0 m/s anyway:
+    # reverse engages while the robot still rolls (hazard row 19, `wheel-sensor-dead`).
+    monkeypatch.setattr(controller, "trusted_speed", lambda _state, speed: speed)
+
+
+def hazard_19_an_arming_makes_a_dead_sensor_trusted(monkeypatch: pytest.MonkeyPatch) -> None:
+    # The speed check before 2026-11-25: only a latched fault distrusts the sensor, and the
+    # arming that clears it makes the dead sensor's standstill count while the robot rolls.
+    monkeypatch.setattr(
+        controller, "trusted_speed", lambda state, speed: None if state.faulted else speed
+    )
+
+
 def stop_centres_the_steering(monkeypatch: pytest.MonkeyPatch) -> None:
     # In STOP the steering turns back to the centre: at speed, a swerve (STOP holds it).
     mode = [ControlMode.STOP]
@@ -144,6 +158,8 @@ OLD_BUGS: dict[str, OldBug] = {
         row_12_a_leaky_counter_half_an_impostor_balances,
         hazard_6_stop_spares_the_hydraulic_brake,
         hazard_19_the_interlock_takes_the_robot_for_standing,
+        hazard_19_the_interlock_trusts_a_distrusted_speed,
+        hazard_19_an_arming_makes_a_dead_sensor_trusted,
         hazard_20_throttle_beats_brake,
         stop_centres_the_steering,
     )

@@ -365,13 +365,16 @@ class OracleWitness:
             "dac_restore": lambda: oracle.fault("dac_fail", False, now),
             "dac_stall": lambda: self._stall(float(values["stall_s"]), now),
             "wheel_sensor_dead": lambda: setattr(oracle, "sensor_dead", True),
+            "wheel_sensor_restore": lambda: setattr(oracle, "sensor_dead", False),
+            "hydrobrake_fail": lambda: setattr(oracle, "brake_failed", True),
+            "hydrobrake_restore": lambda: setattr(oracle, "brake_failed", False),
         }
         if fault.startswith("can_corrupt_"):
             oracle.blind(CAN, now, now + (count + 1) * IMPOSTOR_PERIOD_S)
         elif fault in actions:
             actions[fault]()
-        # Anything else (a flood, a brake or the steering failing, an encoder dead) may stop the
-        # robot or not: the oracle never needs to know that it did.
+        # Anything else (a flood, the spring brake or the steering failing, an encoder dead) may
+        # stop the robot or not: the oracle never needs to know that it did.
 
     def _impostor(self, frames: int, now: float) -> None:
         self._can_fault("can_impostor", True, now)

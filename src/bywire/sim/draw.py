@@ -22,6 +22,7 @@ A follow-up is a step like any other: it may bring its own, and the shrinker dro
 from __future__ import annotations
 
 import random
+from dataclasses import replace
 from typing import cast
 
 from bywire.model import ControlMode, Gear
@@ -63,12 +64,13 @@ DEMANDS: dict[tuple[str, object], dict[ControlMode, Episode]] = {
         CAN: (Step(0.0, "can_brake", 1.0),),
         RC: (Step(0.0, "rc_throttle", -1.0),),
     },
-    ("servo", False): {
-        CAN: (Step(0.0, "can_steer", 0.5),),
-        RC: (Step(0.0, "rc_steer", 0.5),),
+    ("servo", False): {  # the monitor latches; the servo is freed, and the operator re-arms
+        CAN: (Step(0.0, "can_steer", 0.5), Step(0.4, "servo", True), Step(0.1, "arm", CAN)),
+        RC: (Step(0.0, "rc_steer", 0.5), Step(0.4, "servo", True), Step(0.1, "arm", RC)),
     },
 }
-"""What the source the switch is at asks of an actuator that just broke."""
+"""What the source the switch is at asks of an actuator that just broke (and, for the servo,
+whether the latch it caused clears once it is mended)."""
 BRAKE_ON_THROTTLE: Episode = (Step(0.0, "can_brake", 1.0), Step(0.4, "can_brake", 0.0))
 REVERSE_ROLLING: dict[ControlMode, Episode] = {  # up to speed, let go; reverse past the dwell
     RC: (
@@ -82,16 +84,38 @@ REVERSE_ROLLING: dict[ControlMode, Episode] = {  # up to speed, let go; reverse 
         Step(0.05, "can_throttle", 0.6),
     ),
 }
+SENSOR_DIES_ROLLING: dict[ControlMode, tuple[Episode, ...]] = {  # then reverse, or re-arm first
+    mode: (
+        (
+            Step(1.0, "wheel_sensor", False),
+            replace(REVERSE_ROLLING[mode][0], delay_s=0.1),
+            *REVERSE_ROLLING[mode][1:],
+        ),
+        (Step(1.0, "wheel_sensor", False), Step(0.05, "arm", mode), *REVERSE_ROLLING[mode][1:]),
+    )
+    for mode in (RC, CAN)
+}
 IN_MOTION: dict[tuple[str, object], dict[ControlMode, tuple[Episode, ...]]] = {
-    **{("can_throttle", t): {CAN: (BRAKE_ON_THROTTLE, REVERSE_ROLLING[CAN])} for t in (0.2, 0.6)},
-    ("rc_throttle", 0.8): {RC: (REVERSE_ROLLING[RC],)},
+    **{
+        ("can_throttle", t): {
+            CAN: (BRAKE_ON_THROTTLE, REVERSE_ROLLING[CAN], *SENSOR_DIES_ROLLING[CAN])
+        }
+        for t in (0.2, 0.6)
+    },
+    ("rc_throttle", 0.8): {RC: (REVERSE_ROLLING[RC], *SENSOR_DIES_ROLLING[RC])},
     **{("rc_steer", s): {RC: ((Step(0.0, "switch", STOP),),)} for s in (-0.6, 0.5)},
     **{("can_steer", s): {CAN: ((Step(0.0, "remote_stop", True),),)} for s in (-0.5, 0.5)},
 }
 """What may happen while the robot moves: the computer brakes without taking its throttle back
 (the brake must win); the source in command lets go and reverses while the robot still rolls
-(the interlock holds the gear until standstill); the operator or the computer stops it with the
-steering turned (STOP holds the steering where it is)."""
+(the interlock holds the gear until standstill), also after the wheel sensor died at speed, and
+after a quick re-arming that acknowledged its fault (a dead sensor's standstill must not count);
+the operator or the computer stops it with the steering turned (STOP holds the steering where
+it is)."""
+ROLLING_THROTTLE = {RC: 0.8, CAN: 0.6}
+ROLLING_OPENING_CHANCE = 0.25
+"""A campaign may open with an episode of `IN_MOTION` at once: later, earlier faults have often
+left the robot standing in STOP, where the episode tests nothing."""
 ENDED = frozenset((step.action, step.value) for step in ENDINGS.values())
 
 
@@ -125,9 +149,16 @@ def draw_campaign(seed: int, index: int, campaign_s: float = CAMPAIGN_S) -> list
     throttle = rng.choice([0.0, 0.3, 0.6, 0.6])
     source = "rc_throttle" if mode is RC else "can_throttle"
     steps = [Step(0.2, "arm", mode), Step(0.15, source, throttle)]
+    upcoming: list[Step] = []
+    # Drawn apart, so that the campaigns that open otherwise stay what they were.
+    opening = random.Random(f"bywire-verify-opening:{seed}:{index}")
+    if opening.random() < ROLLING_OPENING_CHANCE:
+        steps[-1] = Step(0.15, source, ROLLING_THROTTLE[mode])
+        first, *rest = opening.choice(IN_MOTION[(source, ROLLING_THROTTLE[mode])][mode])
+        wait_s = round(first.delay_s + opening.uniform(*FOLLOW_UP_DELAY_S), 3)
+        upcoming = [Step(wait_s, first.action, first.value), *rest]
     actions, weights = list(WEIGHTS), list(WEIGHTS.values())
     at_s, switch = sum(step.delay_s for step in steps), mode
-    upcoming: list[Step] = []
     while True:
         if upcoming:
             step = upcoming.pop(0)

@@ -225,7 +225,8 @@ class HazardOracle:
     tripped_at: float | None = None
     trip_hold: _SteeringHold = field(default_factory=_SteeringHold)  # a watchdog trip's (H3)
     stop_hold: _SteeringHold = field(default_factory=_SteeringHold)  # STOP's (H5)
-    sensor_dead: bool = False
+    sensor_dead: bool = False  # the wheel-speed sensor reads 0 m/s whatever the robot does…
+    brake_failed: bool = False  # …and the hydraulic brake builds no pressure: H4 is off (`_h4`)
     armed_before_stop: bool = False
     source_before_stop: ControlMode = ControlMode.STOP
     began: dict[str, tuple[float, bool]] = field(default_factory=dict)
@@ -542,7 +543,10 @@ class HazardOracle:
             )
 
     def _h4(self, now: float, enable: bool, volts: float) -> None:
-        if self.sensor_dead or not enable or volts <= 0.0:
+        """Judged with the wheel sensor dead too: its standstill must not count, and without it
+        the brake held for the long dwell proves standstill; with that brake failed as well,
+        nothing the controller sees can (a double fault, `docs/SAFETY.md` row 19)."""
+        if not enable or volts <= 0.0 or (self.sensor_dead and self.brake_failed):
             return
         speed, standstill = self.world.vehicle.state.speed_mps, self.timing.standstill_mps
         forward = self.world.gpio["motors_forward"].level
