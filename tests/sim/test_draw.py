@@ -16,7 +16,9 @@ from bywire.sim.draw import (
     RE_ENABLE,
     REVERSE_ROLLING,
     ROLLING_THROTTLE,
+    SECOND_SENDER_ROLLING,
     SENSOR_DIES_ROLLING,
+    after_impostor,
     draw_campaign,
     follow_ups,
     switch_after,
@@ -74,6 +76,7 @@ def test_in_motion_the_source_in_command_may_brake_reverse_or_stop() -> None:
         BRAKE_ON_THROTTLE,
         REVERSE_ROLLING[CAN],
         *SENSOR_DIES_ROLLING[CAN],
+        SECOND_SENDER_ROLLING,
     ]
     assert follow_ups(RC, Step(0.1, "rc_throttle", 0.8)) == [
         REVERSE_ROLLING[RC],
@@ -112,6 +115,17 @@ def test_the_wheel_sensor_dies_while_rolling_then_a_reversal_with_or_without_a_r
             assert episode[0] == Step(1.0, "wheel_sensor", False)  # a second of throttle first
             assert episode[-2:] == REVERSE_ROLLING[mode][-2:]
         assert re_armed[1] == Step(0.05, "arm", mode)
+
+
+def test_after_a_second_sender_the_computer_asks_to_re_enable_once_it_is_over() -> None:
+    episodes = follow_ups(CAN, Step(0.1, "impostor", 20))
+    assert after_impostor(20) in episodes
+    first, re_enable = after_impostor(20)
+    assert first == Step(0.45, "can_throttle", 0.0)  # its 20 frames last 0.4 s
+    assert re_enable.action == "re_enable"
+    assert after_impostor(20) not in follow_ups(RC, Step(0.1, "impostor", 20))  # RC drives on
+    # In motion, the request comes after the id is trusted again: 16 good frames, 0.32 s.
+    assert SECOND_SENDER_ROLLING[1].delay_s >= 20 * 0.020 + 16 * 0.020
 
 
 def _opens_rolling(steps: list[Step]) -> bool:

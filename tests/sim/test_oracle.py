@@ -502,3 +502,107 @@ def test_a_glimpse_away_from_stop_that_no_frame_showed_does_not_end_the_hold() -
     assert outcome.checks > 0
     assert "STOP->RC: armed by the switch" in outcome.transitions
     assert outcome.findings == []
+
+
+# --- S8 against a second sender: CAN_UNTRUSTED is the switch's to clear -------------------------
+
+
+def _second_sender(lasting_s: float, motors_enabled: bool = True) -> HazardOracle:
+    """Armed in CAN, the motors enabled or not, then a second sender from 1 s for `lasting_s`."""
+    oracle = _oracle()
+    _armed_in_can(oracle)
+    oracle.world.gpio["motors_enable"].set(motors_enabled)
+    oracle.fault("can_impostor", True, 1.0)
+    oracle.fault("can_impostor", False, 1.0 + lasting_s)
+    return oracle
+
+
+def test_a_second_sender_that_surely_latched_refuses_a_re_enable_after_it_is_over() -> None:
+    deadline_s = _oracle().timing.deadline_s("can_impostor")
+    assert _drives_after_re_enable(_second_sender(deadline_s + 0.1), 2.0) == ["H1"]
+
+
+def test_a_second_sender_too_short_to_latch_for_sure_leaves_a_re_enable_alone() -> None:
+    deadline_s = _oracle().timing.deadline_s("can_impostor")
+    assert _drives_after_re_enable(_second_sender(deadline_s - 0.05), 2.0) == []
+
+
+def test_a_second_sender_met_with_the_motors_off_may_never_have_latched() -> None:
+    # verify seed 0, campaign 204: a 5 ms glimpse of STOP left the robot standing while the
+    # oracle allowed it to drive; CAN_UNTRUSTED latches only in CAN mode.
+    deadline_s = _oracle().timing.deadline_s("can_impostor")
+    oracle = _second_sender(deadline_s + 0.1, motors_enabled=False)
+    assert _drives_after_re_enable(oracle, 2.0) == []
+
+
+def test_a_second_sender_after_another_stop_may_never_have_latched() -> None:
+    # A remote stop first: the robot may have left CAN mode before the id was distrusted, and
+    # CAN_UNTRUSTED latches only in CAN mode.
+    oracle = _oracle()
+    _armed_in_can(oracle)
+    oracle.fault("remote_stop", True, 1.0)
+    oracle.fault("can_impostor", True, 1.01)
+    oracle.fault("can_impostor", False, 1.5)
+    oracle.fault("remote_stop", False, 1.6)
+    assert _drives_after_re_enable(oracle, 2.0) == []
+
+
+# --- H4 with a dead wheel sensor -------------------------------------------------------------
+
+
+def _reversing_at(speed_mps: float, died_at_mps: float, brake_failed: bool = False) -> list[str]:
+    oracle = _oracle()
+    world = oracle.world
+    world.vehicle.state = replace(world.vehicle.state, speed_mps=died_at_mps)
+    oracle.sensor_dies()
+    oracle.brake_failed = brake_failed
+    world.vehicle.state = replace(world.vehicle.state, speed_mps=speed_mps)
+    world.gpio["motors_reverse"].set(True)
+    oracle._h4(1.0, True, 1.0)
+    return [v.invariant for v in oracle.violations]
+
+
+def test_h4_flags_a_reversal_at_speed_after_the_wheel_sensor_died_noticeably() -> None:
+    assert _reversing_at(0.5, died_at_mps=1.5) == ["H4"]
+
+
+def test_h4_leaves_a_double_fault_alone_the_sensor_dead_and_the_hydraulic_brake_failed() -> None:
+    assert _reversing_at(0.5, died_at_mps=1.5, brake_failed=True) == []
+
+
+def test_a_sensor_that_died_unnoticed_holds_the_robot_to_the_speed_it_died_at() -> None:
+    unnoticed_mps = _oracle().timing.unnoticed_death_mps
+    assert unnoticed_mps == pytest.approx(0.3 + 15.0 * 0.010)  # step tolerance + a period's braking
+    assert _reversing_at(0.21, died_at_mps=0.4) == []  # seed 0, campaign 678
+    assert _reversing_at(0.41, died_at_mps=0.4) == ["H4"]
+
+
+# --- a glimpse of STOP that no frame showed -----------------------------------------------------
+
+
+def test_a_glimpse_of_stop_no_frame_showed_does_not_bring_on_a_stop_already_pending() -> None:
+    # The sequence test (hypothesis, 2026-11-25): handed over to CAN, the computer falls silent,
+    # and a 5 ms flick to STOP that no frame showed. The controller stops when CAN_LOST latches;
+    # the oracle held it to the flick's deadline instead.
+    steps = [
+        Step(0.2, "arm", RC),
+        Step(0.15, "rc_throttle", 0.0),
+        Step(0.5, "handover", 0.0),
+        Step(0.125, "can_link", False),
+        Step(0.05078125, "flick", 0.005),
+    ]
+    assert run_campaign(default_sim_config(), steps).findings == []
+
+
+def test_a_pending_stop_keeps_its_deadline_across_an_unseen_glimpse_but_not_a_seen_stop() -> None:
+    oracle = _oracle()
+    _armed_in_can(oracle)
+    oracle.fault("can_lost", True, 1.0)
+    can_deadline_s = oracle.drive_allowed_until
+    assert can_deadline_s is not None
+    oracle.set_switch(ControlMode.STOP, 1.05)
+    oracle.set_switch(CAN, 1.055)  # shorter than a frame: perhaps never seen
+    assert oracle.drive_allowed_until == can_deadline_s
+    oracle.set_switch(ControlMode.STOP, 1.06)
+    oracle.set_switch(CAN, 1.09)  # 30 ms at STOP: the frames showed it
+    assert oracle.drive_allowed_until == 1.06 + oracle.timing.deadline_s("switch_stop")

@@ -61,6 +61,7 @@ def _first_failure(limit: int = SEARCH_LIMIT) -> Outcome:
         ("row_8_a_write_in_flight_lands_after_the_trip", "H3"),
         ("row_12_a_leaky_counter_half_an_impostor_balances", "H1"),
         ("row_23_a_can_re_enable_clears_every_cause", "H1"),
+        ("hazard_10_a_re_enable_forgives_a_second_sender", "H1"),
         ("hazard_6_stop_spares_the_hydraulic_brake", "H5"),
         ("hazard_19_the_interlock_takes_the_robot_for_standing", "H4"),
         ("hazard_19_the_interlock_trusts_a_distrusted_speed", "H4"),

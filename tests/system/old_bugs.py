@@ -86,6 +86,13 @@ def row_12_a_leaky_counter_half_an_impostor_balances(monkeypatch: pytest.MonkeyP
     monkeypatch.setattr(readers._CounterTrust, "record", leaky)
 
 
+def hazard_10_a_re_enable_forgives_a_second_sender(monkeypatch: pytest.MonkeyPatch) -> None:
+    # The computer's re-enable clears CAN_UNTRUSTED once the id is trusted again: whoever sent
+    # the second frames may send the re-enable too (hazard row 10; S8: the switch's to clear).
+    untrusted = supervisor.Cause.CAN_UNTRUSTED
+    monkeypatch.setattr(supervisor, "CAN_CLEARABLE", supervisor.CAN_CLEARABLE | {untrusted})
+
+
 def hazard_6_stop_spares_the_hydraulic_brake(monkeypatch: pytest.MonkeyPatch) -> None:
     # "The spring brake holds in STOP, spare the pump": with the e-brake broken (hazard row 6)
     # nothing stops a rolling robot.
@@ -156,6 +163,7 @@ OLD_BUGS: dict[str, OldBug] = {
         row_7_only_consecutive_dac_failures_count,
         row_8_a_write_in_flight_lands_after_the_trip,
         row_12_a_leaky_counter_half_an_impostor_balances,
+        hazard_10_a_re_enable_forgives_a_second_sender,
         hazard_6_stop_spares_the_hydraulic_brake,
         hazard_19_the_interlock_takes_the_robot_for_standing,
         hazard_19_the_interlock_trusts_a_distrusted_speed,

@@ -364,7 +364,7 @@ class OracleWitness:
             "dac_nak_alternate": lambda: oracle.fault("dac_fail", True, now),
             "dac_restore": lambda: oracle.fault("dac_fail", False, now),
             "dac_stall": lambda: self._stall(float(values["stall_s"]), now),
-            "wheel_sensor_dead": lambda: setattr(oracle, "sensor_dead", True),
+            "wheel_sensor_dead": oracle.sensor_dies,
             "wheel_sensor_restore": lambda: setattr(oracle, "sensor_dead", False),
             "hydrobrake_fail": lambda: setattr(oracle, "brake_failed", True),
             "hydrobrake_restore": lambda: setattr(oracle, "brake_failed", False),

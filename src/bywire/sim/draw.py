@@ -26,7 +26,7 @@ from dataclasses import replace
 from typing import cast
 
 from bywire.model import ControlMode, Gear
-from bywire.sim.campaign import OPERATOR, TAIL_S, VOCABULARY, Step
+from bywire.sim.campaign import IMPOSTOR_PERIOD_S, OPERATOR, TAIL_S, VOCABULARY, Step
 
 RC, CAN, STOP = ControlMode.RC, ControlMode.CAN, ControlMode.STOP
 CAMPAIGN_S = 10.0
@@ -95,10 +95,20 @@ SENSOR_DIES_ROLLING: dict[ControlMode, tuple[Episode, ...]] = {  # then reverse,
     )
     for mode in (RC, CAN)
 }
+SECOND_SENDER_ROLLING: Episode = (  # then a re-enable once the id is trusted again
+    Step(0.3, "impostor", 20),
+    replace(RE_ENABLE[0], delay_s=20 * IMPOSTOR_PERIOD_S + 0.5),
+    *RE_ENABLE[1:],
+)
 IN_MOTION: dict[tuple[str, object], dict[ControlMode, tuple[Episode, ...]]] = {
     **{
         ("can_throttle", t): {
-            CAN: (BRAKE_ON_THROTTLE, REVERSE_ROLLING[CAN], *SENSOR_DIES_ROLLING[CAN])
+            CAN: (
+                BRAKE_ON_THROTTLE,
+                REVERSE_ROLLING[CAN],
+                *SENSOR_DIES_ROLLING[CAN],
+                SECOND_SENDER_ROLLING,
+            )
         }
         for t in (0.2, 0.6)
     },
@@ -110,6 +120,8 @@ IN_MOTION: dict[tuple[str, object], dict[ControlMode, tuple[Episode, ...]]] = {
 (the brake must win); the source in command lets go and reverses while the robot still rolls
 (the interlock holds the gear until standstill), also after the wheel sensor died at speed, and
 after a quick re-arming that acknowledged its fault (a dead sensor's standstill must not count);
+a second sender takes the computer's id, and the computer asks to re-enable once it is trusted
+again (only the switch may clear CAN_UNTRUSTED);
 the operator or the computer stops it with the steering turned (STOP holds the steering where
 it is)."""
 ROLLING_THROTTLE = {RC: 0.8, CAN: 0.6}
@@ -135,11 +147,20 @@ def follow_ups(switch: ControlMode, step: Step) -> list[Episode]:
     if switch in DEMANDS.get(key, {}):
         episodes.append(DEMANDS[key][switch])
     episodes.extend(IN_MOTION.get(key, {}).get(switch, ()))
+    if step.action == "impostor" and switch is CAN:
+        episodes.append(after_impostor(cast(int, step.value)))
     if key in ENDINGS:
         episodes.append((ENDINGS[key],))
     if key in ENDED:
         episodes.extend(RE_ARM.get(switch, ()))
     return episodes
+
+
+def after_impostor(frames: int) -> Episode:
+    """The computer asks to re-enable once a second sender's `frames` are over: CAN_UNTRUSTED
+    is the switch's to clear (S8), whether the id is trusted again by then or not."""
+    least_s = round(frames * IMPOSTOR_PERIOD_S + 0.05, 3)
+    return (replace(RE_ENABLE[0], delay_s=least_s), *RE_ENABLE[1:])
 
 
 def draw_campaign(seed: int, index: int, campaign_s: float = CAMPAIGN_S) -> list[Step]:

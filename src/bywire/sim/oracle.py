@@ -65,6 +65,9 @@ class OracleTiming:
     control_period_s: float = 0.010
     driving_period_s: float = 0.010  # the task that writes the DAC
     standstill_mps: float = 0.05
+    # The fastest a wheel sensor can die unnoticed: its drop to 0 m/s is then within the speed
+    # check's step tolerance plus what braking explains in a pass (docs/SAFETY.md row 27).
+    unnoticed_death_mps: float = 0.45
     steering_boosted: bool = False  # the pulse settles onto a held set-point (boost_gain > 0)
 
     @classmethod
@@ -79,6 +82,8 @@ class OracleTiming:
             control_period_s=1.0 / slowest_hz,
             driving_period_s=1.0 / robot.tasks.rate_hz("driving"),
             standstill_mps=robot.interlocks.standstill_speed_mps,
+            unnoticed_death_mps=robot.interlocks.speed_step_tolerance_mps
+            + robot.interlocks.speed_max_change_mps2 / slowest_hz,
             steering_boosted=robot.steering.servo.boost_gain > 0.0,
         )
 
@@ -138,9 +143,8 @@ CAN_ONLY = frozenset({*CAN_SILENT, "can_impostor", "remote_stop"})
 """Faults that stop CAN mode and refuse arming into CAN, never RC."""
 SWITCH_ONLY = frozenset({"rc_link_lost", "rc_failsafe", "dac_fail"})
 """Faults whose latched cause only the operator's switch clears, never a CAN re-enable (S8);
-implausible frames (`stop_event`) and the watchdog's trip (`HazardOracle.stall`) are such too.
-A second sender (CAN_UNTRUSTED) is one as well, but whether its frames were judged untrusted
-depends on how they interleaved, so the oracle does not hold a re-enable against it."""
+implausible frames (`stop_event`) and the watchdog's trip (`HazardOracle.stall`) are such too,
+and so is a second sender (CAN_UNTRUSTED) once it has surely latched (`_impostor_latched_from`)."""
 DAC_LATCH_WRITES = 20
 """A DAC failing for this many of the driving task's periods has certainly latched DAC_FAULT:
 every other write failing trips the leaky count after eight writes; the rest is margin."""
@@ -226,8 +230,13 @@ class HazardOracle:
     trip_hold: _SteeringHold = field(default_factory=_SteeringHold)  # a watchdog trip's (H3)
     stop_hold: _SteeringHold = field(default_factory=_SteeringHold)  # STOP's (H5)
     sensor_dead: bool = False  # the wheel-speed sensor reads 0 m/s whatever the robot does…
+    died_at_mps: float = 0.0  # …since it died at this speed, unnoticed if slow enough (`_h4`)…
+    impostor_met_drive: bool = False  # the motors were enabled when a second sender began
     brake_failed: bool = False  # …and the hydraulic brake builds no pressure: H4 is off (`_h4`)
     armed_before_stop: bool = False
+    # A stop already on its way when the switch went to STOP: its deadline and what set it.
+    deadline_before_stop: float | None = None
+    stopped_by_before_stop: frozenset[str] = frozenset()
     source_before_stop: ControlMode = ControlMode.STOP
     began: dict[str, tuple[float, bool]] = field(default_factory=dict)
     left_at: dict[ControlMode, float] = field(default_factory=dict)
@@ -276,6 +285,8 @@ class HazardOracle:
         if kind == "rc_link_lost":
             self._link_hides_switch(active, now)
         if active:
+            if kind == "can_impostor":
+                self.impostor_met_drive = self.world.gpio["motors_enable"].level
             self.faults.add(kind)
             self.began[kind] = (now, self.armed_ok)
             self.stop_event(kind, now)
@@ -343,6 +354,8 @@ class HazardOracle:
                 self._arm_now(now, self.pending_arm[1])
                 self.pending_arm = None
             self.armed_before_stop, self.source_before_stop = self.armed_ok, was
+            self.deadline_before_stop = self.drive_allowed_until
+            self.stopped_by_before_stop = frozenset(self.stopped_by)
             self.stop_event("switch_stop", now)
             self.tripped_at = None  # the operator's acknowledgement begins
             return
@@ -357,6 +370,10 @@ class HazardOracle:
         unseen = was is ControlMode.STOP and (held_s < self.timing.unseen_s or self._hidden(now))
         if unseen and self.armed_before_stop:
             self.armed_ok, self.drive_allowed_until = True, None  # no frame may have shown it
+        elif unseen and self.deadline_before_stop is not None:
+            # A stop already on its way keeps its own deadline: the glimpse did not bring it on.
+            self.drive_allowed_until = self.deadline_before_stop
+            self.stopped_by = set(self.stopped_by_before_stop)
         if not returning and not (unseen and mode is self.source_before_stop):
             stale_s = STALE_S[mode] + max(0.0, self._blind_until(mode) - source.left_zero_at)
             recently_zero = now - source.left_zero_at < stale_s  # may still be seen
@@ -408,6 +425,8 @@ class HazardOracle:
     def _latched_from(self, kind: str) -> float | None:
         """From when the fault `kind`, if it lasts, has latched its cause whatever the
         controller's timing (None: not one that only the switch clears, or never for sure)."""
+        if kind == "can_impostor" and kind in self.began:
+            return self._impostor_latched_from()
         if kind not in SWITCH_ONLY or kind not in self.began:
             return None
         began_s = self.began[kind][0]
@@ -420,6 +439,21 @@ class HazardOracle:
             began_s = max(began_s, self.rc_blind_until)
         return began_s + self.timing.deadline_s(kind)
 
+    def _impostor_latched_from(self) -> float | None:
+        """A second sender latches CAN_UNTRUSTED for sure when it began while the robot drove
+        in CAN mode (the switch at CAN, the motors enabled: being allowed to drive is not
+        enough, a glimpse of STOP may have left it standing) and nothing else has stopped it
+        since: each of its frames takes the real computer's next counter, so every real frame
+        after it is a repeat, and three repeats among sixteen frames distrust the id while the
+        mode is still CAN. (Begun at STOP, the cause never latches; with the computer silent,
+        nothing repeats; with another stop first, the robot may have left CAN mode before the
+        id was distrusted.)"""
+        began_s, armed = self.began["can_impostor"]
+        if not (armed and self.impostor_met_drive) or self.stopped_by != {"can_impostor"}:
+            return None
+        latched_s = began_s + self.timing.deadline_s("can_impostor")
+        return self._past_hang(began_s, latched_s)
+
     def _owed(self, now: float) -> set[str]:
         """What only the switch may clear now: latched for sure since the switch's last visit
         to STOP, whether over or still in force."""
@@ -429,6 +463,10 @@ class HazardOracle:
             if latched_s is not None and latched_s < now:
                 owed.add(kind)
         return owed
+
+    def sensor_dies(self) -> None:
+        """The wheel-speed sensor reads 0 m/s from now on, whatever the robot does."""
+        self.sensor_dead, self.died_at_mps = True, abs(self.world.vehicle.state.speed_mps)
 
     def hang(self, from_s: float, until_s: float) -> None:
         """The loop's next write after `from_s` hangs until `until_s`, too short to trip the
@@ -549,6 +587,10 @@ class HazardOracle:
         if not enable or volts <= 0.0 or (self.sensor_dead and self.brake_failed):
             return
         speed, standstill = self.world.vehicle.state.speed_mps, self.timing.standstill_mps
+        if self.sensor_dead and self.died_at_mps <= self.timing.unnoticed_death_mps:
+            # Died unnoticed while rolling this slowly: its 0 m/s reads like a stop, and the
+            # robot, undriven since (driving would leave the standstill unproven), is slower.
+            standstill = max(standstill, self.died_at_mps)
         forward = self.world.gpio["motors_forward"].level
         reverse = self.world.gpio["motors_reverse"].level
         if (reverse and speed > standstill) or (forward and speed < -standstill):
