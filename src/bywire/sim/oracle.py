@@ -231,8 +231,8 @@ class HazardOracle:
     stop_hold: _SteeringHold = field(default_factory=_SteeringHold)  # STOP's (H5)
     sensor_dead: bool = False  # the wheel-speed sensor reads 0 m/s whatever the robot does…
     died_at_mps: float = 0.0  # …since it died at this speed, unnoticed if slow enough (`_h4`)…
-    impostor_met_drive: bool = False  # the motors were enabled when a second sender began
     brake_failed: bool = False  # …and the hydraulic brake builds no pressure: H4 is off (`_h4`)
+    impostor_met_drive: bool = False  # the motors were enabled when a second sender began
     armed_before_stop: bool = False
     # A stop already on its way when the switch went to STOP: its deadline and what set it.
     deadline_before_stop: float | None = None
