@@ -22,6 +22,7 @@ A follow-up is a step like any other: it may bring its own, and the shrinker dro
 from __future__ import annotations
 
 import random
+from collections.abc import Sequence
 from dataclasses import replace
 from typing import cast
 
@@ -95,10 +96,16 @@ SENSOR_DIES_ROLLING: dict[ControlMode, tuple[Episode, ...]] = {  # then reverse,
     )
     for mode in (RC, CAN)
 }
+
+
+def _re_enable_after(least_s: float) -> Episode:
+    """`RE_ENABLE`, its first step at least `least_s` after the step before."""
+    return (replace(RE_ENABLE[0], delay_s=round(least_s, 3)), *RE_ENABLE[1:])
+
+
 SECOND_SENDER_ROLLING: Episode = (  # then a re-enable once the id is trusted again
     Step(0.3, "impostor", 20),
-    replace(RE_ENABLE[0], delay_s=20 * IMPOSTOR_PERIOD_S + 0.5),
-    *RE_ENABLE[1:],
+    *_re_enable_after(20 * IMPOSTOR_PERIOD_S + 0.5),
 )
 IN_MOTION: dict[tuple[str, object], dict[ControlMode, tuple[Episode, ...]]] = {
     **{
@@ -159,8 +166,14 @@ def follow_ups(switch: ControlMode, step: Step) -> list[Episode]:
 def after_impostor(frames: int) -> Episode:
     """The computer asks to re-enable once a second sender's `frames` are over: CAN_UNTRUSTED
     is the switch's to clear (S8), whether the id is trusted again by then or not."""
-    least_s = round(frames * IMPOSTOR_PERIOD_S + 0.05, 3)
-    return (replace(RE_ENABLE[0], delay_s=least_s), *RE_ENABLE[1:])
+    return _re_enable_after(frames * IMPOSTOR_PERIOD_S + 0.05)
+
+
+def _drawn(episodes: Sequence[Episode], rng: random.Random) -> list[Step]:
+    """One of `episodes`, its first step's wait drawn (its own `delay_s` the least)."""
+    first, *rest = rng.choice(episodes)
+    wait_s = round(first.delay_s + rng.uniform(*FOLLOW_UP_DELAY_S), 3)
+    return [Step(wait_s, first.action, first.value), *rest]
 
 
 def draw_campaign(seed: int, index: int, campaign_s: float = CAMPAIGN_S) -> list[Step]:
@@ -175,9 +188,7 @@ def draw_campaign(seed: int, index: int, campaign_s: float = CAMPAIGN_S) -> list
     opening = random.Random(f"bywire-verify-opening:{seed}:{index}")
     if opening.random() < ROLLING_OPENING_CHANCE:
         steps[-1] = Step(0.15, source, ROLLING_THROTTLE[mode])
-        first, *rest = opening.choice(IN_MOTION[(source, ROLLING_THROTTLE[mode])][mode])
-        wait_s = round(first.delay_s + opening.uniform(*FOLLOW_UP_DELAY_S), 3)
-        upcoming = [Step(wait_s, first.action, first.value), *rest]
+        upcoming = _drawn(IN_MOTION[(source, ROLLING_THROTTLE[mode])][mode], opening)
     actions, weights = list(WEIGHTS), list(WEIGHTS.values())
     at_s, switch = sum(step.delay_s for step in steps), mode
     while True:
@@ -193,6 +204,4 @@ def draw_campaign(seed: int, index: int, campaign_s: float = CAMPAIGN_S) -> list
         switch = switch_after(switch, step)
         episodes = follow_ups(switch, step)
         if episodes and rng.random() < FOLLOW_UP_CHANCE:
-            first, *rest = rng.choice(episodes)
-            wait_s = round(first.delay_s + rng.uniform(*FOLLOW_UP_DELAY_S), 3)
-            upcoming[:0] = [Step(wait_s, first.action, first.value), *rest]
+            upcoming[:0] = _drawn(episodes, rng)
