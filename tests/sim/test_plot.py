@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import subprocess
+import sys
 from pathlib import Path
 
 import pytest
@@ -59,3 +61,12 @@ def test_a_run_that_recorded_nothing_is_refused(tmp_path: Path) -> None:
     with pytest.raises(ConfigError, match="nothing to plot"):
         plot.write_plot(never_run, tmp_path / "run.png")
     assert not (tmp_path / "run.png").exists()
+
+
+def test_the_sim_command_loads_matplotlib_only_to_draw() -> None:
+    """`bywire sim` without `--plot` should not pay matplotlib's start-up (0.4 s, 45 MB)."""
+    probe = "import sys, bywire.cli.sim\nprint('matplotlib' in sys.modules)\n"
+    loaded = subprocess.run(
+        [sys.executable, "-c", probe], capture_output=True, text=True, check=True
+    ).stdout.split()
+    assert loaded == ["False"]
