@@ -4,7 +4,9 @@
 simulator would have it check the default instead (`[sim] rc_frame_period_s` and `top_speed_mps`
 were such keys until 2026-11-24). Two child processes use one robot file whose every section is
 set the way bywire does: the simulator with its scenarios and verify's campaigns, and `bywire run`
-on the stand-in devices; together they must read every value but those resolved at load.
+on the stand-in devices; together they must read every value but those resolved at load. The
+simulator plays it as a `sim` robot: the Linux backend fits no sensors yet, and a robot without
+them has no use for the monitors' and the speed check's numbers.
 """
 
 from __future__ import annotations
@@ -44,8 +46,9 @@ def _child(*args: str) -> dict[str, Any]:
     return result
 
 
-def _robot_file(root: Path) -> tuple[Path, str]:
-    """A robot file for the stand-in devices with every optional section on."""
+def _robot_files(root: Path) -> tuple[Path, Path, str]:
+    """A robot file for the stand-in devices with every optional section on, and the same
+    robot on the simulator's backend."""
     bench = make_bench(root)
     key = root / "secoc.key"
     subprocess.run(
@@ -69,16 +72,17 @@ key_file = "{key}"
 freshness_file = "{root}/freshness.json"
 """
     )
-    path = root / "robot.toml"
+    path, simulated = root / "robot.toml", root / "simulated.toml"
     path.write_text(text)
-    return path, bench.can_channel
+    simulated.write_text(text.replace('backend = "linux"', 'backend = "sim"', 1))
+    return path, simulated, bench.can_channel
 
 
 @pytest.fixture(scope="module")
 def unread(tmp_path_factory: pytest.TempPathFactory) -> set[str]:
     root = tmp_path_factory.mktemp("robot")
-    robot_file, channel = _robot_file(root)
-    simulated = _child("sim", str(robot_file), *SCENARIOS)
+    robot_file, simulated_file, channel = _robot_files(root)
+    simulated = _child("sim", str(simulated_file), *SCENARIOS)
     on_devices = _child("run", str(robot_file), str(root), channel)
     assert simulated["reads"]
     assert on_devices["reads"]

@@ -19,6 +19,7 @@ from bywire.hal.sim.world import SimWorld
 from bywire.model import ControlMode
 from bywire.protocol import dac6574
 from bywire.sim.campaign import Campaign, Step
+from bywire.sim.draw import draw_campaign
 from bywire.sim.oracle import HazardOracle, OracleTiming
 from bywire.sim.scenario import parse_scenario
 from bywire.sim.verify import run_campaign
@@ -606,3 +607,23 @@ def test_a_pending_stop_keeps_its_deadline_across_an_unseen_glimpse_but_not_a_se
     oracle.set_switch(ControlMode.STOP, 1.06)
     oracle.set_switch(CAN, 1.09)  # 30 ms at STOP: the frames showed it
     assert oracle.drive_allowed_until == 1.06 + oracle.timing.deadline_s("switch_stop")
+
+
+def test_a_robot_without_a_wheel_sensor_is_judged_as_one_whose_sensor_died_at_power_up() -> None:
+    """No speed to trust from the start, and none that a fault could take away or give back:
+    H4 holds at the standstill threshold (the no-sensor rule must stop the robot first)."""
+    robot = replace(default_sim_config(), backend="linux")
+    world = SimWorld.from_robot(VirtualClock(), robot)
+    oracle = HazardOracle(world, robot.drive.dac.throttle_channel, robot.drive.dac.regen_channel)
+    assert oracle.sensor_dead
+    assert oracle.died_at_mps == 0.0
+    oracle.sensor_restored()
+    assert oracle.sensor_dead
+    assert _oracle().sensor_dead is False
+
+
+def test_campaigns_on_a_robot_without_sensors_drive_on_the_no_sensor_rules_and_hold() -> None:
+    robot = replace(default_sim_config(), backend="linux")
+    outcomes = [run_campaign(robot, draw_campaign(0, index), index) for index in range(6)]
+    assert sum(outcome.checks for outcome in outcomes) > 0
+    assert [finding for outcome in outcomes for finding in outcome.findings] == []

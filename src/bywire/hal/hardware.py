@@ -64,3 +64,11 @@ class Hardware:
     wheel_speeds: WheelSpeedSensor | None = None
     hydrobrake_pressure_bar: AnalogInput | None = None  # optional (Table 4): checked if fitted
     steering_encoder_norm: AnalogInput | None = None  # optional (Table 4): −1…1 like the command
+
+
+def sensors_fitted(backend: str) -> bool:
+    """Whether the robot on `backend` has the optional sensors (wheel speed, brake pressure,
+    steering encoder). The simulated robot has all three; the Linux backend opens none yet
+    (docs/DEPLOY.md), so the simulator plays a Linux robot file without them, as it drives, and
+    `bywire verify` checks the robot the file describes."""
+    return backend == "sim"

@@ -365,7 +365,7 @@ class OracleWitness:
             "dac_restore": lambda: oracle.fault("dac_fail", False, now),
             "dac_stall": lambda: self._stall(float(values["stall_s"]), now),
             "wheel_sensor_dead": oracle.sensor_dies,
-            "wheel_sensor_restore": lambda: setattr(oracle, "sensor_dead", False),
+            "wheel_sensor_restore": oracle.sensor_restored,
             "hydrobrake_fail": lambda: setattr(oracle, "brake_failed", True),
             "hydrobrake_restore": lambda: setattr(oracle, "brake_failed", False),
         }

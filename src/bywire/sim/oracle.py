@@ -464,9 +464,19 @@ class HazardOracle:
                 owed.add(kind)
         return owed
 
+    def __post_init__(self) -> None:
+        # A robot without the sensors (a Linux robot file today) is judged as one whose wheel
+        # sensor died at power-up: the no-sensor rule must hold it, from standstill on.
+        self.sensor_dead = not self.world.sensors_fitted
+
     def sensor_dies(self) -> None:
-        """The wheel-speed sensor reads 0 m/s from now on, whatever the robot does."""
-        self.sensor_dead, self.died_at_mps = True, abs(self.world.vehicle.state.speed_mps)
+        """The wheel-speed sensor reads 0 m/s from now on, whatever the robot does (a sensor
+        that is not fitted has nothing to lose)."""
+        if self.world.sensors_fitted:
+            self.sensor_dead, self.died_at_mps = True, abs(self.world.vehicle.state.speed_mps)
+
+    def sensor_restored(self) -> None:
+        self.sensor_dead = not self.world.sensors_fitted
 
     def hang(self, from_s: float, until_s: float) -> None:
         """The loop's next write after `from_s` hangs until `until_s`, too short to trip the

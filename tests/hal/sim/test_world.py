@@ -152,3 +152,21 @@ def test_a_robot_file_sets_the_simulated_dacs_reference_and_the_buss_bit_rate() 
     assert world.bus.bitrate_bps == 125_000
     world.dac.write(dac6574.encode_write(0, 1023))
     assert world.dac.volts(0) == pytest.approx(3.3 * 1023 / 1024, abs=0.01)
+
+
+def test_a_linux_robot_file_is_simulated_without_the_sensors_its_backend_cannot_open() -> None:
+    """verify must check the robot the file describes: the Linux backend fits no sensor yet."""
+    simulated = SimWorld.from_robot(VirtualClock(), default_sim_config())
+    on_linux = SimWorld.from_robot(VirtualClock(), replace(default_sim_config(), backend="linux"))
+    assert simulated.sensors_fitted
+    assert None not in (
+        simulated.hardware.wheel_speeds,
+        simulated.hardware.hydrobrake_pressure_bar,
+        simulated.hardware.steering_encoder_norm,
+    )
+    assert not on_linux.sensors_fitted
+    assert (
+        on_linux.hardware.wheel_speeds,
+        on_linux.hardware.hydrobrake_pressure_bar,
+        on_linux.hardware.steering_encoder_norm,
+    ) == (None, None, None)

@@ -12,7 +12,7 @@ from dataclasses import dataclass, fields
 from typing import TYPE_CHECKING, Protocol
 
 from bywire.control.rc_mapping import RcMapping
-from bywire.hal.hardware import DigitalOutputs, Hardware
+from bywire.hal.hardware import DigitalOutputs, Hardware, sensors_fitted
 from bywire.hal.ports import Clock
 from bywire.hal.sim.can_bus import DEFAULT_BITRATE_BPS, SimCanBus
 from bywire.hal.sim.can_port import SimCanPort
@@ -94,6 +94,7 @@ class SimWorld:
         can_bitrate_bps: int = DEFAULT_BITRATE_BPS,
         vehicle_config: VehicleConfig | None = None,
         bus_log_limit: int | None = 20_000,
+        sensors: bool = True,
     ) -> SimWorld:
         """Build the robot; nothing runs until ``start()``.
 
@@ -145,9 +146,10 @@ class SimWorld:
             steering_pwm=pwm.steering,
             hydrobrake_pwm=pwm.hydrobrake,
             outputs=DigitalOutputs(**gpio),
-            wheel_speeds=wheel_sensor,
-            hydrobrake_pressure_bar=pressure_sensor,
-            steering_encoder_norm=steering_encoder,
+            # Unfitted, the parts still simulate (a fault changes nothing); nothing reads them.
+            wheel_speeds=wheel_sensor if sensors else None,
+            hydrobrake_pressure_bar=pressure_sensor if sensors else None,
+            steering_encoder_norm=steering_encoder if sensors else None,
         )
         return cls(
             clock,
@@ -172,8 +174,8 @@ class SimWorld:
         cls, clock: WorldClock, robot: RobotConfig, *, bus_log_limit: int | None = 0
     ) -> SimWorld:
         """The simulated robot wired as a robot configuration says (DAC channels, brake PWM
-        period, DAC reference, CAN bit rate, RC mapping, and `[sim]`: seed, IBUS frame period,
-        top speed)."""
+        period, DAC reference, CAN bit rate, RC mapping, the sensors its backend fits, and
+        `[sim]`: seed, IBUS frame period, top speed)."""
         dac = robot.drive.dac
         return cls.create(
             clock,
@@ -187,7 +189,12 @@ class SimWorld:
             can_bitrate_bps=robot.can.bitrate_bps,
             vehicle_config=VehicleConfig(top_speed_mps=robot.sim.top_speed_mps),
             bus_log_limit=bus_log_limit,
+            sensors=sensors_fitted(robot.backend),
         )
+
+    @property
+    def sensors_fitted(self) -> bool:
+        return self.hardware.wheel_speeds is not None
 
     def start(self, *, rc: bool = True, hlc: bool = True, vehicle: bool = True) -> None:
         """Start the transmitter, the higher-level computer and the vehicle from now."""
