@@ -13,7 +13,7 @@ from dataclasses import replace
 
 import pytest
 
-from bywire.config import default_sim_config
+from bywire.config import RobotConfig, default_sim_config
 from bywire.hal.sim.clock import VirtualClock
 from bywire.hal.sim.world import SimWorld
 from bywire.model import ControlMode
@@ -42,8 +42,8 @@ def _violations(events: str, duration_s: float) -> list[str]:
     return [f"{v.invariant} at {v.time_s:.4f}: {v.detail}" for v in result.oracle.violations]
 
 
-def _oracle() -> HazardOracle:
-    robot = default_sim_config()
+def _oracle(robot: RobotConfig | None = None) -> HazardOracle:
+    robot = robot or default_sim_config()
     world = SimWorld.from_robot(VirtualClock(), robot)
     return HazardOracle(world, robot.drive.dac.throttle_channel, robot.drive.dac.regen_channel)
 
@@ -612,9 +612,7 @@ def test_a_pending_stop_keeps_its_deadline_across_an_unseen_glimpse_but_not_a_se
 def test_a_robot_without_a_wheel_sensor_is_judged_as_one_whose_sensor_died_at_power_up() -> None:
     """No speed to trust from the start, and none that a fault could take away or give back:
     H4 holds at the standstill threshold (the no-sensor rule must stop the robot first)."""
-    robot = replace(default_sim_config(), backend="linux")
-    world = SimWorld.from_robot(VirtualClock(), robot)
-    oracle = HazardOracle(world, robot.drive.dac.throttle_channel, robot.drive.dac.regen_channel)
+    oracle = _oracle(replace(default_sim_config(), backend="linux"))
     assert oracle.sensor_dead
     assert oracle.died_at_mps == 0.0
     oracle.sensor_restored()
