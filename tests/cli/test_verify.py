@@ -10,7 +10,7 @@ from pathlib import Path
 import pytest
 
 from bywire.cli.main import main
-from bywire.control.supervisor_check import TRANSITIONS
+from bywire.control.supervisor_check import MONITOR_CAUSES, TRANSITIONS, transitions_naming
 from bywire.sim.oracle import INVARIANTS
 from tests.system.old_bugs import OLD_BUGS
 
@@ -42,6 +42,26 @@ def test_the_default_budget_on_the_default_robot_is_clean(
     # and the right source to re-arm, which the campaigns' episodes provide (sim/draw.py).
     assert transitions["exercised"] == len(TRANSITIONS)
     assert transitions["never"] == []
+    assert transitions["cannot_happen"] == []  # the simulated robot has every sensor
+
+
+def test_on_a_robot_without_sensors_the_monitor_rows_cannot_happen_rather_than_never_did(
+    capsys: pytest.CaptureFixture[str],
+) -> None:
+    robot = Path(__file__).parents[2] / "config" / "albert.toml"  # backend "linux": no sensors
+    status, summary = _verify(
+        capsys, "--config", str(robot), "--budget", "2", "--campaign-s", "2", "--jobs", "1"
+    )
+    assert status == 0
+    transitions = summary["transitions"]
+    assert isinstance(transitions, dict)
+    cannot = transitions_naming(MONITOR_CAUSES)
+    assert transitions["cannot_happen"] == list(cannot)
+    assert transitions["of"] == len(TRANSITIONS) - len(cannot)
+    assert not set(cannot) & set(transitions["never"])
+    assert transitions["exercised"] + len(transitions["never"]) == transitions["of"]
+    assert main(["verify", "--config", str(robot), "--budget", "1", "--campaign-s", "1"]) == 0
+    assert "8 more cannot happen on this robot" in capsys.readouterr().out
 
 
 def test_the_same_seed_gives_the_same_run_on_any_number_of_processes(

@@ -34,7 +34,8 @@ from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, T
 from bywire.cli.arguments import positive_seconds, whole_number
 from bywire.config import RobotConfig, default_sim_config, load_config
 from bywire.config.hazards import UnsafeCombination, unsafe_combinations
-from bywire.control.supervisor_check import TRANSITIONS
+from bywire.control.supervisor_check import MONITOR_CAUSES, TRANSITIONS, transitions_naming
+from bywire.hal.hardware import sensors_fitted
 from bywire.sim.draw import CAMPAIGN_S
 from bywire.sim.oracle import INVARIANTS
 from bywire.sim.scenario import scenario_toml
@@ -175,7 +176,9 @@ def run(args: argparse.Namespace) -> int:
             progress.update(task, advance=1, status=status or "0 violations")
     wall_s = time.perf_counter() - started
     reproductions = _shrink_all(robot, tally, args, console, show)
-    summary = _summary(source, args, tally, wall_s, reproductions)
+    summary = _summary(
+        source, args, tally, wall_s, reproductions, cannot_happen=_cannot_happen(robot)
+    )
     if args.json:
         print(json.dumps(summary, indent=2))
     else:
@@ -229,14 +232,23 @@ def _shrink_all(
     return reproductions
 
 
+def _cannot_happen(robot: RobotConfig) -> tuple[str, ...]:
+    """The transitions this robot cannot take, so a campaign never missed them: without the
+    sensors its backend does not fit, no monitor raises its causes."""
+    return () if sensors_fitted(robot.backend) else transitions_naming(MONITOR_CAUSES)
+
+
 def _summary(
     source: str,
     args: argparse.Namespace,
     tally: Tally,
     wall_s: float,
     reproductions: list[Reproduction],
+    *,
+    cannot_happen: tuple[str, ...],
 ) -> dict[str, Any]:
-    never = [label for label in TRANSITIONS if label not in tally.transitions]
+    possible = [label for label in TRANSITIONS if label not in cannot_happen]
+    never = [label for label in possible if label not in tally.transitions]
     return {
         "config": source,
         "seed": args.seed,
@@ -251,9 +263,10 @@ def _summary(
         "passes_checked": tally.checks,
         "violations": {invariant: tally.violations[invariant] for invariant in INVARIANTS},
         "transitions": {
-            "exercised": len(TRANSITIONS) - len(never),
-            "of": len(TRANSITIONS),
+            "exercised": len(possible) - len(never),
+            "of": len(possible),
             "never": never,
+            "cannot_happen": list(cannot_happen),
         },
         "failures": [
             {
@@ -289,6 +302,13 @@ def _print_summary(console: Console, summary: dict[str, Any]) -> None:
     )
     for label in transitions["never"]:
         console.print(f"    never: {label}", highlight=False)
+    if transitions["cannot_happen"]:
+        console.print(
+            f"  {len(transitions['cannot_happen'])} more cannot happen on this robot: its"
+            " backend fits no brake-pressure or steering-encoder sensor, so no monitor raises"
+            " them (docs/DEPLOY.md)",
+            highlight=False,
+        )
     for failure in summary["failures"]:
         console.print(
             f"[red]  {failure['invariant']} broken at {failure['time_s']:.3f} s:"

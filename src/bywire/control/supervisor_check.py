@@ -89,6 +89,16 @@ TRANSITIONS: tuple[str, ...] = (
 reachable state can take; `tests/control/test_supervisor_exhaustive.py` proves the list is
 exactly what the search reaches. `bywire verify` reports which of them its campaigns took."""
 
+MONITOR_CAUSES = frozenset({Cause.HYDRO_PRESSURE, Cause.STEERING_ENCODER})
+"""Causes only a monitor raises, and a monitor judges a measurement: on a robot without the
+sensors (docs/DEPLOY.md) no step can take a row that names them."""
+
+
+def transitions_naming(causes: Iterable[Cause]) -> tuple[str, ...]:
+    """The rows of `TRANSITIONS` that latch or clear one of `causes`, in table order."""
+    names = {cause.name for cause in causes}
+    return tuple(label for label in TRANSITIONS if names & set(label.replace(":", "").split()))
+
 
 Invariant = Callable[[SupervisorState, SupervisorInputs, SupervisorState, int], bool]
 
