@@ -53,10 +53,16 @@ def test_run_records_state_events_and_the_can_frames_both_ways_to_mcap(
         robot.wait_for("armed in STOP", lambda: robot.reports() == _stop_armed(robot))
         line.transmitter.set_mode(ControlMode.RC)
         robot.wait_for("RC mode in the reports", lambda: robot.reports()["mode"] == "RC")
+        # The writer, with foxglove's 39 MB native core, is a process of its own, and without a
+        # key nothing loads cryptography's 11 MB: with lock_memory every mapped page is resident.
+        mapped = Path(f"/proc/{robot.process.pid}/maps").read_text(encoding="ascii")
         robot.process.send_signal(signal.SIGTERM)
         assert robot.finish() == 0, robot.errors()
     finally:
         robot.kill()
+    assert "libpython" in mapped or "python" in mapped  # the controller's own map was read
+    assert "_foxglove_py" not in mapped
+    assert "cryptography" not in mapped
     _assert_de_energised(bench)
     messages = read_mcap(path)
     states = [body for topic, body in messages if topic == STATE_TOPIC]

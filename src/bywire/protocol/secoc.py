@@ -18,16 +18,19 @@ secured-PDU collection whose message link is the id (albert.dbc's `SecOCAuthenti
 Profile 3 ("JASPAR"): 48-bit truncated MAC, 16 low bits of the 64-bit freshness value sent; the
 receiver rebuilds the full value as the smallest one above the last it accepted with those low
 bits, so it can only move forward. Pure: no I/O, no clock, no state.
+
+`cryptography` is imported when a key is made, not with this module: its native core maps 11 MB,
+which a robot without `[security]` should not load (nor lock, with `[realtime] lock_memory`).
 """
 
 from __future__ import annotations
 
 import hmac
 import struct
-from typing import NamedTuple
+from typing import TYPE_CHECKING, NamedTuple
 
-from cryptography.hazmat.primitives import cmac
-from cryptography.hazmat.primitives.ciphers import algorithms
+if TYPE_CHECKING:
+    from cryptography.hazmat.primitives.cmac import CMAC
 
 from bywire.errors import FrameError
 
@@ -51,8 +54,11 @@ class SecocKey:
     def __init__(self, secret: bytes) -> None:
         if len(secret) != KEY_BYTES:
             raise ValueError(f"an AES-128 key is {KEY_BYTES} bytes, got {len(secret)}")
+        from cryptography.hazmat.primitives import cmac  # noqa: PLC0415 -- only with a key
+        from cryptography.hazmat.primitives.ciphers import algorithms  # noqa: PLC0415
+
         # Keyed once; each MAC starts from a copy (a fifth of the cost of keying every time).
-        self._keyed = cmac.CMAC(algorithms.AES128(bytes(secret)))
+        self._keyed: CMAC = cmac.CMAC(algorithms.AES128(bytes(secret)))
 
     def cmac(self, message: bytes) -> bytes:
         """The full 16-byte AES-128 CMAC of `message` (RFC 4493)."""

@@ -12,7 +12,7 @@ import time
 from collections.abc import Iterator
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Protocol
+from typing import TYPE_CHECKING, Protocol
 
 from bywire.errors import ConfigError
 from bywire.loopback import Endpoint, ListenAddress
@@ -20,10 +20,12 @@ from bywire.priority import outside_realtime
 from bywire.runtime.app import Runtime
 from bywire.telemetry.capture import DEFAULT_RATE_HZ, Capture, TelemetryTap
 from bywire.telemetry.outbox import DEFAULT_CAPACITY, Outbox
-from bywire.telemetry.writer import TelemetryWriter
 from bywire.telemetry.writer_process import WriterProcess
 
-Writer = TelemetryWriter | WriterProcess
+if TYPE_CHECKING:
+    from bywire.telemetry.writer import TelemetryWriter
+
+    Writer = TelemetryWriter | WriterProcess
 
 
 @dataclass(frozen=True, slots=True)
@@ -116,6 +118,10 @@ def open_sinks(
         finally:
             process.close(close_timeout_s)
         return
+    # Imported here: on real time the writer (and foxglove's 39 MB native core) lives in the
+    # writer process, never in the controller's.
+    from bywire.telemetry.writer import TelemetryWriter  # noqa: PLC0415
+
     writer = TelemetryWriter(queue)
     try:
         yield FeedSinks(queue, writer, _start(writer, options))

@@ -36,7 +36,7 @@ import subprocess
 import sys
 import time
 from pathlib import Path
-from typing import IO
+from typing import IO, TYPE_CHECKING
 
 from bywire.errors import ConfigError
 from bywire.loopback import Endpoint, ListenAddress
@@ -44,7 +44,9 @@ from bywire.priority import leave_realtime
 from bywire.telemetry.capture import Capture
 from bywire.telemetry.outbox import Outbox
 from bywire.telemetry.wire import WireError, pack, split, unpack
-from bywire.telemetry.writer import TelemetryWriter
+
+if TYPE_CHECKING:
+    from bywire.telemetry.writer import TelemetryWriter
 
 START_TIMEOUT_S = 30.0  # the child imports foxglove-sdk and opens its sinks: ~0.2 s here
 SHIP_PERIOD_S = 0.01  # the loop ships at most this often: batches, not a write per frame
@@ -231,6 +233,10 @@ def main(argv: list[str] | None = None) -> int:
     for stop in (signal.SIGINT, signal.SIGTERM, signal.SIGHUP):
         signal.signal(stop, signal.SIG_IGN)  # the controller ends the feed by closing the pipe
     _step_aside()
+    # Here, not at the top: the controller imports this module for `WriterProcess` and must not
+    # load the writer's foxglove (a 39 MB native core, locked whole with `lock_memory`).
+    from bywire.telemetry.writer import TelemetryWriter  # noqa: PLC0415
+
     outbox: Outbox[Capture] = Outbox(CHILD_QUEUE, wait_when_full=True)
     writer = TelemetryWriter(outbox, log_offset_s=args.log_offset_ns / 1e9)
     port = None
