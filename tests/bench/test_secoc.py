@@ -2,6 +2,9 @@
 
 from __future__ import annotations
 
+import subprocess
+import sys
+
 import pytest
 
 from bywire.bench.figures import SECOC_COST_LIMIT_MS, secoc_figures
@@ -22,3 +25,13 @@ def test_the_cost_figure_has_the_issue_s_goal() -> None:
     cost = figures["secoc_cost_p99_ms"]
     assert (cost.limit, cost.unit, cost.target) == (SECOC_COST_LIMIT_MS, "ms", "≤ 0.05 ms")
     assert figures["secoc_wire_ms"].value == pytest.approx(0.27)
+
+
+def test_the_bench_loads_cryptography_only_to_measure_secoc() -> None:
+    """The real-time session's peak memory is the controller's: with `lock_memory`, an unused
+    11 MB native library mapped by the bench's own key would count as the controller's."""
+    probe = "import sys, bywire.cli.bench\nprint('cryptography' in sys.modules)\n"
+    loaded = subprocess.run(
+        [sys.executable, "-c", probe], capture_output=True, text=True, check=True
+    ).stdout.split()
+    assert loaded == ["False"]

@@ -29,7 +29,7 @@ from bywire.security.freshness import FreshnessStore
 from bywire.security.session import SecocReceiver, SecocSigner
 
 DEFAULT_SAMPLES = 20_000
-BENCH_KEY = SecocKey(bytes(range(16)))
+BENCH_SECRET = bytes(range(16))  # made a key only when measuring: keys load cryptography
 
 
 class _Inbox:
@@ -93,9 +93,10 @@ def measure_secoc_cost(samples: int = DEFAULT_SAMPLES, bitrate_bps: int = 500_00
 def _measure(samples: int, bitrate_bps: int) -> SecocCost:
     plain_port, secure_port = _Inbox(), _Inbox()
     plain = CanReader(plain_port)
-    receiver = SecocReceiver(BENCH_KEY, FreshnessStore(BENCH_KEY), dbc.command_ids())
+    key = SecocKey(BENCH_SECRET)
+    receiver = SecocReceiver(key, FreshnessStore(key), dbc.command_ids())
     secure = CanReader(secure_port, secoc=receiver)
-    signer = SecocSigner(BENCH_KEY, FreshnessStore(BENCH_KEY))
+    signer = SecocSigner(key, FreshnessStore(key))
     plain_s: list[tuple[float, float]] = []
     secure_s: list[tuple[float, float]] = []
     for index in range(samples):
