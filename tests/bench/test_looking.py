@@ -5,6 +5,8 @@ was looking."""
 
 from __future__ import annotations
 
+import pytest
+
 from bywire.bench.clocks import MeteredRealtimeClock
 from bywire.bench.figures import BenchResult
 from bywire.bench.realtime import BenchSettings, RealtimeSession
@@ -13,7 +15,9 @@ from bywire.bench.virtual import measure_speedup
 from bywire.config import default_sim_config
 
 
-def test_the_looking_phases_run_with_their_onlookers_and_yield_every_figure() -> None:
+def test_the_looking_phases_run_with_their_onlookers_and_yield_every_figure(
+    capfd: pytest.CaptureFixture[str],
+) -> None:
     robot = default_sim_config()
     session = RealtimeSession(
         robot, BenchSettings(phase_s=1.5, settle_s=0.2, look=True), MeteredRealtimeClock()
@@ -32,3 +36,6 @@ def test_the_looking_phases_run_with_their_onlookers_and_yield_every_figure() ->
     bench = BenchResult(result, measure_speedup(robot, "test-course", 1.0), None, {}, {})
     assert "Foxglove client attached" in section_title(bench, "feed")
     assert "bywire dashboard attached" in section_title(bench, "dashboard")
+    # Both onlookers leave with a closing handshake: the server (in the writer's process, on
+    # this stderr) has no "connection reset" to print into the user's terminal.
+    assert "reset" not in capfd.readouterr().err
