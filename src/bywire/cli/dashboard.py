@@ -4,13 +4,19 @@ from __future__ import annotations
 
 import argparse
 import contextlib
+import functools
 import os
+import signal
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from bywire.cli.arguments import positive_seconds
 from bywire.config import load_config
 from bywire.errors import ConfigError
 from bywire.sim.catalog import DEFAULT_SCENARIO, find_scenario
+
+if TYPE_CHECKING:
+    from bywire.dashboard.client import FeedClient
 
 EPILOG = """\
 The view is a client of the controller's telemetry feed (Foxglove's WebSocket protocol), in a
@@ -104,12 +110,23 @@ def show(url: str, *, source: str) -> int:
     from bywire.dashboard.client import FeedClient  # noqa: PLC0415
 
     client = FeedClient(url).start()
+    signal.signal(signal.SIGTERM, functools.partial(_terminated, client))
     try:
         app = DashboardApp(client, source=source)
         app.run()
     finally:
         client.close()
     return app.return_code or 0
+
+
+def _terminated(client: FeedClient, _signal: int, _frame: object) -> None:
+    """SIGTERM (`bywire run --dashboard` ending, a service manager) ends the view at once, as
+    the default action would, but first closes the feed with a handshake, so the server prints
+    no "connection reset" into the terminal. The status stays a signal's, never 0 (which
+    `bywire run` takes for the operator's stop); whoever sent it restores the terminal."""
+    with contextlib.suppress(Exception):
+        client.close()
+    os._exit(128 + signal.SIGTERM)
 
 
 VIEW_NICENESS = 10  # a view yields the CPU to anything at normal priority (the controller)

@@ -8,9 +8,6 @@ picture stays on screen, with the reason in the title bar.
 
 from __future__ import annotations
 
-import asyncio
-import contextlib
-import signal
 from typing import Any, Protocol
 
 from rich.text import Text
@@ -40,9 +37,6 @@ class FeedSource(Protocol):
 
     @property
     def status(self) -> str: ...
-
-
-TERMINATED_STATUS = 128 + signal.SIGTERM  # the shell's status for a process ended by SIGTERM
 
 
 class DashboardApp(App[None]):
@@ -84,13 +78,6 @@ class DashboardApp(App[None]):
             table.add_column(column, key=column)
         self.refresh_view()
         self.set_interval(REFRESH_S, self.refresh_view)
-        # SIGTERM (`bywire run --dashboard` ending, a service manager) ends the app in order, so
-        # the feed's client closes with a handshake instead of leaving the server a reset; the
-        # exit status stays a signal's (not 0, which `bywire run` takes for the operator's stop).
-        with contextlib.suppress(NotImplementedError, RuntimeError):
-            asyncio.get_running_loop().add_signal_handler(
-                signal.SIGTERM, lambda: self.exit(return_code=TERMINATED_STATUS)
-            )
 
     def refresh_view(self) -> None:
         """Show the newest state; keep the last one on screen once the feed has ended."""

@@ -26,6 +26,7 @@ MESSAGE_DATA = 0x01  # binary opcode: u8 op, u32 subscription id, u64 log time, 
 HEADER = struct.Struct("<BIQ")
 STATE_ID, EVENTS_ID, OTHER_ID = 1, 2, 100  # subscription ids: other topics from 100 on
 OPEN_TIMEOUT_S = 5.0
+CLOSE_TIMEOUT_S = 0.5  # a closing handshake the server does not answer this soon is given up
 EVENTS_KEPT = 50
 
 
@@ -81,7 +82,11 @@ class FeedClient:
     def _follow(self) -> None:
         try:
             with connect(
-                self.url, subprotocols=SUBPROTOCOLS, open_timeout=OPEN_TIMEOUT_S, max_size=None
+                self.url,
+                subprotocols=SUBPROTOCOLS,
+                open_timeout=OPEN_TIMEOUT_S,
+                close_timeout=CLOSE_TIMEOUT_S,
+                max_size=None,
             ) as connection:
                 self._connection = connection
                 self._subscribe(connection)
