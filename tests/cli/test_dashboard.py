@@ -3,6 +3,13 @@ it starts as a child process and the feed it attaches to."""
 
 from __future__ import annotations
 
+import contextlib
+import os
+import pty
+import signal
+import subprocess
+import sys
+import threading
 import time
 from pathlib import Path
 
@@ -105,3 +112,63 @@ def test_without_attach_it_starts_the_simulated_robot_whose_feed_carries_the_sce
         status = sim.stop()
     assert status in (0, 130)  # ended by itself, or stopped by Ctrl-C
     assert "Traceback" not in "\n".join(sim.lines)
+
+
+ROBOT_STOPS_S = 15.0  # the view gives its robot 5 s to stop safe; its scenario lasts 600 s
+
+
+def _children(pid: int) -> list[int]:
+    return [
+        int(child)
+        for task in Path(f"/proc/{pid}/task").iterdir()
+        for child in (task / "children").read_text().split()
+    ]
+
+
+def test_sigterm_ends_the_view_and_the_simulated_robot_it_started() -> None:
+    """A service manager's or a user's SIGTERM: the view exits with a signal's status (not 0)
+    and takes its simulated robot with it; nothing is left running."""
+    master, slave = pty.openpty()
+    view = subprocess.Popen(
+        [sys.executable, "-m", "bywire", "dashboard", "--duration", "600"],
+        stdin=slave,
+        stdout=slave,
+        stderr=slave,
+        env={**os.environ, "TERM": "xterm-256color", "COLUMNS": "80", "LINES": "24"},
+        start_new_session=True,
+    )
+    os.close(slave)
+    screen: list[bytes] = []
+    reader = threading.Thread(target=_read_all, args=(master, screen), daemon=True)
+    reader.start()
+    try:
+        deadline = time.monotonic() + LIMIT_S
+        while b"live from" not in b"".join(screen):  # the view is up and attached to the feed
+            assert view.poll() is None, b"".join(screen)[-2000:]
+            assert time.monotonic() < deadline, "the view never attached"
+            time.sleep(0.05)
+        (robot,) = _children(view.pid)
+        view.send_signal(signal.SIGTERM)
+        assert view.wait(LIMIT_S) == 128 + signal.SIGTERM
+        deadline = time.monotonic() + ROBOT_STOPS_S
+        while Path(f"/proc/{robot}").exists() and b"Z" not in _state(robot):
+            assert time.monotonic() < deadline, "the simulated robot outlived its view"
+            time.sleep(0.05)
+    finally:
+        if view.poll() is None:
+            view.kill()
+            view.wait()
+        os.close(master)
+
+
+def _state(pid: int) -> bytes:
+    try:
+        return Path(f"/proc/{pid}/stat").read_bytes().rsplit(b")", 1)[1].split()[0]
+    except OSError:
+        return b"Z"
+
+
+def _read_all(master: int, into: list[bytes]) -> None:
+    with contextlib.suppress(OSError):
+        while chunk := os.read(master, 65536):
+            into.append(chunk)

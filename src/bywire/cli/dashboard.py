@@ -7,6 +7,7 @@ import contextlib
 import functools
 import os
 import signal
+from collections.abc import Callable
 from pathlib import Path
 from typing import TYPE_CHECKING
 
@@ -99,18 +100,19 @@ def run(args: argparse.Namespace) -> int:
     sim = SimFeed(arguments)  # at the priority this command was given
     _step_aside()
     try:
-        return show(sim.url, source=f"scenario {Path(args.scenario).stem}")
+        return show(sim.url, source=f"scenario {Path(args.scenario).stem}", on_terminate=sim.stop)
     finally:
         sim.stop()
 
 
-def show(url: str, *, source: str) -> int:
-    """The textual program on the feed at `url` (textual is imported only for this)."""
+def show(url: str, *, source: str, on_terminate: Callable[[], object] | None = None) -> int:
+    """The textual program on the feed at `url` (textual is imported only for this);
+    `on_terminate` runs on SIGTERM before the view ends (the simulated robot's stop)."""
     from bywire.dashboard.app import DashboardApp  # noqa: PLC0415 -- keeps `bywire --help` fast
     from bywire.dashboard.client import FeedClient  # noqa: PLC0415
 
     client = FeedClient(url).start()
-    signal.signal(signal.SIGTERM, functools.partial(_terminated, client))
+    signal.signal(signal.SIGTERM, functools.partial(_terminated, client, on_terminate))
     try:
         app = DashboardApp(client, source=source)
         app.run()
@@ -119,13 +121,19 @@ def show(url: str, *, source: str) -> int:
     return app.return_code or 0
 
 
-def _terminated(client: FeedClient, _signal: int, _frame: object) -> None:
+def _terminated(
+    client: FeedClient, on_terminate: Callable[[], object] | None, _signal: int, _frame: object
+) -> None:
     """SIGTERM (`bywire run --dashboard` ending, a service manager) ends the view at once, as
     the default action would, but first closes the feed with a handshake, so the server prints
-    no "connection reset" into the terminal. The status stays a signal's, never 0 (which
-    `bywire run` takes for the operator's stop); whoever sent it restores the terminal."""
+    no "connection reset" into the terminal, and stops the simulated robot it started, which
+    would otherwise outlive it. The status stays a signal's, never 0 (which `bywire run` takes
+    for the operator's stop); whoever sent it restores the terminal."""
     with contextlib.suppress(Exception):
         client.close()
+    if on_terminate is not None:
+        with contextlib.suppress(Exception):
+            on_terminate()
     os._exit(128 + signal.SIGTERM)
 
 
