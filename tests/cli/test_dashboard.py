@@ -118,16 +118,18 @@ ROBOT_STOPS_S = 15.0  # the view gives its robot 5 s to stop safe; its scenario 
 
 
 def _children(pid: int) -> list[int]:
-    return [
-        int(child)
-        for task in Path(f"/proc/{pid}/task").iterdir()
-        for child in (task / "children").read_text().split()
-    ]
+    found: list[int] = []
+    for task in Path(f"/proc/{pid}/task").iterdir():
+        with contextlib.suppress(OSError):  # a thread that ended meanwhile
+            found += [int(child) for child in (task / "children").read_text().split()]
+    return found
 
 
-def test_sigterm_ends_the_view_and_the_simulated_robot_it_started() -> None:
-    """A service manager's or a user's SIGTERM: the view exits with a signal's status (not 0)
-    and takes its simulated robot with it; nothing is left running."""
+@pytest.mark.parametrize("when", ["attached", "starting"])
+def test_sigterm_ends_the_view_and_the_simulated_robot_it_started(when: str) -> None:
+    """A service manager's or a user's SIGTERM, once the view shows the feed or while the robot
+    is still starting: the view exits with a signal's status (not 0) and takes its simulated
+    robot with it; nothing is left running."""
     master, slave = pty.openpty()
     view = subprocess.Popen(
         [sys.executable, "-m", "bywire", "dashboard", "--duration", "600"],
@@ -139,15 +141,18 @@ def test_sigterm_ends_the_view_and_the_simulated_robot_it_started() -> None:
     )
     os.close(slave)
     screen: list[bytes] = []
+    robots: list[int] = []
     reader = threading.Thread(target=_read_all, args=(master, screen), daemon=True)
     reader.start()
     try:
         deadline = time.monotonic() + LIMIT_S
-        while b"live from" not in b"".join(screen):  # the view is up and attached to the feed
+        while not (robots := _children(view.pid)) or (
+            when == "attached" and b"live from" not in b"".join(screen)
+        ):
             assert view.poll() is None, b"".join(screen)[-2000:]
-            assert time.monotonic() < deadline, "the view never attached"
-            time.sleep(0.05)
-        (robot,) = _children(view.pid)
+            assert time.monotonic() < deadline, f"the view was never {when}"
+            time.sleep(0.005)
+        (robot,) = robots
         view.send_signal(signal.SIGTERM)
         assert view.wait(LIMIT_S) == 128 + signal.SIGTERM
         deadline = time.monotonic() + ROBOT_STOPS_S
@@ -158,6 +163,9 @@ def test_sigterm_ends_the_view_and_the_simulated_robot_it_started() -> None:
         if view.poll() is None:
             view.kill()
             view.wait()
+        for pid in robots:  # a failed test leaves no 600 s robot running
+            with contextlib.suppress(OSError):
+                os.kill(pid, signal.SIGKILL)
         os.close(master)
 
 

@@ -59,6 +59,7 @@ def test_on_a_robot_without_sensors_the_monitor_rows_cannot_happen_rather_than_n
     assert transitions["cannot_happen"] == list(cannot)
     assert transitions["of"] == len(TRANSITIONS) - len(cannot)
     assert not set(cannot) & set(transitions["never"])
+    assert transitions["cannot_happen_but_taken"] == []
     assert transitions["exercised"] + len(transitions["never"]) == transitions["of"]
     assert main(["verify", "--config", str(robot), "--budget", "1", "--campaign-s", "1"]) == 0
     assert "8 more cannot happen on this robot" in capsys.readouterr().out

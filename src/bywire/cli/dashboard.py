@@ -4,10 +4,10 @@ from __future__ import annotations
 
 import argparse
 import contextlib
-import functools
 import os
 import signal
-from collections.abc import Callable
+import threading
+import time
 from pathlib import Path
 from typing import TYPE_CHECKING
 
@@ -87,7 +87,7 @@ def run(args: argparse.Namespace) -> int:
         if given:
             raise ConfigError(f"{', '.join(given)}: for the simulated robot, not with --attach")
         _step_aside()
-        return show(attach_url(args.attach), source=args.attach)
+        return show(attach_url(args.attach), source=args.attach, ending=_Ending())
     from bywire.dashboard.child import SimFeed  # noqa: PLC0415
 
     find_scenario(args.scenario)  # a wrong name or file: one line here, not in the child
@@ -97,22 +97,24 @@ def run(args: argparse.Namespace) -> int:
     if args.config is not None:
         load_config(args.config)
         arguments += ["--config", str(args.config)]
-    sim = SimFeed(arguments)  # at the priority this command was given
+    ending = _Ending()  # before the robot starts: a SIGTERM from now on stops it too
+    sim = SimFeed(arguments, on_started=ending.robot_started)  # at this command's priority
     _step_aside()
     try:
-        return show(sim.url, source=f"scenario {Path(args.scenario).stem}", on_terminate=sim.stop)
+        return show(sim.url, source=f"scenario {Path(args.scenario).stem}", ending=ending)
     finally:
         sim.stop()
 
 
-def show(url: str, *, source: str, on_terminate: Callable[[], object] | None = None) -> int:
-    """The textual program on the feed at `url` (textual is imported only for this);
-    `on_terminate` runs on SIGTERM before the view ends (the simulated robot's stop)."""
+def show(url: str, *, source: str, ending: _Ending | None = None) -> int:
+    """The textual program on the feed at `url` (textual is imported only for this); with
+    `ending`, a SIGTERM closes the feed's client before the view goes."""
     from bywire.dashboard.app import DashboardApp  # noqa: PLC0415 -- keeps `bywire --help` fast
     from bywire.dashboard.client import FeedClient  # noqa: PLC0415
 
     client = FeedClient(url).start()
-    signal.signal(signal.SIGTERM, functools.partial(_terminated, client, on_terminate))
+    if ending is not None:
+        ending.client = client
     try:
         app = DashboardApp(client, source=source)
         app.run()
@@ -121,20 +123,59 @@ def show(url: str, *, source: str, on_terminate: Callable[[], object] | None = N
     return app.return_code or 0
 
 
-def _terminated(
-    client: FeedClient, on_terminate: Callable[[], object] | None, _signal: int, _frame: object
-) -> None:
-    """SIGTERM (`bywire run --dashboard` ending, a service manager) ends the view at once, as
-    the default action would, but first closes the feed with a handshake, so the server prints
-    no "connection reset" into the terminal, and stops the simulated robot it started, which
-    would otherwise outlive it. The status stays a signal's, never 0 (which `bywire run` takes
-    for the operator's stop); whoever sent it restores the terminal."""
-    with contextlib.suppress(Exception):
-        client.close()
-    if on_terminate is not None:
-        with contextlib.suppress(Exception):
-            on_terminate()
-    os._exit(128 + signal.SIGTERM)
+CLOSE_WAIT_S = 1.0  # on SIGTERM, the longest wait for the feed's closing handshake
+ROBOT_STOP_S = 5.0  # …and for the simulated robot to stop safe (then it is killed)
+
+
+class _Ending:
+    """What a SIGTERM (a service manager, `bywire run --dashboard` ending) does to the view.
+
+    It closes the feed's client with a handshake, so the server prints no "connection reset"
+    into the terminal, and stops the simulated robot the view started (Ctrl-C: it stops safe),
+    which would otherwise outlive it; then the view ends at once, as the default action would,
+    with a signal's status, never 0 (which `bywire run` takes for the operator's stop). Whoever
+    sent the signal restores the terminal.
+
+    A signal handler runs between two bytecodes of the main thread, which may hold a lock the
+    client or `subprocess` needs: the close runs in a thread of its own with a bounded wait, the
+    robot is signalled and reaped by its pid, and a second SIGTERM is ignored.
+    """
+
+    def __init__(self) -> None:
+        self.client: FeedClient | None = None
+        self.robot_pid: int | None = None
+        signal.signal(signal.SIGTERM, self._terminated)
+
+    def robot_started(self, pid: int) -> None:
+        self.robot_pid = pid
+
+    def _terminated(self, _signal: int, _frame: object) -> None:
+        signal.signal(signal.SIGTERM, signal.SIG_IGN)
+        client, robot_pid = self.client, self.robot_pid
+        if robot_pid is not None:
+            with contextlib.suppress(OSError):
+                os.kill(robot_pid, signal.SIGINT)
+        if client is not None:
+            closing = threading.Thread(target=client.close, daemon=True)
+            closing.start()
+            closing.join(CLOSE_WAIT_S)
+        if robot_pid is not None:
+            _reap(robot_pid, ROBOT_STOP_S)
+        os._exit(128 + signal.SIGTERM)
+
+
+def _reap(pid: int, timeout_s: float) -> None:
+    """Wait for child `pid` to end, without `subprocess` (whose lock the main thread may hold);
+    kill it after `timeout_s`."""
+    deadline_s = time.monotonic() + timeout_s
+    with contextlib.suppress(ChildProcessError):
+        while os.waitpid(pid, os.WNOHANG) == (0, 0):
+            if time.monotonic() > deadline_s:
+                with contextlib.suppress(OSError):
+                    os.kill(pid, signal.SIGKILL)
+                os.waitpid(pid, 0)
+                return
+            time.sleep(0.02)
 
 
 VIEW_NICENESS = 10  # a view yields the CPU to anything at normal priority (the controller)

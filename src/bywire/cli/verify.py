@@ -267,6 +267,8 @@ def _summary(
             "of": len(possible),
             "never": never,
             "cannot_happen": list(cannot_happen),
+            # A row taken that cannot happen is bywire's own bug (a monitor without its sensor).
+            "cannot_happen_but_taken": [row for row in cannot_happen if row in tally.transitions],
         },
         "failures": [
             {
@@ -307,6 +309,12 @@ def _print_summary(console: Console, summary: dict[str, Any]) -> None:
             f"  {len(transitions['cannot_happen'])} more cannot happen on this robot: its"
             " backend fits no brake-pressure or steering-encoder sensor, so no monitor raises"
             " them (docs/DEPLOY.md)",
+            highlight=False,
+        )
+    for label in transitions["cannot_happen_but_taken"]:
+        console.print(
+            f"[red]  taken though it cannot happen on this robot: {label}[/red]"
+            " (a bug of bywire's: please report it)",
             highlight=False,
         )
     for failure in summary["failures"]:

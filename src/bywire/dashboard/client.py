@@ -43,6 +43,7 @@ class FeedClient:
         self._ended = False
         self.received = 0
         self._connection: ClientConnection | None = None
+        self._closing = threading.Event()
         self._thread = threading.Thread(target=self._follow, name="bywire-feed", daemon=True)
 
     def start(self) -> FeedClient:
@@ -50,6 +51,8 @@ class FeedClient:
         return self
 
     def close(self) -> None:
+        """Close the connection with a handshake, also one still being opened."""
+        self._closing.set()
         connection = self._connection
         if connection is not None:
             connection.close()
@@ -89,6 +92,8 @@ class FeedClient:
                 max_size=None,
             ) as connection:
                 self._connection = connection
+                if self._closing.is_set():  # closed while it was being opened
+                    connection.close()
                 self._subscribe(connection)
                 self._set_status(f"live from {self.url}")
                 for data in connection:
