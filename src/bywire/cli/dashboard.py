@@ -6,9 +6,12 @@ import argparse
 import contextlib
 import os
 import signal
+import subprocess
 import threading
 import time
+from collections.abc import Callable
 from pathlib import Path
+from types import FrameType
 from typing import TYPE_CHECKING
 
 from bywire.cli.arguments import positive_seconds
@@ -87,7 +90,8 @@ def run(args: argparse.Namespace) -> int:
         if given:
             raise ConfigError(f"{', '.join(given)}: for the simulated robot, not with --attach")
         _step_aside()
-        return show(attach_url(args.attach), source=args.attach, ending=_Ending())
+        with _Ending() as ending:
+            return show(attach_url(args.attach), source=args.attach, ending=ending)
     from bywire.dashboard.child import SimFeed  # noqa: PLC0415
 
     find_scenario(args.scenario)  # a wrong name or file: one line here, not in the child
@@ -97,13 +101,13 @@ def run(args: argparse.Namespace) -> int:
     if args.config is not None:
         load_config(args.config)
         arguments += ["--config", str(args.config)]
-    ending = _Ending()  # before the robot starts: a SIGTERM from now on stops it too
-    sim = SimFeed(arguments, on_started=ending.robot_started)  # at this command's priority
-    _step_aside()
-    try:
-        return show(sim.url, source=f"scenario {Path(args.scenario).stem}", ending=ending)
-    finally:
-        sim.stop()
+    with _Ending() as ending:  # before the robot starts: a SIGTERM from now on stops it too
+        sim = SimFeed(arguments, on_started=ending.robot_started)  # at this command's priority
+        _step_aside()
+        try:
+            return show(sim.url, source=f"scenario {Path(args.scenario).stem}", ending=ending)
+        finally:
+            sim.stop()
 
 
 def show(url: str, *, source: str, ending: _Ending | None = None) -> int:
@@ -138,20 +142,30 @@ class _Ending:
 
     A signal handler runs between two bytecodes of the main thread, which may hold a lock the
     client or `subprocess` needs: the close runs in a thread of its own with a bounded wait, the
-    robot is signalled and reaped by its pid, and a second SIGTERM is ignored.
+    robot is signalled and reaped by its pid (only while `subprocess` has not reaped it, so the
+    pid is still its own), and a second SIGTERM is ignored. In effect inside `with`.
     """
 
     def __init__(self) -> None:
         self.client: FeedClient | None = None
-        self.robot_pid: int | None = None
-        signal.signal(signal.SIGTERM, self._terminated)
+        self.robot: subprocess.Popen[str] | None = None
+        self._previous: signal.Handlers | Callable[[int, FrameType | None], object] | int | None
+        self._previous = None
 
-    def robot_started(self, pid: int) -> None:
-        self.robot_pid = pid
+    def __enter__(self) -> _Ending:
+        self._previous = signal.signal(signal.SIGTERM, self._terminated)
+        return self
 
-    def _terminated(self, _signal: int, _frame: object) -> None:
+    def __exit__(self, *_exception: object) -> None:
+        signal.signal(signal.SIGTERM, self._previous or signal.SIG_DFL)
+
+    def robot_started(self, robot: subprocess.Popen[str]) -> None:
+        self.robot = robot
+
+    def _terminated(self, _signal: int, _frame: FrameType | None) -> None:
         signal.signal(signal.SIGTERM, signal.SIG_IGN)
-        client, robot_pid = self.client, self.robot_pid
+        client, robot = self.client, self.robot
+        robot_pid = None if robot is None or robot.returncode is not None else robot.pid
         if robot_pid is not None:
             with contextlib.suppress(OSError):
                 os.kill(robot_pid, signal.SIGINT)

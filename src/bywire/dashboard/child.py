@@ -112,10 +112,13 @@ class SimFeed:
     """`bywire sim --realtime --foxglove 127.0.0.1:0 …` as a child: a robot for the view."""
 
     def __init__(
-        self, arguments: Sequence[str], *, on_started: Callable[[int], None] | None = None
+        self,
+        arguments: Sequence[str],
+        *,
+        on_started: Callable[[subprocess.Popen[str]], None] | None = None,
     ) -> None:
-        """Start the robot and wait for its feed's address; `on_started` gets its pid at once
-        (for whoever must stop it should this process be ended meanwhile)."""
+        """Start the robot and wait for its feed's address; `on_started` gets its process at
+        once (for whoever must stop it should this process be ended meanwhile)."""
         command = bywire_command("sim", "--realtime", "--foxglove", "127.0.0.1:0", *arguments)
         self.process = subprocess.Popen(
             command,
@@ -125,7 +128,7 @@ class SimFeed:
             text=True,
         )
         if on_started is not None:
-            on_started(self.process.pid)
+            on_started(self.process)
         self.lines: list[str] = []
         self.url = self._wait_for_url()
         self._drain = threading.Thread(target=self._keep_reading, daemon=True)
