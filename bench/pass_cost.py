@@ -26,6 +26,7 @@ from pathlib import Path
 
 from bywire.bench.clocks import MeteredRealtimeClock
 from bywire.bench.realtime import BenchSettings, RealtimeSession
+from bywire.bench.stats import summarise
 from bywire.config import default_sim_config, load_config
 from bywire.control.controller import ControlOutputs
 from bywire.runtime.app import Runtime
@@ -93,10 +94,10 @@ def _metered(run: TaskFn, name: str, meter: PassMeter, spent: dict[str, list[flo
 
 
 def _quantiles(values: list[float]) -> str:
-    ordered = sorted(values)
-    n = len(ordered)
-    pick = [ordered[min(int(n * q), n - 1)] * 1e3 for q in (0.5, 0.99, 0.999)]
-    return "p50 {:.3f}  p99 {:.3f}  p99.9 {:.3f}  max {:.3f} ms".format(*pick, ordered[-1] * 1e3)
+    summary = summarise(values)
+    picked = (summary.p50_s, summary.p99_s, summary.p999_s, summary.max_s)
+    p50, p99, p999, most = (value * 1e3 for value in picked if value is not None)
+    return f"p50 {p50:.3f}  p99 {p99:.3f}  p99.9 {p999:.3f}  max {most:.3f} ms"
 
 
 def main() -> int:
