@@ -10,7 +10,7 @@ Units in names: ``_norm`` is a normalised set-point (steering −1…1, throttle
 
 from __future__ import annotations
 
-from dataclasses import dataclass, fields
+from dataclasses import dataclass, fields, replace
 from enum import IntEnum
 
 from bywire.control.error_flags import ErrorFlag
@@ -79,6 +79,13 @@ LIGHTS_OFF = LightsCommand(**dict.fromkeys(LIGHT_REQUESTS, False), counter=0)
 
 Command = ControlCommand | MovementCommand | LightsCommand
 """Any command frame's content."""
+
+
+def same_request(a: Command, b: Command) -> bool:
+    """Whether two commands ask for the same thing: equal in every field but the rolling counter
+    (which only the receive checks judge)."""
+    return type(a) is type(b) and a == replace(b, counter=a.counter)
+
 
 COMMAND_TYPES: tuple[type[Command], ...] = (ControlCommand, MovementCommand, LightsCommand)
 

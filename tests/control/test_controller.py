@@ -5,24 +5,39 @@ from __future__ import annotations
 import math
 from collections.abc import Callable
 from dataclasses import replace
-from typing import TypedDict, Unpack
+from typing import Any, TypedDict, TypeVar, Unpack
 
 import pytest
+from hypothesis import assume, event, given, settings
+from hypothesis import strategies as st
 
+from bywire.control.command_edges import CommandEdges, command_edges
 from bywire.control.controller import (
+    ControlConfig,
     ControlInputs,
     ControlOutputs,
+    ControlState,
+    changes_decision,
+    controller_step,
 )
 from bywire.control.drive import SAFE_DRIVE
 from bywire.control.error_flags import ErrorFlag
 from bywire.control.monitors import MonitorConfig
 from bywire.control.rc_mapping import RcRequest
 from bywire.control.steering import SteeringConfig
-from bywire.control.supervisor import Cause
+from bywire.control.supervisor import Cause, SupervisorConfig
 from bywire.control.validity import Stamped
-from bywire.model import ControlCommand, ControlMode, Gear, LightsCommand, MovementCommand
-from tests.control.stepping import CONFIG, run
+from bywire.model import (
+    LIGHTS_OFF,
+    ControlCommand,
+    ControlMode,
+    Gear,
+    LightsCommand,
+    MovementCommand,
+)
+from tests.control.stepping import CONFIG, framed, run
 
+T = TypeVar("T")
 RC_STOP = RcRequest(ControlMode.STOP, 0.0, 0.0, 0.0, Gear.FORWARD, low_beam=False, hazard=False)
 
 
@@ -413,3 +428,225 @@ def test_rc_light_switches_are_ignored_in_can_mode() -> None:
     assert last.mode is ControlMode.CAN
     assert not last.lights.low_beam
     assert not last.lights.turn_left  # t = 0.01 s is in the lit half of a blink
+
+
+# --- when an arriving frame can change the decision (changes_decision) ---------------------------
+
+COUNTED = ControlConfig(supervisor=SupervisorConfig(debounce_frames=3))
+
+
+def _last_decision(
+    steps: list[tuple[float, ControlInputs]], config: ControlConfig = CONFIG
+) -> tuple[ControlState, ControlInputs, float]:
+    """The state the last of `steps` left, the inputs it was taken on and its instant."""
+    state = ControlState()
+    for now, inputs in framed(steps):
+        state, _ = controller_step(state, inputs, now, config)
+    return state, inputs, now
+
+
+def _rc_driving() -> tuple[ControlState, ControlInputs, float]:
+    """Armed on RC at 10 ms, a CAN movement command and a lights command seen fresh."""
+    movement, lights = Stamped(CAN_IDLE, 0.005), Stamped(LIGHTS_OFF, 0.005)
+    steps = armed_rc(0.0, mode=ControlMode.RC)
+    steps[-1] = (0.01, replace(steps[-1][1], movement=movement, lights=lights))
+    return _last_decision(steps)
+
+
+def test_a_frame_that_repeats_a_request_with_a_new_counter_does_not_change_the_decision() -> None:
+    state, seen, decided_at = _rc_driving()
+    assert state.supervisor.mode is ControlMode.RC
+    assert not changes_decision(state, seen, decided_at, seen, CONFIG)  # nothing arrived
+    assert seen.movement is not None
+    assert seen.rc is not None
+    repeats = replace(
+        seen,
+        rc=Stamped(seen.rc.value, 0.017),
+        rc_frames=seen.rc_frames + 2,
+        movement=Stamped(replace(seen.movement.value, counter=9), 0.015),
+        lights=Stamped(replace(LIGHTS_OFF, counter=3), 0.015),
+    )
+    assert not changes_decision(state, seen, decided_at, repeats, CONFIG)
+
+
+@pytest.mark.parametrize(
+    "news",
+    [
+        {"rc": rc_at(0.015, mode=ControlMode.RC, throttle_norm=0.2)},
+        {"rc": rc_at(0.015, mode=ControlMode.STOP)},
+        {"rc": Stamped(None, 0.015)},  # an implausible frame
+        {"movement": Stamped(replace(CAN_IDLE, throttle_norm=0.2, counter=2), 0.015)},
+        {"lights": Stamped(replace(LIGHTS_OFF, hazard=True, counter=1), 0.015)},
+        {"control": Stamped(ControlCommand(remote_stop=True, re_enable=False, counter=0), 0.015)},
+        {"control_edges": CommandEdges(re_enable=True, remote_stop=False)},
+    ],
+    ids=[
+        "rc-throttle",
+        "rc-stop",
+        "rc-implausible",
+        "can-throttle",
+        "hazard",
+        "first-control",
+        "edge",
+    ],
+)
+def test_a_frame_that_asks_for_something_new_changes_the_decision(news: dict[str, Any]) -> None:
+    state, seen, decided_at = _rc_driving()
+    arrivals = replace(seen, **news, rc_frames=seen.rc_frames + ("rc" in news))
+    assert changes_decision(state, seen, decided_at, arrivals, CONFIG)
+
+
+def test_a_repeat_of_a_request_the_decision_saw_stale_changes_it() -> None:
+    """A source coming back after its timeout: the decision must see it fresh at once."""
+    state, seen, _ = _rc_driving()
+    assert seen.movement is not None
+    back = Stamped(replace(seen.movement.value, counter=5), 0.2)
+    arrivals = replace(seen, movement=back)
+    assert changes_decision(state, seen, 0.19, arrivals, CONFIG)  # seen at 5 ms: stale at 190
+    assert not changes_decision(state, seen, 0.01, arrivals, CONFIG)
+
+
+def test_while_the_switch_debounce_counts_every_rc_frame_changes_the_decision() -> None:
+    def frames(*modes: ControlMode) -> list[tuple[float, ControlInputs]]:
+        return [
+            (0.007 * n, ControlInputs(rc=rc_at(0.007 * n, mode=mode)))
+            for n, mode in enumerate(modes)
+        ]
+
+    stop, rc = [ControlMode.STOP] * 3, ControlMode.RC
+    state, seen, decided_at = _last_decision(frames(*stop, rc), COUNTED)
+    assert (state.supervisor.candidate, state.supervisor.run_frames) == (rc, 1)  # one of three
+    assert seen.rc is not None
+    repeat = replace(seen, rc=Stamped(seen.rc.value, 0.03), rc_frames=seen.rc_frames + 1)
+    assert changes_decision(state, seen, decided_at, repeat, COUNTED)
+    settled, seen, decided_at = _last_decision(frames(*stop, rc, rc, rc), COUNTED)
+    assert settled.supervisor.mode is rc
+    assert seen.rc is not None
+    repeat = replace(seen, rc=Stamped(seen.rc.value, 0.045), rc_frames=seen.rc_frames + 1)
+    assert not changes_decision(settled, seen, decided_at, repeat, COUNTED)
+
+
+MODE_LIST = [ControlMode.STOP, ControlMode.RC, ControlMode.CAN]
+MODES = st.sampled_from(MODE_LIST)
+RARELY = st.sampled_from([False, False, False, False, True])
+
+
+def _arming(mode: ControlMode) -> list[tuple[float, ControlInputs]]:
+    """The switch held at STOP, then at `mode`, three frames each, throttle idle, CAN fresh."""
+    movement = Stamped(CAN_IDLE, 0.0)
+    return [
+        (0.007 * n, ControlInputs(rc=rc_at(0.007 * n, mode=position), movement=movement))
+        for n, position in enumerate([ControlMode.STOP] * 3 + [mode] * 3)
+    ]
+
+
+@st.composite
+def histories(draw: st.DrawFn) -> list[tuple[float, ControlInputs]]:
+    """Armed on RC or CAN (or left at STOP), then up to ten decisions on RC frames (any switch
+    position, throttle idle or open, now and then implausible), CAN movement and control
+    commands, each new or not, mostly a frame period apart, sometimes past a timeout."""
+    armed = draw(MODES)
+    positions = st.sampled_from([armed, armed, armed, *MODE_LIST])  # mostly held
+    steps = _arming(armed)
+    now = steps[-1][0]
+    for _ in range(draw(st.integers(0, 10))):
+        now += draw(st.sampled_from([*[0.003, 0.007, 0.007, 0.010] * 3, 0.150]))
+        frame = st.builds(
+            lambda mode, throttle, at=now: rc_at(at, mode=mode, throttle_norm=throttle),
+            positions,
+            st.sampled_from([0.0, 0.0, 0.5]),
+        )
+        implausible = st.just(Stamped(None, now))
+        rc = draw(st.one_of(st.none(), st.none(), frame, frame, frame, frame, frame, implausible))
+        movement = draw(
+            st.one_of(
+                st.none(),
+                st.builds(
+                    lambda throttle, counter, at=now: Stamped(
+                        replace(CAN_IDLE, throttle_norm=throttle, counter=counter), at
+                    ),
+                    st.sampled_from([0.0, 0.5]),
+                    st.integers(0, 15),
+                ),
+            )
+        )
+        control = draw(
+            st.one_of(
+                st.none(),
+                st.builds(
+                    lambda stop, again, at=now: Stamped(ControlCommand(stop, again, 0), at),
+                    RARELY,
+                    RARELY,
+                ),
+            )
+        )
+        previous = steps[-1][1]
+        steps.append(
+            (
+                now,
+                ControlInputs(
+                    rc=rc or previous.rc,
+                    movement=movement or previous.movement,
+                    control=control or previous.control,
+                ),
+            )
+        )
+    return steps
+
+
+@settings(max_examples=300)
+@given(
+    histories(),
+    st.sampled_from([0.0005, 0.003, 0.009]),
+    st.integers(0, 3),
+    st.integers(0, 15),
+    st.booleans(),
+)
+def test_a_decision_cannot_tell_frames_that_repeat_a_request_from_the_ones_it_saw(
+    steps: list[tuple[float, ControlInputs]],
+    later_s: float,
+    rc_repeats: int,
+    counter: int,
+    control_repeats: bool,
+) -> None:
+    """What `changes_decision` passes over, the decision ignores: at the next decision, frames
+    judged repeats (new counters, any number of them) give the outputs that the frames the last
+    decision saw give, stamped alike. Their age is all that differs, and only time acts on it."""
+    state, seen, decided_at = _last_decision(steps, COUNTED)
+    now = decided_at + later_s
+    at = decided_at + later_s / 2
+
+    def restamped(slot: Stamped[T] | None) -> Stamped[T] | None:
+        return None if slot is None else Stamped(slot.value, at)
+
+    edges = seen.control_edges
+    control = seen.control
+    if control_repeats and control is not None:
+        control = Stamped(replace(control.value, counter=(control.value.counter + 1) % 16), at)
+        edges = command_edges(seen.control.value if seen.control else None, control.value)
+    movement = seen.movement
+    if movement is not None:
+        movement = Stamped(replace(movement.value, counter=counter), at)
+    arrivals = replace(
+        seen,
+        rc=restamped(seen.rc) if rc_repeats else seen.rc,
+        rc_frames=seen.rc_frames + rc_repeats,
+        movement=movement,
+        control=control,
+        control_edges=edges,
+        control_frames=seen.control_frames + (control is not seen.control),
+    )
+    assume(not changes_decision(state, seen, decided_at, arrivals, COUNTED))
+    event(f"{state.supervisor.mode.name} rc+{rc_repeats} ctl{control is not seen.control}")
+    as_seen = replace(
+        seen,
+        rc=restamped(seen.rc) if rc_repeats else seen.rc,
+        movement=restamped(seen.movement),
+        control=restamped(seen.control) if control is not seen.control else seen.control,
+    )
+    after_repeats, outputs = controller_step(state, arrivals, now, COUNTED)
+    after_seen, expected = controller_step(state, as_seen, now, COUNTED)
+    assert outputs == expected
+    assert replace(after_repeats, rc_frames_seen=0, control_frames_seen=0) == replace(
+        after_seen, rc_frames_seen=0, control_frames_seen=0
+    )

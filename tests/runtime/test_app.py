@@ -30,13 +30,8 @@ class CreepingClock(VirtualClock):
         return self._now_s
 
 
-def test_one_pass_reads_the_clock_once_and_decides_once_even_as_time_moves(
-    monkeypatch: pytest.MonkeyPatch,
-) -> None:
-    """Row 15: the 100 Hz tasks fall due together; the robot must run what the simulator ran."""
-    clock = CreepingClock()
-    world = SimWorld.create(clock)
-    runtime = Runtime(world.hardware, RuntimeConfig())
+def _decisions(monkeypatch: pytest.MonkeyPatch) -> list[float]:
+    """The instants of the loop's decisions, as they are taken."""
     decisions: list[float] = []
     original = controller.controller_step
 
@@ -47,6 +42,17 @@ def test_one_pass_reads_the_clock_once_and_decides_once_even_as_time_moves(
         return original(state, inputs, now, config)
 
     monkeypatch.setattr(app, "controller_step", counted)
+    return decisions
+
+
+def test_one_pass_reads_the_clock_once_and_decides_once_even_as_time_moves(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """Row 15: the 100 Hz tasks fall due together; the robot must run what the simulator ran."""
+    clock = CreepingClock()
+    world = SimWorld.create(clock)
+    runtime = Runtime(world.hardware, RuntimeConfig())
+    decisions = _decisions(monkeypatch)
     per_pass: list[int] = []
 
     def passed(_now: float) -> None:
@@ -74,6 +80,32 @@ def test_writes_go_out_once_per_pass() -> None:
     robot.run(1.0)
     per_pass = [b - a for a, b in itertools.pairwise(writes)]
     assert max(per_pass) == 2  # throttle and regen, once each
+
+
+def _on_a_tick(time_s: float) -> bool:
+    return abs(time_s * 100 - round(time_s * 100)) < 1e-6
+
+
+def test_a_frame_that_repeats_its_request_waits_for_the_tick_and_a_new_request_acts_at_once(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """`changes_decision` in the loop: the RC frames of held sticks (every 7.7 ms) are decided on
+    only at the 100 Hz ticks; the frame that carries a new pedal is decided, and written, at the
+    instant it is complete."""
+    robot = Robot.build()
+    robot.arm_rc()
+    robot.at(0.6, lambda: robot.world.rc.set_pedal(0.4))
+    decisions = _decisions(monkeypatch)
+    robot.run(0.8)
+    held = [time_s for time_s in decisions if 0.4 <= time_s < 0.6]
+    assert len(held) == 20
+    assert all(_on_a_tick(time_s) for time_s in held)
+    assert robot.runtime.ibus.parser.stats.frames > 100  # frames kept coming all along
+    new_request = next(time_s for time_s in decisions if time_s >= 0.6 and not _on_a_tick(time_s))
+    assert robot.throttle_volts(new_request) > 0.0
+    assert robot.throttle_volts(new_request - 1e-9) == 0.0
+    after = [time_s for time_s in decisions if new_request < time_s < 0.8]
+    assert all(_on_a_tick(time_s) for time_s in after)  # the new pedal, held, repeats again
 
 
 def test_nothing_in_the_running_controller_grows_with_mode_changes() -> None:

@@ -7,7 +7,10 @@ writes the parts each task owns. Nothing here reads a clock or touches hardware.
 
 from __future__ import annotations
 
+import operator
+from collections.abc import Callable
 from dataclasses import dataclass, field
+from typing import Protocol, TypeVar
 
 from bywire.control.command_edges import NO_EDGES, CommandEdges
 from bywire.control.drive import DriveConfig, DriveOutputs, drive_outputs
@@ -25,11 +28,19 @@ from bywire.control.supervisor import (
     SupervisorConfig,
     SupervisorInputs,
     SupervisorState,
+    counting,
     supervisor_step,
 )
 from bywire.control.validity import Stamped, fresh, is_fresh
 from bywire.control.values import value
-from bywire.model import ControlCommand, ControlMode, Gear, LightsCommand, MovementCommand
+from bywire.model import (
+    ControlCommand,
+    ControlMode,
+    Gear,
+    LightsCommand,
+    MovementCommand,
+    same_request,
+)
 
 MONITOR_CAUSES = (
     (ErrorFlag.HYDRO_PRESSURE_FAULT, Cause.HYDRO_PRESSURE),
@@ -299,3 +310,75 @@ def controller_step(
         inputs.control_frames,
     )
     return new_state, outputs
+
+
+class Arrivals(Protocol):
+    """The newest stamped input of each kind, as the shell holds them between decisions."""
+
+    @property
+    def rc(self) -> Stamped[RcRequest | None] | None: ...
+    @property
+    def movement(self) -> Stamped[MovementCommand] | None: ...
+    @property
+    def lights(self) -> Stamped[LightsCommand] | None: ...
+    @property
+    def control(self) -> Stamped[ControlCommand] | None: ...
+    @property
+    def control_edges(self) -> CommandEdges: ...
+    @property
+    def rc_frames(self) -> int: ...
+
+
+T = TypeVar("T")
+
+
+def changes_decision(
+    state: ControlState,
+    seen: ControlInputs,
+    decided_at: float,
+    arrivals: Arrivals,
+    config: ControlConfig,
+) -> bool:
+    """Whether inputs that arrived after the decision taken at `decided_at` on `seen` (which left
+    `state`) can change it before the next periodic one: False when each of them repeats what the
+    decision saw, fresh, and the switch's debounce is not counting frames.
+
+    A repeated frame then only renews its input's age, which no rule acts on before it expires;
+    everything that moves with time alone (timeouts, dwells, monitors, blinking) is judged at the
+    next periodic decision, as it is when no frame arrives at all, within the deadline every fault
+    has (its threshold plus one control period). So the shell decides at once on every frame that
+    asks for something new, and not on the hundreds a second that only repeat a request.
+    """
+    if arrivals.rc_frames != seen.rc_frames and counting(state.supervisor, config.supervisor):
+        return True
+    return not (
+        _repeats(arrivals.rc, seen.rc, decided_at, config.rc_timeout_s, operator.eq)
+        and _repeats(
+            arrivals.movement, seen.movement, decided_at, config.movement_timeout_s, same_request
+        )
+        and _repeats(
+            arrivals.lights, seen.lights, decided_at, config.lights_timeout_s, same_request
+        )
+        and _repeats(
+            arrivals.control, seen.control, decided_at, config.control_timeout_s, same_request
+        )
+        and arrivals.control_edges == seen.control_edges
+    )
+
+
+def _repeats(
+    newest: Stamped[T] | None,
+    seen: Stamped[T] | None,
+    decided_at: float,
+    timeout_s: float,
+    same: Callable[[T, T], bool],
+) -> bool:
+    """Nothing new for this input, or a frame that asks what the decision saw it ask, fresh."""
+    if newest is seen:
+        return True
+    return (
+        newest is not None
+        and seen is not None
+        and is_fresh(seen, decided_at, timeout_s)
+        and same(newest.value, seen.value)
+    )

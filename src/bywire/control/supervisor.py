@@ -151,6 +151,12 @@ class SupervisorState:
         return flags
 
 
+def counting(state: SupervisorState, config: SupervisorConfig) -> bool:
+    """Whether the switch's debounce is still counting frames (a position not yet settled, or
+    none known): while it counts, every RC frame is a step of rule 1, even one that repeats."""
+    return state.candidate is not state.switch or state.run_frames < config.debounce_frames
+
+
 def _debounced(
     state: SupervisorState, inputs: SupervisorInputs, frames: int
 ) -> tuple[ControlMode | None, ControlMode | None, int]:

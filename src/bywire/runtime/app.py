@@ -1,11 +1,12 @@
 """The controller process: one loop that waits on the clock, reads inputs, decides and writes.
 
 Each pass of the loop reads the clock once, then: reads every input port, takes the decision
-once (if an input arrived or a periodic task is due), and writes each output at most once: the
-outputs of every due task, and, when a new input arrived, whatever it changed, so that command
-to actuator latency is not bound to the 100 Hz tick. The same pass runs on the robot and on the
-simulator's virtual clock, so the robot runs what the simulator ran. Periodic tasks keep
-absolute deadlines from the schedule table. Outputs start safe and end safe, whatever happens.
+once (if a periodic task is due, or an input arrived that can change it: `changes_decision`), and
+writes each output at most once: the outputs of every due task, and, when a new input arrived,
+whatever it changed, so that command to actuator latency is not bound to the 100 Hz tick. The
+same pass runs on the robot and on the simulator's virtual clock, so the robot runs what the
+simulator ran. Periodic tasks keep absolute deadlines from the schedule table. Outputs start safe
+and end safe, whatever happens.
 """
 
 from __future__ import annotations
@@ -21,6 +22,7 @@ from bywire.control.controller import (
     ControlInputs,
     ControlOutputs,
     ControlState,
+    changes_decision,
     controller_step,
 )
 from bywire.control.error_flags import ErrorFlag
@@ -90,6 +92,8 @@ class Runtime:
         self.state = ControlState()
         self.inputs = ControlInputs()
         """What the latest decision was taken on."""
+        self.decided_at = self.started_at
+        """When it was taken."""
         self._slots = _InputSlots()
         self.outputs: ControlOutputs | None = None
         self.sensors = SensorReadings()
@@ -177,7 +181,7 @@ class Runtime:
     # --- one pass: read, decide, write --------------------------------------------------------
 
     def _pass(self, now: float) -> None:
-        new_input = self._poll_inputs(now)
+        new_input = self._poll_inputs(now) and self._news()
         due = [task for task in self.tasks if task.due(now)]
         if not (new_input or due):
             return
@@ -235,6 +239,13 @@ class Runtime:
             self._store(command)
         return rc is not None or bool(commands)
 
+    def _news(self) -> bool:
+        """Whether what arrived can change the latest decision (`changes_decision`): a frame that
+        only repeats a request waits for the next periodic decision, as time alone does."""
+        return self.can.untrusted != self.inputs.can_untrusted or changes_decision(
+            self.state, self.inputs, self.decided_at, self._slots, self.config.control
+        )
+
     def _store(self, command: Stamped[Command]) -> None:
         value, slots = command.value, self._slots
         if isinstance(value, MovementCommand):
@@ -270,6 +281,7 @@ class Runtime:
             steering_measured_norm=sensors.checked_steering_norm,
         )
         self.state, outputs = controller_step(self.state, self.inputs, now, self.config.control)
+        self.decided_at = now
         if self.outputs is None or outputs.mode is not self.outputs.mode:
             self.mode_log.append((now, outputs.mode))
         self.outputs = outputs
