@@ -4,17 +4,21 @@ from __future__ import annotations
 
 import dataclasses
 import enum
-from typing import get_type_hints
+from typing import Any, get_type_hints
 
 import pytest
 
 from bywire.model import (
     COMMAND_TYPES,
     REPORT_TYPES,
+    Command,
+    ControlCommand,
     ControlMode,
     Gear,
+    LightsCommand,
     MovementCommand,
     WheelSpeedReport,
+    same_request,
 )
 from bywire.protocol.dbc import database
 
@@ -62,3 +66,30 @@ def test_messages_are_frozen_values() -> None:
         command.counter = 4  # type: ignore[misc]  # what mypy refuses must also fail at run time
     assert command == MovementCommand(0.1, 0.2, 0.0, Gear.FORWARD, 3)
     assert len({WheelSpeedReport(1.0, 1.0), WheelSpeedReport(1.0, 1.0)}) == 1
+
+
+COMMANDS: list[Command] = [
+    MovementCommand(0.1, 0.2, 0.0, Gear.FORWARD, counter=3),
+    LightsCommand(turn_left=True, turn_right=False, hazard=False, low_beam=True, counter=3),
+    ControlCommand(remote_stop=False, re_enable=True, counter=3),
+]
+
+
+@pytest.mark.parametrize("command", COMMANDS, ids=lambda command: type(command).__name__)
+def test_a_request_is_the_same_whatever_its_counter_and_differs_in_any_other_field(
+    command: Command,
+) -> None:
+    assert same_request(command, dataclasses.replace(command, counter=4))
+    for field in dataclasses.fields(command):
+        if field.name == "counter":
+            continue
+        was = getattr(command, field.name)
+        other = (
+            (not was) if isinstance(was, bool) else (Gear.REVERSE if was is Gear.FORWARD else 0.5)
+        )
+        changes: dict[str, Any] = {field.name: other}
+        changed = dataclasses.replace(command, **changes)
+        assert not same_request(command, changed), field.name
+    assert not any(
+        same_request(command, kind) for kind in COMMANDS if type(kind) is not type(command)
+    )

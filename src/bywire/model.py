@@ -10,8 +10,9 @@ Units in names: ``_norm`` is a normalised set-point (steering −1…1, throttle
 
 from __future__ import annotations
 
-from dataclasses import dataclass, fields, replace
+from dataclasses import dataclass, fields
 from enum import IntEnum
+from operator import attrgetter
 
 from bywire.control.error_flags import ErrorFlag
 
@@ -81,10 +82,17 @@ Command = ControlCommand | MovementCommand | LightsCommand
 """Any command frame's content."""
 
 
+_REQUESTS = {
+    kind: attrgetter(*(field.name for field in fields(kind) if field.name != "counter"))
+    for kind in (ControlCommand, MovementCommand, LightsCommand)
+}
+
+
 def same_request(a: Command, b: Command) -> bool:
     """Whether two commands ask for the same thing: equal in every field but the rolling counter
     (which only the receive checks judge)."""
-    return type(a) is type(b) and a == replace(b, counter=a.counter)
+    kind = type(a)
+    return kind is type(b) and _REQUESTS[kind](a) == _REQUESTS[kind](b)
 
 
 COMMAND_TYPES: tuple[type[Command], ...] = (ControlCommand, MovementCommand, LightsCommand)
