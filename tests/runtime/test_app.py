@@ -17,6 +17,7 @@ from bywire.hal.sim.world import SimWorld
 from bywire.model import ControlMode, Gear, SteeringReport
 from bywire.runtime import app
 from bywire.runtime.app import MODE_LOG_LENGTH, Runtime
+from bywire.runtime.readers import COUNTER_MISS_LIMIT
 from bywire.runtime.settings import RuntimeConfig
 from tests.system.harness import Robot
 
@@ -106,6 +107,21 @@ def test_a_frame_that_repeats_its_request_waits_for_the_tick_and_a_new_request_a
     assert robot.throttle_volts(new_request - 1e-9) == 0.0
     after = [time_s for time_s in decisions if new_request < time_s < 0.8]
     assert all(_on_a_tick(time_s) for time_s in after)  # the new pedal, held, repeats again
+
+
+def test_a_command_message_losing_trust_is_news_even_when_no_request_changed() -> None:
+    """A poll whose rejected frames make a message untrusted, beside a frame that repeats a
+    request, is decided at once: CAN_UNTRUSTED stops CAN mode without waiting for the tick."""
+    robot = Robot.build()
+    robot.arm_rc()
+    robot.run(0.5)
+    runtime = robot.runtime
+    assert not runtime._news()  # nothing arrived since the last decision
+    trust = next(iter(runtime.can.trust.values()))
+    for _ in range(COUNTER_MISS_LIMIT):
+        trust.record(miss=True)
+    assert runtime.can.untrusted
+    assert runtime._news()
 
 
 def test_nothing_in_the_running_controller_grows_with_mode_changes() -> None:
