@@ -71,31 +71,28 @@ class LightsCommand:
     counter: int
 
 
-LIGHT_REQUESTS = tuple(
-    request.name for request in fields(LightsCommand) if request.name != "counter"
-)
-"""What a LightsCommand can ask for, by signal name (every field but its counter)."""
-LIGHTS_OFF = LightsCommand(**dict.fromkeys(LIGHT_REQUESTS, False), counter=0)
-"""Nothing requested: every request of a LightsCommand off."""
-
 Command = ControlCommand | MovementCommand | LightsCommand
 """Any command frame's content."""
+COMMAND_TYPES: tuple[type[Command], ...] = (ControlCommand, MovementCommand, LightsCommand)
 
 
-_REQUESTS = {
-    kind: attrgetter(*(field.name for field in fields(kind) if field.name != "counter"))
-    for kind in (ControlCommand, MovementCommand, LightsCommand)
-}
+def request_fields(kind: type[Command]) -> tuple[str, ...]:
+    """What a command can ask for, by signal name: every field but its rolling counter (which
+    only the receive checks judge)."""
+    return tuple(field.name for field in fields(kind) if field.name != "counter")
+
+
+LIGHT_REQUESTS = request_fields(LightsCommand)
+"""What a LightsCommand can ask for, by signal name."""
+LIGHTS_OFF = LightsCommand(**dict.fromkeys(LIGHT_REQUESTS, False), counter=0)
+"""Nothing requested: every request of a LightsCommand off."""
+_REQUESTS = {kind: attrgetter(*request_fields(kind)) for kind in COMMAND_TYPES}
 
 
 def same_request(a: Command, b: Command) -> bool:
-    """Whether two commands ask for the same thing: equal in every field but the rolling counter
-    (which only the receive checks judge)."""
+    """Whether two commands ask for the same thing: equal in every `request_fields`."""
     kind = type(a)
     return kind is type(b) and _REQUESTS[kind](a) == _REQUESTS[kind](b)
-
-
-COMMAND_TYPES: tuple[type[Command], ...] = (ControlCommand, MovementCommand, LightsCommand)
 
 
 # Reports: controller -> higher-level computer, 50 Hz. Values outside a signal's range are
