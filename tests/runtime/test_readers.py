@@ -301,6 +301,22 @@ def test_one_frame_at_stop_anywhere_in_a_batch_means_stop() -> None:
     assert alone.value.mode is ControlMode.RC
 
 
+def test_each_frame_is_mapped_as_it_reads_even_after_a_run_of_equal_ones() -> None:
+    """The reader maps a run of equal frames once; the frame that differs (a switch to STOP, a
+    stick back to centre, a failsafe) is mapped anew, and so is the first one after it."""
+    at_stop = ibus.encode_frame((*CHANNELS[:6], 1000, *CHANNELS[7:]))
+    rx = Receiver()
+    seen = []
+    for frame in (FRAME, FRAME, FRAME, at_stop, FAILSAFE, FRAME, FRAME):
+        rx.uart.transmit(frame)
+        rx.clock.advance(0.01)
+        stamped = rx.reader.poll(rx.clock.now())
+        assert stamped is not None
+        seen.append(None if stamped.value is None else stamped.value.mode)
+    rc, stop = ControlMode.RC, ControlMode.STOP
+    assert seen == [rc, rc, rc, stop, None, rc, rc]
+
+
 def test_checksum_faults_are_counted_per_bad_frame_and_stamped_with_the_poll_time() -> None:
     rx = Receiver()
     rx.poll_after(CORRUPT + CORRUPT + FRAME)

@@ -114,6 +114,16 @@ class IbusParser:
         return IbusStats(self._frames, self._checksum_errors, self._resyncs, self._skipped_bytes)
 
     @property
+    def checksum_errors(self) -> int:
+        """``stats.checksum_errors`` without the snapshot (read on every poll of the loop)."""
+        return self._checksum_errors
+
+    @property
+    def resyncs(self) -> int:
+        """``stats.resyncs`` without the snapshot."""
+        return self._resyncs
+
+    @property
     def last_frame_at(self) -> float | None:
         """The ``now`` passed with the bytes that completed the latest frame; None before any.
 

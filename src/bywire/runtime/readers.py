@@ -37,6 +37,7 @@ class IbusReader:
         self.checksum_faults = RecentFault()
         self.resync_faults = RecentFault()
         self.last_channels: tuple[int, ...] | None = None
+        self._mapped: tuple[tuple[int, ...], RcRequest | None] | None = None
 
     def poll(self, now: float) -> Stamped[RcRequest | None] | None:
         """The request of the frames completed since the last poll (`_batch_request`: the newest,
@@ -45,19 +46,26 @@ class IbusReader:
         data = self._stream.read_available()
         if not data:
             return None
-        before = self.parser.stats
-        frames = self.parser.feed(data, _believed(self._stream.arrived_at_s, now))
-        after = self.parser.stats
-        if after.checksum_errors > before.checksum_errors:
-            self.checksum_faults.happened(now, after.checksum_errors - before.checksum_errors)
-        if after.resyncs > before.resyncs:
-            self.resync_faults.happened(now, after.resyncs - before.resyncs)
+        parser = self.parser
+        checksum_errors, resyncs = parser.checksum_errors, parser.resyncs
+        frames = parser.feed(data, _believed(self._stream.arrived_at_s, now))
+        if parser.checksum_errors > checksum_errors:
+            self.checksum_faults.happened(now, parser.checksum_errors - checksum_errors)
+        if parser.resyncs > resyncs:
+            self.resync_faults.happened(now, parser.resyncs - resyncs)
         if not frames:
             return None
         self.last_channels = frames[-1]
-        requests = [rc_request(channels, self._mapping) for channels in frames]
-        arrived_at = self.parser.last_frame_at
+        requests = [self._request(channels) for channels in frames]
+        arrived_at = parser.last_frame_at
         return Stamped(_batch_request(requests), now if arrived_at is None else arrived_at)
+
+    def _request(self, channels: tuple[int, ...]) -> RcRequest | None:
+        """`rc_request` of the frame, mapped once for a run of equal frames: held sticks and
+        switches send the same channels about 140 times a second."""
+        if self._mapped is None or self._mapped[0] != channels:
+            self._mapped = (channels, rc_request(channels, self._mapping))
+        return self._mapped[1]
 
 
 def _batch_request(requests: Sequence[RcRequest | None]) -> RcRequest | None:
@@ -68,7 +76,9 @@ def _batch_request(requests: Sequence[RcRequest | None]) -> RcRequest | None:
     newest = requests[-1]
     if newest is None or None in requests:
         return None
-    if any(request is not None and request.mode is ControlMode.STOP for request in requests):
+    if newest.mode is not ControlMode.STOP and any(
+        request is not None and request.mode is ControlMode.STOP for request in requests
+    ):
         return replace(newest, mode=ControlMode.STOP)
     return newest
 
