@@ -170,6 +170,18 @@ def test_message_quotes_the_bad_value() -> None:
     )
 
 
+def test_a_one_frame_debounce_is_refused_with_the_hazard_it_would_open() -> None:
+    """Found by `bywire verify` on a robot file with `debounce_frames = 1`: a switch that bounced
+    through STOP for one frame re-armed the robot (H1) and acknowledged a watchdog trip (H3)."""
+    message = _refusal("[supervisor]\ndebounce_frames = 1")
+    assert message.startswith(
+        "robot.toml: supervisor.debounce_frames = 1: out of range; allowed 2..50 (one frame is no"
+        " debounce: a mode switch bouncing through STOP would re-arm the robot"
+    )
+    assert "row 26" in message
+    assert parse_config("[supervisor]\ndebounce_frames = 2").supervisor.debounce_frames == 2
+
+
 def test_several_problems_are_reported_together() -> None:
     message = _refusal("[rc]\nbaud = 9600\n[steering]\nboost_gain = 3\nmax_pulse = 1")
     assert message.startswith("robot.toml: 3 problems:\n")

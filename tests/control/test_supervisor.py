@@ -206,7 +206,7 @@ def test_the_debounce_is_configuration() -> None:
     assert supervisor_step(state, frame(RC), one).mode is RC
 
 
-def test_the_debounce_takes_1_to_50_frames_the_range_the_configuration_file_allows() -> None:
+def test_the_debounce_takes_1_to_50_frames_and_a_robot_file_from_2() -> None:
     def accepted(count: int) -> bool:
         try:
             SupervisorConfig(debounce_frames=count)
@@ -215,7 +215,7 @@ def test_the_debounce_takes_1_to_50_frames_the_range_the_configuration_file_allo
         return True
 
     assert [count for count in range(-1, 60) if accepted(count)] == list(range(1, 51))
-    assert list(DEBOUNCE_FRAMES) == list(range(1, 51))
+    assert list(DEBOUNCE_FRAMES) == list(range(2, 51))  # one frame is no debounce (row 26)
     fifty = SupervisorConfig(debounce_frames=50)
     state = run(SupervisorState(), *frames(50, STOP), *frames(49, RC), config=fifty)
     assert state.mode is STOP  # 49 frames are not yet a position

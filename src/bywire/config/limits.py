@@ -40,6 +40,10 @@ PRESSURE_BAR = Interval(0.0, 500.0, "bar", low_open=True)
 TOLERANCE_NORM = Interval(0.0, 2.0)
 SPEED_CHANGE_MPS2 = Interval(1.0, 100.0, "m/s²")
 SPEED_STEP_MPS = Interval(0.0, 2.0, "m/s")
-DEBOUNCE_FRAMES = range(1, 51)
+DEBOUNCE_FRAMES = range(2, 51)
+DEBOUNCE_WHY = (
+    "one frame is no debounce: a mode switch bouncing through STOP would re-arm the robot,"
+    " SAFETY.md row 26"
+)
 FIFO_PRIORITY = range(1, 99)  # 99 is left to the kernel's own watchdog and migration threads
 CPU_NUMBERS = range(1024)

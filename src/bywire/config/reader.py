@@ -133,8 +133,15 @@ class Table:
         return float(value)
 
     def integer(
-        self, name: str, default: int, allowed: range, show_int: Callable[[int], str] = str
+        self,
+        name: str,
+        default: int,
+        allowed: range,
+        show_int: Callable[[int], str] = str,
+        why: str = "",
     ) -> int:
+        """The integer at `name` (or `default`); out of `allowed`, a problem naming the range
+        and, when given, `why` the range ends where it does."""
         value = self.get(name)
         text = f"only {show_int(allowed.start)}" if len(allowed) == 1 else ""
         text = text or f"{show_int(allowed.start)}..{show_int(allowed[-1])}"
@@ -145,7 +152,8 @@ class Table:
             return default
         if value not in allowed:
             shown = f"{self.key(name)} = {show_int(value)}"
-            self.problems.add(self.key(name), f"{shown}: out of range; allowed {text}")
+            reason = f" ({why})" if why else ""
+            self.problems.add(self.key(name), f"{shown}: out of range; allowed {text}{reason}")
             return default
         return value
 

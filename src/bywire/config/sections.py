@@ -9,6 +9,7 @@ from bywire.config.limits import (
     CPU_NUMBERS,
     DEADBAND_NORM,
     DEBOUNCE_FRAMES,
+    DEBOUNCE_WHY,
     DUTY,
     DWELL_S,
     FIFO_PRIORITY,
@@ -265,7 +266,9 @@ def monitors_section(table: Table) -> MonitorConfig:
 def supervisor_section(table: Table) -> SupervisorConfig:
     default = SupervisorConfig()
     section = SupervisorConfig(
-        debounce_frames=table.integer("debounce_frames", default.debounce_frames, DEBOUNCE_FRAMES)
+        debounce_frames=table.integer(
+            "debounce_frames", default.debounce_frames, DEBOUNCE_FRAMES, why=DEBOUNCE_WHY
+        )
     )
     table.close()
     return section

@@ -85,7 +85,10 @@ DRIVING_MODES = (ControlMode.RC, ControlMode.CAN)
 
 @value
 class SupervisorConfig:
-    """How many consecutive RC frames a switch position needs before it counts (≥ 1)."""
+    """How many consecutive RC frames a switch position needs before it counts (1..50).
+
+    One frame is no debounce; the pure core takes it (the smallest state space, for the
+    exhaustive check), a robot file does not (`bywire.config.limits.DEBOUNCE_FRAMES`: 2..50)."""
 
     debounce_frames: int = DEFAULT_DEBOUNCE_FRAMES
 

@@ -187,7 +187,8 @@ class SimRcTransmitter:
 
     def chatter_next_frames(self, count: int) -> None:
         """A bouncing mode switch: of the next ``count`` frames, every other one reads STOP
-        (starting with the first), the others the position it is set to."""
+        (the last one does, so an odd count starts with one), the others the position it is
+        set to."""
         self._chatter_pending = count
 
     def implausible_next_frames(self, count: int) -> None:
