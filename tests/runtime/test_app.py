@@ -9,7 +9,7 @@ from dataclasses import replace
 
 import pytest
 
-from bywire.config import default_sim_config
+from bywire.config import default_sim_config, parse_config
 from bywire.control import controller
 from bywire.control.controller import ControlConfig, ControlInputs, ControlOutputs, ControlState
 from bywire.hal.sim.clock import VirtualClock
@@ -122,6 +122,30 @@ def test_a_command_message_losing_trust_is_news_even_when_no_request_changed() -
         trust.record(miss=True)
     assert runtime.can.untrusted
     assert runtime._news()
+
+
+@pytest.mark.parametrize("lost_s", [0.50, 0.51, 0.52, 0.53])
+@pytest.mark.parametrize("hydrobrake_hz", [100, 25])
+def test_a_stop_decided_at_a_tick_engages_the_e_brake_at_once_whatever_the_brake_task_rate(
+    hydrobrake_hz: int, lost_s: float
+) -> None:
+    """Found by `bywire verify` on a robot file with a 25 Hz brake task: a STOP that time alone
+    reveals (here the RC link's timeout; a failing DAC too) is decided at a tick of the faster
+    tasks, and the e-brake waited up to 40 ms for its own task while the enable line was
+    already low. A decision writes what it changed at once, as it does for a new frame."""
+    config = RuntimeConfig.from_robot(
+        parse_config(f"[tasks]\nhydrobrake_rate_hz = {hydrobrake_hz}", "robot.toml")
+    )
+    robot = Robot.build(config)
+    robot.arm_rc()
+    robot.at(lost_s, robot.world.rc.link_lost)
+    robot.run(0.8)
+    disabled_s = robot.first_time(lost_s, lambda t: not robot.level("motors_enable", t))
+    braked_s = robot.first_time(lost_s, lambda t: not robot.level("ebrake_release", t))
+    assert disabled_s is not None
+    assert _on_a_tick(disabled_s)  # decided by the timeout, at a tick, not by a frame
+    assert lost_s < disabled_s <= lost_s + config.control.rc_timeout_s + 0.01
+    assert braked_s == disabled_s
 
 
 def test_nothing_in_the_running_controller_grows_with_mode_changes() -> None:

@@ -200,14 +200,15 @@ class Runtime:
             if task.stats.overruns > overruns_before:
                 self.overrun_faults.happened(now)
             written.add(task.spec.run)
-        if new_input:
-            self._write_changes(before, outputs, now, written)
+        self._write_changes(before, outputs, now, written)
 
     def _write_changes(
         self, before: ControlOutputs | None, after: ControlOutputs, now: float, written: set[TaskFn]
     ) -> None:
-        """Write at once what a new input changed, unless a due task just wrote it. The periodic
-        tasks refresh everything anyway; an unchanged DAC value is not worth an I2C transfer."""
+        """Write at once what the decision changed, unless a due task just wrote it: a STOP that
+        time alone reveals, decided at a tick of the fastest task, engages the e-brake then, not
+        at the brake task's own (slower) tick. The periodic tasks refresh everything anyway; an
+        unchanged DAC value is not worth an I2C transfer."""
         changed = (
             (
                 tasks.write_steering,
