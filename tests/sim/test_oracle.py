@@ -505,6 +505,35 @@ def test_a_glimpse_away_from_stop_that_no_frame_showed_does_not_end_the_hold() -
     assert outcome.findings == []
 
 
+def test_two_glimpses_of_stop_that_no_frame_showed_leave_rc_driving() -> None:
+    # verify --config (debounce 4, frames every 14.4 ms), seed 5, campaign 195: armed in RC, the
+    # switch at STOP for 5 ms, RC for 15 ms, STOP for 5 ms, RC. Both frames around each glimpse
+    # read RC, so the controller rightly drove on; the oracle joined the glimpses into one stay
+    # at STOP of 25 ms (the RC between them counted as STOP time) and called it surely seen.
+    robot = default_sim_config()
+    robot = replace(
+        robot,
+        sim=replace(robot.sim, rc_frame_period_s=0.0144),
+        supervisor=replace(robot.supervisor, debounce_frames=4),
+    )
+    text = """
+        name = "case"
+        duration_s = 8.24
+        event = [
+            { at_s = 0.0, rc = { gear = "forward" } },
+            { at_s = 7.4, rc = { mode = "stop" } },
+            { at_s = 7.46, rc = { throttle = 0.0, mode = "rc" } },
+            { at_s = 7.618, rc = { mode = "stop" } },
+            { at_s = 7.623, rc = { mode = "rc" } },
+            { at_s = 7.638, rc = { mode = "stop" } },
+            { at_s = 7.643, rc = { mode = "rc" } },
+        ]
+    """
+    result = Campaign(robot).run_scenario(parse_scenario(textwrap.dedent(text), "<test>"))
+    assert result.oracle.checks > 0
+    assert result.oracle.violations == []
+
+
 # --- S8 against a second sender: CAN_UNTRUSTED is the switch's to clear -------------------------
 
 

@@ -367,7 +367,10 @@ class HazardOracle:
         # Back to a source within the debounce: the controller may never have left it.
         since_left_s = now - self.left_at.get(mode, -1.0)
         returning = since_left_s < self.timing.settle_s and was is not ControlMode.STOP
-        unseen = was is ControlMode.STOP and (held_s < self.timing.unseen_s or self._hidden(now))
+        # Whether any frame showed STOP is judged on this stretch at STOP alone: a glimpse away
+        # joins two stretches into one hold (above), but no frame read STOP between them.
+        stretch_s = now - entered_s
+        unseen = was is ControlMode.STOP and (stretch_s < self.timing.unseen_s or self._hidden(now))
         if unseen and self.armed_before_stop:
             self.armed_ok, self.drive_allowed_until = True, None  # no frame may have shown it
         elif unseen and self.deadline_before_stop is not None:
