@@ -534,6 +534,53 @@ def test_two_glimpses_of_stop_that_no_frame_showed_leave_rc_driving() -> None:
     assert result.oracle.violations == []
 
 
+def test_a_bouncing_switch_s_last_frame_at_stop_may_begin_the_hold() -> None:
+    # verify --config (debounce 6, frames every 12.7 ms), seed 10, campaign 26: the switch
+    # bouncing (every other frame at STOP) is moved to STOP for 60 ms, less than the 63.5 ms six
+    # frames span, then to RC. The bounce's frame just before the move read STOP too: six
+    # frames in a row showed STOP and the controller rightly armed on the way back to RC.
+    robot = default_sim_config()
+    robot = replace(
+        robot,
+        sim=replace(robot.sim, rc_frame_period_s=0.0127),
+        supervisor=replace(robot.supervisor, debounce_frames=6),
+    )
+    text = """
+        name = "case"
+        duration_s = 7.59
+        event = [
+            { at_s = 0.0, rc = { gear = "forward" } },
+            { at_s = 5.908, rc = { throttle = 0.0, mode = "rc" } },
+            { at_s = 6.708, fault = "switch_chatter", count = 23 },
+            { at_s = 6.952, rc = { mode = "stop" } },
+            { at_s = 7.012, rc = { throttle = 0.0, mode = "rc" } },
+        ]
+    """
+    result = Campaign(robot).run_scenario(parse_scenario(textwrap.dedent(text), "<test>"))
+    assert result.oracle.checks > 0
+    assert result.oracle.violations == []
+
+
+def test_without_a_bouncing_switch_a_stop_too_short_for_the_debounce_still_refuses_arming() -> None:
+    def driving_after_a_short_stop(bouncing: bool) -> list[str]:
+        """Armed in RC; STOP for 13 ms (surely seen, short of the two frame periods a debounce
+        of 3 needs), then RC, with the robot driving on."""
+        oracle = _oracle()
+        oracle.set_switch(RC, 0.5)
+        oracle._resolve_arming(0.7)
+        assert oracle.armed_ok
+        if bouncing:
+            oracle.chatter(8, 0.95)
+        oracle.set_switch(ControlMode.STOP, 1.0)
+        oracle.set_switch(RC, 1.013)
+        oracle._resolve_arming(1.5)
+        oracle._h1(1.5, True, True, 0.0)
+        return [violation.invariant for violation in oracle.violations]
+
+    assert driving_after_a_short_stop(bouncing=False) == ["H1"]
+    assert driving_after_a_short_stop(bouncing=True) == []
+
+
 # --- S8 against a second sender: CAN_UNTRUSTED is the switch's to clear -------------------------
 
 

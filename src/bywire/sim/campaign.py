@@ -347,7 +347,7 @@ class OracleWitness:
         oracle, fault, count = self.oracle, str(values["fault"]), int(values.get("count", 1))
         frame_s = oracle.timing.frame_s
         actions: dict[str, Callable[[], None]] = {
-            "switch_chatter": lambda: oracle.stop_event("switch_stop", now),
+            "switch_chatter": lambda: oracle.chatter(count, now),
             "rc_link_lost": lambda: oracle.fault("rc_link_lost", True, now),
             "rc_link_restored": lambda: oracle.fault("rc_link_lost", False, now),
             "rc_failsafe": lambda: oracle.fault("rc_failsafe", True, now),

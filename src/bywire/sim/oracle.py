@@ -217,6 +217,7 @@ class HazardOracle:
     switch_at: float = 0.0
     switch_shown_s: float = 0.0  # from when frames may show the switch's position (`_h2`)
     stop_since: float = 0.0  # the switch's hold at STOP began (a glimpse away does not end it)
+    chatter_until: float = -1.0  # a bouncing switch's frames read STOP every other one until then
     armed_ok: bool = False
     drive_allowed_until: float | None = None
     stopped_by: set[str] = field(default_factory=set)  # what set `drive_allowed_until`
@@ -275,6 +276,11 @@ class HazardOracle:
         elif self.drive_allowed_until is not None:
             self.drive_allowed_until = min(self.drive_allowed_until, deadline)
             self.stopped_by.add(kind)
+
+    def chatter(self, frames: int, now: float) -> None:
+        """The mode switch bounces: of the next `frames` frames every other one reads STOP."""
+        self.chatter_until = now + (frames + 1) * self.timing.frame_s  # and the one in flight
+        self.stop_event("switch_stop", now)
 
     def fault(self, kind: str, active: bool, now: float) -> None:
         """A fault condition begins (and stops the robot) or ends; saying it again changes
@@ -347,7 +353,10 @@ class HazardOracle:
             # Back at STOP after a glimpse away that no frame may have shown: still one hold.
             glimpse = held_s < self.timing.unseen_s and self.left_at.get(mode) == entered_s
             if not glimpse:
-                self.stop_since = now
+                # Among a bouncing switch's frames, the one just before this move may have read
+                # STOP too: the controller's run of frames at STOP may start a frame earlier.
+                bouncing = now <= self.chatter_until
+                self.stop_since = now - self.timing.frame_s if bouncing else now
             if self.tripped_at is not None:  # the gate opens once the STOP is acknowledged
                 self.dac_writes_from = now + self.timing.settle_s
             if self.pending_arm is not None:  # cut short: it may have armed meanwhile
