@@ -581,6 +581,78 @@ def test_without_a_bouncing_switch_a_stop_too_short_for_the_debounce_still_refus
     assert driving_after_a_short_stop(bouncing=True) == []
 
 
+def test_implausible_frames_that_corruption_may_take_whole_demand_no_stop() -> None:
+    # verify --config (frames every 16.7 ms), seed 22, campaign 14: one frame corrupted from
+    # 7.536 s, the next frame implausible from 7.546 s: it was the same frame, dropped for its
+    # checksum, so the controller never saw the pulse and rightly drove on.
+    robot = default_sim_config()
+    robot = replace(robot, sim=replace(robot.sim, rc_frame_period_s=0.0167))
+    text = """
+        name = "case"
+        duration_s = 8.17
+        event = [
+            { at_s = 0.0, rc = { gear = "forward" } },
+            { at_s = 1.626, rc = { mode = "stop" } },
+            { at_s = 1.686, rc = { throttle = 0.0, mode = "rc" } },
+            { at_s = 7.536, fault = "ibus_corrupt", count = 1 },
+            { at_s = 7.546, fault = "rc_implausible", count = 1 },
+        ]
+    """
+    result = Campaign(robot).run_scenario(parse_scenario(textwrap.dedent(text), "<test>"))
+    assert result.oracle.checks > 0
+    assert result.oracle.violations == []
+
+
+def test_implausible_frames_that_outlast_the_corruption_still_demand_a_stop() -> None:
+    oracle = _oracle()
+    oracle.set_switch(RC, 0.5)
+    oracle._resolve_arming(0.7)
+    oracle.blind(RC, 1.0, 1.02)
+    oracle.implausible(1, 1.005)  # its frame goes out by 1.0127: it may be lost
+    assert oracle.armed_ok
+    oracle.implausible(3, 1.01)  # the last of its frames goes out after the corruption
+    assert not oracle.armed_ok
+    oracle._h1(1.2, True, True, 0.0)
+    assert [violation.invariant for violation in oracle.violations] == ["H1"]
+
+
+def test_corruption_that_begins_before_the_implausible_frame_goes_out_may_take_it() -> None:
+    # The other order: the implausible pulse asked for first, the corruption 2 ms later, before
+    # the frame that carries the pulse was sent (frames every 16.7 ms): dropped, never seen.
+    robot = default_sim_config()
+    robot = replace(robot, sim=replace(robot.sim, rc_frame_period_s=0.0167))
+    text = """
+        name = "case"
+        duration_s = 8.17
+        event = [
+            { at_s = 0.0, rc = { gear = "forward" } },
+            { at_s = 1.626, rc = { mode = "stop" } },
+            { at_s = 1.686, rc = { throttle = 0.0, mode = "rc" } },
+            { at_s = 7.536, fault = "rc_implausible", count = 1 },
+            { at_s = 7.538, fault = "ibus_corrupt", count = 1 },
+        ]
+    """
+    result = Campaign(robot).run_scenario(parse_scenario(textwrap.dedent(text), "<test>"))
+    assert result.oracle.checks > 0
+    assert result.oracle.violations == []
+
+
+@pytest.mark.parametrize("then", ["corruption after the frames went out", "a stop meanwhile"])
+def test_an_implausible_stop_stands_unless_the_corruption_may_have_taken_it(then: str) -> None:
+    oracle = _oracle()  # frames every 7.7 ms
+    oracle.set_switch(RC, 0.5)
+    oracle._resolve_arming(0.7)
+    oracle.implausible(1, 1.0)
+    if then == "a stop meanwhile":
+        oracle.fault("dac_fail", True, 1.002)
+        oracle.blind(RC, 1.003, 1.03)  # would have taken the frame, but the DAC stops it too
+    else:
+        oracle.blind(RC, 1.02, 1.05)  # the frame went out by 1.0077
+    assert not oracle.armed_ok
+    oracle._h1(1.2, True, True, 0.0)
+    assert [violation.invariant for violation in oracle.violations] == ["H1"]
+
+
 # --- S8 against a second sender: CAN_UNTRUSTED is the switch's to clear -------------------------
 
 

@@ -352,7 +352,7 @@ class OracleWitness:
             "rc_link_restored": lambda: oracle.fault("rc_link_lost", False, now),
             "rc_failsafe": lambda: oracle.fault("rc_failsafe", True, now),
             "rc_failsafe_off": lambda: oracle.fault("rc_failsafe", False, now),
-            "rc_implausible": lambda: oracle.stop_event("rc_implausible", now),
+            "rc_implausible": lambda: oracle.implausible(count, now),
             "ibus_corrupt": lambda: oracle.blind(RC, now, now + (count + 1) * frame_s),
             "ibus_garbage": lambda: oracle.blind(RC, now, now + (count // 32 + 2) * frame_s),
             "can_silence": lambda: self._can_fault("can_lost", True, now),

@@ -179,6 +179,26 @@ class Violation:
 STALE_S = {ControlMode.RC: 0.0, ControlMode.CAN: CAN_STALE_S}
 
 
+@dataclass(frozen=True, slots=True)
+class _Demand:
+    """What H1 allowed: armed, until when the outputs may still drive, and what set that."""
+
+    armed_ok: bool
+    drive_allowed_until: float | None
+    stopped_by: frozenset[str]
+
+
+@dataclass(frozen=True, slots=True)
+class _PassingStop:
+    """A stop demanded by frames still to be sent (implausible ones), undone if corruption that
+    begins before the first of them goes out may take them all, and nothing else moved H1."""
+
+    at_s: float
+    last_sent_s: float
+    before: _Demand
+    after: _Demand
+
+
 @dataclass(slots=True)
 class _SteeringHold:
     """A steering pulse that must stay where it was when the hold began (H3, H5)."""
@@ -218,6 +238,7 @@ class HazardOracle:
     switch_shown_s: float = 0.0  # from when frames may show the switch's position (`_h2`)
     stop_since: float = 0.0  # the switch's hold at STOP began (a glimpse away does not end it)
     chatter_until: float = -1.0  # a bouncing switch's frames read STOP every other one until then
+    passing_stop: _PassingStop | None = None  # the latest implausible frames' demand
     armed_ok: bool = False
     drive_allowed_until: float | None = None
     stopped_by: set[str] = field(default_factory=set)  # what set `drive_allowed_until`
@@ -280,7 +301,38 @@ class HazardOracle:
     def chatter(self, frames: int, now: float) -> None:
         """The mode switch bounces: of the next `frames` frames every other one reads STOP."""
         self.chatter_until = now + (frames + 1) * self.timing.frame_s  # and the one in flight
-        self.stop_event("switch_stop", now)
+        if not self._all_may_be_lost(frames, now):
+            self.stop_event("switch_stop", now)
+
+    def implausible(self, frames: int, now: float) -> None:
+        """The next `frames` frames carry a pulse no stick gives."""
+        if self._all_may_be_lost(frames, now):
+            return
+        before = self._demand()
+        self.stop_event("rc_implausible", now)
+        last_sent_s = now + frames * self.timing.frame_s
+        self.passing_stop = _PassingStop(now, last_sent_s, before, self._demand())
+
+    def _demand(self) -> _Demand:
+        return _Demand(self.armed_ok, self.drive_allowed_until, frozenset(self.stopped_by))
+
+    def _undo_passing_stop(self, from_s: float, until_s: float) -> None:
+        """Corruption from `from_s` to `until_s` may take every frame of the passing stop."""
+        passing, self.passing_stop = self.passing_stop, None
+        if passing is None:
+            return
+        first_unsent = from_s <= passing.at_s + self.timing.frame_s
+        if first_unsent and passing.last_sent_s <= until_s and self._demand() == passing.after:
+            before = passing.before
+            self.armed_ok, self.drive_allowed_until = before.armed_ok, before.drive_allowed_until
+            self.stopped_by = set(before.stopped_by)
+
+    def _all_may_be_lost(self, frames: int, now: float) -> bool:
+        """The next `frames` frames all go out while frames are being corrupted: a passing event
+        they carry (a bounce, an implausible pulse) may never reach the controller at all, where
+        a switch's new position only arrives later."""
+        last_sent_s = now + frames * self.timing.frame_s
+        return self.rc_blind_from <= now and last_sent_s <= self.rc_blind_until
 
     def fault(self, kind: str, active: bool, now: float) -> None:
         """A fault condition begins (and stops the robot) or ends; saying it again changes
@@ -328,6 +380,7 @@ class HazardOracle:
             # Implausible frames not yet sent when the corruption began may never be seen.
             if self.owed_to_switch.get("rc_implausible", -1.0) >= from_s:
                 del self.owed_to_switch["rc_implausible"]
+            self._undo_passing_stop(from_s, until_s)
             if from_s > self.rc_blind_until:
                 self.rc_blind_from = from_s  # a new blind stretch, not a longer one
             self.rc_blind_until = max(self.rc_blind_until, until_s)
