@@ -7,4 +7,6 @@ from hypothesis import settings
 # The machines are shared and noisy: a property must fail on its logic, never on a slow example.
 settings.register_profile("default", deadline=None)
 settings.register_profile("ci", deadline=None, derandomize=True, print_blob=True)
+# A search, not a gate: `pytest --hypothesis-profile=long tests/...`, ten times CI's examples.
+settings.register_profile("long", deadline=None, max_examples=1000, print_blob=True)
 settings.load_profile("ci" if os.environ.get("CI") else "default")
