@@ -653,6 +653,50 @@ def test_an_implausible_stop_stands_unless_the_corruption_may_have_taken_it(then
     assert [violation.invariant for violation in oracle.violations] == ["H1"]
 
 
+def test_a_re_enable_sent_as_the_switch_leaves_can_may_arm_before_the_move_shows() -> None:
+    # verify --config (debounce 5, frames every 16.8 ms), seed 34, campaign 81: stopped with the
+    # switch at CAN; the operator moves it to RC and 5 ms later the computer sends a re-enable.
+    # The controller's switch is still CAN (no frame showed RC yet): it arms into CAN, then
+    # hands over to RC at zero throttle, rightly; the oracle only counted a re-enable at CAN.
+    robot = default_sim_config()
+    robot = replace(
+        robot,
+        sim=replace(robot.sim, rc_frame_period_s=0.0168),
+        supervisor=replace(robot.supervisor, debounce_frames=5),
+    )
+    text = """
+        name = "case"
+        duration_s = 5.96
+        event = [
+            { at_s = 0.0, rc = { gear = "forward" } },
+            { at_s = 0.0, hlc = { steering = 0.0, throttle = 0.0, brake = 0.0, gear = "forward" } },
+            { at_s = 0.683, rc = { mode = "stop" } },
+            { at_s = 0.743, rc = { throttle = 0.0, mode = "rc" } },
+            { at_s = 3.583, rc = { mode = "stop" } },
+            { at_s = 3.643, rc = { throttle = 0.0, mode = "rc" } },
+            { at_s = 4.218, rc = { mode = "can" } },
+            { at_s = 5.453, rc = { throttle = 0.0, mode = "rc" } },
+            { at_s = 5.458, hlc_control = { remote_stop = false, re_enable = true } },
+        ]
+    """
+    result = Campaign(robot).run_scenario(parse_scenario(textwrap.dedent(text), "<test>"))
+    assert result.oracle.checks > 0
+    assert "STOP->CAN: armed by a CAN re-enable" in result.transitions
+    assert result.oracle.violations == []
+
+
+@pytest.mark.parametrize("moved_to", [ControlMode.STOP, RC], ids=["to STOP", "to RC"])
+def test_a_re_enable_after_the_switch_left_can_for_good_arms_nothing(moved_to: ControlMode) -> None:
+    oracle = _oracle()
+    oracle.set_switch(CAN, 0.5)  # held at STOP since power-up: arms into CAN…
+    oracle._resolve_arming(0.7)
+    oracle.stop_event("remote_stop", 1.0)  # …then stopped
+    oracle.set_switch(moved_to, 1.5)
+    oracle.re_enable(1.502 if moved_to is ControlMode.STOP else 1.8)  # STOP: at once; RC: settled
+    oracle._h1(2.0, True, True, 0.0)
+    assert [violation.invariant for violation in oracle.violations] == ["H1"]
+
+
 # --- S8 against a second sender: CAN_UNTRUSTED is the switch's to clear -------------------------
 
 

@@ -326,7 +326,7 @@ class OracleWitness:
             self.remote_stop = remote_stop
             if not remote_stop or not self.oracle.faults & CAN_SILENT:
                 self.oracle.fault("remote_stop", remote_stop, now)  # arriving: every mode
-        if re_enable and not self.re_enable and self.oracle.switch is CAN:
+        if re_enable and not self.re_enable:
             self.oracle.re_enable(now)
         self.re_enable = re_enable
 

@@ -482,9 +482,13 @@ class HazardOracle:
         return deadline is not None and now < deadline and self.stopped_by <= CAN_ONLY
 
     def re_enable(self, now: float) -> None:
-        """A CAN re-enable request (a 0→1 change) was sent: it arms only if nothing that the
-        switch alone may clear is latched."""
-        if self.switch is ControlMode.CAN and not self._owed(now):
+        """A CAN re-enable request (a 0→1 change) was sent: it arms if the controller may see
+        the switch at CAN (there, or moved on to RC less than a debounce ago: a move counts
+        after its frames; the arming is then a handover) and nothing that the switch alone may
+        clear is latched. A move to STOP has its own deadline, which an arming cannot lift."""
+        left_can_s = now - self.left_at.get(ControlMode.CAN, -1.0)
+        leaving = self.switch is ControlMode.RC and left_can_s < self.timing.settle_s
+        if (self.switch is ControlMode.CAN or leaving) and not self._owed(now):
             self._arm_now(now, ControlMode.CAN)
 
     def _latched_from(self, kind: str) -> float | None:
