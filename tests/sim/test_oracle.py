@@ -18,7 +18,7 @@ from bywire.hal.sim.clock import VirtualClock
 from bywire.hal.sim.world import SimWorld
 from bywire.model import ControlMode
 from bywire.protocol import dac6574
-from bywire.sim.campaign import Campaign, Step
+from bywire.sim.campaign import Campaign, CampaignResult, Step
 from bywire.sim.draw import draw_campaign
 from bywire.sim.oracle import HazardOracle, OracleTiming
 from bywire.sim.scenario import parse_scenario
@@ -505,33 +505,42 @@ def test_a_glimpse_away_from_stop_that_no_frame_showed_does_not_end_the_hold() -
     assert outcome.findings == []
 
 
+def _on_other_numbers(
+    events: str, duration_s: float, frame_s: float, debounce_frames: int = 3
+) -> CampaignResult:
+    """A found campaign replayed on the robot file it was found on (as far as it matters: the
+    frame period and the debounce), armed in RC from power-up with the computer at rest."""
+    robot = default_sim_config()
+    robot = replace(
+        robot,
+        sim=replace(robot.sim, rc_frame_period_s=frame_s),
+        supervisor=replace(robot.supervisor, debounce_frames=debounce_frames),
+    )
+    text = (
+        f'name = "case"\nduration_s = {duration_s}\nevent = [\n'
+        '{ at_s = 0.0, rc = { gear = "forward" } },\n'
+        '{ at_s = 0.0, hlc = { steering = 0.0, throttle = 0.0, brake = 0.0, gear = "forward" } },\n'
+        f"{events}]\n"
+    )
+    result = Campaign(robot).run_scenario(parse_scenario(text, "<test>"))
+    assert result.oracle.checks > 0
+    return result
+
+
 def test_two_glimpses_of_stop_that_no_frame_showed_leave_rc_driving() -> None:
     # verify --config (debounce 4, frames every 14.4 ms), seed 5, campaign 195: armed in RC, the
     # switch at STOP for 5 ms, RC for 15 ms, STOP for 5 ms, RC. Both frames around each glimpse
     # read RC, so the controller rightly drove on; the oracle joined the glimpses into one stay
     # at STOP of 25 ms (the RC between them counted as STOP time) and called it surely seen.
-    robot = default_sim_config()
-    robot = replace(
-        robot,
-        sim=replace(robot.sim, rc_frame_period_s=0.0144),
-        supervisor=replace(robot.supervisor, debounce_frames=4),
-    )
-    text = """
-        name = "case"
-        duration_s = 8.24
-        event = [
-            { at_s = 0.0, rc = { gear = "forward" } },
-            { at_s = 7.4, rc = { mode = "stop" } },
-            { at_s = 7.46, rc = { throttle = 0.0, mode = "rc" } },
-            { at_s = 7.618, rc = { mode = "stop" } },
-            { at_s = 7.623, rc = { mode = "rc" } },
-            { at_s = 7.638, rc = { mode = "stop" } },
-            { at_s = 7.643, rc = { mode = "rc" } },
-        ]
+    events = """
+        { at_s = 7.4, rc = { mode = "stop" } },
+        { at_s = 7.46, rc = { throttle = 0.0, mode = "rc" } },
+        { at_s = 7.618, rc = { mode = "stop" } },
+        { at_s = 7.623, rc = { mode = "rc" } },
+        { at_s = 7.638, rc = { mode = "stop" } },
+        { at_s = 7.643, rc = { mode = "rc" } },
     """
-    result = Campaign(robot).run_scenario(parse_scenario(textwrap.dedent(text), "<test>"))
-    assert result.oracle.checks > 0
-    assert result.oracle.violations == []
+    assert _on_other_numbers(events, 8.24, 0.0144, 4).oracle.violations == []
 
 
 def test_a_bouncing_switch_s_last_frame_at_stop_may_begin_the_hold() -> None:
@@ -539,25 +548,50 @@ def test_a_bouncing_switch_s_last_frame_at_stop_may_begin_the_hold() -> None:
     # bouncing (every other frame at STOP) is moved to STOP for 60 ms, less than the 63.5 ms six
     # frames span, then to RC. The bounce's frame just before the move read STOP too: six
     # frames in a row showed STOP and the controller rightly armed on the way back to RC.
-    robot = default_sim_config()
-    robot = replace(
-        robot,
-        sim=replace(robot.sim, rc_frame_period_s=0.0127),
-        supervisor=replace(robot.supervisor, debounce_frames=6),
-    )
-    text = """
-        name = "case"
-        duration_s = 7.59
-        event = [
-            { at_s = 0.0, rc = { gear = "forward" } },
-            { at_s = 5.908, rc = { throttle = 0.0, mode = "rc" } },
-            { at_s = 6.708, fault = "switch_chatter", count = 23 },
-            { at_s = 6.952, rc = { mode = "stop" } },
-            { at_s = 7.012, rc = { throttle = 0.0, mode = "rc" } },
-        ]
+    events = """
+        { at_s = 5.908, rc = { throttle = 0.0, mode = "rc" } },
+        { at_s = 6.708, fault = "switch_chatter", count = 23 },
+        { at_s = 6.952, rc = { mode = "stop" } },
+        { at_s = 7.012, rc = { throttle = 0.0, mode = "rc" } },
     """
-    result = Campaign(robot).run_scenario(parse_scenario(textwrap.dedent(text), "<test>"))
-    assert result.oracle.checks > 0
+    assert _on_other_numbers(events, 7.59, 0.0127, 6).oracle.violations == []
+
+
+@pytest.mark.parametrize(
+    ("implausible_s", "corrupt_s"), [(7.546, 7.536), (7.536, 7.538)], ids=["after", "before"]
+)
+def test_implausible_frames_that_corruption_may_take_whole_demand_no_stop(
+    implausible_s: float, corrupt_s: float
+) -> None:
+    # verify --config (frames every 16.7 ms), seed 22, campaign 14: one frame corrupted from
+    # 7.536 s, the next frame implausible from 7.546 s: it was the same frame, dropped for its
+    # checksum, so the controller never saw the pulse and rightly drove on. The other order
+    # too: the pulse asked for first, the corruption 2 ms later, before its frame went out.
+    events = f"""
+        {{ at_s = 1.626, rc = {{ mode = "stop" }} }},
+        {{ at_s = 1.686, rc = {{ throttle = 0.0, mode = "rc" }} }},
+        {{ at_s = {corrupt_s}, fault = "ibus_corrupt", count = 1 }},
+        {{ at_s = {implausible_s}, fault = "rc_implausible", count = 1 }},
+    """
+    assert _on_other_numbers(events, 8.17, 0.0167).oracle.violations == []
+
+
+def test_a_re_enable_sent_as_the_switch_leaves_can_may_arm_before_the_move_shows() -> None:
+    # verify --config (debounce 5, frames every 16.8 ms), seed 34, campaign 81: stopped with the
+    # switch at CAN; the operator moves it to RC and 5 ms later the computer sends a re-enable.
+    # The controller's switch is still CAN (no frame showed RC yet): it arms into CAN, then
+    # hands over to RC at zero throttle, rightly; the oracle only counted a re-enable at CAN.
+    events = """
+        { at_s = 0.683, rc = { mode = "stop" } },
+        { at_s = 0.743, rc = { throttle = 0.0, mode = "rc" } },
+        { at_s = 3.583, rc = { mode = "stop" } },
+        { at_s = 3.643, rc = { throttle = 0.0, mode = "rc" } },
+        { at_s = 4.218, rc = { mode = "can" } },
+        { at_s = 5.453, rc = { throttle = 0.0, mode = "rc" } },
+        { at_s = 5.458, hlc_control = { remote_stop = false, re_enable = true } },
+    """
+    result = _on_other_numbers(events, 5.96, 0.0168, 5)
+    assert "STOP->CAN: armed by a CAN re-enable" in result.transitions
     assert result.oracle.violations == []
 
 
@@ -581,28 +615,6 @@ def test_without_a_bouncing_switch_a_stop_too_short_for_the_debounce_still_refus
     assert driving_after_a_short_stop(bouncing=True) == []
 
 
-def test_implausible_frames_that_corruption_may_take_whole_demand_no_stop() -> None:
-    # verify --config (frames every 16.7 ms), seed 22, campaign 14: one frame corrupted from
-    # 7.536 s, the next frame implausible from 7.546 s: it was the same frame, dropped for its
-    # checksum, so the controller never saw the pulse and rightly drove on.
-    robot = default_sim_config()
-    robot = replace(robot, sim=replace(robot.sim, rc_frame_period_s=0.0167))
-    text = """
-        name = "case"
-        duration_s = 8.17
-        event = [
-            { at_s = 0.0, rc = { gear = "forward" } },
-            { at_s = 1.626, rc = { mode = "stop" } },
-            { at_s = 1.686, rc = { throttle = 0.0, mode = "rc" } },
-            { at_s = 7.536, fault = "ibus_corrupt", count = 1 },
-            { at_s = 7.546, fault = "rc_implausible", count = 1 },
-        ]
-    """
-    result = Campaign(robot).run_scenario(parse_scenario(textwrap.dedent(text), "<test>"))
-    assert result.oracle.checks > 0
-    assert result.oracle.violations == []
-
-
 def test_implausible_frames_that_outlast_the_corruption_still_demand_a_stop() -> None:
     oracle = _oracle()
     oracle.set_switch(RC, 0.5)
@@ -614,27 +626,6 @@ def test_implausible_frames_that_outlast_the_corruption_still_demand_a_stop() ->
     assert not oracle.armed_ok
     oracle._h1(1.2, True, True, 0.0)
     assert [violation.invariant for violation in oracle.violations] == ["H1"]
-
-
-def test_corruption_that_begins_before_the_implausible_frame_goes_out_may_take_it() -> None:
-    # The other order: the implausible pulse asked for first, the corruption 2 ms later, before
-    # the frame that carries the pulse was sent (frames every 16.7 ms): dropped, never seen.
-    robot = default_sim_config()
-    robot = replace(robot, sim=replace(robot.sim, rc_frame_period_s=0.0167))
-    text = """
-        name = "case"
-        duration_s = 8.17
-        event = [
-            { at_s = 0.0, rc = { gear = "forward" } },
-            { at_s = 1.626, rc = { mode = "stop" } },
-            { at_s = 1.686, rc = { throttle = 0.0, mode = "rc" } },
-            { at_s = 7.536, fault = "rc_implausible", count = 1 },
-            { at_s = 7.538, fault = "ibus_corrupt", count = 1 },
-        ]
-    """
-    result = Campaign(robot).run_scenario(parse_scenario(textwrap.dedent(text), "<test>"))
-    assert result.oracle.checks > 0
-    assert result.oracle.violations == []
 
 
 @pytest.mark.parametrize("then", ["corruption after the frames went out", "a stop meanwhile"])
@@ -651,38 +642,6 @@ def test_an_implausible_stop_stands_unless_the_corruption_may_have_taken_it(then
     assert not oracle.armed_ok
     oracle._h1(1.2, True, True, 0.0)
     assert [violation.invariant for violation in oracle.violations] == ["H1"]
-
-
-def test_a_re_enable_sent_as_the_switch_leaves_can_may_arm_before_the_move_shows() -> None:
-    # verify --config (debounce 5, frames every 16.8 ms), seed 34, campaign 81: stopped with the
-    # switch at CAN; the operator moves it to RC and 5 ms later the computer sends a re-enable.
-    # The controller's switch is still CAN (no frame showed RC yet): it arms into CAN, then
-    # hands over to RC at zero throttle, rightly; the oracle only counted a re-enable at CAN.
-    robot = default_sim_config()
-    robot = replace(
-        robot,
-        sim=replace(robot.sim, rc_frame_period_s=0.0168),
-        supervisor=replace(robot.supervisor, debounce_frames=5),
-    )
-    text = """
-        name = "case"
-        duration_s = 5.96
-        event = [
-            { at_s = 0.0, rc = { gear = "forward" } },
-            { at_s = 0.0, hlc = { steering = 0.0, throttle = 0.0, brake = 0.0, gear = "forward" } },
-            { at_s = 0.683, rc = { mode = "stop" } },
-            { at_s = 0.743, rc = { throttle = 0.0, mode = "rc" } },
-            { at_s = 3.583, rc = { mode = "stop" } },
-            { at_s = 3.643, rc = { throttle = 0.0, mode = "rc" } },
-            { at_s = 4.218, rc = { mode = "can" } },
-            { at_s = 5.453, rc = { throttle = 0.0, mode = "rc" } },
-            { at_s = 5.458, hlc_control = { remote_stop = false, re_enable = true } },
-        ]
-    """
-    result = Campaign(robot).run_scenario(parse_scenario(textwrap.dedent(text), "<test>"))
-    assert result.oracle.checks > 0
-    assert "STOP->CAN: armed by a CAN re-enable" in result.transitions
-    assert result.oracle.violations == []
 
 
 @pytest.mark.parametrize("moved_to", [ControlMode.STOP, RC], ids=["to STOP", "to RC"])
