@@ -13,7 +13,7 @@ from dataclasses import replace
 
 import pytest
 
-from bywire.config import RobotConfig, default_sim_config
+from bywire.config import RobotConfig, default_sim_config, parse_config
 from bywire.hal.sim.clock import VirtualClock
 from bywire.hal.sim.world import SimWorld
 from bywire.model import ControlMode
@@ -45,7 +45,8 @@ def _violations(events: str, duration_s: float) -> list[str]:
 def _oracle(robot: RobotConfig | None = None) -> HazardOracle:
     robot = robot or default_sim_config()
     world = SimWorld.from_robot(VirtualClock(), robot)
-    return HazardOracle(world, robot.drive.dac.throttle_channel, robot.drive.dac.regen_channel)
+    dac, timing = robot.drive.dac, OracleTiming.for_robot(robot)
+    return HazardOracle(world, dac.throttle_channel, dac.regen_channel, timing=timing)
 
 
 # --- H2: the switch's move travels in IBUS frames that corruption may delay ---------------------
@@ -593,6 +594,34 @@ def test_a_re_enable_sent_as_the_switch_leaves_can_may_arm_before_the_move_shows
     result = _on_other_numbers(events, 5.96, 0.0168, 5)
     assert "STOP->CAN: armed by a CAN re-enable" in result.transitions
     assert result.oracle.violations == []
+
+
+SLOW_DRIVING = 'backend = "sim"\n[tasks]\nsteering_rate_hz = 25\ndriving_rate_hz = 50\n'
+
+
+def test_every_other_dac_write_failing_for_less_than_it_takes_to_latch_may_pass_unseen() -> None:
+    # tests/sim/test_other_numbers.py under the long profile (driving task at 50 Hz): every
+    # other DAC write NAKed for 70 ms. The leaky count latches at the fourth failure, 80 ms at
+    # 50 Hz; it never did and the robot rightly drove on, but the oracle gave the fault the
+    # 60 ms that failing pairs of writes take.
+    robot = parse_config(SLOW_DRIVING + "hydrobrake_rate_hz = 25\n", "<test>")
+    steps = [Step(0.2, "arm", RC), Step(0.61, "dac", "alternate"), Step(0.07, "dac", "restore")]
+    outcome = run_campaign(robot, steps)
+    assert outcome.checks > 0
+    assert outcome.findings == []
+
+
+@pytest.mark.parametrize(("every_other", "flagged"), [(False, ["H1"]), (True, [])])
+def test_a_dac_failure_long_enough_to_latch_its_pattern_is_still_judged(
+    every_other: bool, flagged: list[str]
+) -> None:
+    oracle = _oracle(parse_config(SLOW_DRIVING, "<test>"))  # driving period 20 ms
+    oracle.set_switch(RC, 0.5)
+    oracle._resolve_arming(0.7)
+    oracle.dac_failing(1.0, every_other=every_other)
+    oracle.fault("dac_fail", False, 1.07)  # 3.5 periods: latched if every write failed
+    oracle._h1(1.2, True, True, 0.0)
+    assert [violation.invariant for violation in oracle.violations] == flagged
 
 
 def test_without_a_bouncing_switch_a_stop_too_short_for_the_debounce_still_refuses_arming() -> None:

@@ -239,6 +239,7 @@ class HazardOracle:
     stop_since: float = 0.0  # the switch's hold at STOP began (a glimpse away does not end it)
     chatter_until: float = -1.0  # a bouncing switch's frames read STOP every other one until then
     passing_stop: _PassingStop | None = None  # the latest implausible frames' demand
+    dac_every_other: bool = False  # the failing DAC NAKs every other write: slower to latch
     armed_ok: bool = False
     drive_allowed_until: float | None = None
     stopped_by: set[str] = field(default_factory=set)  # what set `drive_allowed_until`
@@ -334,6 +335,21 @@ class HazardOracle:
         last_sent_s = now + frames * self.timing.frame_s
         return self.rc_blind_from <= now and last_sent_s <= self.rc_blind_until
 
+    def dac_failing(self, now: float, *, every_other: bool) -> None:
+        """The DAC NAKs every write, or every other one (which latches later: the leaky count
+        reaches its limit at the fourth failure, where failing pairs reach it at the second)."""
+        if "dac_fail" not in self.faults:
+            self.dac_every_other = every_other
+        else:
+            self.dac_every_other |= every_other  # a failure under way: the later latch counts
+        self.fault("dac_fail", True, now)
+
+    def _unnoticed_s(self, kind: str) -> float:
+        if kind == "dac_fail" and self.dac_every_other:
+            # four failing writes, each a driving period apart, and a period for the first
+            return 5 * self.timing.driving_period_s
+        return self.timing.unnoticed_s(kind)
+
     def fault(self, kind: str, active: bool, now: float) -> None:
         """A fault condition begins (and stops the robot) or ends; saying it again changes
         nothing (a remote stop already requested does not arrive again)."""
@@ -362,7 +378,7 @@ class HazardOracle:
         if latched_s is not None and latched_s < now:
             self.owed_to_switch[kind] = latched_s
         began_s, armed_before = self.began.pop(kind, (now, False))
-        if armed_before and now - began_s < self.timing.unnoticed_s(kind):
+        if armed_before and now - began_s < self._unnoticed_s(kind):
             self.armed_ok, self.drive_allowed_until = True, None  # it may have passed unseen
 
     def _link_hides_switch(self, lost: bool, now: float) -> None:
