@@ -6,7 +6,8 @@ A hand-picked list of other robots (`test_verify.py::OTHER_ROBOTS`) holds the co
 once broke something; this draws new ones. Drawing them (`bywire verify` on 46 drawn files,
 2026-11-25) found a one-frame switch debounce that let a bouncing switch re-arm the robot (now
 refused at load), a STOP that only time revealed engaging the e-brake at a slow brake task's own
-tick, and four judgements of the oracle's that flagged a correct robot (docs/SAFETY.md).
+tick, and four judgements of the oracle's that flagged a correct robot; its own first long run
+found a fifth (docs/SAFETY.md).
 
 Each example runs campaigns, so it takes a tenth of the profile's examples: ten on CI, more under
 a long profile (`pytest --hypothesis-profile=long tests/sim/test_other_numbers.py`).
