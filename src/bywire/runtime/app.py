@@ -2,11 +2,11 @@
 
 Each pass of the loop reads the clock once, then: reads every input port, takes the decision
 once (if a periodic task is due, or an input arrived that can change it: `changes_decision`), and
-writes each output at most once: the outputs of every due task, and, when a new input arrived,
-whatever it changed, so that command to actuator latency is not bound to the 100 Hz tick. The
-same pass runs on the robot and on the simulator's virtual clock, so the robot runs what the
-simulator ran. Periodic tasks keep absolute deadlines from the schedule table. Outputs start safe
-and end safe, whatever happens.
+writes each output at most once: the outputs of every due task, and whatever else the decision
+changed, so that command to actuator latency is not bound to the 100 Hz tick and a STOP is
+written whole at once, not at each output's own task rate. The same pass runs on the robot and on
+the simulator's virtual clock, so the robot runs what the simulator ran. Periodic tasks keep
+absolute deadlines from the schedule table. Outputs start safe and end safe, whatever happens.
 """
 
 from __future__ import annotations
