@@ -214,6 +214,66 @@ def test_a_remote_stop_counts_as_arriving_on_the_first_frame_that_carries_it() -
     assert link.control(2, stop=True) == CommandEdges(remote_stop=True)  # the safe direction
 
 
+# --- a stop always gets through (issue 29) -------------------------------------------------------
+
+
+def _raw_control(link: Link, counter: int, *, stop: bool) -> None:
+    frame_id, payload = dbc.encode_command(ControlCommand(stop, False, counter))
+    link.sender.send(CanFrame(frame_id, payload))
+    link.clock.advance(0.02)
+    link.reader.poll(link.clock.now())
+
+
+def test_a_stop_in_an_intact_frame_arrives_whatever_its_counter() -> None:
+    link = Link()
+    counter = link.settle()
+    before = link.reader.stop_requests
+    _raw_control(link, counter - 1, stop=True)  # a repeated counter: rejected, the stop passes
+    assert link.reader.rejected[dbc.RejectReason.COUNTER] == 1
+    assert link.reader.stop_requests == before + 1
+
+
+def test_a_stop_arrives_on_an_untrusted_id_and_a_re_enable_does_not() -> None:
+    link = Link()
+    counter = link.settle()
+    for _ in range(COUNTER_MISS_LIMIT):  # a second sender: repeats of the computer's counters
+        _raw_control(link, counter - 1, stop=False)
+    assert link.reader.untrusted
+    before = link.reader.stop_requests
+    _raw_control(link, counter, stop=True)
+    assert link.reader.stop_requests == before + 1
+    assert link.control(counter + 1, re_enable=True) == CommandEdges()
+
+
+def test_a_stop_held_by_every_frame_is_one_arrival_and_a_corrupt_one_none() -> None:
+    link = Link()
+    counter = link.settle()
+    before = link.reader.stop_requests
+    _raw_control(link, counter, stop=True)
+    arrivals = link.reader.stop_requests
+    assert arrivals > before  # the frame may be counted by both paths: one arrival
+    for offset in range(1, 10):  # held by every later frame
+        _raw_control(link, counter + offset, stop=True)
+    assert link.reader.stop_requests == arrivals
+    frame_id, payload = dbc.encode_command(ControlCommand(True, False, 0))
+    link.clock.advance(0.2)
+    link.sender.send(CanFrame(frame_id, payload[:-1] + bytes((payload[-1] ^ 0x5A,))))
+    link.clock.advance(0.02)
+    link.reader.poll(link.clock.now())
+    assert link.reader.stop_requests == arrivals  # a bad CRC carries nothing, not even a stop
+
+
+def test_an_untrusted_lights_id_affects_the_lights_alone() -> None:
+    link = Link()
+    frame_id = dbc.frame_id(LightsCommand)
+    for counter in (0, 1, 0, 1, 0, 1, 0, 1):  # two senders on one id
+        payload = dbc.encode_command(LightsCommand(False, False, True, False, counter))[1]
+        link.sender.send(CanFrame(frame_id, payload))
+    link.poll()
+    assert link.reader.lights_untrusted
+    assert not link.reader.untrusted
+
+
 # --- IBUS ----------------------------------------------------------------------------------------
 
 

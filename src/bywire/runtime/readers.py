@@ -16,7 +16,7 @@ from bywire.control.command_edges import NO_EDGES, CommandEdges, command_edges
 from bywire.control.rc_mapping import RcMapping, RcRequest, rc_request
 from bywire.control.validity import Stamped
 from bywire.hal.ports import ByteStream, CanFrame, CanPort
-from bywire.model import Command, ControlCommand, ControlMode
+from bywire.model import Command, ControlCommand, ControlMode, LightsCommand
 from bywire.protocol import dbc
 from bywire.protocol.ibus import IbusParser
 from bywire.runtime.recent_fault import RecentFault
@@ -118,8 +118,15 @@ class CanReader:
     a leaky count; a window also catches what that misses): COUNTER_MISS_LIMIT repeated or
     skipped counters among them make the message *untrusted*. A second sender on the id, or a
     replaying node, then cannot drive even with half its frames intact (a leaky count of +1 per
-    miss and -1 per good frame stays balanced at half). Its frames are dropped and the shell
-    reports CAN_UNTRUSTED, which stops CAN mode, until a whole window of good frames in a row.
+    miss and -1 per good frame stays balanced at half). Its frames are dropped until a whole
+    window of good frames in a row. Trust is proportionate: an untrusted movement or control id
+    (`untrusted`) stops CAN mode (CAN_UNTRUSTED); an untrusted lights id (`lights_untrusted`)
+    affects the lights alone (the last trusted request is held, LIGHTS_UNTRUSTED).
+
+    A stop always gets through: a ControlCommand frame that is intact (length, CRC, ranges) and
+    asks for a remote stop counts as a stop request whatever its counter or the id's trust, with
+    authentication on once it verified (`stop_requests`, see `_stop_passes`). Only leaving STOP
+    needs trust: a re-enable is taken from accepted frames alone.
 
     ControlCommand edges (`control_edges`, see `bywire.control.command_edges`) are taken between
     consecutive accepted frames: a rejected or dropped frame, or a gap longer than `gap_s`,
@@ -128,8 +135,9 @@ class CanReader:
 
     With `secoc` (authentication on), a command frame counts only once its cryptographic PDU
     has arrived and verified (`bywire.security.session`); a failure rejects it whole, is
-    counted in `auth_failures`, flags CAN_AUTH_FAILED and is a miss of the id's trust window,
-    so persistent failures make the message untrusted as counter misses do.
+    counted in `auth_failures` and flags CAN_AUTH_FAILED, but costs the id no trust: a node
+    without the key must not be able to make the computer's signed frames (its stop among them)
+    be dropped. The counter of verified frames is judged as without authentication.
     """
 
     def __init__(
@@ -148,6 +156,11 @@ class CanReader:
         self._gap_s = rx_check(checks, ControlCommand).timeout_s
         self._command_ids = frozenset(check.frame_id for check in checks)
         self._control_id = dbc.frame_id(ControlCommand)
+        self._lights_id = dbc.frame_id(LightsCommand)
+        self.stop_requests = 0
+        """How many remote stop requests have arrived (`_stop_passes`): the decision acts on a
+        change, in every mode."""
+        self._stop_seen_at: float | None = None  # the newest intact frame asking for a stop
         self._previous_counter: dict[int, int | None] = dict.fromkeys(self._command_ids)
         self.trust = {frame_id: _CounterTrust() for frame_id in self._command_ids}
         self.rejected: Counter[dbc.RejectReason] = Counter()
@@ -161,8 +174,16 @@ class CanReader:
 
     @property
     def untrusted(self) -> bool:
-        """Some command message is not trusted now."""
-        return any(trust.untrusted for trust in self.trust.values())
+        """A movement or control command message is not trusted now (CAN_UNTRUSTED)."""
+        return any(
+            trust.untrusted for frame_id, trust in self.trust.items() if frame_id != self._lights_id
+        )
+
+    @property
+    def lights_untrusted(self) -> bool:
+        """The lights command is not trusted now: it affects the lights alone."""
+        trust = self.trust.get(self._lights_id)
+        return trust is not None and trust.untrusted
 
     def poll(self, now: float) -> list[Stamped[Command]]:
         """Every command accepted since the last poll, oldest first."""
@@ -183,6 +204,8 @@ class CanReader:
             if frame_id not in self._command_ids:
                 self.ignored_frames += 1
                 continue
+            if frame_id == self._control_id:
+                self._stop_passes(data, arrival(frame, now))
             command = self._checked(frame_id, data, now)
             if command is None:
                 if frame_id == self._control_id:
@@ -210,11 +233,28 @@ class CanReader:
             return None
         return command
 
+    def _stop_passes(self, data: bytes, arrived_at: float) -> None:
+        """A remote stop in an intact (or, with authentication, verified) ControlCommand frame
+        arrives whatever its counter or the id's trust (R-STOP-PASS): the filters exist so that
+        bad input cannot *move* the robot, and a stop only makes it safer. It arrives (a new
+        request) when no intact frame asked for one within the command timeout before it; a
+        request held by every frame is one arrival, so the RC operator may still take over."""
+        try:
+            command = dbc.decode_intact(self._control_id, data)
+        except dbc.CommandRejected:
+            return
+        if not isinstance(command, ControlCommand) or not command.remote_stop:
+            return
+        seen_at = self._stop_seen_at
+        if seen_at is None or arrived_at - seen_at > self._gap_s:
+            self.stop_requests += 1
+        self._stop_seen_at = arrived_at
+
     def _auth_failed(self, failures: Sequence[tuple[int, AuthFailure]], now: float) -> None:
+        """Counted and flagged; never a miss of the id's trust window (see the class)."""
         for frame_id, failure in failures:
             self.auth_failures[failure] += 1
             self.auth_faults.happened(now)
-            self.trust[frame_id].record(miss=True)
             if frame_id == self._control_id:
                 self._previous_control = None
 
@@ -232,6 +272,8 @@ class CanReader:
             re_enable=self.control_edges.re_enable or (edges.re_enable and settled),
             remote_stop=self.control_edges.remote_stop or edges.remote_stop,
         )
+        if edges.remote_stop:  # a 0→1 between accepted frames: a new request, however soon
+            self.stop_requests += 1
         self._previous_control = Stamped(command, now)
 
     def _reject(self, rejected: dbc.CommandRejected, now: float) -> None:

@@ -196,6 +196,13 @@ class SimWorld:
     def sensors_fitted(self) -> bool:
         return self.hardware.wheel_speeds is not None
 
+    def output(self, name: str) -> SimDigitalOut | SimPwmChannel:
+        """A GPIO line, or the "steering" or "hydrobrake" PWM channel, by its name."""
+        if name in ("steering", "hydrobrake"):
+            channel: SimPwmChannel = getattr(self.pwm, name)
+            return channel
+        return self.gpio[name]
+
     def start(self, *, rc: bool = True, hlc: bool = True, vehicle: bool = True) -> None:
         """Start the transmitter, the higher-level computer and the vehicle from now."""
         if rc:
