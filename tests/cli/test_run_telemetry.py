@@ -125,8 +125,8 @@ def test_a_foxglove_client_attaches_to_the_server_the_telemetry_section_asks_for
             assert state["outputs"]["motors_enabled"] is False
             assert [task["name"] for task in state["tasks"]][:3] == [  # in order of importance
                 "hydrobrake",
-                "driving",
                 "steering",
+                "driving",
             ]
         finally:
             client.close()

@@ -89,9 +89,11 @@ def test_an_impostor_without_the_key_never_moves_the_robot_nor_stops_it() -> Non
     assert not robot.flags & ErrorFlag.CAN_UNTRUSTED
 
 
-def test_without_authentication_the_same_impostor_reaches_the_motors() -> None:
-    robot = _impostor_run(authenticated=False)  # the check above has teeth
-    assert robot.moved(after_s=1.0)
+def test_without_authentication_the_same_impostor_is_taken_for_a_second_sender() -> None:
+    robot = _impostor_run(authenticated=False)  # the check above has teeth: its frames arrive
+    assert robot.runtime.mode_log[-1][1] is ControlMode.STOP
+    assert robot.flags & ErrorFlag.CAN_UNTRUSTED
+    assert not robot.moved(after_s=1.0)  # caught at its first frame (issue 30)
 
 
 def _replay_run(*, authenticated: bool) -> Robot:

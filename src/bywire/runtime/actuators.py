@@ -4,18 +4,10 @@ Every loop write goes through the `WriteGate`, so once the watchdog has tripped 
 reaches a port until the trip is acknowledged; the gate also times every write against its
 budget (`bywire.runtime.timing`). DAC writes can fail (a NAK, a loose I2C cable) or crawl (a
 slave stretching the clock): failures are counted and flagged, and three rules turn them into a
-hardware fault (R-DAC-FAULT):
-
-- a leaky count: each failed write adds 1, each good one takes `DAC_LEAK` away; reaching
-  `dac_failure_limit` escalates, and the escalation holds until the count has drained to zero.
-  Three failures in a row escalate; so does every other write failing (+0.75 a pair), which a
-  count of *consecutive* failures never would;
-- a failed write that should have *lowered* a channel's voltage: the DAC may still drive the
-  old, higher voltage, so this alone is a fault until that channel is written successfully;
-- a transfer slower than its budget (`Budgets.dac_transfer_s`): it landed, but a drive whose
-  every command takes that long is not under control; it counts as failures by the budgets it
-  took (an 80 ms transfer against 5 ms escalates at once, a 7 ms one counts as one NAK), and once
-  the DAC is failing the pass writes no more DAC channels, so the loop is back on time sooner.
+hardware fault (R-DAC-FAULT), by the pure rules of `bywire.control.dac_health`: a leaky count
+of failed transfers, a failed write that should have lowered a voltage, and transfers slower than
+their budget (each counts by the budgets it took); once the DAC is failing, the pass writes no
+more DAC channels, so the loop is back on time sooner.
 
 While any holds, the motors' enable line is driven low at once and stays low, and the decision
 latches STOP (DAC_FAULT, category 0) until the operator re-arms.
@@ -30,6 +22,7 @@ from __future__ import annotations
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 
+from bywire.control.dac_health import DacHealth, Transfer, dac_step
 from bywire.control.drive import DriveOutputs
 from bywire.control.lights import LIGHT_LINES, LightOutputs
 from bywire.errors import HardwareError
@@ -38,8 +31,6 @@ from bywire.protocol import dac6574
 from bywire.runtime.recent_fault import RecentFault
 from bywire.runtime.timing import Budgets, Overruns, overrun_weight
 from bywire.runtime.write_gate import Action, WriteGate
-
-DAC_LEAK = 0.25  # one failure is forgiven after four good writes
 
 
 @dataclass(frozen=True, slots=True)
@@ -71,10 +62,7 @@ class Actuators:
         self._slow_transfer = False  # a DAC transfer of this write overran its budget
         self.dac_failures = RecentFault()
         self.dac_clamps = RecentFault()
-        self.dac_failure_level = 0.0
-        self._dac_escalated = False
-        self._dac_volts: dict[int, float] = {}  # the last value each channel acknowledged
-        self._dac_lowering_failed: set[int] = set()
+        self.dac_health = DacHealth()
         lines = hardware.outputs
         self.gate = WriteGate(
             {  # in order of importance: the watchdog makes them safe in this order
@@ -94,11 +82,15 @@ class Actuators:
     @property
     def dac_failing(self) -> bool:
         """The DAC cannot be trusted to drive what it was told (see the module's rules)."""
-        return self._dac_escalated or bool(self._dac_lowering_failed)
+        return self.dac_health.failing
+
+    @property
+    def dac_failure_level(self) -> float:
+        return self.dac_health.level
 
     def acknowledged_volts(self, channel: int) -> float | None:
         """What `channel` was last told and acknowledged (None before its first good write)."""
-        return self._dac_volts.get(channel)
+        return self.dac_health.volts(channel)
 
     def write_steering(self, pulse_s: float, hold_pulse_s: float | None = None) -> None:
         """`pulse_s` (boosted, perhaps); `hold_pulse_s` is the commanded position without the
@@ -217,7 +209,7 @@ class Actuators:
     def _safe_dac(self, channel: int, now: float) -> Action:
         def write() -> None:
             self._write_dac(channel, 0.0, now)
-            if self._dac_volts.get(channel) != 0.0:  # a slow transfer that landed still counts
+            if self.dac_health.volts(channel) != 0.0:  # a slow transfer that landed counts
                 raise HardwareError("0 V not acknowledged")
 
         return write
@@ -240,41 +232,27 @@ class Actuators:
         try:
             self._hardware.dac.write(dac6574.encode_write(channel, conversion.code))
         except HardwareError:
-            self._dac_failed(channel, wanted, now)
+            self._dac_went(channel, wanted, Transfer.FAILED, 1.0, now)
             return False
-        self._dac_volts[channel] = wanted
-        self._dac_lowering_failed.discard(channel)
         ended_s = self._now()
         budget_s = self._config.budgets.dac_transfer_s
         if self.overruns.check("DAC transfer", ended_s - started_s, budget_s, ended_s):
-            self._dac_crawled(overrun_weight(ended_s - started_s, budget_s), now)
+            weight = overrun_weight(ended_s - started_s, budget_s)
+            self._dac_went(channel, wanted, Transfer.SLOW, weight, now)
+            self._slow_transfer = self.dac_failing
             return False
-        self.dac_failure_level = max(self.dac_failure_level - DAC_LEAK, 0.0)
-        if self.dac_failure_level == 0.0:
-            self._dac_escalated = False
+        self._dac_went(channel, wanted, Transfer.ACKNOWLEDGED, 1.0, now)
         return True
 
-    def _dac_crawled(self, weight: float, now: float | None) -> None:
-        """A transfer that landed, too late: `weight` failures (the budgets it took)."""
-        if now is not None:
-            self.dac_failures.happened(now)
+    def _dac_went(
+        self, channel: int, wanted: float, transfer: Transfer, weight: float, now: float | None
+    ) -> None:
         limit = self._config.dac_failure_limit
-        self.dac_failure_level = min(self.dac_failure_level + weight, 2.0 * limit)
-        if self.dac_failure_level >= limit:
-            self._dac_escalated = True
-            self._slow_transfer = True
-            self._hardware.outputs.motors_enable.set(False)  # the safe direction: never gated
-
-    def _dac_failed(self, channel: int, wanted: float, now: float | None) -> None:
-        if now is not None:
-            self.dac_failures.happened(now)
-        self.dac_failure_level = min(
-            self.dac_failure_level + 1.0, 2.0 * self._config.dac_failure_limit
+        self.dac_health = dac_step(
+            self.dac_health, channel, wanted, transfer, limit=limit, weight=weight
         )
-        if self.dac_failure_level >= self._config.dac_failure_limit:
-            self._dac_escalated = True
-        if wanted < self._dac_volts.get(channel, 0.0):
-            self._dac_lowering_failed.add(channel)
+        if transfer is not Transfer.ACKNOWLEDGED and now is not None:
+            self.dac_failures.happened(now)
         if self.dac_failing:
             self._hardware.outputs.motors_enable.set(False)  # the safe direction: never gated
 

@@ -24,6 +24,11 @@ from bywire.security.freshness import FreshnessStore
 
 DEFAULT_WINDOW_S = 0.005
 PENDING_PER_ID = 2  # command frames of one id waiting for their authenticator
+DELIVERY_SLACK_S = 0.020
+"""How late a frame may reach the receiver after its arrival stamp (a receive thread, a busy
+loop): a command frame waits this much longer than the window before it expires, so that its
+PDU, stamped within the window but read a poll later, still pairs (issue 32: in real time the
+pairing failed in pairs, PDU without command and command without PDU)."""
 
 
 class SecocSigner:
@@ -94,33 +99,39 @@ class SecocReceiver:
         }
 
     def expire(self, now: float) -> list[tuple[int, AuthFailure]]:
-        """Command frames whose authenticator did not come within the window: failures."""
+        """Command frames whose authenticator did not come within the window (and the delivery
+        slack): failures. Call it after offering every frame read at `now`."""
         failures: list[tuple[int, AuthFailure]] = []
         for frame_id, pending in self._pending.items():
-            while pending and now - pending[0][1] > self._window_s:
+            while pending and now - pending[0][1] > self._window_s + DELIVERY_SLACK_S:
                 pending.popleft()
                 failures.append((frame_id, AuthFailure.NO_AUTHENTICATOR))
         return failures
 
     def offer(self, frame_id: int, data: bytes, now: float) -> Outcome:
-        """Take one command frame or cryptographic PDU received at `now`."""
+        """Take one command frame or cryptographic PDU that arrived at `now` (its arrival
+        stamp: the two frames of a command pair when the PDU arrived within the window)."""
         pending = self._pending.get(frame_id)
         if pending is None:
-            return self._pair(secoc.authentic_id(frame_id), data)
+            return self._pair(secoc.authentic_id(frame_id), data, now)
         pending.append((bytes(data), now))  # a command frame: it waits for its PDU
         if len(pending) > PENDING_PER_ID:  # displaced without its authenticator
             pending.popleft()
             return Outcome(failures=((frame_id, AuthFailure.NO_AUTHENTICATOR),))
         return WAITING
 
-    def _pair(self, frame_id: int, data: bytes) -> Outcome:
+    def _pair(self, frame_id: int, data: bytes, arrived_at: float) -> Outcome:
         try:
             authenticator = secoc.decode_authenticator(data)
         except FrameError:
             return Outcome(failures=((frame_id, AuthFailure.MALFORMED),))
         pending = self._pending[frame_id]
+        stale: list[tuple[int, AuthFailure]] = []
+        while pending and arrived_at - pending[0][1] > self._window_s:  # too old to pair
+            pending.popleft()
+            stale.append((frame_id, AuthFailure.NO_AUTHENTICATOR))
         if not pending:
-            return Outcome(failures=((frame_id, AuthFailure.ORPHAN),))
+            return Outcome(failures=(*stale, (frame_id, AuthFailure.ORPHAN)))
         # The acceptance rule (secoc.verified_freshness), the value rebuilt once for every
         # waiting frame: it depends on the PDU and the last accepted value only.
         freshness = secoc.rebuilt_freshness(
@@ -136,8 +147,8 @@ class SecocReceiver:
                 except OSError:
                     return Outcome(failures=((frame_id, AuthFailure.UNSAVED),))
                 self.last_accepted[frame_id] = freshness
-                return Outcome(verified=(frame_id, payload))
-        return Outcome(failures=((frame_id, AuthFailure.BAD_MAC),))
+                return Outcome(verified=(frame_id, payload), failures=tuple(stale))
+        return Outcome(failures=(*stale, (frame_id, AuthFailure.BAD_MAC)))
 
     def close(self) -> None:
         self.store.close()
