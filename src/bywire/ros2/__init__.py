@@ -1,0 +1,6 @@
+"""`bywire ros2`: the higher-level computer's bridge between ROS 2 and the robot's CAN bus.
+
+Everything that decides is pure and needs no ROS (settings, the speed loop, the bicycle model, age
+gating, the stop ramp, enabling, odometry, diagnostics, the rosbag2 export); `link` owns the CAN
+bus on a thread of its own; `node` is the thin rclpy shell, the only module that imports rclpy.
+"""
