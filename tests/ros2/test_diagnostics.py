@@ -12,6 +12,7 @@ from bywire.ros2.diagnostics import (
     flag_statuses,
     inputs_status,
     link_status,
+    mode_line,
     mode_status,
     statuses,
 )
@@ -87,3 +88,11 @@ def test_one_array_has_mode_each_group_link_and_inputs() -> None:
     ]
     assert len(names) == len(set(names)) == 1 + len(FLAG_GROUPS) + 2
     assert all(name.startswith("bywire: ") for name in names)
+
+
+def test_the_mode_line_names_mode_arming_enabling_and_causes() -> None:
+    driving = RobotStatus(True, 0.01, ControlMode.CAN, armed=True)
+    assert mode_line(driving, engaged=True) == "CAN armed enabled"
+    assert mode_line(driving, engaged=False) == "CAN armed"
+    assert mode_line(LATCHED, engaged=False) == "STOP latched REMOTE_STOP"
+    assert mode_line(RobotStatus(False, None), engaged=False) == "UNKNOWN no reports"

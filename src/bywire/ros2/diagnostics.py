@@ -83,6 +83,19 @@ def _age(seconds: float | None) -> str:
     return "never" if seconds is None else f"{seconds:.3f}"
 
 
+def mode_line(status: RobotStatus, engaged: bool) -> str:
+    """`~/mode`: the control mode, then arming, enabling and the latched causes, e.g.
+    "CAN armed enabled", "STOP latched REMOTE_STOP", "UNKNOWN no reports"."""
+    if not status.reporting or status.mode is None:
+        return "UNKNOWN no reports"
+    words = [status.mode.name]
+    words += ["armed"] if status.armed else []
+    words += ["enabled"] if engaged and status.drivable else []
+    causes = status.latched_causes
+    words += ["latched", *causes] if causes else []
+    return " ".join(words)
+
+
 def mode_status(status: RobotStatus, engaged: bool, remote_stop: bool) -> Status:
     """The robot's mode, its arming, and the latched stop causes by name."""
     if not status.reporting:

@@ -1,0 +1,142 @@
+"""`bywire ros2`: the higher-level computer's ROS 2 node, owning the robot's CAN bus.
+
+rclpy comes from the ROS 2 installation (`source /opt/ros/jazzy/setup.bash`), never from
+bywire's own dependencies; without it this command says so in one line (exit 2).
+"""
+
+from __future__ import annotations
+
+import argparse
+import logging
+import signal
+import threading
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+from bywire.cli.bus_options import add_bus_options, bus_from_args, bus_source
+from bywire.config import default_sim_config, load_config
+from bywire.errors import HardwareError
+from bywire.protocol import dbc
+from bywire.ros2.settings import Geometry
+from bywire.security.keys import read_key_file
+from bywire.security.setup import sender_signer
+
+if TYPE_CHECKING:
+    from bywire.security.session import SecocSigner
+
+STANDARD_ID_MASK = 0x7FF
+DEFAULT_FRESHNESS = Path.home() / ".local" / "state" / "bywire" / "ros2-freshness.json"
+NO_RCLPY = (
+    "bywire ros2 needs rclpy from a ROS 2 installation, which this Python cannot import:"
+    " source /opt/ros/jazzy/setup.bash (or your distribution's) in this shell first, with"
+    " bywire installed in that Python (pip install 'bywire[ros]')"
+)
+
+EPILOG = """\
+topics and services (docs/ROS2.md): in cmd_vel (geometry_msgs/TwistStamped; plain Twist with
+-p twist_stamped:=false) and ackermann_cmd (ackermann_msgs/AckermannDriveStamped, when
+installed); out odom, /diagnostics, ~/mode, ~/enabled; services ~/enable (std_srvs/Trigger) and
+~/remote_stop (std_srvs/SetBool). The robot drives only after a successful ~/enable call.
+
+examples:
+  # the simulator, started by `bywire sim --scenario teleop --realtime --serve 29536`
+  bywire ros2
+  ros2 service call /bywire/enable std_srvs/srv/Trigger
+  # the robot's bus, its geometry, a slower planner, a 0.5 s stop ramp
+  bywire ros2 -i socketcan -c can0 --config robot.toml --ros-args \\
+      -p cmd_timeout_s:=0.3 -p stop_ramp_s:=0.5
+"""
+
+
+def configure(parser: argparse.ArgumentParser) -> None:
+    parser.formatter_class = argparse.RawDescriptionHelpFormatter
+    parser.epilog = EPILOG
+    add_bus_options(parser)
+    parser.add_argument(
+        "--config",
+        type=Path,
+        metavar="FILE",
+        help="the robot's configuration TOML, for its [vehicle] geometry (default: the"
+        " simulator's)",
+    )
+    parser.add_argument(
+        "--key",
+        type=Path,
+        metavar="FILE",
+        help="sign every command (SecOC, for a robot with [security] enabled) with this key file",
+    )
+    parser.add_argument(
+        "--freshness",
+        type=Path,
+        metavar="FILE",
+        default=DEFAULT_FRESHNESS,
+        help="with --key: this sender's freshness values across restarts (default: %(default)s)",
+    )
+    parser.add_argument(
+        "--ros-args",
+        dest="ros_args",
+        nargs=argparse.REMAINDER,
+        default=[],
+        metavar="ARG",
+        help="everything after it goes to ROS: -p NAME:=VALUE, -r FROM:=TO, --params-file FILE",
+    )
+
+
+def run(args: argparse.Namespace) -> int:
+    try:
+        import rclpy  # noqa: PLC0415 -- optional: ROS 2's own Python package
+    except ImportError:
+        raise HardwareError(NO_RCLPY) from None
+    robot = default_sim_config() if args.config is None else load_config(args.config)
+    geometry = Geometry.of(robot.vehicle)
+    rclpy.init(args=["bywire", "--ros-args", *args.ros_args])
+    try:
+        return _serve(rclpy, args, geometry, defaults=args.config is None)
+    finally:
+        if rclpy.ok():
+            rclpy.shutdown()
+
+
+def _serve(rclpy: Any, args: argparse.Namespace, geometry: Geometry, *, defaults: bool) -> int:
+    from bywire.ros2.link import CanLink  # noqa: PLC0415 -- keeps `bywire --help` fast
+    from bywire.ros2.node import NODE_NAME, BridgeNode, declare_parameters, spin  # noqa: PLC0415
+
+    node = rclpy.create_node(NODE_NAME)
+    settings, shell = declare_parameters(node)
+    signer = None if args.key is None else _signer(args.key, args.freshness)
+    bus = _open_bus(args)
+    stop = threading.Event()
+    previous = signal.signal(signal.SIGTERM, lambda _number, _frame: stop.set())
+    link = CanLink(bus, settings, geometry, signer=signer)
+    thread = threading.Thread(target=link.run, args=(stop,), name="can-link", daemon=True)
+    try:
+        BridgeNode(node, link, shell)
+        thread.start()
+        where = " (the simulator's geometry: give --config for your robot)" if defaults else ""
+        node.get_logger().info(f"on {bus_source(args)}{where}; call ~/enable to drive")
+        spin(node, stop.is_set)
+    finally:
+        stop.set()
+        if thread.is_alive():
+            thread.join(timeout=1.0)
+        signal.signal(signal.SIGTERM, previous)
+        bus.shutdown()
+        if signer is not None:
+            signer.close()
+        node.destroy_node()
+    return 0
+
+
+def _open_bus(args: argparse.Namespace) -> Any:
+    filters: list[Any] = [
+        {"can_id": frame_id, "can_mask": STANDARD_ID_MASK, "extended": False}
+        for frame_id in dbc.report_ids()
+    ]
+    logging.getLogger("can").setLevel(logging.ERROR)
+    return bus_from_args(args, can_filters=filters)
+
+
+def _signer(key_file: Path, freshness: Path) -> SecocSigner:
+    key = read_key_file(key_file)
+    freshness.parent.mkdir(parents=True, exist_ok=True, mode=0o700)
+    return sender_signer(key, freshness)
