@@ -27,7 +27,7 @@ from bywire.errors import ConfigError
 from bywire.ros2 import diagnostics
 from bywire.ros2.bicycle import steering_from_angle, steering_from_twist
 from bywire.ros2.link import CanLink, Snapshot
-from bywire.ros2.odometry import Pose
+from bywire.ros2.odometry import POSE_COVARIANCE, TWIST_COVARIANCE, Pose
 from bywire.ros2.setpoint import Setpoint, Source
 from bywire.ros2.settings import BridgeSettings, parameter_defaults, settings_from
 from bywire.teleop.frames import SEND_PERIOD_S
@@ -264,18 +264,6 @@ class BridgeNode:
                 )
             )
         self.diagnostics.publish(array)
-
-
-def _diagonal(*variances: float) -> tuple[float, ...]:
-    """A 6×6 covariance, row-major, with these variances on its diagonal."""
-    return tuple(variances[i // 6] if i % 7 == 0 else 0.0 for i in range(36))
-
-
-# Odometry from wheel speeds: position uncertain to a few percent of distance, heading more so;
-# the axes a planar robot does not measure (z, roll, pitch) effectively unknown.
-UNKNOWN = 1e6
-POSE_COVARIANCE = _diagonal(0.05, 0.05, UNKNOWN, UNKNOWN, UNKNOWN, 0.1)
-TWIST_COVARIANCE = _diagonal(0.01, UNKNOWN, UNKNOWN, UNKNOWN, UNKNOWN, 0.05)
 
 
 def _wait_for(condition: Callable[[], bool], timeout_s: float) -> bool:

@@ -17,6 +17,18 @@ from bywire.ros2.bicycle import yaw_rate_radps
 from bywire.ros2.settings import Geometry
 
 MAX_STEP_S = 0.5
+UNKNOWN = 1e6
+
+
+def _diagonal(*variances: float) -> tuple[float, ...]:
+    """A 6×6 covariance, row-major, with these variances on its diagonal."""
+    return tuple(variances[i // 6] if i % 7 == 0 else 0.0 for i in range(36))
+
+
+# Wheel odometry: position uncertain to a few percent of the distance, heading more so; the axes
+# a planar robot does not measure (z, roll, pitch; sideways speed) effectively unknown.
+POSE_COVARIANCE = _diagonal(0.05, 0.05, UNKNOWN, UNKNOWN, UNKNOWN, 0.1)
+TWIST_COVARIANCE = _diagonal(0.01, UNKNOWN, UNKNOWN, UNKNOWN, UNKNOWN, 0.05)
 
 
 @dataclass(frozen=True, slots=True)
