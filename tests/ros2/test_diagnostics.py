@@ -96,3 +96,11 @@ def test_the_mode_line_names_mode_arming_enabling_and_causes() -> None:
     assert mode_line(driving, engaged=False) == "CAN armed"
     assert mode_line(LATCHED, engaged=False) == "STOP latched REMOTE_STOP"
     assert mode_line(RobotStatus(False, None), engaged=False) == "UNKNOWN no reports"
+
+
+def test_a_starved_link_is_a_warning() -> None:
+    driving = RobotStatus(True, 0.01, ControlMode.CAN)
+    assert link_status(LinkHealth(bus="active", max_period_s=0.021), driving).level is Level.OK
+    starved = link_status(LinkHealth(bus="active", max_period_s=0.08), driving)
+    assert starved.level is Level.WARN
+    assert "0.080 s" in starved.message

@@ -4,6 +4,7 @@ default maps are the simulated robot's own (so the speed loop starts from the ri
 from __future__ import annotations
 
 import dataclasses
+from pathlib import Path
 
 import pytest
 
@@ -17,6 +18,7 @@ from bywire.hal.sim.vehicle_model import (
 from bywire.ros2.settings import (
     DEFAULTS,
     RANGES,
+    SHELL_PARAMETERS,
     BridgeSettings,
     interpolate,
     parameter_defaults,
@@ -114,3 +116,18 @@ def test_interpolation_holds_at_the_ends_and_is_linear_between() -> None:
     assert interpolate(xs, ys, 0.5) == 0.25
     assert interpolate(xs, ys, 2.0) == 0.5
     assert interpolate(xs, ys, 9.0) == 0.5
+
+
+def test_docs_ros2_lists_every_parameter_with_its_default_and_range() -> None:
+    text = (Path(__file__).parents[2] / "docs" / "ROS2.md").read_text(encoding="utf-8")
+    rows = {
+        line.split("|")[1].strip(" `"): line for line in text.splitlines() if line.startswith("| `")
+    }
+    for name, default in parameter_defaults().items():
+        values = default if isinstance(default, tuple) else (default,)
+        assert f"| {', '.join(f'{value:g}' for value in values)} |" in rows[name], name
+        if name in RANGES:
+            assert f"| {RANGES[name]} |" in rows[name], name
+    for name, value in SHELL_PARAMETERS.items():
+        shown = str(value).lower() if isinstance(value, bool) else f"`{value}`"
+        assert f"| {shown} |" in rows[name], name

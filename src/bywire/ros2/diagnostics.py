@@ -20,6 +20,7 @@ from bywire.ros2.robot import LATCH_FLAGS, RobotStatus
 
 PREFIX = "bywire: "
 RECENT_S = 5.0  # a refusal this recent makes the inputs' status a warning
+LATE_PERIOD_S = 0.05  # a period this long (20 ms nominal) eats half the robot's CAN timeout
 HARDWARE_ID = "bywire"
 
 
@@ -71,6 +72,7 @@ class LinkHealth:
     send_errors: int = 0
     frames_received: int = 0
     bad_frames: int = 0
+    max_period_s: float = 0.0  # the longest time between two sending periods (a starved link)
     command_age_s: float | None = None  # the newest set-point, by arrival
     stamp_age_s: float | None = None  # the newest set-point, by header stamp
     refused: int = 0  # set-points refused at arrival (stale, ahead, not finite)
@@ -143,6 +145,7 @@ def link_status(health: LinkHealth, status: RobotStatus) -> Status:
         ("send_errors", str(health.send_errors)),
         ("frames_received", str(health.frames_received)),
         ("bad_frames", str(health.bad_frames)),
+        ("max_period_s", f"{health.max_period_s:.3f}"),
         ("report_age_s", _age(status.report_age_s)),
     )
     name = PREFIX + "CAN link"
@@ -152,6 +155,9 @@ def link_status(health: LinkHealth, status: RobotStatus) -> Status:
         return Status(name, Level.ERROR, "no reports from the robot", values)
     if health.send_errors:
         return Status(name, Level.WARN, f"{health.send_errors} send errors", values)
+    if health.max_period_s > LATE_PERIOD_S:
+        late = f"a sending period took {health.max_period_s:.3f} s: this computer starves the link"
+        return Status(name, Level.WARN, late, values)
     return Status(name, Level.OK, "reports arriving, commands sent", values)
 
 

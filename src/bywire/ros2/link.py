@@ -179,6 +179,11 @@ class CanLink:
     def tick(self) -> Decision:
         """One period: take in the reports, decide, send, publish the snapshot."""
         now_s = self.now()
+        if (
+            self._state.last_s is not None
+            and now_s - self._state.last_s > self._health.max_period_s
+        ):
+            self._health = replace(self._health, max_period_s=now_s - self._state.last_s)
         self._receive(now_s)
         with self._lock:
             inbox = self._inbox

@@ -18,6 +18,7 @@ import rclpy
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from geometry_msgs.msg import Twist, TwistStamped
 from nav_msgs.msg import Odometry
+from rcl_interfaces.msg import ParameterDescriptor
 from rclpy.callback_groups import MutuallyExclusiveCallbackGroup, ReentrantCallbackGroup
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
 from std_msgs.msg import Bool, String
@@ -29,7 +30,12 @@ from bywire.ros2.bicycle import steering_from_angle, steering_from_twist
 from bywire.ros2.link import CanLink, Snapshot
 from bywire.ros2.odometry import POSE_COVARIANCE, TWIST_COVARIANCE, Pose
 from bywire.ros2.setpoint import Setpoint, Source
-from bywire.ros2.settings import BridgeSettings, parameter_defaults, settings_from
+from bywire.ros2.settings import (
+    SHELL_PARAMETERS,
+    BridgeSettings,
+    parameter_defaults,
+    settings_from,
+)
 from bywire.teleop.frames import SEND_PERIOD_S
 
 NODE_NAME = "bywire"
@@ -47,27 +53,25 @@ STATE_QOS = QoSProfile(
 STREAM_QOS = 10  # reliable, keep last 10: odom and /diagnostics
 DIAGNOSTICS_PERIOD_S = 1.0
 REMOTE_STOP_CONFIRM_S = 0.5
-SHELL_PARAMETERS: dict[str, Any] = {
-    "twist_stamped": True,
-    "odom_frame_id": "odom",
-    "base_frame_id": "base_link",
-    "publish_tf": False,
-}
-"""The shell's own parameters (the rest are `BridgeSettings`)."""
 
 
 def declare_parameters(node: Any) -> tuple[BridgeSettings, dict[str, Any]]:
-    """Declare every parameter and read it; ConfigError names a bad one."""
+    """Declare every parameter and read it; ConfigError names a bad one. Declared with dynamic
+    typing, so `-p stop_ramp_s:=1` (an integer) is checked by bywire's own rules, not refused
+    by rclpy with a traceback."""
+    loose = ParameterDescriptor(dynamic_typing=True)
     values: dict[str, object] = {}
     for name, default in parameter_defaults().items():
-        given = node.declare_parameter(
-            name, list(default) if isinstance(default, tuple) else default
-        )
-        values[name] = given.value
+        value = list(default) if isinstance(default, tuple) else default
+        values[name] = node.declare_parameter(name, value, loose).value
     settings = settings_from(values)
-    shell = {
-        name: node.declare_parameter(name, value).value for name, value in SHELL_PARAMETERS.items()
-    }
+    shell: dict[str, Any] = {}
+    for name, shell_default in SHELL_PARAMETERS.items():
+        given = node.declare_parameter(name, shell_default, loose).value
+        if type(given) is not type(shell_default):
+            kind = "true or false" if isinstance(shell_default, bool) else "a string"
+            raise ConfigError(f"parameter {name} = {given!r}: expected {kind}")
+        shell[name] = given
     return settings, shell
 
 

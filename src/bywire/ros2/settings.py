@@ -98,6 +98,13 @@ MAPS = (
 """Each map: its x parameter (strictly rising), its y parameter (rising), and their ranges."""
 
 DEFAULTS = BridgeSettings()
+SHELL_PARAMETERS: dict[str, bool | str] = {
+    "twist_stamped": True,
+    "odom_frame_id": "odom",
+    "base_frame_id": "base_link",
+    "publish_tf": False,
+}
+"""The rclpy node's own parameters: the message type of cmd_vel, odometry's frames, TF."""
 
 
 def parameter_defaults() -> dict[str, float | tuple[float, ...]]:
