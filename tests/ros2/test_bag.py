@@ -106,3 +106,17 @@ def test_without_rosbags_the_flag_says_how_to_get_it(
     assert main(["sim", "--duration", "1", "--rosbag", str(tmp_path / "bag")]) == 2
     assert "pip install 'bywire[ros]'" in capsys.readouterr().err
     assert not (tmp_path / "bag").exists()
+
+
+def test_a_can_log_exports_to_the_same_bag(
+    run: tuple[Path, Path], tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    bag, log = run
+    exported = tmp_path / "from-log"
+    assert main(["ros2", "--export", str(log), str(exported)]) == 0
+    assert f"rosbag2: {exported} ({len(_log_frames(log))} frames" in capsys.readouterr().out
+    for topic in (CAN_TOPIC, "/bywire/report/mode", "/odom"):
+        assert len(_read(exported, topic)) == len(_read(bag, topic))
+    from_log = _read(exported, "/bywire/report/wheel_speed")
+    from_run = _read(bag, "/bywire/report/wheel_speed")
+    assert [m.left_mps for m in from_log] == [m.left_mps for m in from_run]

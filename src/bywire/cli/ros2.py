@@ -9,6 +9,7 @@ from __future__ import annotations
 import argparse
 import logging
 import signal
+import sys
 import threading
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -45,6 +46,8 @@ examples:
   # the robot's bus, its geometry, a slower planner, a 0.5 s stop ramp
   bywire ros2 -i socketcan -c can0 --config robot.toml --ros-args \\
       -p cmd_timeout_s:=0.3 -p stop_ramp_s:=0.5
+  # a CAN log as a rosbag2 for ros2 bag and Foxglove (no ROS needed)
+  bywire ros2 --export drive.blf drive-bag
 """
 
 
@@ -73,6 +76,14 @@ def configure(parser: argparse.ArgumentParser) -> None:
         help="with --key: this sender's freshness values across restarts (default: %(default)s)",
     )
     parser.add_argument(
+        "--export",
+        nargs=2,
+        type=Path,
+        metavar=("LOG", "DIR"),
+        help="instead of running: write the rosbag2 (MCAP) of a CAN log (BLF, ASC, candump, …)"
+        " to the new folder DIR, as bywire sim --rosbag does (no ROS needed), and exit",
+    )
+    parser.add_argument(
         "--ros-args",
         dest="ros_args",
         nargs=argparse.REMAINDER,
@@ -83,6 +94,8 @@ def configure(parser: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
+    if args.export is not None:
+        return _export(args)
     try:
         import rclpy  # noqa: PLC0415 -- optional: ROS 2's own Python package
     except ImportError:
@@ -124,6 +137,19 @@ def _serve(rclpy: Any, args: argparse.Namespace, geometry: Geometry, *, defaults
         if signer is not None:
             signer.close()
         node.destroy_node()
+    return 0
+
+
+def _export(args: argparse.Namespace) -> int:
+    """A CAN log to a rosbag2; rosbags (bywire[ros]) is all it needs."""
+    from bywire.cli.sim import rosbag_module  # noqa: PLC0415 -- says how to get rosbags
+
+    log, bag = args.export
+    robot = default_sim_config() if args.config is None else load_config(args.config)
+    frames, stopped = rosbag_module().export_log(log, bag, robot)
+    print(f"rosbag2: {bag} ({frames} frames of {log}; ros2 bag info {bag})")
+    if stopped is not None:
+        print(f"warning: {log} stops early: {stopped}", file=sys.stderr)
     return 0
 
 

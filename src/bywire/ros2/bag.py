@@ -24,10 +24,11 @@ from types import TracebackType
 from typing import Any
 
 import numpy as np
-from rosbags.rosbag2 import StoragePlugin, Writer
+from rosbags.rosbag2 import StoragePlugin, Writer, WriterError
 from rosbags.typesys import Stores, get_types_from_msg, get_typestore
 from rosbags.typesys.store import Typestore
 
+from bywire.canlog.read import read_log
 from bywire.config import RobotConfig
 from bywire.control.error_flags import flag_names
 from bywire.errors import ConfigError, FrameError
@@ -122,7 +123,10 @@ class RosbagExport:
         self._geometry = Geometry.of(robot.vehicle)
         self._store = typestore()
         self._writer = Writer(path, version=9, storage_plugin=StoragePlugin.MCAP)
-        self._writer.open()
+        try:
+            self._writer.open()
+        except (OSError, WriterError) as error:
+            raise ConfigError(f"cannot write a rosbag to {path}: {error}") from error
         add = self._add
         self._connections = _Connections(
             can=add(CAN_TOPIC, FRAME_TYPE),
@@ -132,7 +136,7 @@ class RosbagExport:
         )
         self._view = ReportView()
         self._pose = Pose()
-        self._frames = 0
+        self.frames = 0
         self._next_diagnostics_s: float | None = None
 
     def _add(self, topic: str, msgtype: str) -> Any:
@@ -158,7 +162,7 @@ class RosbagExport:
 
     def add_frame(self, time_s: float, arbitration_id: int, data: bytes) -> None:
         """One frame at `time_s` (the run's clock): written, and decoded if it is a report."""
-        self._frames += 1
+        self.frames += 1
         padded = np.zeros(8, dtype=np.uint8)
         padded[: len(data)] = np.frombuffer(bytes(data[:8]), dtype=np.uint8)
         can_frame = self._message(
@@ -237,7 +241,7 @@ class RosbagExport:
         self._next_diagnostics_s += DIAGNOSTICS_PERIOD_S
         status = robot_status(self._view, time_s, REPORT_TIMEOUT_S)
         health = LinkHealth(
-            bus="active", frames_received=self._frames, bad_frames=self._view.bad_frames
+            bus="active", frames_received=self.frames, bad_frames=self._view.bad_frames
         )
         statuses = diagnostics.statuses(
             status,
@@ -280,3 +284,17 @@ class RosbagExport:
         trace: TracebackType | None,
     ) -> None:
         self.close()
+
+
+def export_log(log: Path, bag: Path, robot: RobotConfig) -> tuple[int, str | None]:
+    """The rosbag2 of a CAN log (every format `bywire plot` reads): (frames written, where the
+    log was cut short, if it was). Times are the log's own."""
+    read = read_log(log)
+    if not read.messages:
+        raise ConfigError(f"{log}: no CAN frames in it")
+    start_s = read.messages[0].timestamp
+    with RosbagExport(bag, start_s, start_s, robot) as export:
+        for message in read.messages:
+            if not message.is_extended_id:
+                export.add_frame(message.timestamp, message.arbitration_id, bytes(message.data))
+        return export.frames, read.stopped
