@@ -127,7 +127,9 @@ def _serve(rclpy: Any, args: argparse.Namespace, geometry: Geometry, *, defaults
         thread.start()
         where = " (the simulator's geometry: give --config for your robot)" if defaults else ""
         node.get_logger().info(f"on {bus_source(args)}{where}; call ~/enable to drive")
-        spin(node, stop.is_set)
+        spin(node, lambda: stop.is_set() or not thread.is_alive())
+        if link.failure is not None:
+            raise HardwareError(f"the CAN link stopped: {link.failure}") from link.failure
     finally:
         stop.set()
         if thread.is_alive():

@@ -10,6 +10,7 @@ still going out. A test drives `tick()` from a simulated clock instead of `run()
 
 from __future__ import annotations
 
+import contextlib
 import threading
 import time
 from collections.abc import Callable
@@ -103,6 +104,8 @@ class CanLink:
         )
         self._reader: can.BufferedReader | None = can.BufferedReader() if notifier else None
         self._notifier: can.Notifier | None = None
+        self.failure: BaseException | None = None
+        """Why `run` ended other than by its stop event (None while it runs or ran to a stop)."""
 
     # --- the node's side (any thread) ---------------------------------------------------------
 
@@ -164,6 +167,9 @@ class CanLink:
                 if late > SEND_PERIOD_S:  # far behind (suspended): start again from now
                     deadline = time.monotonic()
                 stop.wait(max(0.0, deadline - time.monotonic()))
+        except Exception as error:
+            self.failure = error  # the node reads it and ends: nothing is sent any more
+            raise
         finally:
             self.close()
 
@@ -172,7 +178,8 @@ class CanLink:
         decision = self._snapshot.decision
         if decision is not None:
             pedals = replace(decision.pedals, throttle_norm=0.0, brake_norm=1.0)
-            self._send(command_state(replace(decision, pedals=pedals, re_enable=False)))
+            with contextlib.suppress(Exception):  # on the way out, whatever the bus does
+                self._send(command_state(replace(decision, pedals=pedals, re_enable=False)))
         if self._notifier is not None:
             self._notifier.stop()
 
@@ -229,7 +236,7 @@ class CanLink:
         message = can.Message(arbitration_id=frame_id, data=data, is_extended_id=False)
         try:
             self.bus.send(message, timeout=SEND_PERIOD_S)
-        except can.CanError:
+        except (can.CanError, OSError):  # a closed socketcand connection is an OSError
             self._health = replace(self._health, send_errors=self._health.send_errors + 1)
             return False
         self._health = replace(self._health, frames_sent=self._health.frames_sent + 1)
