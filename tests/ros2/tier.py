@@ -96,15 +96,19 @@ def stop_process(process: subprocess.Popen[str], how: int = signal.SIGINT) -> No
 
 
 ROBOT_NICE = -10
-BRIDGE_NICE = -5
+NODE_NICE = -5
+LINK_PRIORITY = 10
 
 
 def _child(command: list[str], env: dict[str, str], nice: int) -> subprocess.Popen[str]:
-    """A child process with its stderr piped, at priority `nice` where allowed (root, as in CI).
+    """A child process with its stderr piped, niced ahead of this process where allowed (root,
+    as in CI).
 
-    The simulated robot is a computer of its own, and gets the CPU first (`ROBOT_NICE`), as its
-    own board would give it; the node, the higher-level computer's link to it, is next
-    (`BRIDGE_NICE`), ahead of this test's own process, which stands in for the planner.
+    The simulated robot is a computer of its own and gets the CPU first (`ROBOT_NICE`), as its
+    own board would give it. The node is next (`NODE_NICE`), and where it may (root) runs its
+    CAN link's thread at SCHED_FIFO `LINK_PRIORITY` itself (`--link-priority`, as on a robot's
+    computer); this test's own process stands in for the planner. (Not the whole simulator at
+    SCHED_FIFO: its threads would queue behind each other for the interpreter's lock.)
     """
 
     def lower_nice() -> None:
@@ -180,9 +184,11 @@ class Bridge:
     @classmethod
     def start(cls, port: int, env: dict[str, str], *parameters: str) -> Bridge:
         command = [sys.executable, "-m", "bywire", "ros2", "--port", str(port)]
+        if os.geteuid() == 0:  # as a robot's computer would run it (CAP_SYS_NICE); CI is root
+            command += ["--link-priority", str(LINK_PRIORITY)]
         if parameters:
             command += ["--ros-args", *(item for name in parameters for item in ("-p", name))]
-        process = _child(command, env, BRIDGE_NICE)
+        process = _child(command, env, NODE_NICE)
         _wait_line(process, r"call ~/enable to drive", STARTUP_S)
         return cls(process)
 
@@ -265,6 +271,7 @@ class Client:
         self.diagnostics: list[Any] = []
         self.mode: list[str] = []
         self.enabled: list[bool] = []
+        self.published = 0
         node.create_subscription(Odometry, "/odom", self._on_odom, 10)
         node.create_subscription(DiagnosticArray, "/diagnostics", self._keep(self.diagnostics), 10)
         node.create_subscription(String, f"{NODE}/mode", self._keep_data(self.mode), LATCHED)
@@ -315,6 +322,7 @@ class Client:
         last = time.monotonic()
         while time.monotonic() < end:
             self.publish(speed_mps, stamp_age_s)
+            self.published += 1
             last = time.monotonic()
             time.sleep(0.05)
         return last

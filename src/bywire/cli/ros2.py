@@ -76,6 +76,14 @@ def configure(parser: argparse.ArgumentParser) -> None:
         help="with --key: this sender's freshness values across restarts (default: %(default)s)",
     )
     parser.add_argument(
+        "--link-priority",
+        type=int,
+        choices=range(1, 99),
+        metavar="1..98",
+        help="run the CAN link's thread at this SCHED_FIFO priority (needs CAP_SYS_NICE), so a"
+        " busy planner on this computer cannot starve it past the robot's CAN timeout",
+    )
+    parser.add_argument(
         "--export",
         nargs=2,
         type=Path,
@@ -120,7 +128,7 @@ def _serve(rclpy: Any, args: argparse.Namespace, geometry: Geometry, *, defaults
     bus = _open_bus(args)
     stop = threading.Event()
     previous = signal.signal(signal.SIGTERM, lambda _number, _frame: stop.set())
-    link = CanLink(bus, settings, geometry, signer=signer)
+    link = CanLink(bus, settings, geometry, signer=signer, fifo_priority=args.link_priority)
     thread = threading.Thread(target=link.run, args=(stop,), name="can-link", daemon=True)
     try:
         BridgeNode(node, link, shell)
@@ -128,6 +136,8 @@ def _serve(rclpy: Any, args: argparse.Namespace, geometry: Geometry, *, defaults
         where = " (the simulator's geometry: give --config for your robot)" if defaults else ""
         node.get_logger().info(f"on {bus_source(args)}{where}; call ~/enable to drive")
         spin(node, lambda: stop.is_set() or not thread.is_alive())
+        if isinstance(link.failure, HardwareError):
+            raise link.failure
         if link.failure is not None:
             raise HardwareError(f"the CAN link stopped: {link.failure}") from link.failure
     finally:

@@ -11,6 +11,8 @@ still going out. A test drives `tick()` from a simulated clock instead of `run()
 from __future__ import annotations
 
 import contextlib
+import os
+import sys
 import threading
 import time
 from collections.abc import Callable
@@ -18,6 +20,7 @@ from dataclasses import dataclass, field, replace
 
 import can
 
+from bywire.errors import HardwareError
 from bywire.model import StatusReport, SteeringReport, WheelSpeedReport
 from bywire.protocol import dbc
 from bywire.ros2 import odometry
@@ -28,6 +31,7 @@ from bywire.ros2.odometry import Pose
 from bywire.ros2.robot import RobotStatus, robot_status
 from bywire.ros2.setpoint import Refusal, Setpoint, admit
 from bywire.ros2.settings import BridgeSettings, Geometry
+from bywire.runtime.realtime import SCHED_FIX
 from bywire.security.session import SecocSigner
 from bywire.teleop.frames import SEND_PERIOD_S, Counters, frames
 from bywire.teleop.reports import ReportView, fold
@@ -85,6 +89,7 @@ class CanLink:
         signer: SecocSigner | None = None,
         now: Callable[[], float] = time.monotonic,
         notifier: bool = True,
+        fifo_priority: int | None = None,
     ) -> None:
         self.bus = bus
         self.settings = settings
@@ -104,6 +109,7 @@ class CanLink:
         )
         self._reader: can.BufferedReader | None = can.BufferedReader() if notifier else None
         self._notifier: can.Notifier | None = None
+        self.fifo_priority = fifo_priority
         self.failure: BaseException | None = None
         """Why `run` ended other than by its stop event (None while it runs or ran to a stop)."""
 
@@ -157,9 +163,10 @@ class CanLink:
     def run(self, stop: threading.Event) -> None:
         """Tick every period on absolute deadlines until `stop` is set; then one period of full
         brake goes out, and nothing more: the controller's own CAN timeout takes over."""
-        self.start()
-        deadline = time.monotonic()
         try:
+            self._prioritise()
+            self.start()
+            deadline = time.monotonic()
             while not stop.is_set():
                 self.tick()
                 deadline += SEND_PERIOD_S
@@ -167,11 +174,27 @@ class CanLink:
                 if late > SEND_PERIOD_S:  # far behind (suspended): start again from now
                     deadline = time.monotonic()
                 stop.wait(max(0.0, deadline - time.monotonic()))
+        except HardwareError as error:  # a refusal a user can act on: said in one line
+            self.failure = error
         except Exception as error:
             self.failure = error  # the node reads it and ends: nothing is sent any more
             raise
         finally:
             self.close()
+
+    def _prioritise(self) -> None:
+        """With `fifo_priority`: this thread (only) at SCHED_FIFO, so that a busy planner on the
+        same computer cannot starve the link past the robot's CAN timeout."""
+        if self.fifo_priority is None:
+            return
+        try:
+            os.sched_setscheduler(0, os.SCHED_FIFO, os.sched_param(self.fifo_priority))
+        except OSError as error:
+            fix = SCHED_FIX.format(python=sys.executable, priority=self.fifo_priority)
+            raise HardwareError(
+                f"cannot run the CAN link at SCHED_FIFO {self.fifo_priority}"
+                f" ({error.strerror or error}): {fix}, or leave out --link-priority"
+            ) from None
 
     def close(self) -> None:
         """Send one period of throttle 0 and full brake, stop receiving."""
