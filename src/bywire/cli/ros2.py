@@ -7,6 +7,7 @@ bywire's own dependencies; without it this command says so in one line (exit 2).
 from __future__ import annotations
 
 import argparse
+import functools
 import logging
 import signal
 import sys
@@ -119,37 +120,43 @@ def run(args: argparse.Namespace) -> int:
 
 
 def _serve(rclpy: Any, args: argparse.Namespace, geometry: Geometry, *, defaults: bool) -> int:
-    from bywire.ros2.link import CanLink  # noqa: PLC0415 -- keeps `bywire --help` fast
+    from bywire.ros2.link_process import LinkOptions, LinkProcess  # noqa: PLC0415
     from bywire.ros2.node import NODE_NAME, BridgeNode, declare_parameters, spin  # noqa: PLC0415
 
     node = rclpy.create_node(NODE_NAME)
     settings, shell = declare_parameters(node)
-    signer = None if args.key is None else _signer(args.key, args.freshness)
-    bus = _open_bus(args)
+    opener = functools.partial(open_link, _bus_options(args), args.key, args.freshness)
+    link = LinkProcess(opener, LinkOptions(settings, geometry, args.link_priority))
     stop = threading.Event()
     previous = signal.signal(signal.SIGTERM, lambda _number, _frame: stop.set())
-    link = CanLink(bus, settings, geometry, signer=signer, fifo_priority=args.link_priority)
-    thread = threading.Thread(target=link.run, args=(stop,), name="can-link", daemon=True)
     try:
         BridgeNode(node, link, shell)
-        thread.start()
         where = " (the simulator's geometry: give --config for your robot)" if defaults else ""
         node.get_logger().info(f"on {bus_source(args)}{where}; call ~/enable to drive")
-        spin(node, lambda: stop.is_set() or not thread.is_alive())
-        if isinstance(link.failure, HardwareError):
-            raise link.failure
+        spin(node, lambda: stop.is_set() or not link.alive)
         if link.failure is not None:
-            raise HardwareError(f"the CAN link stopped: {link.failure}") from link.failure
+            raise HardwareError(str(link.failure))
     finally:
-        stop.set()
-        if thread.is_alive():
-            thread.join(timeout=1.0)
         signal.signal(signal.SIGTERM, previous)
-        bus.shutdown()
-        if signer is not None:
-            signer.close()
+        link.close()
         node.destroy_node()
     return 0
+
+
+BUS_OPTIONS = ("interface", "channel", "bus_kwargs", "host", "port", "bitrate")
+
+
+def _bus_options(args: argparse.Namespace) -> dict[str, Any]:
+    """The bus options as plain values, for the link's process."""
+    return {name: getattr(args, name) for name in BUS_OPTIONS}
+
+
+def open_link(
+    bus_options: dict[str, Any], key: Path | None, freshness: Path
+) -> tuple[Any, SecocSigner | None]:
+    """In the link's process: the bus (filtered to the robot's reports) and the signer."""
+    signer = None if key is None else _signer(key, freshness)
+    return _open_bus(argparse.Namespace(**bus_options)), signer
 
 
 def _export(args: argparse.Namespace) -> int:

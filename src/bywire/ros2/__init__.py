@@ -2,5 +2,6 @@
 
 Everything that decides is pure and needs no ROS (settings, the speed loop, the bicycle model, age
 gating, the stop ramp, enabling, odometry, diagnostics, the rosbag2 export); `link` owns the CAN
-bus on a thread of its own; `node` is the thin rclpy shell, the only module that imports rclpy.
+bus, in a process of its own (`link_process`); `node` is the thin rclpy shell, the only module
+that imports rclpy.
 """

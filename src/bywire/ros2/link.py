@@ -3,7 +3,8 @@ takes the bridge's decision and sends the three commands (counter, CRC and, with
 frame's SecOC authenticator), on a thread of its own with absolute deadlines.
 
 It needs no ROS: the rclpy node (`bywire.ros2.node`) only offers set-points and requests through
-the thread-safe methods and reads `snapshot()`. So a stalled ROS executor changes nothing here:
+the thread-safe methods and reads `snapshot()`, through `link_process.LinkProcess`, which runs
+this link in a process of its own. So a stalled ROS executor changes nothing here:
 the set-point simply ages out and the stop ramp brings the robot to standstill, with the commands
 still going out. A test drives `tick()` from a simulated clock instead of `run()`.
 """
@@ -17,6 +18,7 @@ import threading
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, field, replace
+from typing import Protocol
 
 import can
 
@@ -50,6 +52,27 @@ class Snapshot:
     remote_stop: bool
     robot_status_report: StatusReport | None = None
     at_s: float = 0.0
+
+
+NOTHING_YET = Snapshot(
+    RobotStatus(reporting=False, report_age_s=None), None, Pose(), LinkHealth(), False, False
+)
+"""The snapshot before the first period."""
+
+
+class LinkHandle(Protocol):
+    """What the rclpy node needs of the link: `CanLink` itself, or `LinkProcess` (the same
+    link in a process of its own)."""
+
+    settings: BridgeSettings
+    geometry: Geometry
+
+    def now(self) -> float: ...
+    def offer(self, setpoint: Setpoint) -> Refusal | None: ...
+    def request_enable(self) -> int: ...
+    def answer(self, request: int, timeout_s: float) -> Answer | None: ...
+    def set_remote_stop(self, requested: bool) -> None: ...
+    def snapshot(self) -> Snapshot: ...
 
 
 @dataclass(slots=True)
@@ -160,15 +183,20 @@ class CanLink:
         if self._reader is not None:
             self._notifier = can.Notifier(self.bus, [self._reader], timeout=0.05)
 
-    def run(self, stop: threading.Event) -> None:
-        """Tick every period on absolute deadlines until `stop` is set; then one period of full
-        brake goes out, and nothing more: the controller's own CAN timeout takes over."""
+    def run(
+        self, stop: threading.Event, after_tick: Callable[[Decision], None] | None = None
+    ) -> None:
+        """Tick every period on absolute deadlines until `stop` is set (calling `after_tick`
+        with each decision); then one period of full brake goes out, and nothing more: the
+        controller's own CAN timeout takes over."""
         try:
             self._prioritise()
             self.start()
             deadline = time.monotonic()
             while not stop.is_set():
-                self.tick()
+                decision = self.tick()
+                if after_tick is not None:
+                    after_tick(decision)
                 deadline += SEND_PERIOD_S
                 late = time.monotonic() - deadline
                 if late > SEND_PERIOD_S:  # far behind (suspended): start again from now

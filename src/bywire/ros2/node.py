@@ -1,10 +1,10 @@
 """The rclpy shell of `bywire ros2`: topics and services in, `CanLink` calls out, snapshots back.
 
-The only module that imports rclpy. Every decision is in the pure modules; the CAN side runs on
-the link's own thread. Inputs (`cmd_vel`, `ackermann_cmd`) are turned into set-points stamped
-with their arrival (the link's monotonic clock) and their header stamp's age (this node's ROS
-clock); outputs are published from the link's snapshot by timers; the services wait for the
-link's answer in a callback group of their own, so topics keep flowing meanwhile.
+The only module that imports rclpy. Every decision is in the pure modules; the CAN side runs in
+the link's own process (`link_process`). Inputs (`cmd_vel`, `ackermann_cmd`) are turned into
+set-points stamped with their arrival (the monotonic clock) and their header stamp's age (this
+node's ROS clock); outputs are published from the link's snapshot by timers; the services wait
+for the link's answer in a callback group of their own, so topics keep flowing meanwhile.
 """
 
 from __future__ import annotations
@@ -27,7 +27,7 @@ from std_srvs.srv import SetBool, Trigger
 from bywire.errors import ConfigError
 from bywire.ros2 import diagnostics
 from bywire.ros2.bicycle import steering_from_angle, steering_from_twist
-from bywire.ros2.link import CanLink, Snapshot
+from bywire.ros2.link import LinkHandle, Snapshot
 from bywire.ros2.odometry import POSE_COVARIANCE, TWIST_COVARIANCE, Pose
 from bywire.ros2.setpoint import Setpoint, Source
 from bywire.ros2.settings import (
@@ -82,7 +82,7 @@ def _stamp_s(stamp: Any) -> float:
 class BridgeNode:
     """The node's topics, services and timers around `link`."""
 
-    def __init__(self, node: Any, link: CanLink, shell: dict[str, Any]) -> None:
+    def __init__(self, node: Any, link: LinkHandle, shell: dict[str, Any]) -> None:
         self.node = node
         self.link = link
         self.shell = shell
