@@ -38,15 +38,13 @@ from bywire.control.error_flags import ErrorFlag  # noqa: E402
 from bywire.model import ControlMode, ErrorReport, MovementCommand  # noqa: E402
 from bywire.protocol import dbc  # noqa: E402
 from bywire.ros2.settings import BridgeSettings  # noqa: E402
+from tests.ros2.dds_watch import RTPS_MAGIC, Sniffer, network_interfaces  # noqa: E402
 from tests.ros2.tier import (  # noqa: E402
-    RTPS_MAGIC,
     Bridge,
     Client,
     Observer,
     Sim,
-    Sniffer,
     free_domain,
-    network_interfaces,
     ros_environment,
     stop_process,
     wait_until,

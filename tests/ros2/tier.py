@@ -1,8 +1,8 @@
 """The ROS 2 tier's rig: the simulated robot served over socketcand (`bywire sim --realtime
 --serve`), `bywire ros2` attached to it as a real child process, a bus observer (a third
 python-can client), and a client node in the test's process, all confined to this machine:
-`ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST` and a domain of their own per test; `Sniffer` watches
-every other interface for DDS traffic meanwhile (it needs root, as CI has).
+`ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST` and a domain of their own per test; meanwhile
+`dds_watch.Sniffer` watches every other interface for DDS traffic (it needs root, as CI has).
 
 Imported only where rclpy is (`test_ros_tier.py` skips first without it).
 """
@@ -366,51 +366,3 @@ def wait_until(condition: Callable[[], bool], timeout_s: float) -> bool:
             return True
         time.sleep(0.02)
     return condition()
-
-
-RTPS_MAGIC = b"RTPS"
-IFF_UP = 0x1
-IGMP = 2
-
-
-def dds_packet(packet: Any) -> bool:
-    """An RTPS datagram, a multicast datagram (IPv4 or IPv6), or an IGMP membership message."""
-    from scapy.layers.inet import IP, UDP  # noqa: PLC0415 -- loaded with the sniffer
-    from scapy.layers.inet6 import IPv6  # noqa: PLC0415
-
-    if IP in packet and (packet[IP].proto == IGMP or packet[IP].dst.startswith("239.")):
-        return True
-    if IPv6 in packet and packet[IPv6].dst.lower().startswith("ff"):
-        return True
-    return UDP in packet and bytes(packet[UDP].payload)[:4] == RTPS_MAGIC
-
-
-class Sniffer:
-    """Captures DDS traffic on the given interfaces while the tests run (needs root)."""
-
-    def __init__(self, interfaces: list[str]) -> None:
-        # The layers first: a packet is dissected as it arrives, with the layers loaded then.
-        import scapy.layers.inet  # noqa: PLC0415
-        import scapy.layers.inet6  # noqa: F401, PLC0415
-        from scapy.sendrecv import AsyncSniffer  # noqa: PLC0415
-
-        self.interfaces = interfaces
-        self._sniffer = AsyncSniffer(iface=interfaces, lfilter=dds_packet, store=True)
-
-    def start(self) -> None:
-        self._sniffer.start()
-
-    def stop(self) -> list[Any]:
-        self._sniffer.stop()
-        return list(self._sniffer.results or [])
-
-
-def network_interfaces() -> tuple[list[str], list[str]]:
-    """(loopback, every other interface that is up) of this machine: a down one carries nothing
-    (and cannot be watched)."""
-    up = sorted(
-        path.name
-        for path in Path("/sys/class/net").iterdir()
-        if int((path / "flags").read_text(), 16) & IFF_UP
-    )
-    return [name for name in up if name == "lo"], [name for name in up if name != "lo"]
