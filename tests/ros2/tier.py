@@ -95,7 +95,7 @@ def stop_process(process: subprocess.Popen[str], how: int = signal.SIGINT) -> No
             process.wait()
 
 
-ROBOT_NICE = -10
+ROBOT_NICE = -20
 NODE_NICE = -5
 LINK_PRIORITY = 10
 
