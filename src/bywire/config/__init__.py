@@ -29,6 +29,7 @@ from bywire.config.model import (
     output_lines,
 )
 from bywire.config.render import as_dict, describe
+from bywire.config.vehicle import VehicleSection
 
 __all__ = [
     "OUTPUT_LINE_KEYS",
@@ -50,6 +51,7 @@ __all__ = [
     "TasksSection",
     "TelemetrySection",
     "TimeoutsSection",
+    "VehicleSection",
     "as_dict",
     "default_sim_config",
     "describe",

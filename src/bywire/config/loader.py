@@ -31,6 +31,7 @@ from bywire.config.sections import (
     timeouts_section,
 )
 from bywire.config.security import SecuritySection, security_section
+from bywire.config.vehicle import vehicle_section
 from bywire.errors import ConfigError
 from bywire.security.keys import check_configuration_file, read_key_file
 
@@ -116,6 +117,7 @@ def build_robot(data: Mapping[str, object], problems: Problems) -> RobotConfig:
         telemetry=telemetry_section(root.table("telemetry")),
         sim=sim_section(root.table("sim")),
         security=security_section(root.table("security"), backend),
+        vehicle=vehicle_section(root.table("vehicle")),
     )
     root.close()
     return config

@@ -11,6 +11,7 @@ from dataclasses import dataclass, field, fields
 from typing import Literal
 
 from bywire.config.security import SecuritySection
+from bywire.config.vehicle import VehicleSection
 from bywire.control.drive import DriveConfig
 from bywire.control.hydrobrake import DEFAULT_THRESHOLD_NORM
 from bywire.control.interlocks import InterlockConfig
@@ -263,6 +264,7 @@ class RobotConfig:
     telemetry: TelemetrySection = field(default_factory=TelemetrySection)
     sim: SimSection = field(default_factory=SimSection)
     security: SecuritySection = field(default_factory=SecuritySection)
+    vehicle: VehicleSection = field(default_factory=VehicleSection)
 
 
 OUTPUT_SECTIONS = ("drive", "ebrake", "lights")
