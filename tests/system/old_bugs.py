@@ -82,11 +82,11 @@ def issue_30_an_unreadable_frame_restarts_the_sequence(monkeypatch: pytest.Monke
     # forgery carrying the counter just used, right after a bad CRC, was accepted (issue 30,
     # finding 1: full right lock at 0.78 m/s, the id never untrusted).
     def restarting(
-        state: MessageState, frame: Decoded, at: float, period: float, timeout: float
+        state: MessageState, frame: Decoded, at: float, timeout: float
     ) -> tuple[MessageState, Verdict]:
         if not frame.readable:
             return MessageState(window=state.window, untrusted=state.untrusted), Verdict.UNREADABLE
-        return message_step(state, frame, at, period, timeout)
+        return message_step(state, frame, at, timeout)
 
     monkeypatch.setattr(readers, "message_step", restarting)
 

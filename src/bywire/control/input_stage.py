@@ -15,13 +15,15 @@ what becomes of the frame. The rules, as the adversarial pass of issue 30 taught
   going but never renews the command's age, so a sender stuck on one frame times out. With
   another request, two senders on one id: a *conflict*, and the id is untrusted at once.
 - **The next counter** (allowing one step for each unreadable frame since the last read one):
-  accepted, unless it asks for something else less than half a period after the last accepted
-  frame, once the link has settled: two frames in one period, a second sender taking over the
-  sequence, another conflict.
+  accepted. A second sender that takes over the sequence (its frame carries the computer's next
+  counter) is caught by the computer's own next frame, which then repeats that counter asking
+  for something else: a conflict, one period later at the most. Arrival times cannot tell a
+  second sender's early frame from a burst (an adapter or a socketcand bridge that batches
+  frames delivers a sender's own frames close together), so they are not used to judge it: a
+  rule "two frames in one period" distrusted the ROS 2 bridge's own stream over socketcand.
 - **Any other counter** (skipped frames, a stale or replayed one): a *miss*; the counter is
   followed, so one lost frame costs one frame, as panda does.
-- **A gap** longer than the timeout: the sequence starts afresh, and the link *settles* for one
-  timeout (a sender's queue drains in a burst when a cable is back): no rate conflict then.
+- **A gap** longer than the timeout: the sequence starts afresh.
 - **Trust**: COUNTER_MISS_LIMIT misses among the last COUNTER_WINDOW frames, or one conflict, make
   the message untrusted; a whole window of good frames in a row trusts it again. An untrusted
   message's frames are judged, so trust can return, but never used.
@@ -43,10 +45,6 @@ from bywire.model import Command, ControlCommand, same_request
 COUNTER_WINDOW = 16  # the last frames of a command message whose counters are judged
 COUNTER_MISS_LIMIT = 3  # this many counter misses among them: the message is not trusted
 COUNTER_MODULUS = 16
-EARLY_SHARE = 0.55
-"""A frame sooner than this share of its period after the last accepted one is "early": a second
-sender half a period off is caught at its first frame (with the bus's own jitter); a sender of
-one's own must keep each frame within 45 % of a period of its slot when its request changes."""
 
 
 class Verdict(enum.Enum):
@@ -83,24 +81,20 @@ class MessageState:
     counter: int | None = None  # the counter to follow: of the last intact frame in sequence
     last: Command | None = None  # the last accepted command, for repeats and conflicts
     last_at: float | None = None  # when the last intact frame arrived
-    accepted_at: float | None = None  # when the last accepted frame arrived
     lost: int = 0  # unreadable frames since the last intact one
     window: tuple[bool, ...] = ()  # the last COUNTER_WINDOW frames: True for a miss or conflict
     untrusted: bool = False
-    settled_from: float = 0.0  # frames arriving again since then, after a gap
 
 
 def message_step(
-    state: MessageState, frame: Decoded, arrived_at: float, period_s: float, timeout_s: float
+    state: MessageState, frame: Decoded, arrived_at: float, timeout_s: float
 ) -> tuple[MessageState, Verdict]:
     """The next state and the frame's verdict; `arrived_at` is the frame's arrival stamp."""
     if not frame.readable or frame.counter is None:
         return _with(state, lost=state.lost + 1), Verdict.UNREADABLE
     if state.last_at is None or arrived_at - state.last_at > timeout_s:
-        state = MessageState(
-            window=state.window, untrusted=state.untrusted, settled_from=arrived_at
-        )
-    verdict = _judged(state, frame, arrived_at, period_s, timeout_s)
+        state = MessageState(window=state.window, untrusted=state.untrusted)
+    verdict = _judged(state, frame)
     if verdict is Verdict.REPEAT:  # the link goes on; the command's age does not restart
         return _with(state, lost=state.lost, last_at=arrived_at), verdict
     miss = verdict in (Verdict.COUNTER, Verdict.CONFLICT)
@@ -111,20 +105,16 @@ def message_step(
         counter=frame.counter,
         last=frame.command if accepted else state.last,
         last_at=arrived_at,
-        accepted_at=arrived_at if accepted else state.accepted_at,
         lost=0,
         window=window,
         untrusted=untrusted,
-        settled_from=state.settled_from,
     )
     if accepted and untrusted:
         return new_state, Verdict.UNTRUSTED
     return new_state, verdict
 
 
-def _judged(
-    state: MessageState, frame: Decoded, arrived_at: float, period_s: float, timeout_s: float
-) -> Verdict:
+def _judged(state: MessageState, frame: Decoded) -> Verdict:
     """The verdict of an intact frame, before trust."""
     previous, counter, command = state.counter, frame.counter, frame.command
     if counter is None:
@@ -136,33 +126,12 @@ def _judged(
         return Verdict.REPEAT if same else Verdict.CONFLICT
     if not 1 <= (counter - previous) % COUNTER_MODULUS <= 1 + state.lost:
         return Verdict.COUNTER
-    return _next(state, command, arrived_at, period_s, timeout_s)
+    return _next(command)
 
 
-def _next(
-    state: MessageState,
-    command: Command | None,
-    arrived_at: float,
-    period_s: float,
-    timeout_s: float,
-) -> Verdict:
+def _next(command: Command | None) -> Verdict:
     """The verdict of an intact frame with the next counter."""
-    if command is None:
-        return Verdict.OUT_OF_RANGE
-    if _early(state, command, arrived_at, period_s, timeout_s):
-        return Verdict.CONFLICT
-    return Verdict.ACCEPTED
-
-
-def _early(
-    state: MessageState, command: Command, arrived_at: float, period_s: float, timeout_s: float
-) -> bool:
-    """Two frames in one period asking for different things, once the link has settled."""
-    accepted_at = state.accepted_at
-    if accepted_at is None or state.last is None or same_request(command, state.last):
-        return False
-    settled = arrived_at - state.settled_from >= timeout_s
-    return settled and arrived_at - accepted_at < EARLY_SHARE * period_s
+    return Verdict.OUT_OF_RANGE if command is None else Verdict.ACCEPTED
 
 
 def _trust(untrusted: bool, window: tuple[bool, ...], *, conflict: bool) -> bool:
@@ -177,11 +146,9 @@ def _with(state: MessageState, *, lost: int, last_at: float | None = None) -> Me
         state.counter,
         state.last,
         state.last_at if last_at is None else last_at,
-        state.accepted_at,
         lost,
         state.window,
         state.untrusted,
-        state.settled_from,
     )
 
 

@@ -52,13 +52,16 @@ FLAG_GROUPS: dict[str, ErrorFlag] = {
         | F.CAN_UNTRUSTED
         | F.CAN_AUTH_FAILED
         | F.REMOTE_STOP
+        | F.LIGHTS_UNTRUSTED
     ),
     "CAN controller": F.CAN_OPEN_FAILED | F.CAN_BUS_OFF | F.CAN_RX_FAILED | F.CAN_TX_FAILED,
     "drive motors": F.DAC_VALUE_CLAMPED | F.DAC_WRITE_FAILED | F.DAC_FAULT_STOP,
-    "brakes": F.HYDRO_PRESSURE_FAULT,
+    "brakes": F.HYDRO_PRESSURE_FAULT | F.STOP_ESCALATED,
     "steering": F.STEERING_ENCODER_FAULT,
     "speed sensor": F.SPEED_SENSOR_FAULT,
-    "controller": F.TASK_CRASHED | F.TASK_OVERRUN | F.WATCHDOG_TRIPPED | F.NOT_ARMED,
+    "controller": (
+        F.TASK_CRASHED | F.TASK_OVERRUN | F.WATCHDOG_TRIPPED | F.NOT_ARMED | F.TIMING_FAULT
+    ),
 }
 """The error flags by subsystem: one status each."""
 

@@ -209,9 +209,7 @@ class CanReader:
         decoded, reason = _decoded(frame_id, data)
         if frame_id == self._control_id:
             self._stops = stop_request_step(self._stops, decoded.command, arrived_at, self._gap_s)
-        state, verdict = message_step(
-            self.states[frame_id], decoded, arrived_at, row.period_s, row.timeout_s
-        )
+        state, verdict = message_step(self.states[frame_id], decoded, arrived_at, row.timeout_s)
         self.states[frame_id] = state
         self.verdicts[verdict] += 1
         if not verdict.used:

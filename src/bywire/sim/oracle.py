@@ -422,7 +422,12 @@ class HazardOracle:
             self._link_hides_switch(active, now)
         if active:
             if kind == "can_impostor":
-                self.impostor_met_drive = self.world.gpio["motors_enable"].level
+                # Driving, not stopping: a controlled stop keeps the enable line high too, but
+                # the e-brake engaged says STOP.
+                gpio = self.world.gpio
+                self.impostor_met_drive = (
+                    gpio["motors_enable"].level and gpio["ebrake_release"].level
+                )
             self.faults.add(kind)
             self.began[kind] = (now, self.armed_ok)
             self.stop_event(kind, now)
@@ -707,8 +712,10 @@ class HazardOracle:
         may stay high only as a controlled stop's (`_controlled`)."""
         allowed = self._drive_allowed(now)
         if allowed:
-            self.demand_since = self.standstill_since = self.power_off_from = None
+            self.demand_since = self.standstill_since = None
             self.rolled_in_stop = False
+            if self.armed_ok:  # re-armed: what a category 0 cause demanded is over
+                self.power_off_from = None
             return True
         if self.demand_since is None:
             self.demand_since = now
