@@ -37,7 +37,7 @@ def test_the_receive_check_of_each_can_command_is_shown_with_its_own_timeout(
     robot.write_text("[timeouts.can_message_timeout_s]\nLightsCommand = 0.5\n")
     status, out, _ = _check(str(robot))
     assert status == 0
-    checks = [line for line in out.splitlines() if line.startswith("#   ")]
+    checks = [line for line in out.splitlines() if line.startswith("#   ") and "0x" in line]
     assert checks == [
         "#   ControlCommand 0x100: 3 bytes, counter mod 16, CRC-8 in the last byte,"
         " every 20 ms, lost after 100 ms",
@@ -46,6 +46,28 @@ def test_the_receive_check_of_each_can_command_is_shown_with_its_own_timeout(
         "#   LightsCommand 0x102: 3 bytes, counter mod 16, CRC-8 in the last byte,"
         " every 20 ms, lost after 500 ms",
     ]
+
+
+def test_the_switch_bands_are_shown(tmp_path: Path) -> None:
+    robot = tmp_path / "robot.toml"
+    robot.write_text("[rc.mode_switch]\npositions_raw = [1250, 1500, 1750]\nband_raw = 80\n")
+    status, out, _ = _check(str(robot))
+    assert status == 0
+    assert (
+        "#   mode_switch (channel 6): STOP 1170..1330, RC 1420..1580, CAN 1670..1830 µs;"
+        " hysteresis ±25 µs"
+    ) in out.splitlines()
+
+
+def test_switch_bands_that_would_touch_are_refused_with_the_largest_that_fits(
+    tmp_path: Path,
+) -> None:
+    robot = tmp_path / "robot.toml"
+    robot.write_text("[rc.mode_switch]\npositions_raw = [1250, 1500, 1750]\n")
+    status, _, err = _check(str(robot))
+    assert status == 2
+    assert "rc.mode_switch: positions [1250, 1500, 1750] µs are 250 µs apart" in err
+    assert "set band_raw to 99 or less" in err
 
 
 def test_json_gives_the_same_values() -> None:

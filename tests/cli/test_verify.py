@@ -78,17 +78,17 @@ def test_the_same_seed_gives_the_same_run_on_any_number_of_processes(
     assert other[1]["events_injected"] != runs[0]["events_injected"]
 
 
-def test_an_unsafe_configuration_is_reported_with_its_keys_before_any_campaign(
+def test_an_unsafe_configuration_is_refused_at_load_naming_the_deadline(
     capsys: pytest.CaptureFixture[str], tmp_path: Path
 ) -> None:
     robot = tmp_path / "robot.toml"
     robot.write_text("[timeouts]\ncan_command_timeout_s = 0.5\nwatchdog_s = 0.2\n")
     status = main(["verify", "--config", str(robot)])
-    output = capsys.readouterr().out
-    assert status == 1
-    assert "timeouts.can_command_timeout_s" in output
-    assert "timeouts.watchdog_s" in output
-    assert "no campaign was run" in output
+    error = capsys.readouterr().err
+    assert status == 2
+    assert "timeouts.can_command_timeout_s" in error
+    assert "timeouts.watchdog_s" in error
+    assert "breaks the deadline" in error
 
 
 @pytest.mark.parametrize("bad", [["--budget", "0"], ["--jobs", "x"], ["--seed", "-1"]])

@@ -247,7 +247,7 @@ def test_rc_mapping_is_the_control_layers_type_with_toml_values() -> None:
 
 
 PULSE = st.floats(0.0005, 0.0025)
-TIMEOUT = st.floats(0.020, 1.0)
+TIMEOUT = st.floats(0.024, 1.0)  # above the switch debounce (3 frames of 7.7 ms)
 OUTSIDE_TIMEOUT = st.one_of(
     st.floats(max_value=0.0199), st.floats(min_value=1.0001), st.just(math.nan)
 )
@@ -273,7 +273,10 @@ CAN_TIMEOUT = st.floats(0.040, 1.0)  # at least two 20 ms periods of every comma
 
 @given(TIMEOUT, CAN_TIMEOUT)
 def test_any_in_range_timeouts_load(rc_s: float, can_s: float) -> None:
-    text = f"[timeouts]\nrc_timeout_s = {rc_s!r}\ncan_command_timeout_s = {can_s!r}"
+    text = (
+        f"[timeouts]\nrc_timeout_s = {rc_s!r}\ncan_command_timeout_s = {can_s!r}\n"
+        "watchdog_s = 1.0\n"  # no input may drive on longer than a stalled loop would
+    )
     timeouts = parse_config(text).timeouts
     assert (timeouts.rc_timeout_s, timeouts.can_command_timeout_s) == (rc_s, can_s)
     assert {timeout_s for _, timeout_s in timeouts.can_message_timeout_s} == {can_s}

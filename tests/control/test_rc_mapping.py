@@ -48,7 +48,8 @@ def test_axis_calibration_and_reverse() -> None:
 
 
 @pytest.mark.parametrize(
-    ("raw", "position"), [(1000, 0), (1249, 0), (1500, 1), (1750, 1), (2000, 2)]
+    ("raw", "position"),
+    [(850, 0), (1000, 0), (1150, 0), (1350, 1), (1500, 1), (1650, 1), (2150, 2)],
 )
 def test_switch_positions(raw: int, position: int) -> None:
     assert switch_position(raw, SwitchCalibration(channel=6)) == position
@@ -135,14 +136,37 @@ def test_a_stick_beyond_its_calibrated_end_stops_is_clamped_to_full_scale(
     assert axis_norm(raw, AxisCalibration(channel=1)) == norm
 
 
-@pytest.mark.parametrize(
-    ("raw", "position"),
-    [(1249, 0), (1250, 1), (1500, 1), (1750, 1), (1751, 2)],
-)
-def test_switch_thresholds_are_1250_and_1750_inclusive_of_the_middle(
-    raw: int, position: int
+@pytest.mark.parametrize("raw", [1151, 1250, 1349, 1651, 1750, 1849, 800, 2200])
+def test_a_value_between_positions_is_no_position(raw: int) -> None:
+    # Issue 30, finding 3: a transmitter with 50 % switch travel sends 1250 µs at STOP, and the
+    # bare thresholds read it as RC: the robot kept driving at 2.5 V.
+    assert switch_position(raw, SwitchCalibration(channel=6)) is None
+
+
+def test_a_position_read_holds_within_its_hysteresis_and_not_beyond() -> None:
+    switch = SwitchCalibration(channel=6)
+    assert switch_position(1660, switch) is None  # outside RC's band, read afresh
+    assert switch_position(1660, switch, held=1) == 1  # held: within band + hysteresis
+    assert switch_position(1675, switch, held=1) == 1
+    assert switch_position(1676, switch, held=1) is None
+
+
+def test_a_50_percent_switch_at_stop_is_stop_never_rc() -> None:
+    request = rc_request(frame(ch6=1250), RcMapping())
+    assert request is not None
+    assert request.mode is ControlMode.STOP
+
+
+@given(st.integers(800, 2200), st.sampled_from([None, 0, 1, 2]))
+def test_no_value_reads_as_a_position_outside_its_band_and_hysteresis(
+    raw: int, held: int | None
 ) -> None:
-    assert switch_position(raw, SwitchCalibration(channel=6)) == position
+    switch = SwitchCalibration(channel=6)
+    position = switch_position(raw, switch, held)
+    if position is not None:
+        low, high = switch.band(position)
+        reach = switch.hysteresis_raw if position == held else 0
+        assert low - reach <= raw <= high + reach
 
 
 def test_a_frame_too_short_for_the_used_channels_is_implausible_not_a_crash() -> None:

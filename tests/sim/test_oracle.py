@@ -613,7 +613,11 @@ def test_every_other_dac_write_failing_for_less_than_it_takes_to_latch_may_pass_
     # other DAC write NAKed for 70 ms. The leaky count latches at the fourth failure, 80 ms at
     # 50 Hz; it never did and the robot rightly drove on, but the oracle gave the fault the
     # 60 ms that failing pairs of writes take.
-    robot = parse_config(SLOW_DRIVING + "hydrobrake_rate_hz = 25\n", "<test>")
+    # (every task at 50 Hz or slower: a tighter speed check keeps the dead-sensor deadline)
+    robot = parse_config(
+        SLOW_DRIVING + "hydrobrake_rate_hz = 25\n[interlocks]\nspeed_step_tolerance_mps = 0.2\n",
+        "<test>",
+    )
     steps = [Step(0.2, "arm", RC), Step(0.61, "dac", "alternate"), Step(0.07, "dac", "restore")]
     outcome = run_campaign(robot, steps)
     assert outcome.checks > 0
@@ -698,10 +702,12 @@ def test_a_re_enable_after_the_switch_left_can_for_good_arms_nothing(moved_to: C
 
 
 def _second_sender(lasting_s: float, motors_enabled: bool = True) -> HazardOracle:
-    """Armed in CAN, the motors enabled or not, then a second sender from 1 s for `lasting_s`."""
+    """Armed in CAN, driving (the motors enabled, the e-brake released) or not, then a second
+    sender from 1 s for `lasting_s`."""
     oracle = _oracle()
     _armed_in_can(oracle)
     oracle.world.gpio["motors_enable"].set(motors_enabled)
+    oracle.world.gpio["ebrake_release"].set(motors_enabled)
     oracle.fault("can_impostor", True, 1.0)
     oracle.fault("can_impostor", False, 1.0 + lasting_s)
     return oracle
@@ -715,6 +721,18 @@ def test_a_second_sender_that_surely_latched_refuses_a_re_enable_after_it_is_ove
 def test_a_second_sender_too_short_to_latch_for_sure_leaves_a_re_enable_alone() -> None:
     deadline_s = _oracle().timing.deadline_s("can_impostor")
     assert _drives_after_re_enable(_second_sender(deadline_s - 0.05), 2.0) == []
+
+
+def test_a_second_sender_met_in_a_controlled_stop_may_never_have_latched() -> None:
+    # verify seed 29, campaign 72: the robot braking with its drive powered (category 1, the
+    # enable line high, the e-brake engaged) is in STOP, not CAN mode: nothing latched.
+    deadline_s = _oracle().timing.deadline_s("can_impostor")
+    oracle = _oracle()
+    _armed_in_can(oracle)
+    oracle.world.gpio["motors_enable"].set(True)
+    oracle.fault("can_impostor", True, 1.0)
+    oracle.fault("can_impostor", False, 1.0 + deadline_s + 0.1)
+    assert _drives_after_re_enable(oracle, 2.0) == []
 
 
 def test_a_second_sender_met_with_the_motors_off_may_never_have_latched() -> None:

@@ -65,7 +65,7 @@ def _first_failure(limit: int = SEARCH_LIMIT) -> Outcome:
         ("row_6_no_debounce", "H1"),
         ("row_7_only_consecutive_dac_failures_count", "H1"),
         ("row_8_a_write_in_flight_lands_after_the_trip", "H3"),
-        ("row_12_a_leaky_counter_half_an_impostor_balances", "H1"),
+        ("issue_30_an_unreadable_frame_restarts_the_sequence", "H1"),
         ("row_23_a_can_re_enable_clears_every_cause", "H1"),
         ("hazard_10_a_re_enable_forgives_a_second_sender", "H1"),
         ("hazard_6_stop_spares_the_hydraulic_brake", "H5"),
@@ -74,6 +74,7 @@ def _first_failure(limit: int = SEARCH_LIMIT) -> Outcome:
         ("hazard_19_an_arming_makes_a_dead_sensor_trusted", "H4"),
         ("hazard_20_throttle_beats_brake", "H6"),
         ("stop_centres_the_steering", "H5"),
+        ("issue_30_the_steering_takes_over_at_once", "H9"),
     ],
 )
 def test_a_reintroduced_bug_is_found_shrunk_and_replayed(
@@ -100,7 +101,7 @@ def test_a_value_outside_the_vocabulary_is_simplified_to_the_vocabularys_own() -
 
 OTHER_ROBOTS = {
     "slow control tasks": "[tasks]\nsteering_rate_hz = 50\ndriving_rate_hz = 50\n"
-    "hydrobrake_rate_hz = 50\n",
+    "hydrobrake_rate_hz = 50\n\n[interlocks]\nspeed_step_tolerance_mps = 0.2\n",
     "boosted steering, fast brake task": "[steering]\nboost_gain = 1.0\n\n"
     "[tasks]\nhydrobrake_rate_hz = 200\n",
     "slow frames, long debounce": "[supervisor]\ndebounce_frames = 5\n\n"

@@ -142,6 +142,15 @@ def hazard_19_an_arming_makes_a_dead_sensor_trusted(monkeypatch: pytest.MonkeyPa
     )
 
 
+def issue_30_the_steering_takes_over_at_once(monkeypatch: pytest.MonkeyPatch) -> None:
+    # dce19d3: a handover was bumpless for the throttle only; the new source's steering was
+    # taken at the ordinary rate (0.71 of full lock within 0.5 s at 1.6 m/s).
+    def at_once(*args: Any, **options: Any) -> Any:
+        return steering_step(*args, **{**options, "handover": False})
+
+    monkeypatch.setattr(controller, "steering_step", at_once)
+
+
 def stop_centres_the_steering(monkeypatch: pytest.MonkeyPatch) -> None:
     # In STOP the steering turns back to the centre: at speed, a swerve (STOP holds it).
     mode = [ControlMode.STOP]
@@ -151,8 +160,9 @@ def stop_centres_the_steering(monkeypatch: pytest.MonkeyPatch) -> None:
         mode[0] = after.mode
         return after
 
-    def centring(state: Any, target_norm: float, *rest: Any) -> Any:
-        return steering_step(state, 0.0 if mode[0] is ControlMode.STOP else target_norm, *rest)
+    def centring(state: Any, target_norm: float, *rest: Any, **options: Any) -> Any:
+        target = 0.0 if mode[0] is ControlMode.STOP else target_norm
+        return steering_step(state, target, *rest, **options)
 
     monkeypatch.setattr(controller, "supervisor_step", watched)
     monkeypatch.setattr(controller, "steering_step", centring)
@@ -175,5 +185,6 @@ OLD_BUGS: dict[str, OldBug] = {
         hazard_19_an_arming_makes_a_dead_sensor_trusted,
         hazard_20_throttle_beats_brake,
         stop_centres_the_steering,
+        issue_30_the_steering_takes_over_at_once,
     )
 }

@@ -3,20 +3,18 @@
 The output is the whole resolved configuration as TOML (defaults filled in), which loads back to
 the same values, headed by comments (whether commands are authenticated, and the receive check
 of each CAN command: its DBC period and its timeout), or as JSON with `--json`. A bad file exits
-2 with every problem, each naming its key and the allowed range. Combinations of valid numbers
-that are unsafe together (see `bywire.config.hazards`) are warned about on stderr; `bywire
-verify` refuses them.
+2 with every problem, each naming its key and the allowed range; numbers that are each in range
+but together break a physical deadline (`bywire.config.deadlines`) are refused the same way,
+naming the deadline and the nearest safe values.
 """
 
 from __future__ import annotations
 
 import argparse
 import json
-import sys
 from pathlib import Path
 
 from bywire.config import RobotConfig, as_dict, describe, load_config
-from bywire.config.hazards import unsafe_combinations
 from bywire.runtime.rx_checks import rx_checks
 from bywire.security.keys import read_key_file
 
@@ -44,10 +42,33 @@ def authentication_line(config: RobotConfig) -> str:
     )
 
 
+def switch_bands(config: RobotConfig) -> list[str]:
+    """One line per RC switch: each position's band (µs), and the hysteresis that holds it."""
+    mapping = config.rc.mapping
+    names = {
+        "mode_switch": [position.name for position in mapping.mode_positions],
+        "gear_switch": [position.name for position in mapping.gear_positions],
+        "low_beam_switch": ["off", "on"],
+        "hazard_switch": ["off", "on"],
+    }
+    lines = []
+    for name, labels in names.items():
+        switch = getattr(mapping, name)
+        ordered = labels[::-1] if switch.reverse else labels
+        bands = ", ".join(
+            f"{label} {low}..{high}"
+            for label, (low, high) in zip(
+                ordered, (switch.band(i) for i in range(len(switch.positions_raw))), strict=False
+            )
+        )
+        lines.append(
+            f"{name} (channel {switch.channel}): {bands} µs; hysteresis ±{switch.hysteresis_raw} µs"
+        )
+    return lines
+
+
 def run(args: argparse.Namespace) -> int:
     config = load_config(args.file)
-    for combination in unsafe_combinations(config):
-        print(f"warning: unsafe by construction: {combination}", file=sys.stderr)
     if args.json:
         print(json.dumps(as_dict(config), indent=2))
         return 0
@@ -56,5 +77,8 @@ def run(args: argparse.Namespace) -> int:
     print("# CAN commands received (DBC and [timeouts]):")
     for check in rx_checks(config.timeouts):
         print(f"#   {check.describe()}")
+    print("# RC switches (a value in no band is no position: the mode switch then means STOP):")
+    for line in switch_bands(config):
+        print(f"#   {line}")
     print(describe(config), end="")
     return 0

@@ -23,7 +23,6 @@ import os
 import sys
 import time
 from collections import Counter
-from collections.abc import Iterable
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -33,7 +32,6 @@ from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, T
 
 from bywire.cli.arguments import positive_seconds, whole_number
 from bywire.config import RobotConfig, default_sim_config, load_config
-from bywire.config.hazards import UnsafeCombination, unsafe_combinations
 from bywire.control.supervisor_check import MONITOR_CAUSES, TRANSITIONS, transitions_naming
 from bywire.hal.hardware import sensors_fitted
 from bywire.sim.draw import CAMPAIGN_S
@@ -157,12 +155,6 @@ def run(args: argparse.Namespace) -> int:
     source = str(args.config) if args.config is not None else "the simulator's defaults"
     console = Console(stderr=True)
     show = sys.stderr.isatty() and not args.json
-    unsafe = unsafe_combinations(robot)
-    if unsafe and not args.keep_going:
-        _report_unsafe(source, unsafe, as_json=args.json)
-        return 1
-    for combination in unsafe:
-        console.print(f"warning: unsafe by construction: {combination}")
     budget = args.budget if args.budget is not None or args.duration else DEFAULT_BUDGET
     until = None if args.duration is None else time.monotonic() + args.duration
     job = CampaignJob(args.seed, args.campaign_s)
@@ -184,16 +176,6 @@ def run(args: argparse.Namespace) -> int:
     else:
         _print_summary(Console(), summary)
     return 1 if tally.violations else 0
-
-
-def _report_unsafe(source: str, unsafe: Iterable[UnsafeCombination], *, as_json: bool) -> None:
-    problems = [{"keys": list(c.keys), "problem": c.problem, "fix": c.fix} for c in unsafe]
-    if as_json:
-        print(json.dumps({"config": source, "unsafe_combinations": problems}, indent=2))
-        return
-    print(f"{source}: unsafe by construction; no campaign was run (--keep-going runs them):")
-    for problem in problems:
-        print(f"  {' + '.join(problem['keys'])}: {problem['problem']}; {problem['fix']}")
 
 
 def _shrink_all(

@@ -5,6 +5,7 @@ from __future__ import annotations
 from collections.abc import Sequence
 from itertools import pairwise
 
+from bywire.config.deadlines import breaches
 from bywire.config.model import OUTPUT_LINE_KEYS, CanSection, RobotConfig, output_lines
 from bywire.config.reader import Problems, number_text, show
 from bywire.errors import ConfigError
@@ -12,14 +13,25 @@ from bywire.protocol import bittiming
 
 CONTROL_TASKS = ("steering", "driving", "hydrobrake")  # the actuator tasks the watchdog covers
 RC_AXES = ("steering", "throttle_brake")
-RC_FUNCTIONS = (*RC_AXES, "mode_switch", "gear_switch", "low_beam_switch", "hazard_switch")
+RC_SWITCHES = ("mode_switch", "gear_switch", "low_beam_switch", "hazard_switch")
+RC_FUNCTIONS = (*RC_AXES, *RC_SWITCHES)
 WATCHDOG_PERIODS = 2  # a watchdog shorter than two control periods would bite a healthy loop
 CAN_TIMEOUT_PERIODS = 2  # a CAN command's timeout spans two DBC periods: a lost frame is no STOP
 
 
 def check_consistency(config: RobotConfig, problems: Problems) -> None:
     """Record every problem that no single key shows; keys that already failed are skipped."""
-    checks = (_calibrations, _rc_channels, _dac, _outputs, _bit_timing, _watchdog, _can_timeouts)
+    checks = (
+        _calibrations,
+        _rc_channels,
+        _switch_bands,
+        _dac,
+        _outputs,
+        _bit_timing,
+        _watchdog,
+        _can_timeouts,
+        _deadlines,
+    )
     for check in checks:
         check(config, problems)
 
@@ -32,6 +44,26 @@ def _calibrations(config: RobotConfig, problems: Problems) -> None:
         axis = getattr(config.rc.mapping, axis_name)
         raws = (axis.min_raw, axis.center_raw, axis.max_raw)
         _increasing(problems, f"rc.{axis_name}", ("min_raw", "center_raw", "max_raw"), raws)
+
+
+def _switch_bands(config: RobotConfig, problems: Problems) -> None:
+    """Two positions' bands, widened by the hysteresis, may not touch: a value between them must
+    read as no position (R-SWITCH), never as the position held before."""
+    for name in RC_SWITCHES:
+        switch = getattr(config.rc.mapping, name)
+        key = f"rc.{name}"
+        if problems.affects(key):
+            continue
+        reach = switch.band_raw + switch.hysteresis_raw
+        gaps = [b - a for a, b in pairwise(switch.positions_raw)]
+        if gaps and min(gaps) <= 2 * reach:
+            largest = max(min(gaps) // 2 - switch.hysteresis_raw - 1, 0)
+            problems.add(
+                f"{key}.band_raw",
+                f"{key}: positions {list(switch.positions_raw)} µs are {min(gaps)} µs apart,"
+                f" too close for bands of ±{switch.band_raw} µs with ±{switch.hysteresis_raw}"
+                f" µs of hysteresis (they would touch); set band_raw to {largest} or less",
+            )
 
 
 def _rc_channels(config: RobotConfig, problems: Problems) -> None:
@@ -163,3 +195,10 @@ def _can_timeouts(config: RobotConfig, problems: Problems) -> None:
             f" {CAN_TIMEOUT_PERIODS} periods of {', '.join(on_default)} (GenMsgCycleTime in the"
             f" DBC): one late frame would stop the robot; allowed >= {number_text(least_s)} s",
         )
+
+
+def _deadlines(config: RobotConfig, problems: Problems) -> None:
+    """Every physical deadline the file's numbers together must keep (`config.deadlines`)."""
+    for breach in breaches(config):
+        if not problems.affects(*breach.keys):
+            problems.add(breach.keys[0], str(breach))

@@ -7,6 +7,7 @@ from bywire.control.stop import MAX_CONTROLLED_STOP_S, MIN_CONTROLLED_STOP_S
 from bywire.protocol import bittiming
 
 POSITIVE_NORM_PER_S = Interval(0.0, 100.0, "norm/s", low_open=True)
+HANDOVER_RATE = Interval(0.05, 2.0, "norm/s")
 PULSE_S = Interval(0.0005, 0.0025, "s")
 BOOST_GAIN = Interval(0.0, 2.0)
 SERVO_PWM_HZ = Interval(50.0, 50.0, "Hz")
@@ -14,6 +15,8 @@ BRAKE_PWM_HZ = Interval(50.0, 20_000.0, "Hz")
 PWM_CHANNELS = range(32)
 RC_CHANNELS = range(14)
 RC_RAW = range(800, 2201)
+SWITCH_BAND_RAW = range(20, 401)  # µs either side of a switch position's nominal pulse
+SWITCH_HYSTERESIS_RAW = range(0, 101)
 DEADBAND_NORM = Interval(0.0, 0.5)
 IBUS_BAUD = range(115_200, 115_201)
 BITRATES_BPS = range(10_000, 1_000_001)

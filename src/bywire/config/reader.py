@@ -7,6 +7,7 @@ every problem in it; `Problems.check` then raises them together as one ConfigErr
 from __future__ import annotations
 
 import difflib
+import itertools
 import json
 import math
 from collections.abc import Callable, Mapping, Sequence
@@ -156,6 +157,27 @@ class Table:
             self.problems.add(self.key(name), f"{shown}: out of range; allowed {text}{reason}")
             return default
         return value
+
+    def integer_list(
+        self, name: str, default: tuple[int, ...], allowed: range, count: int
+    ) -> tuple[int, ...]:
+        """`count` strictly increasing integers in `allowed` at `name` (or `default`)."""
+        value = self.get(name)
+        if value is MISSING:
+            return default
+        text = f"{count} increasing integers in {allowed.start}..{allowed[-1]}"
+        if not isinstance(value, list) or len(value) != count:
+            self.refuse(name, value, f"expected an array of {text}, got {toml_type(value)}")
+            return default
+        if not all(isinstance(v, int) and not isinstance(v, bool) for v in value):
+            self.refuse(name, value, f"expected {text}")
+            return default
+        if any(v not in allowed for v in value) or any(
+            a >= b for a, b in itertools.pairwise(value)
+        ):
+            self.refuse(name, value, f"out of range or not increasing; allowed {text}")
+            return default
+        return tuple(value)
 
     def text(self, name: str, default: str, choices: Sequence[str] = ()) -> str:
         value = self.get(name)

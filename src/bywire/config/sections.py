@@ -14,6 +14,7 @@ from bywire.config.limits import (
     DUTY,
     DWELL_S,
     FIFO_PRIORITY,
+    HANDOVER_RATE,
     IBUS_BAUD,
     INPUT_TIMEOUT_S,
     PASS_BUDGET_S,
@@ -33,6 +34,8 @@ from bywire.config.limits import (
     SPEED_STEP_MPS,
     STANDSTILL_MPS,
     STOP_DECEL_MPS2,
+    SWITCH_BAND_RAW,
+    SWITCH_HYSTERESIS_RAW,
     TASK_RATE_HZ,
     TELEMETRY_RATE_HZ,
     TOLERANCE_NORM,
@@ -135,9 +138,19 @@ def failsafe(table: Table, default: FailsafeSignature) -> FailsafeSignature:
 
 
 def switch(table: Table, default: SwitchCalibration) -> SwitchCalibration:
+    """One switch: its channel, each position's nominal pulse (as many as the switch has, low
+    to high), the band around each and the hysteresis (R-SWITCH); the bands and their
+    hysteresis may not touch: a value between two of them is no position."""
+    count = len(default.positions_raw)
+    positions = table.integer_list("positions_raw", default.positions_raw, RC_RAW, count)
     calibration = SwitchCalibration(
         channel=table.integer("channel", default.channel, RC_CHANNELS),
         reverse=table.flag("reverse", default.reverse),
+        positions_raw=positions,
+        band_raw=table.integer("band_raw", default.band_raw, SWITCH_BAND_RAW),
+        hysteresis_raw=table.integer(
+            "hysteresis_raw", default.hysteresis_raw, SWITCH_HYSTERESIS_RAW
+        ),
     )
     table.close()
     return calibration
@@ -156,6 +169,9 @@ def steering_section(table: Table) -> SteeringSection:
         boost_gain=table.number("boost_gain", default.boost_gain, BOOST_GAIN),
         servo_speed_norm_per_s=table.number(
             "servo_speed_norm_per_s", default.servo_speed_norm_per_s, POSITIVE_NORM_PER_S
+        ),
+        handover_rate_norm_per_s=table.number(
+            "handover_rate_norm_per_s", default.handover_rate_norm_per_s, HANDOVER_RATE
         ),
     )
     section = SteeringSection(servo, pwm(table.table("pwm"), SteeringSection().pwm, SERVO_PWM_HZ))

@@ -306,8 +306,16 @@ def controller_step(
     )
     # In STOP the steering holds where it is: centring at speed would be a swerve.
     target_norm = movement.steering_norm if driving else state.steering.setpoint_norm
+    # A source takes over (a handover, or an arming): the steering moves to it bumplessly.
+    taking_over = driving and supervisor.mode is not state.supervisor.mode
     steering, pulse_s = steering_step(
-        state.steering, target_norm, now, config.steering, inputs.steering_measured_norm
+        state.steering,
+        target_norm,
+        now,
+        config.steering,
+        inputs.steering_measured_norm,
+        handover_speed_mps=speed_mps,
+        handover=taking_over,
     )
     # Combined as plain ints: every operator on an IntFlag builds a new enum value, which costs
     # more than the rest of this line; the bits are the same.

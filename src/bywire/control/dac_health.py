@@ -23,6 +23,7 @@ import enum
 from bywire.control.values import value
 
 DAC_LEAK = 0.25  # one failure is forgiven after four good writes
+DAC_FAILURE_LIMIT = 3  # failures in a row (30 ms at 100 Hz) before the DAC counts as failing
 
 
 class Transfer(enum.Enum):

@@ -5,11 +5,19 @@ vertical (channel 1) is throttle above centre and brake below, the two 3-positio
 the control mode (channel 6) and the gear (channel 7), the 2-position switches give low beam
 (channel 5) and hazard (channel 8). Values outside the plausible pulse range make the whole frame
 suspect: the caller treats that like a lost link, at once.
+
+Switches are decoded by calibrated bands with hysteresis (R-SWITCH): each position has a nominal
+pulse and a band around it; a value in no band is *no position* (the mode switch then means
+STOP, the gear switch neutral, a light off); a position, once read, holds until the value leaves
+its band widened by the hysteresis, so a knob dithering at a band's edge does not flip it. A
+transmitter whose switch travel is set to 50 % sends 1250 µs in its low position: read with the
+default bands that is no position (STOP), never RC. `bywire rc` shows what a transmitter sends
+and suggests the bands.
 """
 
 from __future__ import annotations
 
-from dataclasses import field
+from dataclasses import field, replace
 
 from bywire.control.values import value
 from bywire.model import ControlMode, Gear
@@ -29,12 +37,26 @@ class AxisCalibration:
     reverse: bool = False
 
 
+THREE_POSITIONS_RAW = (1000, 1500, 2000)
+TWO_POSITIONS_RAW = (1000, 2000)
+
+
 @value
 class SwitchCalibration:
-    """One switch: channel index and whether its positions run the other way."""
+    """One switch: channel index, the nominal pulse of each position (low to high), the band
+    around each (± `band_raw` µs), the hysteresis that holds a position read at a band's edge,
+    and whether its positions run the other way."""
 
     channel: int
     reverse: bool = False
+    positions_raw: tuple[int, ...] = THREE_POSITIONS_RAW
+    band_raw: int = 150
+    hysteresis_raw: int = 25
+
+    def band(self, index: int) -> tuple[int, int]:
+        """The raw range (µs, inclusive) of the position `index` (counted low to high)."""
+        nominal = self.positions_raw[index]
+        return nominal - self.band_raw, nominal + self.band_raw
 
 
 @value
@@ -58,8 +80,12 @@ class RcMapping:
     throttle_brake: AxisCalibration = field(default_factory=lambda: AxisCalibration(channel=1))
     mode_switch: SwitchCalibration = field(default_factory=lambda: SwitchCalibration(channel=6))
     gear_switch: SwitchCalibration = field(default_factory=lambda: SwitchCalibration(channel=7))
-    low_beam_switch: SwitchCalibration = field(default_factory=lambda: SwitchCalibration(5))
-    hazard_switch: SwitchCalibration = field(default_factory=lambda: SwitchCalibration(8))
+    low_beam_switch: SwitchCalibration = field(
+        default_factory=lambda: SwitchCalibration(5, positions_raw=TWO_POSITIONS_RAW)
+    )
+    hazard_switch: SwitchCalibration = field(
+        default_factory=lambda: SwitchCalibration(8, positions_raw=TWO_POSITIONS_RAW)
+    )
     mode_positions: tuple[ControlMode, ControlMode, ControlMode] = (
         ControlMode.STOP,
         ControlMode.RC,
@@ -92,10 +118,26 @@ def axis_norm(raw: int, calibration: AxisCalibration) -> float:
     return 0.0 if abs(norm) < calibration.deadband_norm else min(max(norm, -1.0), 1.0)
 
 
-def switch_position(raw: int, calibration: SwitchCalibration) -> int:
-    """0, 1 or 2 for low, middle, high (a 2-position switch gives 0 or 2)."""
-    position = 0 if raw < 1250 else (1 if raw <= 1750 else 2)
-    return 2 - position if calibration.reverse else position
+def switch_position(
+    raw: int, calibration: SwitchCalibration, held: int | None = None
+) -> int | None:
+    """The position (0 for the first of the switch's positions, reversed if asked) whose band
+    holds `raw`; `held`, the position read before, while `raw` stays within its band widened
+    by the hysteresis; None between positions."""
+    count = len(calibration.positions_raw)
+
+    def logical(index: int) -> int:
+        return count - 1 - index if calibration.reverse else index
+
+    if held is not None and 0 <= held < count:
+        low, high = calibration.band(logical(held))
+        if low - calibration.hysteresis_raw <= raw <= high + calibration.hysteresis_raw:
+            return held
+    for index in range(count):
+        low, high = calibration.band(index)
+        if low <= raw <= high:
+            return logical(index)
+    return None
 
 
 def channels_plausible(channels: tuple[int, ...], mapping: RcMapping) -> bool:
@@ -117,22 +159,87 @@ def in_failsafe(channels: tuple[int, ...], mapping: RcMapping) -> bool:
     return signature.channel < len(channels) and channels[signature.channel] < signature.below_raw
 
 
+@value
+class SwitchesHeld:
+    """Each switch's position as last read (None: between positions, or not read yet): what the
+    hysteresis holds. The mode switch's debounce is the supervisor's; the gear's is `gear`."""
+
+    mode: int | None = None
+    gear: int | None = None
+    low_beam: int | None = None
+    hazard: int | None = None
+
+
+NONE_HELD = SwitchesHeld()
+
+
 def rc_request(channels: tuple[int, ...], mapping: RcMapping) -> RcRequest | None:
-    """The request this frame carries, or None when it is failsafe output or any used channel is
-    implausible: suspect input is refused whole, at once."""
+    """The request one frame carries on its own (no position held before it), or None when it
+    is failsafe output or any used channel is implausible: suspect input is refused whole."""
+    return rc_decoded(channels, mapping, NONE_HELD)[0]
+
+
+def rc_decoded(
+    channels: tuple[int, ...], mapping: RcMapping, held: SwitchesHeld
+) -> tuple[RcRequest | None, SwitchesHeld]:
+    """The request this frame carries, and the switches' positions now; the request is None
+    when the frame is failsafe output or any used channel is implausible: suspect input is
+    refused whole, at once (and the positions held are forgotten)."""
     if in_failsafe(channels, mapping) or not channels_plausible(channels, mapping):
-        return None
-
-    def position(switch: SwitchCalibration) -> int:
-        return switch_position(channels[switch.channel], switch)
-
+        return None, NONE_HELD
+    positions = SwitchesHeld(
+        mode=switch_position(channels[mapping.mode_switch.channel], mapping.mode_switch, held.mode),
+        gear=switch_position(channels[mapping.gear_switch.channel], mapping.gear_switch, held.gear),
+        low_beam=switch_position(
+            channels[mapping.low_beam_switch.channel], mapping.low_beam_switch, held.low_beam
+        ),
+        hazard=switch_position(
+            channels[mapping.hazard_switch.channel], mapping.hazard_switch, held.hazard
+        ),
+    )
     pedal_norm = axis_norm(channels[mapping.throttle_brake.channel], mapping.throttle_brake)
-    return RcRequest(
-        mode=mapping.mode_positions[position(mapping.mode_switch)],
+    request = RcRequest(
+        mode=ControlMode.STOP if positions.mode is None else mapping.mode_positions[positions.mode],
         steering_norm=axis_norm(channels[mapping.steering.channel], mapping.steering),
         throttle_norm=max(pedal_norm, 0.0),
         brake_norm=max(-pedal_norm, 0.0),
-        gear=mapping.gear_positions[position(mapping.gear_switch)],
-        low_beam=position(mapping.low_beam_switch) == 2,
-        hazard=position(mapping.hazard_switch) == 2,
+        gear=Gear.NEUTRAL if positions.gear is None else mapping.gear_positions[positions.gear],
+        low_beam=_on(positions.low_beam, mapping.low_beam_switch),
+        hazard=_on(positions.hazard, mapping.hazard_switch),
     )
+    return request, positions
+
+
+def _on(position: int | None, switch: SwitchCalibration) -> bool:
+    """A light switch is on in its last (highest) position."""
+    return position == len(switch.positions_raw) - 1
+
+
+@value
+class RcStage:
+    """The RC frames' state between frames: the switches' positions as last read (the
+    hysteresis) and the gear as debounced: a new gear counts once `debounce_frames` frames in a
+    row showed it (the mode switch's debounce is the supervisor's); a gear switch between
+    positions is neutral at once, the safe direction."""
+
+    held: SwitchesHeld = NONE_HELD
+    gear: Gear = Gear.NEUTRAL
+    candidate: Gear = Gear.NEUTRAL
+    run: int = 0
+
+
+def rc_step(
+    stage: RcStage, channels: tuple[int, ...], mapping: RcMapping, debounce_frames: int
+) -> tuple[RcStage, RcRequest | None]:
+    """One frame: the next stage and the request it carries (None: refused whole)."""
+    request, held = rc_decoded(channels, mapping, stage.held)
+    if request is None:
+        return RcStage(gear=stage.gear), None
+    shown = request.gear
+    run = min(stage.run + 1, debounce_frames) if shown is stage.candidate else 1
+    if held.gear is None or shown is Gear.NEUTRAL or run >= debounce_frames:
+        gear = shown
+    else:
+        gear = stage.gear
+    new_stage = RcStage(held, gear, shown, run)
+    return new_stage, request if request.gear is gear else replace(request, gear=gear)

@@ -22,7 +22,7 @@ from __future__ import annotations
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 
-from bywire.control.dac_health import DacHealth, Transfer, dac_step
+from bywire.control.dac_health import DAC_FAILURE_LIMIT, DacHealth, Transfer, dac_step
 from bywire.control.drive import DriveOutputs
 from bywire.control.lights import LIGHT_LINES, LightOutputs
 from bywire.errors import HardwareError
@@ -40,7 +40,7 @@ class ActuatorConfig:
     dac_throttle_channel: int = 0
     dac_regen_channel: int = 1
     dac_vref_volts: float = 5.0
-    dac_failure_limit: int = 3  # failures in a row (30 ms at 100 Hz) before STOP
+    dac_failure_limit: int = DAC_FAILURE_LIMIT
     safe_hydrobrake_duty: float = 1.0
     safe_steering_pulse_s: float = 0.0015
     budgets: Budgets = field(default_factory=Budgets)

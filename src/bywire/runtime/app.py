@@ -92,7 +92,11 @@ class Runtime:
         self.hardware = hardware
         self.config = config
         self.clock = hardware.clock
-        self.ibus = IbusReader(hardware.rc_uart, config.control.rc_mapping)
+        self.ibus = IbusReader(
+            hardware.rc_uart,
+            config.control.rc_mapping,
+            config.control.supervisor.debounce_frames,
+        )
         self.can = CanReader(hardware.can, config.rx_checks, secoc=secoc)
         self.overruns = Overruns(config.actuators.budgets)
         self.actuators = Actuators(hardware, config.actuators, self.overruns)

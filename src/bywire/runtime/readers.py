@@ -26,7 +26,7 @@ from bywire.control.input_stage import (
     message_step,
     stop_request_step,
 )
-from bywire.control.rc_mapping import RcMapping, RcRequest, rc_request
+from bywire.control.rc_mapping import RcMapping, RcRequest, RcStage, rc_step
 from bywire.control.validity import Stamped
 from bywire.hal.ports import ByteStream, CanFrame, CanPort
 from bywire.model import Command, ControlCommand, ControlMode, LightsCommand
@@ -40,16 +40,20 @@ __all__ = ["COUNTER_MISS_LIMIT", "COUNTER_WINDOW", "CanReader", "IbusReader", "a
 
 
 class IbusReader:
-    """RC receiver bytes → the latest RC request; None as value for an implausible frame."""
+    """RC receiver bytes → the latest RC request; None as value for an implausible frame. The
+    switches are decoded with their bands and hysteresis, and the gear debounced, by the pure
+    RC stage (`bywire.control.rc_mapping.rc_step`)."""
 
-    def __init__(self, stream: ByteStream, mapping: RcMapping) -> None:
+    def __init__(self, stream: ByteStream, mapping: RcMapping, debounce_frames: int = 3) -> None:
         self._stream = stream
         self._mapping = mapping
+        self._debounce_frames = debounce_frames
+        self.stage = RcStage()
         self.parser = IbusParser()
         self.checksum_faults = RecentFault()
         self.resync_faults = RecentFault()
         self.last_channels: tuple[int, ...] | None = None
-        self._mapped: tuple[tuple[int, ...], RcRequest | None] | None = None
+        self._mapped: tuple[tuple[int, ...], RcStage, RcStage, RcRequest | None] | None = None
 
     def poll(self, now: float) -> Stamped[RcRequest | None] | None:
         """The request of the frames completed since the last poll (`_batch_request`: the newest,
@@ -73,11 +77,14 @@ class IbusReader:
         return Stamped(_batch_request(requests), now if arrived_at is None else arrived_at)
 
     def _request(self, channels: tuple[int, ...]) -> RcRequest | None:
-        """`rc_request` of the frame, mapped once for a run of equal frames: held sticks and
-        switches send the same channels about 140 times a second."""
-        if self._mapped is None or self._mapped[0] != channels:
-            self._mapped = (channels, rc_request(channels, self._mapping))
-        return self._mapped[1]
+        """`rc_step` of the frame, mapped once for a run of equal frames in an equal stage: held
+        sticks and switches send the same channels about 140 times a second."""
+        mapped = self._mapped
+        if mapped is None or mapped[0] != channels or mapped[1] != self.stage:
+            stage, request = rc_step(self.stage, channels, self._mapping, self._debounce_frames)
+            mapped = self._mapped = (channels, self.stage, stage, request)
+        self.stage = mapped[2]
+        return mapped[3]
 
 
 def _batch_request(requests: Sequence[RcRequest | None]) -> RcRequest | None:

@@ -45,6 +45,7 @@ VOCABULARY: dict[str, Sequence[object]] = {
     "arm": (RC, RC, CAN),  # switch to STOP, hold it, the source at zero, switch over
     "flick": (0.005, 0.02, 0.05, 0.1),  # through STOP and straight back after this long
     "handover": (0.0, 0.2, 0.6),  # to the other source, which asks for this throttle
+    "handover_steer": (-0.9, 0.9),  # to the other source, at zero throttle, asking this steering
     "rc_throttle": (0.0, 0.0, 0.3, 0.8, -0.6, -1.0),  # below zero: the brake
     "can_throttle": (0.0, 0.0, 0.2, 0.6),
     # sticks, switches and set-points
@@ -58,6 +59,8 @@ VOCABULARY: dict[str, Sequence[object]] = {
     "can_lights": (False, True),
     # the RC link
     "chatter": range(4, 41),  # of the next frames every other one reads STOP
+    "switch_between": (1250, 1750),  # the mode switch left between two positions (µs): STOP
+    "dither": range(10, 200),  # the mode switch's pulse dithers ±4 µs for this many frames
     "rc_link": (False, True),
     "rc_failsafe": (False, True),
     "rc_implausible": range(1, 4),
@@ -75,6 +78,8 @@ VOCABULARY: dict[str, Sequence[object]] = {
     "impostor_control": range(5, 41),  # …on its control id (an idle teleop: no stop, no enable)
     "impostor_lights": range(5, 41),  # …on its lights id (the hazard lights)
     "impostor_keyed": range(5, 41),  # …on the movement id, signing with the computer's key
+    "forgery": range(5, 41),  # …answering each frame with a bad CRC and a forgery of its counter
+    "doubles": range(5, 41),  # the computer sends each movement frame twice (harmless)
     "secoc": (True,),  # the campaign runs with authenticated commands (drawn at its start)
     # the actuators and sensors
     "dac": ("fail", "alternate", "alternate", "restore"),
@@ -176,6 +181,26 @@ class _Compiler:
             return
         self._emit(Event(at_s, "hlc", {"throttle": throttle}))
         self._later(at_s + HANDOVER_LEAD_S, "rc", {"mode": "can"})
+
+    def _handover_steer(self, at_s: float, steering: float) -> None:
+        if self.switch is not RC:
+            self._emit(Event(at_s, "rc", {"steering": steering, "throttle": 0.0, "mode": "rc"}))
+            return
+        self._emit(Event(at_s, "hlc", {"steering": steering, "throttle": 0.0}))
+        self._later(at_s + HANDOVER_LEAD_S, "rc", {"mode": "can"})
+
+    def _switch_between(self, at_s: float, raw: int) -> None:
+        self._emit(Event(at_s, "rc", {"mode_raw": raw}))
+        self.switch = STOP  # no position: the controller reads STOP
+
+    def _dither(self, at_s: float, frames: int) -> None:
+        self._fault(at_s, "switch_dither", count=frames)
+
+    def _forgery(self, at_s: float, frames: int) -> None:
+        self._fault(at_s, "can_forgery", count=frames)
+
+    def _doubles(self, at_s: float, frames: int) -> None:
+        self._fault(at_s, "can_doubles", count=frames)
 
     def _rc_throttle(self, at_s: float, value: float) -> None:
         self._emit(Event(at_s, "rc", {"throttle": value}))
@@ -335,6 +360,10 @@ class OracleWitness:
         oracle = self.oracle
         if "throttle" in values:
             oracle.set_throttle(RC, max(float(values["throttle"]), 0.0), now)
+        if "steering" in values:
+            oracle.set_steering(RC, float(values["steering"]), now)
+        if "mode_raw" in values:  # between positions (the campaigns' only use): no position
+            oracle.set_switch(STOP, now)
         if "mode" in values:
             mode = ControlMode[str(values["mode"]).upper()]
             oracle.set_switch(mode, now)
@@ -344,6 +373,8 @@ class OracleWitness:
     def _hlc(self, values: dict[str, Any], now: float) -> None:
         if "throttle" in values:
             self.oracle.set_throttle(CAN, float(values["throttle"]), now)
+        if "steering" in values:
+            self.oracle.set_steering(CAN, float(values["steering"]), now)
 
     def _hlc_lights(self, _values: dict[str, Any], _now: float) -> None:
         return
@@ -388,7 +419,7 @@ class OracleWitness:
             "can_unplug": lambda: self._can_fault("can_unplugged", True, now),
             "can_plug": lambda: self._can_back("can_unplugged", now),
             "can_impostor": lambda: self._impostor(count, now, values),
-            "can_impostor_control": lambda: self._impostor(count, now, values),
+            "can_forgery": lambda: self._impostor(count, now, values),
             "dac_slow": lambda: self._slow_dac(float(values["stall_s"]), now),
             "line_dead": lambda: oracle.line_died(str(values["line"])),
             "ebrake_fail": lambda: setattr(oracle, "ebrake_failed", True),
@@ -406,7 +437,8 @@ class OracleWitness:
         elif fault in actions:
             actions[fault]()
         # Anything else (a flood, the steering failing, an encoder dead, a second sender on the
-        # lights' id) may stop the robot or not: the oracle never needs to know that it did.
+        # lights' id, an idle teleop on the control id asking what the computer asks, frames sent
+        # twice) may stop the robot or not: the oracle never needs to know that it did.
 
     def _dac_restored(self, now: float) -> None:
         self.oracle.fault("dac_fail", False, now)

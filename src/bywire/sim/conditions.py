@@ -71,6 +71,10 @@ CONDITIONS: tuple[Condition, ...] = (
     *LAMPS,
     Condition("hydrobrake_duty_min", "hydraulic brake PWM duty at least this", UNIT,
               lambda o, wanted: o.hydrobrake_duty >= float(wanted)),
+    Condition("steering_pulse_min_s", "the steering pulse at least this (s)", TIME,
+              lambda o, wanted: o.steering_pulse_s >= float(wanted)),
+    Condition("steering_pulse_max_s", "the steering pulse at most this (s)", TIME,
+              lambda o, wanted: o.steering_pulse_s <= float(wanted)),
     Condition("steering_held_since_s", "the steering pulse has not changed since this time (s)",
               TIME, lambda o, wanted: o.steering_changed_at_s <= float(wanted)),
 )

@@ -157,8 +157,10 @@ def switch_after(switch: ControlMode, step: Step) -> ControlMode:
     """Where the mode switch is after `step`, as the campaign compiler moves it."""
     if step.action in {"arm", "switch"}:
         return cast(ControlMode, step.value)
-    if step.action == "handover":
+    if step.action in {"handover", "handover_steer"}:
         return CAN if switch is RC else RC
+    if step.action == "switch_between":
+        return STOP
     return switch
 
 

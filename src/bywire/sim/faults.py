@@ -68,11 +68,16 @@ def _encoder_fail(run: SimRun, _values: FaultValues) -> None:
     run.world.steering_encoder.failed = True
 
 
-def _impostor(kind: type[Command]) -> Apply:
+def _impostor(kind: type[Command], *, forge: bool = False) -> Apply:
     def apply(run: SimRun, values: FaultValues) -> None:
-        run.world.impostor.start(_count(values), kind=kind, keyed=bool(values.get("keyed")))
+        keyed = bool(values.get("keyed"))
+        run.world.impostor.start(_count(values), kind=kind, keyed=keyed, forge=forge)
 
     return apply
+
+
+def _doubles(run: SimRun, values: FaultValues) -> None:
+    run.world.hlc.doubles_pending = _count(values)
 
 
 def _line_dead(run: SimRun, values: FaultValues) -> None:
@@ -138,6 +143,9 @@ FAULTS: tuple[Fault, ...] = (
     Fault("switch_chatter", "the mode switch bounces: of the next `count` IBUS frames every "
           "other one reads STOP",
           lambda run, v: run.world.rc.chatter_next_frames(_count(v))),
+    Fault("switch_dither", "the mode switch's pulse dithers ±4 µs for the next `count` IBUS "
+          "frames (a knob left between two positions)",
+          lambda run, v: run.world.rc.dither_next_frames(_count(v))),
     Fault("rc_implausible", "the next `count` IBUS frames are intact but carry a pulse no stick "
           "gives",
           lambda run, v: run.world.rc.implausible_next_frames(_count(v))),
@@ -148,6 +156,12 @@ FAULTS: tuple[Fault, ...] = (
     Fault("can_impostor_control", "a second node (an idle teleop) sends `count` control "
           "commands, neither stop nor re-enable, on the computer's id with its next counter",
           _impostor(ControlCommand)),
+    Fault("can_forgery", "a second node answers each of `count` movement frames with a bad-CRC "
+          "frame and a forgery carrying the counter just used (full right lock, throttle 0.8)",
+          _impostor(MovementCommand, forge=True)),
+    Fault("can_doubles", "the computer sends each of its next `count` movement frames twice, same "
+          "counter and payload (a driver's bug, or a redundant scheme): harmless",
+          _doubles),
     Fault("can_impostor_lights", "a second node sends `count` lights commands (hazard on) on "
           "the computer's id with its next counter",
           _impostor(LightsCommand)),

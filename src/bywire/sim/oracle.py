@@ -31,6 +31,10 @@ and the vehicle's true speed) and checks the output invariants of `docs/SAFETY.m
   hydraulic brake unless they failed, and the drive's regenerative brake for the first
   `REGEN_WINDOW_S` of a stop whose cause leaves the drive healthy (category 1). A stop that cuts
   the drive's power without cause throws the last brake away.
+- H9 **a handover is bumpless for the steering.** Once a source takes over (the switch settled on
+  it, or a re-enable), the steering pulse moves towards that source's steering no faster than
+  `REQUIRED_HANDOVER_RATE` (full ranges per second below 1 m/s, falling as 1/speed above) until
+  it has reached it (not judged with a boosted steering, whose pulse leads its set-point).
 - H8 **the exit path never gives up.** When the controller ends on a failed output (a dead line),
   every other output is left at its safe level: enable low, e-brake engaged, hydraulic brake at
   full duty, throttle at 0 V.
@@ -57,6 +61,7 @@ from typing import Any
 
 from bywire.config.consistency import CONTROL_TASKS
 from bywire.config.model import RobotConfig
+from bywire.control.steering import SteeringConfig
 from bywire.control.stop import (
     MAX_CONTROLLED_STOP_S,
     MIN_CONTROLLED_STOP_S,
@@ -77,6 +82,8 @@ REQUIRED_DECEL_MPS2 = 1.0
 regeneration alone with rolling drag, gives 1.65 m/s²)."""
 BRAKE_REACT_S = 0.05
 """How long a brake may take to bite once applied."""
+REQUIRED_HANDOVER_RATE = 2.0
+"""How fast a handover may move the steering below 1 m/s (the most a robot file may set)."""
 SLOW_TRANSFER_S = 0.020
 """A DAC transfer slower than this is no ordinary one (the robot file's budget is at most this):
 STOP, category 0. Transfers of 2 ms are ordinary and must never stop the robot."""
@@ -84,6 +91,27 @@ POWER_OFF_KINDS = frozenset({"dac_fail", "dac_slow", "watchdog"})
 """Stops whose cause makes the drive suspect: category 0, the enable line low."""
 CAN_PERIOD_S = 0.020  # the simulated computer's movement commands
 CAN_STALE_S = CAN_PERIOD_S + 0.005  # a CAN value may still be seen a period (and wire time) late
+
+
+@dataclass(frozen=True, slots=True)
+class ServoPulses:
+    """The servo's calibration (a physical fact of the robot, not a deadline): a steering
+    norm's pulse, and the pulses from centre to either end."""
+
+    center_s: float = 0.0015
+    half_span_s: float = 0.0005
+    reverse: bool = False
+
+    @classmethod
+    def of(cls, servo: SteeringConfig) -> ServoPulses:
+        half_s = min(
+            servo.max_pulse_s - servo.center_pulse_s, servo.center_pulse_s - servo.min_pulse_s
+        )
+        return cls(servo.center_pulse_s, half_s, servo.reverse)
+
+    def pulse_s(self, steering_norm: float) -> float:
+        norm = -steering_norm if self.reverse else steering_norm
+        return self.center_s + norm * self.half_span_s
 
 
 @dataclass(frozen=True, slots=True)
@@ -107,6 +135,7 @@ class OracleTiming:
     # check's step tolerance plus what braking explains in a pass (docs/SAFETY.md row 27).
     unnoticed_death_mps: float = 0.45
     steering_boosted: bool = False  # the pulse settles onto a held set-point (boost_gain > 0)
+    servo: ServoPulses = field(default_factory=ServoPulses)
 
     @classmethod
     def for_robot(cls, robot: RobotConfig) -> OracleTiming:
@@ -123,6 +152,7 @@ class OracleTiming:
             unnoticed_death_mps=robot.interlocks.speed_step_tolerance_mps
             + robot.interlocks.speed_max_change_mps2 / slowest_hz,
             steering_boosted=robot.steering.servo.boost_gain > 0.0,
+            servo=ServoPulses.of(robot.steering.servo),
         )
 
     @property
@@ -190,7 +220,7 @@ DAC_LATCH_WRITES = 20
 every other write failing trips the leaky count after eight writes; the rest is margin."""
 
 
-INVARIANTS = ("H1", "H2", "H3", "H4", "H5", "H6", "H7", "H8")
+INVARIANTS = ("H1", "H2", "H3", "H4", "H5", "H6", "H7", "H8", "H9")
 SAFE_LEVELS: dict[str, dict[str, Any]] = {
     "H1": {"ebrake_engaged": True, "throttle_volts_max": 0.0},
     "H2": {"throttle_volts_max": 0.0},
@@ -199,6 +229,7 @@ SAFE_LEVELS: dict[str, dict[str, Any]] = {
     "H5": {"hydrobrake_duty_min": 1.0},
     "H6": {"throttle_volts_max": 0.0},
     "H7": {"ebrake_engaged": True},
+    "H9": {},
     "H8": {
         "motors_enabled": False,
         "ebrake_engaged": True,
@@ -264,7 +295,17 @@ class _SteeringHold:
 
 
 @dataclass(slots=True)
+class _Blend:
+    """A source taking over: its steering is judged from `from_s` until the pulse reaches it."""
+
+    source: ControlMode
+    from_s: float
+    last: tuple[float, float] | None = None  # (time, pulse) at the previous pass
+
+
+@dataclass(slots=True)
 class _Source:
+    steering_norm: float = 0.0
     throttle_norm: float = 0.0
     seen_zero: bool = True
     left_zero_at: float = -1.0  # when the throttle last went from zero to non-zero
@@ -332,6 +373,7 @@ class HazardOracle:
     braking_seen_s: float = 0.0  # H7: when the credit was last counted
     dead_lines: set[str] = field(default_factory=set)  # outputs whose writes fail (H8)
     write_lag_s: float = 0.0  # every DAC transfer crawls: each pass may end this much later
+    blend: _Blend | None = None  # a source taking over, judged by H9
 
     # --- what was done ----------------------------------------------------------------------------
 
@@ -474,6 +516,19 @@ class HazardOracle:
         return self.rc_blind_until if source is ControlMode.RC else self.can_blind_until
 
     def set_switch(self, mode: ControlMode, now: float) -> None:
+        """The mode switch moved to `mode` (a source it settles on takes over: H9; back to one
+        within the debounce, the controller may never have left it)."""
+        if mode is not self.switch and mode is not ControlMode.STOP:
+            returning = (
+                self.switch is not ControlMode.STOP
+                and now - self.left_at.get(mode, -1.0) < self.timing.settle_s
+            )
+            self.blend = None
+            if not returning:
+                self._taking_over(mode, now)
+        self._move_switch(mode, now)
+
+    def _move_switch(self, mode: ControlMode, now: float) -> None:
         if mode is self.switch:
             return  # not a move: the frames do not change
         was, entered_s = self.switch, self.switch_at
@@ -541,6 +596,16 @@ class HazardOracle:
         if leaving or pending is not None:  # still within the debounce: it may count
             self.pending_arm = (now, mode)
 
+    def set_steering(self, source: ControlMode, steering_norm: float, now: float) -> None:
+        """A source's steering: a new one while it takes over ends H9's judgement (a command
+        moves at the ordinary rate)."""
+        self.sources[source].steering_norm = steering_norm
+        if self.blend is not None and self.blend.source is source:
+            self.blend = None
+
+    def _taking_over(self, source: ControlMode, now: float) -> None:
+        self.blend = _Blend(source, self._past_hang(now, now + self.timing.settle_s))
+
     def set_throttle(self, source: ControlMode, throttle_norm: float, now: float) -> None:
         state = self.sources[source]
         if state.throttle_norm == 0.0 and throttle_norm != 0.0:
@@ -565,6 +630,8 @@ class HazardOracle:
         return deadline is not None and now < deadline and self.stopped_by <= CAN_ONLY
 
     def re_enable(self, now: float) -> None:
+        if self.switch is ControlMode.CAN:
+            self._taking_over(ControlMode.CAN, now)
         """A CAN re-enable request (a 0→1 change) was sent: it arms if the controller may see
         the switch at CAN (there, or moved on to RC less than a debounce ago: a move counts
         after its frames; the arming is then a handover) and nothing that the switch alone may
@@ -676,6 +743,7 @@ class HazardOracle:
         self._h5(now, cut=not (allowed or released))
         self._h6(now, enable, volts)
         self._h7(now, released)
+        self._h9(now, released)
 
     def _resolve_arming(self, now: float) -> None:
         if self.pending_arm is None or now < self.pending_arm[0] + self.timing.settle_s:
@@ -854,6 +922,46 @@ class HazardOracle:
             )
             self.braking_from = (now, speed)  # once a stop, not at every pass after
             self.braking_credit_s = 0.0
+
+    def _h9(self, now: float, released: bool) -> None:
+        """A source taking over moves the steering no faster than the handover rate."""
+        blend = self.blend
+        if blend is None or self.timing.steering_boosted:
+            return
+        if not released or now < blend.from_s:
+            blend.last = None  # in STOP the steering holds; the move counts once driving
+            return
+        pulse_s, servo = self.world.pwm.steering.pulse_s, self.timing.servo
+        target_s = servo.pulse_s(self.sources[blend.source].steering_norm)
+        if abs(pulse_s - target_s) <= 0.02 * servo.half_span_s:
+            self.blend = None
+            return
+        speed = abs(self.world.vehicle.state.speed_mps)
+        rate = (
+            REQUIRED_HANDOVER_RATE * min(1.0, 1.0 / speed)
+            if speed > 0.0
+            else REQUIRED_HANDOVER_RATE
+        )
+        last = blend.last
+        blend.last = (now, pulse_s)
+        if last is None or now <= last[0]:
+            return
+        moved_norm = abs(pulse_s - last[1]) / servo.half_span_s
+        allowed_norm = rate * (now - last[0]) + 0.02
+        if moved_norm > allowed_norm:
+            step_s = allowed_norm * servo.half_span_s
+            bound = (
+                {"steering_pulse_max_s": last[1] + step_s}
+                if pulse_s > last[1]
+                else {"steering_pulse_min_s": last[1] - step_s}
+            )
+            self._flag(
+                "H9",
+                now,
+                f"taking over from {blend.source.name}: the steering moved {moved_norm:.2f} in"
+                f" {now - last[0]:.3f} s at {speed:.2f} m/s (at most {allowed_norm:.2f})",
+                **bound,
+            )
 
     def _some_brake_works(self, now: float, began_s: float) -> bool:
         """The spring or hydraulic brake works, or the drive can regenerate: a controlled

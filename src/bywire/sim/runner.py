@@ -219,6 +219,8 @@ class SimRun:
             rc.set_low_beam(bool(values["low_beam"]))
         if "hazard" in values:
             rc.set_hazard(bool(values["hazard"]))
+        if "mode_raw" in values:
+            rc.set_mode_raw(int(values["mode_raw"]))
 
     def _apply_hlc(self, values: dict[str, Any]) -> None:
         self._movement.update(values)

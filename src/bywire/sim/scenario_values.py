@@ -64,6 +64,7 @@ ACTION_VALUES: dict[str, dict[str, Check]] = {
         "gear": one_of(GEARS),
         "low_beam": flag,
         "hazard": flag,
+        "mode_raw": whole(800, 2200),  # the mode switch's pulse in µs, wherever it is
     },
     "hlc": {"steering": NORM, "throttle": UNIT, "brake": UNIT, "gear": one_of(GEARS)},
     "hlc_lights": dict.fromkeys(LIGHT_REQUESTS, flag),

@@ -83,6 +83,7 @@ class SimHigherLevelComputer:
         self._arrivals: dict[type[Report], deque[float]] = {}
         self._report_ids = frozenset(dbc.report_ids())
         self.signer: SecocSigner | None = None
+        self.doubles_pending = 0  # frames to send twice, same counter and payload
         port.set_listener(self._on_frame)
 
     def sign_with(self, signer: SecocSigner) -> None:
@@ -164,6 +165,12 @@ class SimHigherLevelComputer:
         self.frames_sent += 1
         if self.signer is not None:  # signs what it sent, damage included: E2E judges that
             self._port.send(self.signer.authenticator(frame_id, payload))
+        if self.doubles_pending > 0 and kind is MovementCommand:  # the driver's bug, or redundancy
+            self.doubles_pending -= 1
+            if self._port.send(CanFrame(frame_id, payload)):
+                self.frames_sent += 1
+                if self.signer is not None:
+                    self._port.send(self.signer.authenticator(frame_id, payload))
         if corruption is not Corruption.REPEATED_COUNTER:
             self._counters[kind] = (counter + 1) % dbc.COUNTER_MODULUS
 

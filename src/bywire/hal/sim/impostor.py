@@ -8,6 +8,10 @@ stop nor a re-enable); on the lights id it asks for the hazard lights.
 
 With authentication on it has no key and guesses a MAC (`forge_authenticator`), unless it is
 `keyed`: a compromised node that signs with the computer's own key and freshness.
+
+A *forger* (`forge`) answers each of the computer's frames with a frame whose CRC is bad and then
+a forgery carrying the counter the computer just used, asking for full right lock: dce19d3's
+reader restarted its sequence at the unreadable frame and took the forgery (issue 30).
 """
 
 from __future__ import annotations
@@ -35,6 +39,7 @@ class SimImpostor:
         self.throttle_norm = 0.8
         self.kind: type[Command] = MovementCommand
         self.keyed = False
+        self.forge = False
         self.frames_sent = 0
         self.forge_authenticator = False
         """Also send a cryptographic PDU (SecOC) after each frame: without the key its MAC is a
@@ -47,11 +52,13 @@ class SimImpostor:
         kind: type[Command] = MovementCommand,
         *,
         keyed: bool = False,
+        forge: bool = False,
     ) -> None:
         """Send `count` frames of `kind` (a movement frame asking for `throttle_norm`), the first
-        half a period from now; `keyed`: signed with the computer's key and freshness."""
+        half a period from now; `keyed`: signed with the computer's key and freshness; `forge`:
+        each a bad-CRC frame and a forgery with the counter just used (full right lock)."""
         self._remaining, self.throttle_norm = count, throttle_norm
-        self.kind, self.keyed = kind, keyed
+        self.kind, self.keyed, self.forge = kind, keyed, forge
         self._timer.start(self._clock.now() + COMMAND_PERIOD_S / 2)
 
     def stop(self) -> None:
@@ -69,7 +76,11 @@ class SimImpostor:
         if self._remaining <= 0:
             self._timer.stop()
             return
-        command = self._command(self._real.next_counter(self.kind))
+        counter = self._real.next_counter(self.kind)
+        if self.forge:
+            self._forge((counter - 1) % dbc.COUNTER_MODULUS)
+            return
+        command = self._command(counter)
         frame_id, payload = dbc.encode_command(command)
         if self._port.send(CanFrame(frame_id, payload)):
             self.frames_sent += 1
@@ -79,4 +90,15 @@ class SimImpostor:
             elif self.forge_authenticator:
                 guess = (self.frames_sent * 0x9E3779B97F4A7C15).to_bytes(16, "little")[:8]
                 self._port.send(CanFrame(secoc.auth_id(frame_id), guess))
+        self._remaining -= 1
+
+    def _forge(self, just_used: int) -> None:
+        """A frame the controller cannot read, then a forgery with the counter just used."""
+        forged = MovementCommand(1.0, self.throttle_norm, 0.0, Gear.FORWARD, just_used)
+        frame_id, payload = dbc.encode_command(forged)
+        unreadable = payload[:-1] + bytes((payload[-1] ^ 0x5A,))
+        if self._port.send(CanFrame(frame_id, unreadable)) and self._port.send(
+            CanFrame(frame_id, payload)
+        ):
+            self.frames_sent += 2
         self._remaining -= 1

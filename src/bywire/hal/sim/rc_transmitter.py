@@ -17,7 +17,6 @@ from bywire.hal.sim.uart import SimUart
 from bywire.model import ControlMode, Gear
 from bywire.protocol import ibus
 
-SWITCH_RAW = (1000, 1500, 2000)
 """Raw values of a switch's low, middle and high position (Table 3)."""
 CENTRE_RAW = 1500
 _CHECKED_BODY = range(len(ibus.HEADER), ibus.FRAME_LENGTH - 2)  # channel bytes, not header/CRC
@@ -33,8 +32,11 @@ def raw_for_axis(norm: float, calibration: AxisCalibration) -> int:
 
 
 def raw_for_switch(position: int, calibration: SwitchCalibration) -> int:
-    """The raw value of switch position 0 (low), 1 (middle) or 2 (high)."""
-    return SWITCH_RAW[2 - position if calibration.reverse else position]
+    """The raw value of the switch's position `position` (0 is its first; reversed if asked),
+    the nominal pulse of its calibration; -1 is its last (a light switch's on)."""
+    positions = calibration.positions_raw
+    index = position % len(positions)
+    return positions[len(positions) - 1 - index if calibration.reverse else index]
 
 
 def idle_channels(mapping: RcMapping) -> tuple[int, ...]:
@@ -76,6 +78,8 @@ class SimRcTransmitter:
         self._corrupt_pending = 0
         self._chatter_pending = 0
         self._implausible_pending = 0
+        self._dither_pending = 0
+        self.dither_raw = 4  # µs either way a dithering mode switch swings
         self.link_up = True
         self.frames_sent = 0
         self.corrupted_frames_sent = 0
@@ -144,12 +148,12 @@ class SimRcTransmitter:
     def set_low_beam(self, on: bool) -> None:
         """Low-beam switch."""
         switch = self.mapping.low_beam_switch
-        self.set_channel(switch.channel, raw_for_switch(2 if on else 0, switch))
+        self.set_channel(switch.channel, raw_for_switch(-1 if on else 0, switch))
 
     def set_hazard(self, on: bool) -> None:
         """Hazard switch."""
         switch = self.mapping.hazard_switch
-        self.set_channel(switch.channel, raw_for_switch(2 if on else 0, switch))
+        self.set_channel(switch.channel, raw_for_switch(-1 if on else 0, switch))
 
     # --- faults ----------------------------------------------------------------------------------
 
@@ -191,6 +195,16 @@ class SimRcTransmitter:
         set to."""
         self._chatter_pending = count
 
+    def set_mode_raw(self, raw: int) -> None:
+        """The mode switch's raw pulse, wherever it is (a switch with other travel, or between
+        two positions)."""
+        self.set_channel(self.mapping.mode_switch.channel, raw)
+
+    def dither_next_frames(self, count: int) -> None:
+        """A mode switch (or a knob on its channel) that dithers: the next ``count`` frames carry
+        its pulse ±`dither_raw` µs, alternately."""
+        self._dither_pending = count
+
     def implausible_next_frames(self, count: int) -> None:
         """The next ``count`` frames carry an intact checksum but a steering pulse of 2300 µs,
         outside what any stick gives (a receiver glitch)."""
@@ -210,6 +224,10 @@ class SimRcTransmitter:
                 stop = self.mapping.mode_positions.index(ControlMode.STOP)
                 channels[switch.channel] = raw_for_switch(stop, switch)
             self._chatter_pending -= 1
+        if self._dither_pending > 0:
+            sign = 1 if self._dither_pending % 2 else -1
+            channels[self.mapping.mode_switch.channel] += sign * self.dither_raw
+            self._dither_pending -= 1
         if self._implausible_pending > 0:
             self._implausible_pending -= 1
             channels[self.mapping.steering.channel] = IMPLAUSIBLE_RAW

@@ -1,0 +1,269 @@
+"""The physical deadlines a robot file must keep, stated once, and the constraints they put on
+its keys (R-CONFIG-SAFETY).
+
+Each key is range-checked on its own by the loader; these rows are what several keys must do
+together. Each states a deadline of `docs/SAFETY.md` with the requirement's own figures (never
+the file's), and derives from it what the file's numbers must satisfy; a file that breaks one is
+refused at load (exit 2), naming the deadline and the nearest safe values. `bywire verify`'s
+oracle judges with the same requirement figures, so an unsafe file cannot also set its judge's
+deadlines (issue 30: every task at 1 Hz, both dwells at 0 on a robot without a wheel sensor, or
+the loosest speed check each switched a safety function off while every key was in range).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+from dataclasses import dataclass
+
+from bywire.config.model import RobotConfig
+from bywire.config.reader import number_text
+from bywire.control.dac_health import DAC_FAILURE_LIMIT
+from bywire.control.stop import STANDSTILL_LIMIT_MPS
+from bywire.model import MovementCommand
+
+MAX_CONTROL_PERIOD_S = 0.020
+"""The longest a decision may wait for the next tick: a lost input reaches safe outputs within
+its timeout plus this."""
+DAC_FAILURE_DEADLINE_S = 0.060
+"""Failing DAC writes reach safe outputs within this (the failure limit's writes, one a driving
+period)."""
+TOP_SPEED_MPS = 3.0
+"""The fastest a robot of this class drives: what the no-sensor rule must stop it from."""
+BRAKE_DECEL_MPS2 = 2.0
+"""The least deceleration of the hydraulic brake at the no-sensor rule's brake demand."""
+BLIND_SPOT_MPS = 0.5
+"""A wheel sensor that dies faster than this is noticed (docs/SAFETY.md row 27)."""
+
+
+@dataclass(frozen=True, slots=True)
+class Breach:
+    """Keys that together break a deadline, how, and the nearest values that keep it."""
+
+    deadline: str
+    keys: tuple[str, ...]
+    problem: str
+    fix: str
+
+    def __str__(self) -> str:
+        keys = " + ".join(self.keys)
+        return f"{keys}: breaks the deadline '{self.deadline}': {self.problem}; {self.fix}"
+
+
+Check = Callable[[RobotConfig], list[Breach]]
+
+
+@dataclass(frozen=True, slots=True)
+class Deadline:
+    """One physical deadline: its name, what it promises, and the check it puts on the keys."""
+
+    name: str
+    statement: str
+    check: Check
+
+
+def _decision_period_s(robot: RobotConfig) -> float:
+    """How long a decision may wait: one period of the fastest task (every due task decides)."""
+    return 1.0 / max(rate for _, rate in robot.tasks.rates_hz)
+
+
+def _input_loss(robot: RobotConfig) -> list[Breach]:
+    period_s = _decision_period_s(robot)
+    if period_s <= MAX_CONTROL_PERIOD_S + 1e-12:
+        return []
+    keys = tuple(f"tasks.{name}_rate_hz" for name, _ in robot.tasks.rates_hz)
+    fastest = max(robot.tasks.rates_hz, key=lambda row: row[1])[0]
+    return [
+        Breach(
+            INPUT_LOSS.name,
+            keys,
+            f"the fastest task runs every {number_text(period_s)} s, so a lost RC link or a"
+            f" silent computer is acted on up to {number_text(period_s)} s after its timeout",
+            f"set tasks.{fastest}_rate_hz to {number_text(1.0 / MAX_CONTROL_PERIOD_S)} or more",
+        )
+    ]
+
+
+def _dac_failure(robot: RobotConfig) -> list[Breach]:
+    rate_hz = robot.tasks.rate_hz("driving")
+    limit = DAC_FAILURE_LIMIT
+    needed_hz = math.ceil(limit / DAC_FAILURE_DEADLINE_S)
+    if rate_hz >= needed_hz:
+        return []
+    return [
+        Breach(
+            DAC_FAILURE.name,
+            ("tasks.driving_rate_hz",),
+            f"{limit} failing writes at {number_text(rate_hz)} Hz take"
+            f" {number_text(limit / rate_hz)} s to stop the robot",
+            f"set tasks.driving_rate_hz to {needed_hz} or more",
+        )
+    ]
+
+
+def _no_reversal(robot: RobotConfig) -> list[Breach]:
+    found: list[Breach] = []
+    interlocks = robot.interlocks
+    if interlocks.standstill_speed_mps > STANDSTILL_LIMIT_MPS:
+        found.append(
+            Breach(
+                NO_REVERSAL.name,
+                ("interlocks.standstill_speed_mps",),
+                f"the robot would count as standing still at"
+                f" {number_text(interlocks.standstill_speed_mps)} m/s and change direction there",
+                f"set interlocks.standstill_speed_mps to {number_text(STANDSTILL_LIMIT_MPS)}"
+                " or less",
+            )
+        )
+    needed_s = TOP_SPEED_MPS / BRAKE_DECEL_MPS2
+    if interlocks.unknown_speed_dwell_s < needed_s:
+        found.append(
+            Breach(
+                NO_REVERSAL.name,
+                ("interlocks.unknown_speed_dwell_s",),
+                f"without a trusted speed (no sensor, or a dead one) the brake is held only"
+                f" {number_text(interlocks.unknown_speed_dwell_s)} s before a direction change,"
+                f" too short to stop from {number_text(TOP_SPEED_MPS)} m/s at"
+                f" {number_text(BRAKE_DECEL_MPS2)} m/s²",
+                f"set interlocks.unknown_speed_dwell_s to {number_text(needed_s)} or more",
+            )
+        )
+    if interlocks.unknown_speed_dwell_s < interlocks.direction_dwell_s:
+        found.append(
+            Breach(
+                NO_REVERSAL.name,
+                ("interlocks.unknown_speed_dwell_s", "interlocks.direction_dwell_s"),
+                "without a trusted speed the robot would wait less than it waits with one",
+                f"set interlocks.unknown_speed_dwell_s to"
+                f" {number_text(interlocks.direction_dwell_s)} or more",
+            )
+        )
+    threshold = robot.hydrobrake.threshold_norm
+    if interlocks.unknown_speed_brake_norm < threshold:
+        found.append(
+            Breach(
+                NO_REVERSAL.name,
+                ("interlocks.unknown_speed_brake_norm", "hydrobrake.threshold_norm"),
+                f"the brake the no-sensor rule demands"
+                f" ({number_text(interlocks.unknown_speed_brake_norm)}) is below the hydraulic"
+                f" brake's threshold ({number_text(threshold)}): the robot would change"
+                " direction without the brake ever applied",
+                f"set interlocks.unknown_speed_brake_norm to {number_text(threshold)} or more",
+            )
+        )
+    return found
+
+
+def _blind_spot(robot: RobotConfig) -> list[Breach]:
+    interlocks = robot.interlocks
+    period_s = _decision_period_s(robot)
+    blind_mps = interlocks.speed_step_tolerance_mps + interlocks.speed_max_change_mps2 * period_s
+    if blind_mps <= BLIND_SPOT_MPS + 1e-9:
+        return []
+    tolerance = max(BLIND_SPOT_MPS - interlocks.speed_max_change_mps2 * period_s, 0.0)
+    change = max((BLIND_SPOT_MPS - interlocks.speed_step_tolerance_mps) / period_s, 0.0)
+    return [
+        Breach(
+            BLIND_SPOT.name,
+            ("interlocks.speed_step_tolerance_mps", "interlocks.speed_max_change_mps2"),
+            f"a wheel sensor dying at up to {number_text(round(blind_mps, 3))} m/s reads like a"
+            " stop: the interlock could reverse at that speed",
+            f"set interlocks.speed_step_tolerance_mps to {number_text(round(tolerance, 3))} or"
+            f" less, or interlocks.speed_max_change_mps2 to {number_text(round(change, 1))} or"
+            " less",
+        )
+    ]
+
+
+def _stall(robot: RobotConfig) -> list[Breach]:
+    timeouts = robot.timeouts
+    watchdog_s = timeouts.watchdog_s
+    movement_s = timeouts.can_timeout_s(MovementCommand.__name__)
+    movement_key = (
+        "timeouts.can_command_timeout_s"
+        if movement_s == timeouts.can_command_timeout_s
+        else f"timeouts.can_message_timeout_s.{MovementCommand.__name__}"
+    )
+    found = []
+    for key, timeout_s, what in (
+        ("timeouts.rc_timeout_s", timeouts.rc_timeout_s, "a lost RC link"),
+        (movement_key, movement_s, "a silent computer"),
+    ):
+        if timeout_s > watchdog_s:
+            found.append(
+                Breach(
+                    STALL.name,
+                    (key, "timeouts.watchdog_s"),
+                    f"{key} = {number_text(timeout_s)} s is longer than the watchdog's"
+                    f" {number_text(watchdog_s)} s: {what} drives on longer than a stalled loop"
+                    " would",
+                    f"set {key} to {number_text(watchdog_s)} or less",
+                )
+            )
+    return found
+
+
+def _debounce(robot: RobotConfig) -> list[Breach]:
+    frames, frame_s = robot.supervisor.debounce_frames, robot.sim.rc_frame_period_s
+    debounce_s, timeout_s = frames * frame_s, robot.timeouts.rc_timeout_s
+    if debounce_s < timeout_s:
+        return []
+    return [
+        Breach(
+            SWITCH.name,
+            ("supervisor.debounce_frames", "sim.rc_frame_period_s", "timeouts.rc_timeout_s"),
+            f"{frames} frames of {number_text(frame_s)} s = {number_text(debounce_s)} s of"
+            f" debounce is not shorter than timeouts.rc_timeout_s = {number_text(timeout_s)} s:"
+            " a switch position would be judged on frames older than the link is trusted",
+            f"set supervisor.debounce_frames to {max(math.ceil(timeout_s / frame_s) - 1, 2)} or"
+            " less",
+        )
+    ]
+
+
+INPUT_LOSS = Deadline(
+    "input loss",
+    f"a lost input reaches safe outputs within its timeout plus"
+    f" {number_text(MAX_CONTROL_PERIOD_S)} s",
+    _input_loss,
+)
+DAC_FAILURE = Deadline(
+    "a failing DAC",
+    f"failing DAC writes reach safe outputs within {number_text(DAC_FAILURE_DEADLINE_S)} s",
+    _dac_failure,
+)
+NO_REVERSAL = Deadline(
+    "no reversal at speed",
+    f"the direction never changes above {number_text(STANDSTILL_LIMIT_MPS)} m/s, with or"
+    f" without a speed sensor (from up to {number_text(TOP_SPEED_MPS)} m/s)",
+    _no_reversal,
+)
+BLIND_SPOT = Deadline(
+    "a dead wheel sensor is noticed",
+    f"a wheel sensor that dies above {number_text(BLIND_SPOT_MPS)} m/s is noticed",
+    _blind_spot,
+)
+STALL = Deadline(
+    "a stall is no longer than a loss",
+    "no input drives on longer than a stalled loop would (the watchdog)",
+    _stall,
+)
+SWITCH = Deadline(
+    "a switch is judged on fresh frames",
+    "the mode switch's debounce is shorter than the RC timeout",
+    _debounce,
+)
+DEADLINES: tuple[Deadline, ...] = (
+    INPUT_LOSS,
+    DAC_FAILURE,
+    NO_REVERSAL,
+    BLIND_SPOT,
+    STALL,
+    SWITCH,
+)
+"""Every deadline a robot file must keep, in the order of `docs/SAFETY.md`."""
+
+
+def breaches(robot: RobotConfig) -> list[Breach]:
+    """Every deadline `robot` breaks, each with the nearest safe values."""
+    return [breach for deadline in DEADLINES for breach in deadline.check(robot)]

@@ -1,0 +1,113 @@
+"""Deadlines: numbers each within range that together break a physical deadline are refused at
+load, naming the deadline, every key involved and the nearest safe values."""
+
+from __future__ import annotations
+
+import pytest
+
+from bywire.config import default_sim_config, parse_config
+from bywire.config.deadlines import DEADLINES, breaches
+from bywire.errors import ConfigError
+
+# (TOML, the deadline it breaks, the keys the refusal must name, the suggestion)
+UNSAFE = [
+    (
+        "[timeouts]\ncan_command_timeout_s = 0.5\nwatchdog_s = 0.2",
+        "a stall is no longer than a loss",
+        ("timeouts.can_command_timeout_s", "timeouts.watchdog_s"),
+        "set timeouts.can_command_timeout_s to 0.2 or less",
+    ),
+    (
+        "[timeouts.can_message_timeout_s]\nMovementCommand = 0.5",
+        "a stall is no longer than a loss",
+        ("timeouts.can_message_timeout_s.MovementCommand", "timeouts.watchdog_s"),
+        "set timeouts.can_message_timeout_s.MovementCommand to 0.2 or less",
+    ),
+    (
+        "[timeouts]\nrc_timeout_s = 0.3\nwatchdog_s = 0.2",
+        "a stall is no longer than a loss",
+        ("timeouts.rc_timeout_s", "timeouts.watchdog_s"),
+        "set timeouts.rc_timeout_s to 0.2 or less",
+    ),
+    (
+        "[supervisor]\ndebounce_frames = 14",
+        "a switch is judged on fresh frames",
+        ("supervisor.debounce_frames", "sim.rc_frame_period_s", "timeouts.rc_timeout_s"),
+        "set supervisor.debounce_frames to 12 or less",
+    ),
+    (
+        "[interlocks]\nunknown_speed_dwell_s = 1.5\ndirection_dwell_s = 2.0",
+        "no reversal at speed",
+        ("interlocks.unknown_speed_dwell_s", "interlocks.direction_dwell_s"),
+        "set interlocks.unknown_speed_dwell_s to 2 or more",
+    ),
+    (
+        "[interlocks]\nunknown_speed_brake_norm = 0.3\n[hydrobrake]\nthreshold_norm = 0.5",
+        "no reversal at speed",
+        ("interlocks.unknown_speed_brake_norm", "hydrobrake.threshold_norm"),
+        "set interlocks.unknown_speed_brake_norm to 0.5 or more",
+    ),
+    (  # issue 30: every task at 1 Hz, an unplugged receiver gave a second of full throttle
+        "[tasks]\nsteering_rate_hz = 1\ndriving_rate_hz = 1\nhydrobrake_rate_hz = 1\n"
+        "can_tx_rate_hz = 1\nlights_rate_hz = 1\n[timeouts]\nwatchdog_s = 2.0",
+        "input loss",
+        ("tasks.hydrobrake_rate_hz",),
+        "rate_hz to 50 or more",
+    ),
+    (  # issue 30: both dwells at 0 without a wheel sensor, reverse at 1.74 m/s forward
+        "[interlocks]\ndirection_dwell_s = 0.0\nunknown_speed_dwell_s = 0.0",
+        "no reversal at speed",
+        ("interlocks.unknown_speed_dwell_s",),
+        "set interlocks.unknown_speed_dwell_s to 1.5 or more",
+    ),
+    (  # issue 30: the loosest speed check, a sensor dying at 2 m/s unnoticed
+        "[interlocks]\nspeed_step_tolerance_mps = 2.0\nspeed_max_change_mps2 = 100.0",
+        "a dead wheel sensor is noticed",
+        ("interlocks.speed_step_tolerance_mps", "interlocks.speed_max_change_mps2"),
+        "or less",
+    ),
+    (
+        "[tasks]\ndriving_rate_hz = 25",
+        "a failing DAC",
+        ("tasks.driving_rate_hz",),
+        "set tasks.driving_rate_hz to 50 or more",
+    ),
+    (
+        "[interlocks]\nstandstill_speed_mps = 0.5",
+        "no reversal at speed",
+        ("interlocks.standstill_speed_mps",),
+        "set interlocks.standstill_speed_mps to 0.1 or less",
+    ),
+]
+
+
+def test_the_simulators_defaults_keep_every_deadline() -> None:
+    assert breaches(default_sim_config()) == []
+
+
+@pytest.mark.parametrize(("text", "deadline", "keys", "fix"), UNSAFE)
+def test_each_breach_is_refused_naming_the_deadline_its_keys_and_a_fix(
+    text: str, deadline: str, keys: tuple[str, ...], fix: str
+) -> None:
+    with pytest.raises(ConfigError) as refused:
+        parse_config(text, "robot.toml")
+    message = str(refused.value)
+    assert f"breaks the deadline '{deadline}'" in message
+    assert all(key in message for key in keys)
+    assert fix in message
+
+
+def test_every_deadline_is_stated_and_named_once() -> None:
+    names = [deadline.name for deadline in DEADLINES]
+    assert len(names) == len(set(names))
+    assert all(deadline.statement for deadline in DEADLINES)
+
+
+def test_a_slow_lights_command_is_no_hazard_it_moves_nothing() -> None:
+    text = "[timeouts.can_message_timeout_s]\nLightsCommand = 0.5\nControlCommand = 0.5"
+    assert breaches(parse_config(text, "robot.toml")) == []
+
+
+def test_the_limit_itself_is_safe() -> None:
+    at_the_limit = "[timeouts]\ncan_command_timeout_s = 0.2\nrc_timeout_s = 0.2\nwatchdog_s = 0.2"
+    assert breaches(parse_config(at_the_limit, "robot.toml")) == []
