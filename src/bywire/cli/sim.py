@@ -145,7 +145,8 @@ def configure(parser: argparse.ArgumentParser) -> None:
         "--authenticated",
         action="store_true",
         help="SecOC-authenticated commands: the simulated computer signs, the controller"
-        " verifies (as [security] enabled = true; the configured key, or a random one)",
+        " verifies (as [security] enabled = true: its key file; without one, a key drawn from the"
+        " simulator's seed)",
     )
 
 
@@ -281,7 +282,7 @@ def _play(
         if serve is not None:
             _serve(stack, sim, serve)
         if feed is not None and feed.wanted:
-            _feed(stack, sim, feed)
+            attach_feed(stack, sim, feed)
         if show_progress:
             stack.enter_context(_progress(sim))
         started = time.perf_counter()
@@ -301,8 +302,9 @@ def _serve(stack: contextlib.ExitStack, sim: SimRun, endpoint: Endpoint) -> None
     )
 
 
-def _feed(stack: contextlib.ExitStack, sim: SimRun, options: FeedOptions) -> None:
-    """The telemetry feed for the run, with every frame on the bus; the port goes to stderr."""
+def attach_feed(stack: contextlib.ExitStack, sim: SimRun, options: FeedOptions) -> None:
+    """The telemetry feed for the run, with every frame on the bus, as `--mcap` and `--foxglove`
+    attach it (bench/differential.py too); the port goes to stderr."""
     virtual_time = not isinstance(sim.world.clock, RealtimeClock)
     feed = stack.enter_context(open_feed(sim.runtime, options, virtual_time=virtual_time))
     sim.add_can_monitor(

@@ -16,6 +16,7 @@ from typing import Any
 
 from bywire.config import RobotConfig
 from bywire.control.supervisor import Cause
+from bywire.hal.hardware import Hardware
 from bywire.hal.sim.can_bus import LoggedFrame
 from bywire.hal.sim.clock import RealtimeClock, VirtualClock
 from bywire.hal.sim.timers import PeriodicTimer
@@ -25,7 +26,7 @@ from bywire.runtime.app import Runtime
 from bywire.runtime.settings import RuntimeConfig
 from bywire.runtime.watchdog import POLL_S as WATCHDOG_POLL_S
 from bywire.security.session import SecocReceiver
-from bywire.security.setup import configured_key, controller_receiver, sender_signer
+from bywire.security.setup import controller_receiver, sender_signer, simulated_run_key
 from bywire.sim.conditions import conditions_hold
 from bywire.sim.faults import BY_NAME
 from bywire.sim.observe import Observation, observe
@@ -97,21 +98,15 @@ class SimRun:
         realtime = realtime or scenario.realtime
         clock = RealtimeClock() if realtime else VirtualClock()
         self.world: SimWorld = SimWorld.from_robot(clock, robot)
-        config = RuntimeConfig.from_robot(robot)
-        # On virtual time the watchdog runs on the simulated clock, checked by a timer where the
-        # thread would poll: a write stalled in simulated time trips it exactly, and the wall
-        # clock's speed never does.
+        self._realtime = realtime
         self.secoc = self._authentication(robot, scenario)
-        self.runtime = Runtime(
-            self.world.hardware, config, watchdog_thread=realtime, secoc=self.secoc
-        )
-        watchdog = self.runtime.watchdog
-        if watchdog is not None and not realtime:
-
-            def check(_tick_s: float) -> None:
-                watchdog.check()
-
-            PeriodicTimer(clock, WATCHDOG_POLL_S, check).start()
+        self.runtime = self._controller(self.world.hardware)
+        if self.runtime.watchdog is not None and not realtime:
+            # On virtual time the watchdog runs on the simulated clock, checked by a timer where
+            # the thread would poll: a write stalled in simulated time trips it exactly, and the
+            # wall clock's speed never does. The timer checks the controller of the moment
+            # (`put_controller_on` may build another before the run).
+            PeriodicTimer(clock, WATCHDOG_POLL_S, self._check_watchdog).start()
         self.record = RunRecord(verdicts=[Verdict(e) for e in scenario.expectations])
         self.started_at = clock.now()
         self.random = random.Random(robot.sim.seed)
@@ -127,13 +122,37 @@ class SimRun:
         self.on_event: list[Callable[[Event, float], None]] = []
         """Called with each event just applied and the time (the hazard oracle's witness)."""
 
+    def _controller(self, hardware: Hardware) -> Runtime:
+        """The controller on `hardware`: the watchdog's own thread only on real time."""
+        return Runtime(
+            hardware,
+            RuntimeConfig.from_robot(self.robot),
+            watchdog_thread=self._realtime,
+            secoc=self.secoc,
+        )
+
+    def _check_watchdog(self, _tick_s: float) -> None:
+        watchdog = self.runtime.watchdog
+        if watchdog is not None:
+            watchdog.check()
+
+    def put_controller_on(self, wrap: Callable[[Hardware], Hardware]) -> Runtime:
+        """Before the run: rebuild the controller on `wrap(world.hardware)` (taped ports, for a
+        run record), built exactly as the first one (the same watchdog, on the same clock, and
+        the same verifier) and observed by the same observers. Whoever took `runtime` before
+        this call holds a controller that never runs."""
+        before = self.runtime
+        self.runtime = self._controller(wrap(self.world.hardware))
+        self.runtime.on_cycle.extend(before.on_cycle)
+        return self.runtime
+
     def _authentication(self, robot: RobotConfig, scenario: Scenario) -> SecocReceiver | None:
         """With [security] on or an authenticated scenario: the computer signs, the controller
-        verifies, both with the configured key (or a random one) and freshness in memory (the
+        verifies, both with the run's key (`simulated_run_key`) and freshness in memory (the
         restarts that persisted freshness is for are tested in tests/security)."""
         if not (robot.security.enabled or scenario.authenticated):
             return None
-        key = configured_key(robot.security)
+        key = simulated_run_key(robot.security, robot.sim.seed)
         self.world.hlc.sign_with(sender_signer(key))
         self.world.impostor.forge_authenticator = True
         memory = replace(robot.security, freshness_file=None)
