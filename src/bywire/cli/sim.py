@@ -32,10 +32,11 @@ from bywire.hal.sim.clock import RealtimeClock
 from bywire.loopback import Endpoint, parse_endpoint
 from bywire.netbus.bridge import serve_bus
 from bywire.replay.recorder import SimRunRecorder
+from bywire.sim.applicability import not_applicable
 from bywire.sim.catalog import DEFAULT_SCENARIO, find_scenario, packaged_scenarios
 from bywire.sim.plot import check_plot_path, write_plot
 from bywire.sim.runner import SimRun
-from bywire.sim.suite import collect, junit_xml, run_case
+from bywire.sim.suite import Case, collect, junit_xml, run_case
 from bywire.sim.summary import build_summary, render
 from bywire.telemetry.capture import DEFAULT_RATE_HZ
 from bywire.telemetry.feed import FeedOptions, check_mcap_path, open_feed
@@ -188,13 +189,15 @@ def _one_run(args: argparse.Namespace, sim: SimRun, stopped_by: list[int]) -> in
     if recorder is not None:
         recorder.write()
     summary = build_summary(sim, wall_s, tally)
+    aside = not_applicable(sim.scenario, sim.robot)
     if args.plot is not None:
         write_plot(sim, args.plot)
     files = {"plot": _name(args.plot), "can_log": _name(args.log)}
     files.update({} if recorder is None else {"record": str(recorder.path)})
     files.update({} if args.mcap is None else {"mcap": str(args.mcap)})
     if args.json:
-        print(json.dumps({**summary.as_json(), "files": files}, indent=2))
+        document = {**summary.as_json(), "not_applicable": aside, "files": files}
+        print(json.dumps(document, indent=2))
     else:
         console = _Console()
         render(summary, console)
@@ -203,7 +206,10 @@ def _one_run(args: argparse.Namespace, sim: SimRun, stopped_by: list[int]) -> in
         if stopped_by:
             name = signal.Signals(stopped_by[0]).name
             console.print(f"Stopped by {name} after {summary.simulated_s:.1f} s", soft_wrap=True)
-    return 0 if summary.passed else 1
+        if aside is not None:
+            console.print(f"[yellow]{sim.scenario.name}: {escape(aside)}[/]", soft_wrap=True)
+    # A scenario that does not apply to the robot is no verdict on it (as `--all` sets it aside).
+    return 0 if summary.passed or aside is not None else 1
 
 
 @contextlib.contextmanager
@@ -382,29 +388,45 @@ def _run_all(args: argparse.Namespace) -> int:
         case = run_case(robot, name, origin, load)
         cases.append(case)
         if not args.json:
-            verdict = "[green]PASS[/]" if case.passed else "[red]FAIL[/]"
-            console.print(f"{verdict} {name} ({case.wall_s:.1f} s)", highlight=False)
-            for reason in case.reasons:
-                console.print(f"     {escape(reason)}", highlight=False)
+            _print_case(console, case)
     if args.junit is not None:
         args.junit.write_text(junit_xml(cases), encoding="utf-8")
-    failed = [case.name for case in cases if not case.passed]
+    failed = [case.name for case in cases if case.failed]
+    set_aside = [case.name for case in cases if case.not_applicable is not None]
     if args.json:
         rows = [
             {
                 "name": case.name,
                 "origin": case.origin,
                 "passed": case.passed,
-                "reasons": case.reasons,
+                "applicable": case.not_applicable is None,
+                "reasons": case.reasons if case.not_applicable is None else [case.not_applicable],
                 "wall_s": round(case.wall_s, 3),
             }
             for case in cases
         ]
-        print(json.dumps({"scenarios": rows, "failed": failed}, indent=2))
+        document = {"scenarios": rows, "failed": failed, "not_applicable": set_aside}
+        print(json.dumps(document, indent=2))
     else:
         colour = "red" if failed else "green"
+        applicable = len(cases) - len(set_aside)
+        aside = f" ({len(set_aside)} not applicable to this robot)" if set_aside else ""
         console.print(
-            f"[bold {colour}]{len(cases) - len(failed)} of {len(cases)} scenarios passed[/]"
-            + (f"; JUnit report: {args.junit}" if args.junit is not None else "")
+            f"[bold {colour}]{applicable - len(failed)} of {applicable} scenarios passed[/]{aside}"
+            + (f"; JUnit report: {args.junit}" if args.junit is not None else ""),
+            soft_wrap=True,
         )
     return 1 if failed else 0
+
+
+def _print_case(console: Console, case: Case) -> None:
+    """One verdict line (PASS, FAIL or N/A), and each reason indented below it."""
+    if case.not_applicable is not None:
+        console.print(f"[yellow]N/A [/] {case.name}", highlight=False)
+        reasons = [case.not_applicable]
+    else:
+        verdict = "[green]PASS[/]" if case.passed else "[red]FAIL[/]"
+        console.print(f"{verdict} {case.name} ({case.wall_s:.1f} s)", highlight=False)
+        reasons = case.reasons
+    for reason in reasons:
+        console.print(f"     {escape(reason)}", highlight=False, soft_wrap=True)
