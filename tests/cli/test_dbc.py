@@ -102,6 +102,39 @@ def test_codegen_into_a_file_exits_2_with_one_line(
     assert len(capsys.readouterr().err.splitlines()) == 1
 
 
+OVERFLOWING_DBC = """VERSION ""
+BU_: HLC
+BO_ 292 Tiny: 1 HLC
+ SG_ level : 4|8@1+ (1,0) [0|255] "" Vector__XXX
+"""
+
+
+@pytest.mark.parametrize(
+    ("content", "problem"),
+    [
+        (
+            OVERFLOWING_DBC,
+            "The signal level does not fit in message Tiny",
+        ),  # C would write dst_p[1]
+        ((Path(__file__).parents[1] / "data/opendbc/vw_mqb.dbc").read_text("utf-8"), "overlap"),
+    ],
+)
+def test_codegen_refuses_a_dbc_that_fails_the_strict_checks(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], content: str, problem: str
+) -> None:
+    """Issue 32, defect 3: a note and exit 0, and C that overflowed a 1-byte frame's buffer."""
+    path = tmp_path / "lenient.dbc"
+    path.write_text(content, encoding="utf-8")
+    assert main(["dbc", "codegen", str(tmp_path / "out"), "--dbc", str(path)]) == 2
+    captured = capsys.readouterr()
+    assert captured.out == ""
+    assert len(captured.err.splitlines()) == 1
+    assert problem in captured.err
+    assert "passes cantools' strict checks" in captured.err
+    assert not (tmp_path / "out").exists()
+    assert main(["dbc", "show", "--dbc", str(path)]) == 0  # reading it stays lenient
+
+
 # --- other people's databases: cantools' and opendbc's files in tests/data ---------------------
 
 DATA = Path(__file__).resolve().parents[1] / "data"

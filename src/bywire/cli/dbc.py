@@ -13,7 +13,7 @@ from cantools.database.can.c_source import generate
 
 from bywire.errors import BywireError
 from bywire.protocol import protection_c, secoc_c
-from bywire.protocol.dbc import database, load_user_database
+from bywire.protocol.dbc import DbcError, database, load_database, load_user_database
 
 
 class OutputError(BywireError, OSError):
@@ -47,6 +47,20 @@ def load_user_dbc(path: Path, command: str) -> Database:
     return loaded
 
 
+def load_codegen_dbc(path: Path) -> Database:
+    """The user's DBC for code generation: strictly, or DbcError naming the problem. Lenient
+    loading is for the tools that only read a file; C generated from a signal that does not fit
+    its message writes past the frame's buffer (cantools' own generator refuses such a file
+    unless told `--no-strict`)."""
+    try:
+        return load_database(path)
+    except DbcError as error:
+        raise DbcError(
+            f"{error}: C code is generated only from a DBC that passes cantools' strict checks"
+            " (fix the file; `bywire dbc show --dbc FILE` lists it as it loads)"
+        ) from None
+
+
 def _c_identifier(text: str) -> str:
     if not (text.isascii() and text.isidentifier()):
         raise argparse.ArgumentTypeError(f"{text!r} is not a C identifier")
@@ -55,7 +69,12 @@ def _c_identifier(text: str) -> str:
 
 def run(args: argparse.Namespace) -> int:
     """Run `show` or `codegen`; an unreadable DBC raises DbcError (one line, exit status 2)."""
-    loaded = database() if args.dbc is None else load_user_dbc(args.dbc, "dbc")
+    if args.dbc is None:
+        loaded = database()
+    elif args.dbc_command == "codegen":
+        loaded = load_codegen_dbc(args.dbc)
+    else:
+        loaded = load_user_dbc(args.dbc, "dbc")
     if args.dbc_command == "show":
         print("\n".join(describe(loaded)))
     else:
