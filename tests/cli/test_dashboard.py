@@ -35,7 +35,7 @@ def test_help_says_what_it_shows_how_to_attach_and_how_to_quit(
         assert option in out
     assert "Figure 30" in out
     assert "80x24" in out
-    assert "q quits" in out
+    assert "q or Ctrl-C quits" in out
     assert "dashboard" in COMMANDS
 
 

@@ -73,4 +73,3 @@ def test_one_scenario_that_does_not_apply_still_runs_and_says_why_its_verdict_do
     status, out, _ = _sim("--scenario", "steering-stuck")
     assert status == 0
     assert out.rstrip().splitlines()[-1].startswith("steering-stuck: not applicable to this robot")
-

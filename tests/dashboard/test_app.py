@@ -81,3 +81,17 @@ def test_q_quits_the_view() -> None:
 
     asyncio.run(quit_it())
     assert app.return_code == 0
+
+
+def test_ctrl_c_quits_the_view() -> None:
+    """Issue 32, defect 7: Textual's Ctrl-C only hinted at ctrl+q."""
+    app = DashboardApp(Feed(driving_by_rc()))
+
+    async def interrupt() -> bool:
+        async with app.run_test(size=SIZE) as pilot:
+            await pilot.press("ctrl+c")
+            await pilot.pause()
+            return app.is_running
+
+    assert asyncio.run(interrupt()) is False
+    assert app.return_code == 0

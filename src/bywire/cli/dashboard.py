@@ -29,7 +29,7 @@ shows the mode and latch, the speed, error flags by name, the movement set-point
 the actuator outputs, input ages and counts, and the task table (the counterpart of the thesis'
 Figure 30): measured rate, runtime share, worst start jitter, overruns and budget overruns, and
 the idle share. It fits an 80x24 terminal. When the feed ends the last picture stays on screen.
-q quits.
+q or Ctrl-C quits.
 
 With --attach it watches a running controller: `bywire run` with [telemetry] foxglove set (or
 --dashboard), or `bywire sim --realtime --foxglove PORT`. Without it, it starts the simulated

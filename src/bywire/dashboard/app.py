@@ -1,17 +1,18 @@
 """The `bywire dashboard` terminal program (textual): the feed's newest state, 4 times a second.
 
 The app reads decoded `/bywire/state` messages from a `FeedSource` (the Foxglove client) and
-never touches a controller; it fits an 80×24 terminal. `q` quits the view with exit status 0
-(`bywire run --dashboard` takes that as the operator's stop); once the feed has ended the last
-picture stays on screen, with the reason in the title bar.
+never touches a controller; it fits an 80×24 terminal. `q` (or Ctrl-C) quits the view with exit
+status 0 (`bywire run --dashboard` takes that as the operator's stop); once the feed has ended
+the last picture stays on screen, with the reason in the title bar.
 """
 
 from __future__ import annotations
 
-from typing import Any, Protocol
+from typing import Any, ClassVar, Protocol
 
 from rich.text import Text
 from textual.app import App, ComposeResult
+from textual.binding import BindingType
 from textual.containers import Horizontal
 from textual.widgets import DataTable, Footer, Header, Static
 
@@ -25,6 +26,7 @@ from bywire.dashboard.view import (
     mode_panel,
     task_cells,
 )
+from bywire.quit_keys import QUIT_BINDINGS
 
 REFRESH_S = 0.25
 PANELS = {"mode": "mode", "commands": "command", "actuators": "actuators", "inputs": "inputs"}
@@ -43,7 +45,7 @@ class DashboardApp(App[None]):
     """Panels for mode and flags, command, actuators and inputs; the task table below."""
 
     TITLE = "bywire dashboard"
-    BINDINGS = [("q", "quit", "Quit")]  # noqa: RUF012 -- textual's class attribute
+    BINDINGS: ClassVar[list[BindingType]] = [*QUIT_BINDINGS]  # q and Ctrl-C
     CSS = """
     Horizontal { height: 6; }
     .panel { border: round $primary; padding: 0 1; width: 1fr; height: 6; }

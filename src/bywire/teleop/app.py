@@ -17,14 +17,16 @@ from __future__ import annotations
 import time
 from collections.abc import Callable
 from dataclasses import replace
-from typing import Protocol
+from typing import ClassVar, Protocol
 
 import can
 from rich.text import Text
 from textual import events
 from textual.app import App, ComposeResult
+from textual.binding import BindingType
 from textual.widgets import Static
 
+from bywire.quit_keys import QUIT_BINDINGS
 from bywire.security.session import SecocSigner
 from bywire.teleop.frames import SEND_PERIOD_S, Counters, frames
 from bywire.teleop.reports import ReportView, command_lines, fold, report_lines
@@ -47,7 +49,7 @@ class TeleopApp(App[None]):
     """Drive the robot from the keyboard over ``bus``; ``q`` quits."""
 
     TITLE = "bywire teleop"
-    BINDINGS = [("q", "quit", "quit")]  # noqa: RUF012 -- textual's own class attribute
+    BINDINGS: ClassVar[list[BindingType]] = [*QUIT_BINDINGS]  # q and Ctrl-C
     CSS = """
     #commands { border: round $accent; padding: 0 1; height: auto; }
     #reports { border: round $primary; padding: 0 1; height: auto; }
@@ -82,7 +84,7 @@ class TeleopApp(App[None]):
     def compose(self) -> ComposeResult:
         yield Static(id="commands")
         yield Static(id="reports")
-        yield Static(Text(help_line() + "  q: quit"), id="help")
+        yield Static(Text(help_line() + "  q/ctrl+c: quit"), id="help")
 
     def on_mount(self) -> None:
         if self._reader is not None:
