@@ -7,6 +7,7 @@ import contextlib
 import os
 import pty
 import signal
+import socket
 import subprocess
 import sys
 import threading
@@ -73,6 +74,28 @@ def test_a_missing_config_is_one_line_and_exit_2(
     err = capsys.readouterr().err
     assert err.startswith("bywire dashboard: error:")
     assert err.count("\n") == 1
+
+
+def test_attach_to_a_port_where_no_feed_is_fails_at_once_naming_why() -> None:
+    """Issue 32, defect 9: the view waited forever, its reason cut at 80 columns."""
+    with socket.socket() as probe:
+        probe.bind(("127.0.0.1", 0))
+        free_port = probe.getsockname()[1]
+    done = subprocess.run(
+        [sys.executable, "-m", "bywire", "dashboard", "--attach", str(free_port)],
+        stdin=subprocess.DEVNULL,
+        capture_output=True,
+        text=True,
+        timeout=LIMIT_S,  # the client's own bound is 11 s; the old view never ended
+        check=False,
+    )
+    assert done.returncode == 2
+    assert done.stdout == ""
+    (line,) = done.stderr.splitlines()
+    assert (
+        f"--attach {free_port}: no feed at ws://127.0.0.1:{free_port}: connection refused" in line
+    )
+    assert "bywire sim --realtime --foxglove PORT" in line
 
 
 @pytest.mark.parametrize(

@@ -165,6 +165,29 @@ def test_monitor_without_a_server_says_how_to_start_one(capsys: pytest.CaptureFi
     assert len(err.strip().splitlines()) == 1
 
 
+def _kernel_has_socketcan() -> bool:
+    try:
+        socket.socket(socket.AF_CAN, socket.SOCK_RAW, socket.CAN_RAW).close()
+    except OSError:
+        return False
+    return True
+
+
+def test_socketcan_on_a_host_without_the_interface_names_the_fix(
+    capsys: pytest.CaptureFixture[str],
+) -> None:
+    """Issue 32, defect 9: it said only `[Errno 97] Address family not supported by protocol`."""
+    assert main(["monitor", "-i", "socketcan", "-c", "bywirenone0", "--once"]) == 2
+    err = capsys.readouterr().err
+    assert len(err.strip().splitlines()) == 1
+    assert "Errno" not in err
+    if _kernel_has_socketcan():  # a kernel with CAN: the interface is what is missing
+        assert "bywirenone0: no such network interface: plug in the adapter" in err
+    else:  # this workplace's kernel, a container's, WSL's
+        assert "this kernel has no SocketCAN" in err
+        assert "sudo modprobe can-raw" in err
+
+
 def test_monitor_refuses_a_recording_format_it_cannot_write(
     virtual_channel: str, tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:

@@ -16,7 +16,7 @@ from typing import TYPE_CHECKING
 
 from bywire.cli.arguments import positive_seconds
 from bywire.config import load_config
-from bywire.errors import ConfigError
+from bywire.errors import ConfigError, HardwareError
 from bywire.sim.catalog import DEFAULT_SCENARIO, find_scenario
 
 if TYPE_CHECKING:
@@ -91,7 +91,7 @@ def run(args: argparse.Namespace) -> int:
             raise ConfigError(f"{', '.join(given)}: for the simulated robot, not with --attach")
         _step_aside()
         with _Ending() as ending:
-            return show(attach_url(args.attach), source=args.attach, ending=ending)
+            return show(attach_url(args.attach), source=args.attach, ending=ending, attach=True)
     from bywire.dashboard.child import SimFeed  # noqa: PLC0415
 
     find_scenario(args.scenario)  # a wrong name or file: one line here, not in the child
@@ -110,9 +110,11 @@ def run(args: argparse.Namespace) -> int:
             sim.stop()
 
 
-def show(url: str, *, source: str, ending: _Ending | None = None) -> int:
+def show(url: str, *, source: str, ending: _Ending | None = None, attach: bool = False) -> int:
     """The textual program on the feed at `url` (textual is imported only for this); with
-    `ending`, a SIGTERM closes the feed's client before the view goes."""
+    `ending`, a SIGTERM closes the feed's client before the view goes. With `attach`, a feed
+    that is not there is an error before any view opens (HardwareError, exit 2), within the
+    client's bounded wait, rather than a view that waits forever."""
     from bywire.dashboard.app import DashboardApp  # noqa: PLC0415 -- keeps `bywire --help` fast
     from bywire.dashboard.client import FeedClient  # noqa: PLC0415
 
@@ -120,6 +122,13 @@ def show(url: str, *, source: str, ending: _Ending | None = None) -> int:
     if ending is not None:
         ending.client = client
     try:
+        failed = client.wait_live() if attach else None
+        if failed is not None:
+            raise HardwareError(
+                f"--attach {source}: {failed}; is a controller serving its feed there"
+                " (`bywire run` with [telemetry] foxglove, or `bywire sim --realtime --foxglove"
+                " PORT`, which prints the port)?"
+            )
         app = DashboardApp(client, source=source)
         app.run()
     finally:
