@@ -299,3 +299,28 @@ def test_list_shows_the_packaged_scenarios() -> None:
     listed = {row["name"]: row for row in json.loads(_main("--list", "--json").out)}
     assert listed["test-course"]["duration_s"] == 40.0
     assert "STOP" in listed["test-course"]["description"]
+
+
+@pytest.mark.parametrize(
+    ("option", "name"),
+    [
+        ("--plot", "run.png"),
+        ("--log", "run.blf"),
+        ("--record", "run.jsonl"),
+        ("--mcap", "run.mcap"),
+    ],
+)
+def test_an_existing_file_is_kept_unless_force(option: str, name: str, tmp_path: Path) -> None:
+    """Issue 32, defect 10: `plot` refused to overwrite without --force, `sim` overwrote."""
+    path = tmp_path / name
+    path.write_bytes(b"keep me")
+    refused = _main("--duration", "0.2", option, str(path))
+    assert refused.status == 2
+    assert refused.err == (
+        f"bywire sim: error: {option} {path}: the file exists: add --force to overwrite it, or"
+        " choose another file\n"
+    )
+    assert path.read_bytes() == b"keep me"
+    forced = _main("--duration", "0.2", option, str(path), "--force")
+    assert forced.status == 0, forced.err
+    assert path.read_bytes() != b"keep me"

@@ -31,7 +31,7 @@ from bywire.errors import ConfigError
 from bywire.hal.sim.clock import RealtimeClock
 from bywire.loopback import Endpoint, parse_endpoint
 from bywire.netbus.bridge import serve_bus
-from bywire.replay.recorder import SimRunRecorder
+from bywire.replay.recorder import SimRunRecorder, check_record_path
 from bywire.sim.applicability import not_applicable
 from bywire.sim.catalog import DEFAULT_SCENARIO, find_scenario, packaged_scenarios
 from bywire.sim.plot import check_plot_path, write_plot
@@ -135,6 +135,12 @@ def configure(parser: argparse.ArgumentParser) -> None:
         default=DEFAULT_RATE_HZ,
         metavar="HZ",
         help=f"state messages per second of the feed (default: {DEFAULT_RATE_HZ:g})",
+    )
+    parser.add_argument(
+        "--force",
+        action="store_true",
+        help="overwrite the files of --plot, --log, --record and --mcap if they exist"
+        " (refused otherwise)",
     )
     parser.add_argument(
         "--config",
@@ -265,6 +271,19 @@ def _check_one_run(args: argparse.Namespace) -> None:
         check_log_path(args.log)
     if args.mcap is not None:
         check_mcap_path(args.mcap)
+    if args.record is not None:
+        check_record_path(args.record)
+    for option in OUTPUT_FILES:
+        path = getattr(args, option)
+        if path is not None and path.exists() and not args.force:
+            raise ConfigError(
+                f"--{option} {path}: the file exists: add --force to overwrite it, or choose"
+                " another file"
+            )
+
+
+OUTPUT_FILES = ("plot", "log", "record", "mcap")
+"""The options that name a file the run writes: an existing one is kept unless --force."""
 
 
 def _name(path: Path | None) -> str | None:
@@ -372,7 +391,14 @@ def _list(*, as_json: bool) -> None:
     _Console().print(table)
 
 
-ONE_RUN_OPTIONS = ("duration", "realtime", "plot", "log", "record", "serve", "mcap", "foxglove")
+ONE_RUN_OPTIONS = (
+    "duration",
+    "realtime",
+    *OUTPUT_FILES,
+    "force",
+    "serve",
+    "foxglove",
+)
 
 
 def _run_all(args: argparse.Namespace) -> int:
