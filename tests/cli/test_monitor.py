@@ -154,6 +154,20 @@ def test_monitor_decodes_any_python_can_interface_and_records(
     assert {m.arbitration_id for m in recorded} == {0x101}
 
 
+def test_piped_once_keeps_each_message_on_one_line(
+    virtual_channel: str, capsys: pytest.CaptureFixture[str], monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """Issue 32, defect 10: piped, the snapshot was cut or wrapped at 80 columns."""
+    monkeypatch.delenv("COLUMNS", raising=False)
+    args = ["-i", "virtual", "-c", virtual_channel, "--duration", "0.5", "--once"]
+    assert main(["monitor", *args]) == 0
+    lines = capsys.readouterr().out.splitlines()
+    assert not any("…" in line for line in lines)
+    (row,) = [line for line in lines if "MovementCommand" in line]
+    assert "steering_norm=0.1 norm" in row
+    assert "gear=" in row  # the last signal, on the same line
+
+
 def test_monitor_without_a_server_says_how_to_start_one(capsys: pytest.CaptureFixture[str]) -> None:
     with socket.socket() as probe:
         probe.bind(("127.0.0.1", 0))

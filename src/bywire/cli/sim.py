@@ -26,6 +26,7 @@ from rich.table import Table
 
 from bywire.canlog.write import BusTally, CanLog, check_log_path
 from bywire.cli.arguments import positive_hertz, positive_seconds
+from bywire.cli.console import stdout_console
 from bywire.config import RobotConfig, default_sim_config, load_config
 from bywire.errors import ConfigError
 from bywire.hal.sim.clock import RealtimeClock
@@ -44,14 +45,6 @@ from bywire.telemetry.feed import FeedOptions, check_mcap_path, open_feed
 PROGRESS_PERIOD_S = 0.1  # simulated seconds between progress updates
 STOP_SIGNALS = (signal.SIGINT, signal.SIGTERM, signal.SIGHUP)
 INTERRUPTED = 130  # the shell's status for a run ended by Ctrl-C
-
-
-class _Console(Console):
-    """rich exits 1 when the reader goes away; `bywire sim | head` is no error (main says so)."""
-
-    def on_broken_pipe(self) -> None:
-        self.quiet = True
-        raise BrokenPipeError
 
 
 def _endpoint(text: str) -> Endpoint:
@@ -205,7 +198,7 @@ def _one_run(args: argparse.Namespace, sim: SimRun, stopped_by: list[int]) -> in
         document = {**summary.as_json(), "not_applicable": aside, "files": files}
         print(json.dumps(document, indent=2))
     else:
-        console = _Console()
+        console = stdout_console()
         render(summary, console)
         for line in _file_lines(args, frames_logged):
             console.print(line, soft_wrap=True)
@@ -388,7 +381,7 @@ def _list(*, as_json: bool) -> None:
     table = Table("scenario", "duration", "description", box=None, pad_edge=False)
     for name, scenario in scenarios.items():
         table.add_row(name, f"{scenario.duration_s:g} s", scenario.description)
-    _Console().print(table)
+    stdout_console().print(table)
 
 
 ONE_RUN_OPTIONS = (
@@ -408,7 +401,7 @@ def _run_all(args: argparse.Namespace) -> int:
         raise ConfigError(f"{', '.join(given)}: for one scenario; --all runs each as written")
     robot = _robot(args)
     found = collect(Path(args.all) if args.all else None)
-    console = _Console()
+    console = stdout_console()
     cases = []
     for name, origin, load in found:
         case = run_case(robot, name, origin, load)
