@@ -6,6 +6,7 @@ from __future__ import annotations
 import contextlib
 import os
 import pty
+import re
 import signal
 import socket
 import subprocess
@@ -18,7 +19,7 @@ import pytest
 
 from bywire.cli.dashboard import attach_url
 from bywire.cli.main import COMMANDS, main
-from bywire.dashboard.child import SimFeed
+from bywire.dashboard.child import SimFeed, scenario_verdict
 from bywire.dashboard.client import FeedClient
 from bywire.errors import ConfigError
 
@@ -170,7 +171,7 @@ def test_sigterm_ends_the_view_and_the_simulated_robot_it_started(when: str) -> 
     try:
         deadline = time.monotonic() + LIMIT_S
         while not (robots := _children(view.pid)) or (
-            when == "attached" and b"live from" not in b"".join(screen)
+            when == "attached" and b"live feed" not in b"".join(screen)
         ):
             assert view.poll() is None, b"".join(screen)[-2000:]
             assert time.monotonic() < deadline, f"the view was never {when}"
@@ -203,3 +204,39 @@ def _read_all(master: int, into: list[bytes]) -> None:
     with contextlib.suppress(OSError):
         while chunk := os.read(master, 65536):
             into.append(chunk)
+
+
+def test_the_view_knows_whether_the_scenario_it_started_passed() -> None:
+    """Issue 32, defect 10: the dashboard never showed whether its scenario passed."""
+    sim = SimFeed(["--scenario", "rc-link-lost", "--duration", "2"])  # cut short: 2 of 6 s
+    try:
+        assert sim.verdict() is None  # while it runs
+        assert sim.process.wait(LIMIT_S) == 0
+        verdict = sim.verdict()
+    finally:
+        sim.stop()
+    assert verdict is not None
+    assert re.fullmatch(
+        r"not decided \(\d+ of \d+ passed, \d+ not reached: the run ended first\)",
+        verdict,
+    ), verdict
+
+
+@pytest.mark.parametrize(
+    ("statuses", "passed", "aside", "verdict"),
+    [
+        (["pass", "pass"], True, None, "PASSED (2 of 2 passed)"),
+        (["pass", "fail"], False, None, "FAILED (1 of 2 passed)"),
+        (["fail", "not reached"], False, None, "FAILED (0 of 2 passed, 1 not reached)"),
+        (["fail"], False, "needs …", "not applicable to this robot (0 of 1 passed)"),
+    ],
+)
+def test_a_verdict_line_from_the_summary(
+    statuses: list[str], passed: bool, aside: str | None, verdict: str
+) -> None:
+    summary = {
+        "expectations": [{"status": status} for status in statuses],
+        "passed": passed,
+        "not_applicable": aside,
+    }
+    assert scenario_verdict(summary) == verdict

@@ -104,13 +104,24 @@ def run(args: argparse.Namespace) -> int:
     with _Ending() as ending:  # before the robot starts: a SIGTERM from now on stops it too
         sim = SimFeed(arguments, on_started=ending.robot_started)  # at this command's priority
         _step_aside()
+        name = Path(args.scenario).stem
         try:
-            return show(sim.url, source=f"scenario {Path(args.scenario).stem}", ending=ending)
+            status = show(sim.url, source=f"scenario {name}", ending=ending, verdict=sim.verdict)
         finally:
             sim.stop()
+        # After the view, on the terminal it leaves: the expectations' verdict.
+        print(f"scenario {name}: expectations {sim.verdict()}")
+        return status
 
 
-def show(url: str, *, source: str, ending: _Ending | None = None, attach: bool = False) -> int:
+def show(
+    url: str,
+    *,
+    source: str,
+    ending: _Ending | None = None,
+    attach: bool = False,
+    verdict: Callable[[], str | None] | None = None,
+) -> int:
     """The textual program on the feed at `url` (textual is imported only for this); with
     `ending`, a SIGTERM closes the feed's client before the view goes. With `attach`, a feed
     that is not there is an error before any view opens (HardwareError, exit 2), within the
@@ -129,7 +140,7 @@ def show(url: str, *, source: str, ending: _Ending | None = None, attach: bool =
                 " (`bywire run` with [telemetry] foxglove, or `bywire sim --realtime --foxglove"
                 " PORT`, which prints the port)?"
             )
-        app = DashboardApp(client, source=source)
+        app = DashboardApp(client, source=source, verdict=verdict)
         app.run()
     finally:
         client.close()

@@ -8,6 +8,7 @@ the last picture stays on screen, with the reason in the title bar.
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from typing import Any, ClassVar, Protocol
 
 from rich.text import Text
@@ -21,6 +22,7 @@ from bywire.dashboard.view import (
     TASK_COLUMNS,
     actuator_panel,
     command_panel,
+    flags_line,
     idle_cells,
     input_panel,
     mode_panel,
@@ -41,6 +43,10 @@ class FeedSource(Protocol):
     def status(self) -> str: ...
 
 
+Verdict = Callable[[], str | None]
+"""The scenario's verdict once its run has ended ("PASSED (7 of 7 passed)"), else None."""
+
+
 class DashboardApp(App[None]):
     """Panels for mode and flags, command, actuators and inputs; the task table below."""
 
@@ -50,12 +56,17 @@ class DashboardApp(App[None]):
     Horizontal { height: 6; }
     .panel { border: round $primary; padding: 0 1; width: 1fr; height: 6; }
     #mode { border: round $accent; }
+    #flags { height: auto; padding: 0 1; }
     #tasks { height: auto; border: round $primary; }
     """
 
-    def __init__(self, feed: FeedSource, *, source: str = "") -> None:
+    def __init__(
+        self, feed: FeedSource, *, source: str = "", verdict: Verdict | None = None
+    ) -> None:
+        """`verdict`: for a scenario the view started, its verdict once the run has ended."""
         super().__init__()
         self.feed = feed
+        self._verdict = verdict
         self._source = source
         self.sub_title = source
         self._rows: set[str] = set()
@@ -68,6 +79,7 @@ class DashboardApp(App[None]):
         with Horizontal():
             yield Static(id="actuators", classes="panel")
             yield Static(id="inputs", classes="panel")
+        yield Static(id="flags")
         yield DataTable(id="tasks", cursor_type="none", show_cursor=False)
         yield Footer()
 
@@ -84,11 +96,13 @@ class DashboardApp(App[None]):
     def refresh_view(self) -> None:
         """Show the newest state; keep the last one on screen once the feed has ended."""
         self.sub_title = " · ".join(part for part in (self._source, self.feed.status) if part)
+        verdict = None if self._verdict is None else self._verdict()
         state = self.feed.latest()
         if state is None:
             return
         snap = from_state(state)
         self.query_one("#mode", Static).update(mode_panel(snap))
+        self.query_one("#flags", Static).update(flags_line(snap, verdict))
         self.query_one("#commands", Static).update(command_panel(snap))
         self.query_one("#actuators", Static).update(actuator_panel(snap))
         self.query_one("#inputs", Static).update(input_panel(snap))

@@ -108,18 +108,19 @@ class FeedClient:
                 if self._closing.is_set():  # closed while it was being opened
                     connection.close()
                 self._subscribe(connection)
-                self._set_status(f"live from {self.url}", live=True)
+                # Short: the title bar shows it after the source, within 80 columns.
+                self._set_status("live feed", live=True)
                 for data in connection:
                     if isinstance(data, bytes) and data and data[0] == MESSAGE_DATA:
                         self._take(data)
                     elif isinstance(data, str):
                         self._subscribe_new(connection, data)
         except ConnectionClosed:
-            self._set_status("feed ended: the controller stopped", ended=True)
+            self._set_status("feed ended", ended=True)
         except (OSError, InvalidHandshake, InvalidURI, TimeoutError) as error:
             self._set_status(f"no feed at {self.url}: {_reason(error)}", ended=True)
         else:
-            self._set_status("feed ended: the controller stopped", ended=True)
+            self._set_status("feed ended", ended=True)
 
     def _subscribe(self, connection: ClientConnection) -> None:
         """Read the server's JSON messages up to the channel advertisement, then subscribe."""
