@@ -27,8 +27,10 @@ from bywire.telemetry.capture import Capture
 from bywire.telemetry.messages import message
 from bywire.telemetry.outbox import Outbox
 from bywire.telemetry.schemas import SCHEMAS
+from bywire.telemetry.subprotocols import SubprotocolRelay
 
 POLL_S = 0.05  # how long the writer waits for a capture before looking at `closed` again
+UPSTREAM_HOST = "127.0.0.1"  # the SDK's own server, behind the relay (`subprotocols`)
 
 
 class TelemetryWriter:
@@ -49,6 +51,7 @@ class TelemetryWriter:
         }
         self._mcap: foxglove.MCAPWriter | None = None
         self._server: WebSocketServer | None = None
+        self._relay: SubprotocolRelay | None = None
         self._thread = threading.Thread(target=self._drain, name="bywire-telemetry", daemon=True)
         self.written = 0
 
@@ -60,14 +63,22 @@ class TelemetryWriter:
             raise ConfigError(f"cannot write the MCAP file {path}: {error}") from None
 
     def serve(self, endpoint: Endpoint | ListenAddress) -> int:
-        """Serve every channel to Foxglove WebSocket clients; returns the port it listens on."""
+        """Serve every channel to Foxglove WebSocket clients; returns the port it listens on.
+
+        The SDK's server listens on loopback at a port of its own; at `endpoint` a relay lets
+        clients that offer the older subprotocol name in too (`subprotocols`)."""
         try:
             self._server = foxglove.start_server(
-                name="bywire", host=endpoint.host, port=endpoint.port, context=self.context
+                name="bywire", host=UPSTREAM_HOST, port=0, context=self.context
             )
+            self._relay = SubprotocolRelay(
+                (endpoint.host, endpoint.port), (UPSTREAM_HOST, self._server.port)
+            ).start()
         except Exception as error:  # e.g. the port is taken
+            if self._server is not None:
+                self._server.stop()
             raise ConfigError(f"cannot serve Foxglove on {endpoint}: {error}") from None
-        return self._server.port
+        return self._relay.port
 
     def start(self) -> TelemetryWriter:
         self._thread.start()
@@ -80,6 +91,8 @@ class TelemetryWriter:
             self._thread.join(timeout_s)
         if self._mcap is not None:
             self._mcap.close()
+        if self._relay is not None:
+            self._relay.stop()
         if self._server is not None:
             self._server.stop()
 
