@@ -14,7 +14,7 @@ import signal
 import sys
 import threading
 import time
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from dataclasses import replace
 from pathlib import Path
 from types import FrameType
@@ -39,8 +39,9 @@ from bywire.sim.plot import check_plot_path, write_plot
 from bywire.sim.runner import SimRun
 from bywire.sim.suite import Case, collect, junit_xml, run_case
 from bywire.sim.summary import build_summary, render
-from bywire.telemetry.capture import DEFAULT_RATE_HZ
+from bywire.telemetry.capture import DEFAULT_RATE_HZ, Capture, PoseCapture
 from bywire.telemetry.feed import FeedOptions, check_mcap_path, open_feed
+from bywire.telemetry.outbox import Outbox
 
 PROGRESS_PERIOD_S = 0.1  # simulated seconds between progress updates
 STOP_SIGNALS = (signal.SIGINT, signal.SIGTERM, signal.SIGHUP)
@@ -330,6 +331,7 @@ def attach_feed(stack: contextlib.ExitStack, sim: SimRun, options: FeedOptions) 
             frame.time_s, frame.arbitration_id, frame.data, frame.sender
         )
     )
+    sim.runtime.on_cycle.append(_pose_sampler(sim, feed.outbox, options.rate_hz))
     if options.foxglove is not None:
         host = options.foxglove.host
         url_host = f"[{host}]" if ":" in host else host
@@ -338,6 +340,21 @@ def attach_feed(stack: contextlib.ExitStack, sim: SimRun, options: FeedOptions) 
             file=sys.stderr,
             flush=True,
         )
+
+
+def _pose_sampler(sim: SimRun, outbox: Outbox[Capture], rate_hz: float) -> Callable[[float], None]:
+    """After the loop's passes, at the feed's rate: where the simulated vehicle is (the 3D
+    panel's path). A plain tuple of four numbers, queued as the tap queues its captures."""
+    period_s = 1.0 / rate_hz
+    due = [sim.started_at]
+
+    def sample(now: float) -> None:
+        if now >= due[0]:
+            state = sim.world.vehicle.state
+            outbox.put(PoseCapture(now, state.x_m, state.y_m, state.heading_rad))
+            due[0] = now + period_s
+
+    return sample
 
 
 @contextlib.contextmanager

@@ -24,6 +24,7 @@ from bywire.errors import ConfigError
 from bywire.loopback import Endpoint, ListenAddress
 from bywire.priority import leave_realtime
 from bywire.telemetry.capture import Capture
+from bywire.telemetry.foxglove_topics import FoxgloveTopics
 from bywire.telemetry.messages import message
 from bywire.telemetry.outbox import Outbox
 from bywire.telemetry.schemas import SCHEMAS
@@ -36,8 +37,9 @@ UPSTREAM_HOST = "127.0.0.1"  # the SDK's own server, behind the relay (`subproto
 class TelemetryWriter:
     """Encodes every capture of `outbox` onto the channels of its own foxglove Context.
 
-    `log_offset_s` is added to the controller's clock for the log times: 0 on virtual time (the
-    log is in simulated seconds), the epoch offset on real time (so Foxglove shows wall time).
+    `log_offset_s` is added to the controller's clock for the log times: the epoch offset of the
+    run's start (so Foxglove shows wall time: on virtual time the run's wall-clock start plus the
+    simulated seconds).
     """
 
     def __init__(self, outbox: Outbox[Capture], *, log_offset_s: float = 0.0) -> None:
@@ -49,6 +51,7 @@ class TelemetryWriter:
             topic: foxglove.Channel(topic, schema=schema, context=self.context)
             for topic, schema in SCHEMAS.items()
         }
+        self._foxglove_topics = FoxgloveTopics(self.context)  # log, flags, decoded CAN, pose
         self._mcap: foxglove.MCAPWriter | None = None
         self._server: WebSocketServer | None = None
         self._relay: SubprotocolRelay | None = None
@@ -113,4 +116,5 @@ class TelemetryWriter:
         log_time_ns = self._log_offset_ns + round(capture.time_s * 1e9)
         data = json.dumps(body, separators=(",", ":")).encode()
         self._channels[topic].log(data, log_time=log_time_ns)
+        self._foxglove_topics.write(capture, log_time_ns)
         self.written += 1
