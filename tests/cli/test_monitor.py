@@ -205,7 +205,7 @@ def test_socketcan_on_a_host_without_the_interface_names_the_fix(
 def test_monitor_refuses_a_recording_format_it_cannot_write(
     virtual_channel: str, tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
-    args = ["-i", "virtual", "-c", virtual_channel, "--once", "--record", str(tmp_path / "x.csv")]
+    args = ["-i", "virtual", "-c", virtual_channel, "--once", "--record", str(tmp_path / "x.txt")]
     assert main(["monitor", *args]) == 2
     assert "suffix" in capsys.readouterr().err
 

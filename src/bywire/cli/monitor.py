@@ -26,7 +26,7 @@ def configure(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--record",
         type=Path,
-        metavar="FILE.blf|.asc|.log",
+        metavar="FILE.blf|.asc|.log|.trc|.csv|.mf4",
         help="also write every frame (BLF, Vector ASC or candump -L, by suffix)",
     )
     parser.add_argument(

@@ -93,8 +93,9 @@ def configure(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--log",
         type=Path,
-        metavar="FILE.blf|.asc|.log",
-        help="write every CAN frame (BLF, Vector ASC or candump -L, by suffix)",
+        metavar="FILE.blf|.asc|.log|.trc|.csv|.mf4",
+        help="write every CAN frame (BLF, Vector ASC, candump -L, PEAK TRC, python-can CSV or"
+        " ASAM MDF4 with asammdf, by suffix)",
     )
     parser.add_argument(
         "--record",
