@@ -324,3 +324,34 @@ def test_an_existing_file_is_kept_unless_force(option: str, name: str, tmp_path:
     forced = _main("--duration", "0.2", option, str(path), "--force")
     assert forced.status == 0, forced.err
     assert path.read_bytes() != b"keep me"
+
+
+def test_speed_paces_the_run_at_n_times_real_time() -> None:
+    """Issue 32: a SITL-style --speed N. The run cannot outrun its pace (the wall time is at
+    least the simulated time / N) and is far from real time (6 s simulated, 1.5 s at 4x)."""
+    outcome = _main("--scenario", "rc-link-lost", "--speed", "4", "--json")
+    summary = json.loads(outcome.out)
+    assert outcome.status == 0
+    assert summary["passed"]
+    assert summary["simulated_s"] == pytest.approx(6.0)
+    assert 6.0 / 4 <= summary["wall_s"] < 5.0
+
+
+@pytest.mark.parametrize(
+    ("argv", "message"),
+    [
+        (["--speed", "5", "--realtime"], "--realtime is --speed 1"),
+        (["--scenario", "loop-stall", "--speed", "5"], "stalls the loop in real time"),
+        (["--speed", "2", "--record", "x.jsonl"], "runs in real time"),
+    ],
+)
+def test_speed_refuses_what_it_cannot_do(argv: list[str], message: str) -> None:
+    outcome = _main(*argv)
+    assert outcome.status == 2
+    assert message in outcome.err
+
+
+def test_a_speed_of_zero_is_refused_by_the_parser(capsys: pytest.CaptureFixture[str]) -> None:
+    with pytest.raises(SystemExit):
+        main(["sim", "--speed", "0"])
+    assert "must be above 0" in capsys.readouterr().err

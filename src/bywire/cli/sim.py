@@ -48,6 +48,20 @@ STOP_SIGNALS = (signal.SIGINT, signal.SIGTERM, signal.SIGHUP)
 INTERRUPTED = 130  # the shell's status for a run ended by Ctrl-C
 
 
+MAX_SPEED = 1000.0  # far past what the simulator keeps up with in real time; virtual time is faster
+
+
+def positive_speed(text: str) -> float:
+    """--speed N: a number above 0 and at most MAX_SPEED."""
+    try:
+        speed = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a number, got {text!r}") from None
+    if not 0.0 < speed <= MAX_SPEED:
+        raise argparse.ArgumentTypeError(f"must be above 0 and at most {MAX_SPEED:g}, got {text}")
+    return speed
+
+
 def _endpoint(text: str) -> Endpoint:
     try:
         return parse_endpoint(text)
@@ -85,6 +99,13 @@ def configure(parser: argparse.ArgumentParser) -> None:
     )
     parser.add_argument(
         "--realtime", action="store_true", help="pace the run by the wall clock (live view)"
+    )
+    parser.add_argument(
+        "--speed",
+        type=positive_speed,
+        metavar="N",
+        help="pace the run by the wall clock at N times real time (SITL's --speed: watch a run"
+        " in Foxglove at 5x); --speed 1 is --realtime",
     )
     parser.add_argument(
         "--json", action="store_true", help="print the summary as JSON and nothing else"
@@ -161,7 +182,11 @@ def run(args: argparse.Namespace) -> int:
     _check_one_run(args)
     robot = _robot(args)
     sim = SimRun(
-        robot, find_scenario(args.scenario), realtime=args.realtime, duration_s=args.duration
+        robot,
+        find_scenario(args.scenario),
+        realtime=args.realtime,
+        duration_s=args.duration,
+        speed=args.speed,
     )
     if args.serve is not None and not isinstance(sim.world.clock, RealtimeClock):
         raise ConfigError("--serve needs --realtime: virtual time outruns any client")
@@ -260,6 +285,10 @@ def _check_one_run(args: argparse.Namespace) -> None:
     """Refuse what cannot work before the run starts, not after it."""
     if args.junit is not None:
         raise ConfigError("--junit needs --all: the report is of several scenarios")
+    if args.speed is not None and args.realtime and args.speed != 1.0:
+        raise ConfigError(
+            f"--realtime is --speed 1: give one of --realtime, --speed {args.speed:g}"
+        )
     if args.plot is not None:
         check_plot_path(args.plot)
     if args.log is not None:
@@ -405,6 +434,7 @@ def _list(*, as_json: bool) -> None:
 ONE_RUN_OPTIONS = (
     "duration",
     "realtime",
+    "speed",
     *OUTPUT_FILES,
     "force",
     "serve",

@@ -16,9 +16,10 @@ from typing import Any
 
 from bywire.config import RobotConfig
 from bywire.control.supervisor import Cause
+from bywire.errors import ConfigError
 from bywire.hal.hardware import Hardware
 from bywire.hal.sim.can_bus import LoggedFrame
-from bywire.hal.sim.clock import RealtimeClock, VirtualClock
+from bywire.hal.sim.clock import RealtimeClock, ScaledRealtimeClock, VirtualClock
 from bywire.hal.sim.timers import PeriodicTimer
 from bywire.hal.sim.world import SimWorld
 from bywire.model import LIGHTS_OFF, ControlMode, Gear
@@ -91,17 +92,31 @@ class SimRun:
         *,
         realtime: bool = False,
         duration_s: float | None = None,
+        speed: float | None = None,
     ) -> None:
+        """`speed`: paced by the wall clock at that many times real time (`--speed N`)."""
         self.robot = robot
         self.scenario = scenario
         self.duration_s = scenario.duration_s if duration_s is None else duration_s
-        realtime = realtime or scenario.realtime
-        clock = RealtimeClock() if realtime else VirtualClock()
+        realtime = realtime or scenario.realtime or speed is not None
+        scaled = speed is not None and speed != 1.0
+        if scaled and scenario.realtime:
+            raise ConfigError(
+                f"--speed {speed:g}: scenario {scenario.name!r} stalls the loop in real time,"
+                " which a faster clock cannot (drop --speed)"
+            )
+        clock: VirtualClock
+        if scaled:
+            clock = ScaledRealtimeClock(speed=speed or 1.0)
+        else:
+            clock = RealtimeClock() if realtime else VirtualClock()
         self.world: SimWorld = SimWorld.from_robot(clock, robot)
-        self._realtime = realtime
+        # The watchdog's own thread measures the wall clock: only where the run is paced 1:1 by
+        # it; elsewhere a timer checks it on the run's clock.
+        self._realtime = realtime and not scaled
         self.secoc = self._authentication(robot, scenario)
         self.runtime = self._controller(self.world.hardware)
-        if self.runtime.watchdog is not None and not realtime:
+        if self.runtime.watchdog is not None and not self._realtime:
             # On virtual time the watchdog runs on the simulated clock, checked by a timer where
             # the thread would poll: a write stalled in simulated time trips it exactly, and the
             # wall clock's speed never does. The timer checks the controller of the moment
