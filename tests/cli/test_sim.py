@@ -279,7 +279,7 @@ def test_an_unknown_scenario_exits_2_with_a_suggestion() -> None:
 
 @pytest.mark.parametrize(
     ("option", "name", "allowed"),
-    [("--plot", "run.jpg", ".png"), ("--log", "run.csv", ".blf, .asc, .log")],
+    [("--plot", "run.jpg", ".png"), ("--log", "run.txt", ".blf, .asc, .log, .trc, .csv, .mf4")],
 )
 def test_a_bad_output_suffix_exits_2_before_running(
     option: str, name: str, allowed: str, tmp_path: Path
