@@ -6,42 +6,53 @@ fixed seed, and records every output the hardware saw: each GPIO line's and PWM 
 history and write count, the DAC's history and write counts, every frame that crossed the CAN
 bus (commands and reports, with their times), and the verdicts, oracle findings and supervisor
 transitions of the run. `check` compares their digests with those stored beside it
-(`differential.json`); about a minute on one core, too long for CI, so it is run by hand
-before and after each change meant to be faster, not different:
+(`differential.json`); about two minutes on one core, too long for CI, so it is run by hand
+before and after each change meant to be faster, not different.
+
+Looking must not change the run either: each scenario is played a second time with every file
+`bywire sim` can write attached as the command attaches it (`--record`, `--mcap`, `--log`), and
+that run must match the plain run's stored digest; the record it wrote must replay identically
+(`bywire replay`). These runs have no digests of their own (`NAME+files`).
 
     python bench/differential.py check           # exit 1 naming each run that diverged
     python bench/differential.py dump DIR        # every run's full history, one JSON each
     python bench/differential.py compare DIR     # the first difference of each run from a dump
     python bench/differential.py digests         # store new digests (a change of behaviour)
 
-Authenticated runs sign with a fixed key written to a temporary folder, so that they repeat.
+Authenticated runs sign with the key drawn from the simulator's seed (`simulated_run_key`), so that
+they repeat.
 """
 
 from __future__ import annotations
 
 import argparse
+import contextlib
 import functools
 import hashlib
 import json
-import os
 import sys
 import tempfile
 from collections.abc import Callable
-from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
+from bywire.canlog.write import CanLog
+from bywire.cli.sim import attach_feed
 from bywire.config import RobotConfig, default_sim_config
 from bywire.hal.sim.can_bus import LoggedFrame
+from bywire.hal.tape.run_record import read_record
+from bywire.replay.recorder import SimRunRecorder
+from bywire.replay.runner import replay
 from bywire.sim.campaign import Campaign, compile_steps
 from bywire.sim.catalog import packaged_scenarios
 from bywire.sim.draw import draw_campaign
 from bywire.sim.runner import SimRun
+from bywire.telemetry.feed import FeedOptions
 
 DIGESTS = Path(__file__).with_name("differential.json")
 CAMPAIGN_SEED = 12
 CAMPAIGNS = 30
-FIXED_KEY = bytes(range(16))  # authenticated runs sign with this, not a random key
+WITH_FILES = "+files"  # the same run with every file written: the plain run's digest
 
 
 History = dict[str, Any]
@@ -79,24 +90,33 @@ class _Recorder:
         }
 
 
-def robot_with_fixed_key(folder: Path) -> RobotConfig:
-    """The simulator's robot whose authenticated runs use `FIXED_KEY` (written to `folder`), so
-    that their authenticators are the same on every run."""
-    path = folder / "differential.key"
-    if not path.exists():
-        descriptor = os.open(path, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o600)
-        with os.fdopen(descriptor, "w", encoding="ascii") as file:
-            file.write(FIXED_KEY.hex() + "\n")
-    robot = default_sim_config()
-    return replace(robot, security=replace(robot.security, key_file=str(path)))
-
-
 def scenario_history(robot: RobotConfig, name: str) -> History:
     """A packaged scenario played on virtual time."""
     run = SimRun(robot, packaged_scenarios()[name])
     recorder = _Recorder(run)
     run.run()
     return recorder.history()
+
+
+def scenario_history_with_files(robot: RobotConfig, name: str) -> History:
+    """The same scenario with a run record, an MCAP file and a CAN log written as `bywire sim
+    --record --mcap --log` writes them; the record's replay, if it diverges, is added (so the
+    digest differs from the plain run's)."""
+    with tempfile.TemporaryDirectory() as folder, contextlib.ExitStack() as stack:
+        files = Path(folder)
+        run = SimRun(robot, packaged_scenarios()[name])
+        record = SimRunRecorder.attach(run, files / "run.jsonl")
+        recorder = _Recorder(run)
+        run.add_can_monitor(stack.enter_context(CanLog(files / "run.blf", run.started_at)))
+        attach_feed(stack, run, FeedOptions(mcap_path=files / "run.mcap"))
+        run.run()
+        stack.close()
+        record.write()
+        history = recorder.history()
+        divergence = replay(read_record(files / "run.jsonl")).divergence
+        if divergence is not None:
+            history["replay"] = divergence.describe()
+        return history
 
 
 def campaign_history(robot: RobotConfig, index: int) -> History:
@@ -114,6 +134,10 @@ def _scenario_history(name: str, robot: RobotConfig) -> History:
     return scenario_history(robot, name)
 
 
+def _scenario_history_with_files(name: str, robot: RobotConfig) -> History:
+    return scenario_history_with_files(robot, name)
+
+
 def _campaign_history(index: int, robot: RobotConfig) -> History:
     return campaign_history(robot, index)
 
@@ -124,6 +148,9 @@ def runs() -> dict[str, Callable[[RobotConfig], History]]:
     for name, scenario in packaged_scenarios().items():
         if not scenario.realtime:
             table[f"scenario:{name}"] = functools.partial(_scenario_history, name)
+            table[f"scenario:{name}{WITH_FILES}"] = functools.partial(
+                _scenario_history_with_files, name
+            )
     for index in range(CAMPAIGNS):
         table[f"campaign:{index}"] = functools.partial(_campaign_history, index)
     return table
@@ -167,8 +194,7 @@ def main(argv: list[str]) -> int:
     parser.add_argument("action", choices=("check", "dump", "compare", "digests"))
     parser.add_argument("folder", nargs="?", type=Path)
     args = parser.parse_args(argv)
-    with tempfile.TemporaryDirectory() as folder:
-        return _act(args, robot_with_fixed_key(Path(folder)))
+    return _act(args, default_sim_config())
 
 
 def _act(args: argparse.Namespace, robot: RobotConfig) -> int:
@@ -179,7 +205,7 @@ def _act(args: argparse.Namespace, robot: RobotConfig) -> int:
         history = play(robot)
         digests[name] = digest(history)
         file = None if args.folder is None else args.folder / (name.replace(":", "-") + ".json")
-        if args.action == "check" and digests[name] != stored.get(name):
+        if args.action == "check" and digests[name] != stored.get(name.removesuffix(WITH_FILES)):
             differing += 1
             print(f"{name}: DIVERGED (dump before and after, then compare, to see where)")
         elif args.action == "dump" and file is not None:
@@ -190,11 +216,12 @@ def _act(args: argparse.Namespace, robot: RobotConfig) -> int:
             found = _first_difference(name, before, json.loads(canonical(history)))
             differing += found is not None
             print(found or f"{name}: identical")
+    own = {name: value for name, value in digests.items() if not name.endswith(WITH_FILES)}
     if args.action == "digests":
         DIGESTS.parent.mkdir(parents=True, exist_ok=True)
-        DIGESTS.write_text(json.dumps(digests, indent=1) + "\n", encoding="utf-8")
+        DIGESTS.write_text(json.dumps(own, indent=1) + "\n", encoding="utf-8")
     if args.action == "check":
-        missing = sorted(set(stored) ^ set(digests))
+        missing = sorted(set(stored) ^ set(own))
         differing += len(missing)
         for name in missing:
             print(f"{name}: in only one of the stored digests and this run")

@@ -90,3 +90,17 @@ def test_every_test_the_hazard_table_names_exists() -> None:
         if test and current and not re.search(defined, current.read_text("utf-8"), re.M):
             missing.append(f"{current.relative_to(ROOT)}::{test}")
     assert missing == []
+
+
+def test_the_readme_can_table_reserves_the_error_report_bits_the_dbc_does() -> None:
+    """Issue 32, defect 10: the README said bits 23-63 were reserved; bit 23 is CAN_AUTH_FAILED."""
+    from bywire.protocol.dbc import database  # noqa: PLC0415 -- only this test loads the DBC
+
+    message = database().get_message_by_name("ErrorReport")
+    first_free = max(signal.start + signal.length for signal in message.signals)
+    readme = (ROOT / "README.md").read_text(encoding="utf-8")
+    row = next(line for line in readme.splitlines() if line.startswith("| 0x201 | ErrorReport"))
+    found = re.search(r"bits (\d+)–(\d+) reserved", row)
+    assert found is not None, row
+    assert (int(found[1]), int(found[2])) == (first_free, 8 * message.length - 1)
+    assert f"bits {first_free}-63 are reserved" in (message.comment or "")

@@ -6,7 +6,9 @@ that run the tests are shared and noisy. What is checked is the logic that produ
 
 from __future__ import annotations
 
+import contextlib
 import gc
+import io
 import itertools
 import json
 import math
@@ -30,8 +32,9 @@ from bywire.bench.phases import in_span
 from bywire.bench.realtime import BenchSettings, RealtimeResult, RealtimeSession
 from bywire.bench.stats import percentile, summarise
 from bywire.bench.sweeps import SWEEP_LEVELS, sawtooth_norm
-from bywire.bench.table import render, summary_line
+from bywire.bench.table import format_value, render, summary_line
 from bywire.bench.virtual import measure_speedup, measure_verify_rate
+from bywire.cli.console import stdout_console
 from bywire.cli.main import main
 from bywire.config import default_sim_config
 from bywire.control.drive import DriveConfig
@@ -331,6 +334,25 @@ def test_the_table_shows_every_figure_and_its_verdict(bench_result: BenchResult)
         assert figure.label in text
     assert "≤ 1 ms" in text
     assert "≤ 80 MB" in text
+
+
+def test_piped_the_table_keeps_every_row_on_one_line(
+    bench_result: BenchResult, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """Issue 32, defect 10: `bywire bench > file` cut or wrapped its rows at 80 columns."""
+    monkeypatch.delenv("COLUMNS", raising=False)
+    out = io.StringIO()
+    with contextlib.redirect_stdout(out):
+        stdout_console().print(render(bench_result))
+    lines = out.getvalue().splitlines()
+    assert not any("…" in line for line in lines)
+    at = 0
+    for figure in all_figures(bench_result):  # in the table's order, each on the next rows
+        at = next(i for i in range(at, len(lines)) if lines[i].strip().startswith(figure.label))
+        row = lines[at]
+        assert format_value(figure) in row, row  # the value and the target on the label's line
+        assert figure.target in row, row
+        at += 1
 
 
 @pytest.mark.parametrize(

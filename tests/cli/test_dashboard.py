@@ -6,7 +6,9 @@ from __future__ import annotations
 import contextlib
 import os
 import pty
+import re
 import signal
+import socket
 import subprocess
 import sys
 import threading
@@ -17,7 +19,7 @@ import pytest
 
 from bywire.cli.dashboard import attach_url
 from bywire.cli.main import COMMANDS, main
-from bywire.dashboard.child import SimFeed
+from bywire.dashboard.child import SimFeed, scenario_verdict
 from bywire.dashboard.client import FeedClient
 from bywire.errors import ConfigError
 
@@ -35,7 +37,7 @@ def test_help_says_what_it_shows_how_to_attach_and_how_to_quit(
         assert option in out
     assert "Figure 30" in out
     assert "80x24" in out
-    assert "q quits" in out
+    assert "q or Ctrl-C quits" in out
     assert "dashboard" in COMMANDS
 
 
@@ -73,6 +75,28 @@ def test_a_missing_config_is_one_line_and_exit_2(
     err = capsys.readouterr().err
     assert err.startswith("bywire dashboard: error:")
     assert err.count("\n") == 1
+
+
+def test_attach_to_a_port_where_no_feed_is_fails_at_once_naming_why() -> None:
+    """Issue 32, defect 9: the view waited forever, its reason cut at 80 columns."""
+    with socket.socket() as probe:
+        probe.bind(("127.0.0.1", 0))
+        free_port = probe.getsockname()[1]
+    done = subprocess.run(
+        [sys.executable, "-m", "bywire", "dashboard", "--attach", str(free_port)],
+        stdin=subprocess.DEVNULL,
+        capture_output=True,
+        text=True,
+        timeout=LIMIT_S,  # the client's own bound is 11 s; the old view never ended
+        check=False,
+    )
+    assert done.returncode == 2
+    assert done.stdout == ""
+    (line,) = done.stderr.splitlines()
+    assert (
+        f"--attach {free_port}: no feed at ws://127.0.0.1:{free_port}: connection refused" in line
+    )
+    assert "bywire sim --realtime --foxglove PORT" in line
 
 
 @pytest.mark.parametrize(
@@ -147,7 +171,7 @@ def test_sigterm_ends_the_view_and_the_simulated_robot_it_started(when: str) -> 
     try:
         deadline = time.monotonic() + LIMIT_S
         while not (robots := _children(view.pid)) or (
-            when == "attached" and b"live from" not in b"".join(screen)
+            when == "attached" and b"live feed" not in b"".join(screen)
         ):
             assert view.poll() is None, b"".join(screen)[-2000:]
             assert time.monotonic() < deadline, f"the view was never {when}"
@@ -180,3 +204,39 @@ def _read_all(master: int, into: list[bytes]) -> None:
     with contextlib.suppress(OSError):
         while chunk := os.read(master, 65536):
             into.append(chunk)
+
+
+def test_the_view_knows_whether_the_scenario_it_started_passed() -> None:
+    """Issue 32, defect 10: the dashboard never showed whether its scenario passed."""
+    sim = SimFeed(["--scenario", "rc-link-lost", "--duration", "2"])  # cut short: 2 of 6 s
+    try:
+        assert sim.verdict() is None  # while it runs
+        assert sim.process.wait(LIMIT_S) == 0
+        verdict = sim.verdict()
+    finally:
+        sim.stop()
+    assert verdict is not None
+    assert re.fullmatch(
+        r"not decided \(\d+ of \d+ passed, \d+ not reached: the run ended first\)",
+        verdict,
+    ), verdict
+
+
+@pytest.mark.parametrize(
+    ("statuses", "passed", "aside", "verdict"),
+    [
+        (["pass", "pass"], True, None, "PASSED (2 of 2 passed)"),
+        (["pass", "fail"], False, None, "FAILED (1 of 2 passed)"),
+        (["fail", "not reached"], False, None, "FAILED (0 of 2 passed, 1 not reached)"),
+        (["fail"], False, "needs …", "not applicable to this robot (0 of 1 passed)"),
+    ],
+)
+def test_a_verdict_line_from_the_summary(
+    statuses: list[str], passed: bool, aside: str | None, verdict: str
+) -> None:
+    summary = {
+        "expectations": [{"status": status} for status in statuses],
+        "passed": passed,
+        "not_applicable": aside,
+    }
+    assert scenario_verdict(summary) == verdict

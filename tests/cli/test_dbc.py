@@ -4,6 +4,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
+import cantools
 import pytest
 
 from bywire.cli.main import main
@@ -30,7 +31,7 @@ def test_show_lists_every_message_with_id_and_signals_with_units(
         assert f"DLC {message.length}" in head
         assert "period 20 ms" in head
         for signal in message.signals:
-            unit = str(signal.unit)
+            unit = signal.unit or "-"  # `dbc show` prints - for a signal with no unit
             assert any(line.split()[:1] == [signal.name] and unit in line for line in lines)
 
 
@@ -100,6 +101,39 @@ def test_codegen_into_a_file_exits_2_with_one_line(
     blocker.write_text("", encoding="utf-8")
     assert main(["dbc", "codegen", str(blocker)]) == 2
     assert len(capsys.readouterr().err.splitlines()) == 1
+
+
+OVERFLOWING_DBC = """VERSION ""
+BU_: HLC
+BO_ 292 Tiny: 1 HLC
+ SG_ level : 4|8@1+ (1,0) [0|255] "" Vector__XXX
+"""
+
+
+@pytest.mark.parametrize(
+    ("content", "problem"),
+    [
+        (
+            OVERFLOWING_DBC,
+            "The signal level does not fit in message Tiny",
+        ),  # C would write dst_p[1]
+        ((Path(__file__).parents[1] / "data/opendbc/vw_mqb.dbc").read_text("utf-8"), "overlap"),
+    ],
+)
+def test_codegen_refuses_a_dbc_that_fails_the_strict_checks(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], content: str, problem: str
+) -> None:
+    """Issue 32, defect 3: a note and exit 0, and C that overflowed a 1-byte frame's buffer."""
+    path = tmp_path / "lenient.dbc"
+    path.write_text(content, encoding="utf-8")
+    assert main(["dbc", "codegen", str(tmp_path / "out"), "--dbc", str(path)]) == 2
+    captured = capsys.readouterr()
+    assert captured.out == ""
+    assert len(captured.err.splitlines()) == 1
+    assert problem in captured.err
+    assert "passes cantools' strict checks" in captured.err
+    assert not (tmp_path / "out").exists()
+    assert main(["dbc", "show", "--dbc", str(path)]) == 0  # reading it stays lenient
 
 
 # --- other people's databases: cantools' and opendbc's files in tests/data ---------------------
@@ -198,3 +232,26 @@ def test_a_dbc_that_fails_the_strict_checks_is_shown_with_a_note(
     assert "overlapping" in err
     assert any(line.startswith("0x6B4  VIN_01  ") for line in lines)
     assert "    when VIN_01_MUX = 2:" in lines
+
+
+def test_path_names_the_packaged_dbc_and_export_copies_it_byte_for_byte(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """Issue 32: tools that need the file (cantools, SavvyCAN, Foxglove) when bywire is
+    installed non-editable get its path, or a copy."""
+    assert main(["dbc", "path"]) == 0
+    path = Path(capsys.readouterr().out.strip())
+    assert path.name == "albert.dbc"
+    loaded = cantools.database.load_file(path)
+    assert isinstance(loaded, cantools.database.can.Database)
+    assert loaded.get_message_by_name("MovementCommand").frame_id == 0x101
+    copy = tmp_path / "robot.dbc"
+    assert main(["dbc", "export", str(copy)]) == 0
+    assert copy.read_bytes() == path.read_bytes()
+    capsys.readouterr()
+    copy.write_text("mine", encoding="utf-8")
+    assert main(["dbc", "export", str(copy)]) == 2
+    assert "exists: add --force" in capsys.readouterr().err
+    assert copy.read_text(encoding="utf-8") == "mine"
+    assert main(["dbc", "export", str(copy), "--force"]) == 0
+    assert copy.read_bytes() == path.read_bytes()

@@ -147,11 +147,25 @@ def test_monitor_decodes_any_python_can_interface_and_records(
     assert main(["monitor", *args]) == 0
     out = capsys.readouterr().out
     assert "MovementCommand" in out
-    assert "steering_norm=0.1 norm" in out
+    assert "steering_norm=0.1" in out
     assert "counter" in re.sub(r"\s+", " ", out)  # the repeated counters are flagged
     recorded = list(can.LogReader(record))
     assert recorded
     assert {m.arbitration_id for m in recorded} == {0x101}
+
+
+def test_piped_once_keeps_each_message_on_one_line(
+    virtual_channel: str, capsys: pytest.CaptureFixture[str], monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """Issue 32, defect 10: piped, the snapshot was cut or wrapped at 80 columns."""
+    monkeypatch.delenv("COLUMNS", raising=False)
+    args = ["-i", "virtual", "-c", virtual_channel, "--duration", "0.5", "--once"]
+    assert main(["monitor", *args]) == 0
+    lines = capsys.readouterr().out.splitlines()
+    assert not any("…" in line for line in lines)
+    (row,) = [line for line in lines if "MovementCommand" in line]
+    assert "steering_norm=0.1" in row
+    assert "gear=" in row  # the last signal, on the same line
 
 
 def test_monitor_without_a_server_says_how_to_start_one(capsys: pytest.CaptureFixture[str]) -> None:
@@ -165,10 +179,33 @@ def test_monitor_without_a_server_says_how_to_start_one(capsys: pytest.CaptureFi
     assert len(err.strip().splitlines()) == 1
 
 
+def _kernel_has_socketcan() -> bool:
+    try:
+        socket.socket(socket.AF_CAN, socket.SOCK_RAW, socket.CAN_RAW).close()
+    except OSError:
+        return False
+    return True
+
+
+def test_socketcan_on_a_host_without_the_interface_names_the_fix(
+    capsys: pytest.CaptureFixture[str],
+) -> None:
+    """Issue 32, defect 9: it said only `[Errno 97] Address family not supported by protocol`."""
+    assert main(["monitor", "-i", "socketcan", "-c", "bywirenone0", "--once"]) == 2
+    err = capsys.readouterr().err
+    assert len(err.strip().splitlines()) == 1
+    assert "Errno" not in err
+    if _kernel_has_socketcan():  # a kernel with CAN: the interface is what is missing
+        assert "bywirenone0: no such network interface: plug in the adapter" in err
+    else:  # this workplace's kernel, a container's, WSL's
+        assert "this kernel has no SocketCAN" in err
+        assert "sudo modprobe can-raw" in err
+
+
 def test_monitor_refuses_a_recording_format_it_cannot_write(
     virtual_channel: str, tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
-    args = ["-i", "virtual", "-c", virtual_channel, "--once", "--record", str(tmp_path / "x.csv")]
+    args = ["-i", "virtual", "-c", virtual_channel, "--once", "--record", str(tmp_path / "x.txt")]
     assert main(["monitor", *args]) == 2
     assert "suffix" in capsys.readouterr().err
 

@@ -19,7 +19,7 @@ from mcap.reader import make_reader
 from bywire.dashboard.client import FeedClient
 from bywire.model import ControlMode
 from bywire.protocol import dbc
-from bywire.telemetry.schemas import CAN_TOPIC, EVENTS_TOPIC, STATE_TOPIC
+from bywire.telemetry.schemas import CAN_TOPIC, EVENTS_TOPIC, SCHEMAS, STATE_TOPIC
 from tests.cli.test_run import LIMIT_S, Robot, _assert_de_energised, _stop_armed
 from tests.hal.linux.bench import make_bench
 from tests.hal.linux.pty_rc import PtyRcLine
@@ -39,6 +39,7 @@ def read_mcap(path: Path) -> list[tuple[str, dict[str, Any]]]:
         return [
             (channel.topic, json.loads(message.data))
             for _s, channel, message in make_reader(stream).iter_messages(log_time_order=True)
+            if channel.topic in SCHEMAS  # the feed's own JSON topics
         ]
 
 

@@ -279,7 +279,7 @@ def test_an_unknown_scenario_exits_2_with_a_suggestion() -> None:
 
 @pytest.mark.parametrize(
     ("option", "name", "allowed"),
-    [("--plot", "run.jpg", ".png"), ("--log", "run.csv", ".blf, .asc, .log")],
+    [("--plot", "run.jpg", ".png"), ("--log", "run.txt", ".blf, .asc, .log, .trc, .csv, .mf4")],
 )
 def test_a_bad_output_suffix_exits_2_before_running(
     option: str, name: str, allowed: str, tmp_path: Path
@@ -299,3 +299,59 @@ def test_list_shows_the_packaged_scenarios() -> None:
     listed = {row["name"]: row for row in json.loads(_main("--list", "--json").out)}
     assert listed["test-course"]["duration_s"] == 40.0
     assert "STOP" in listed["test-course"]["description"]
+
+
+@pytest.mark.parametrize(
+    ("option", "name"),
+    [
+        ("--plot", "run.png"),
+        ("--log", "run.blf"),
+        ("--record", "run.jsonl"),
+        ("--mcap", "run.mcap"),
+    ],
+)
+def test_an_existing_file_is_kept_unless_force(option: str, name: str, tmp_path: Path) -> None:
+    """Issue 32, defect 10: `plot` refused to overwrite without --force, `sim` overwrote."""
+    path = tmp_path / name
+    path.write_bytes(b"keep me")
+    refused = _main("--duration", "0.2", option, str(path))
+    assert refused.status == 2
+    assert refused.err == (
+        f"bywire sim: error: {option} {path}: the file exists: add --force to overwrite it, or"
+        " choose another file\n"
+    )
+    assert path.read_bytes() == b"keep me"
+    forced = _main("--duration", "0.2", option, str(path), "--force")
+    assert forced.status == 0, forced.err
+    assert path.read_bytes() != b"keep me"
+
+
+def test_speed_paces_the_run_at_n_times_real_time() -> None:
+    """Issue 32: a SITL-style --speed N. The run cannot outrun its pace (the wall time is at
+    least the simulated time / N) and is far from real time (6 s simulated, 1.5 s at 4x)."""
+    outcome = _main("--scenario", "rc-link-lost", "--speed", "4", "--json")
+    summary = json.loads(outcome.out)
+    assert outcome.status == 0
+    assert summary["passed"]
+    assert summary["simulated_s"] == pytest.approx(6.0)
+    assert 6.0 / 4 <= summary["wall_s"] < 5.0
+
+
+@pytest.mark.parametrize(
+    ("argv", "message"),
+    [
+        (["--speed", "5", "--realtime"], "--realtime is --speed 1"),
+        (["--scenario", "loop-stall", "--speed", "5"], "stalls the loop in real time"),
+        (["--speed", "2", "--record", "x.jsonl"], "runs in real time"),
+    ],
+)
+def test_speed_refuses_what_it_cannot_do(argv: list[str], message: str) -> None:
+    outcome = _main(*argv)
+    assert outcome.status == 2
+    assert message in outcome.err
+
+
+def test_a_speed_of_zero_is_refused_by_the_parser(capsys: pytest.CaptureFixture[str]) -> None:
+    with pytest.raises(SystemExit):
+        main(["sim", "--speed", "0"])
+    assert "must be above 0" in capsys.readouterr().err

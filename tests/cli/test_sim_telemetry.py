@@ -8,6 +8,7 @@ import bisect
 import contextlib
 import io
 import json
+import math
 import re
 import struct
 import threading
@@ -25,8 +26,9 @@ from bywire.cli import sim as sim_command
 from bywire.cli.main import main
 from bywire.hal.sim.can_bus import LoggedFrame
 from bywire.hal.sim.world import SimWorld
+from bywire.protocol import dbc
 from bywire.sim.runner import SimRun
-from bywire.telemetry.schemas import CAN_TOPIC, EVENTS_TOPIC, SCHEMAS, STATE_TOPIC
+from bywire.telemetry.schemas import CAN_TOPIC, EVENTS_TOPIC, SCHEMAS, STATE_TOPIC, VEHICLE_TOPIC
 
 TOPICS = {STATE_TOPIC, EVENTS_TOPIC, CAN_TOPIC}
 LIMIT_S = 30.0  # generous limits on waiting, never timing assertions
@@ -68,11 +70,20 @@ def runs(monkeypatch: pytest.MonkeyPatch) -> list[RecordedRun]:
     return RecordedRun.built
 
 
-def read_mcap(path: Path) -> Iterator[tuple[str, int, dict[str, Any]]]:
-    """(topic, log time in ns, decoded message) for every message, in log-time order."""
+def read_mcap(path: Path, topics: set[str] = TOPICS) -> Iterator[tuple[str, int, dict[str, Any]]]:
+    """(topic, log time in ns, decoded message) for every message of the JSON `topics` (the
+    feed's own, by default), in log-time order."""
     with path.open("rb") as stream:
         for _schema, channel, message in make_reader(stream).iter_messages(log_time_order=True):
-            yield channel.topic, message.log_time, json.loads(message.data)
+            if channel.topic in topics:
+                yield channel.topic, message.log_time, json.loads(message.data)
+
+
+def wall_offset_ns(messages: list[tuple[str, int, dict[str, Any]]]) -> int:
+    """The one offset from the run's clock to the log times (the run's wall-clock start)."""
+    offsets = {log_time_ns - round(body["time_s"] * 1e9) for _, log_time_ns, body in messages}
+    assert max(offsets) - min(offsets) <= 1, "not one offset"
+    return int(min(offsets))
 
 
 def level_at(history: list[tuple[float, Any]], time_s: float) -> Any:
@@ -124,12 +135,15 @@ def test_an_mcap_holds_every_channel_for_the_whole_run_in_simulated_time(
     tmp_path: Path, runs: list[RecordedRun]
 ) -> None:
     path = tmp_path / "course.mcap"
+    before_ns = time.time_ns()
     status, _ = run_sim("--duration", "24", "--mcap", str(path))
     assert status == 0
     messages = list(read_mcap(path))
+    offset_ns = wall_offset_ns(messages)  # the run's wall-clock start, simulated offsets kept
+    assert before_ns <= offset_ns <= time.time_ns()
     times_s: dict[str, list[float]] = {topic: [] for topic in TOPICS}
     for topic, log_time_ns, _body in messages:
-        times_s[topic].append(log_time_ns / 1e9)
+        times_s[topic].append((log_time_ns - offset_ns) / 1e9)
     states = times_s[STATE_TOPIC]
     assert states == pytest.approx([k / 50 for k in range(24 * 50)], abs=1e-9)
     # Every frame that crossed the bus, in order, start to end.
@@ -146,6 +160,44 @@ def test_an_mcap_holds_every_channel_for_the_whole_run_in_simulated_time(
     assert [event["name"] for event in events if event["kind"] == "mode"] == ["STOP", "RC", "CAN"]
 
 
+def test_an_mcap_speaks_foxglove_s_own_terms(tmp_path: Path, runs: list[RecordedRun]) -> None:
+    """Issue 32, what Foxglove users expect: wall-clock log times, CAN frames decoded with the
+    DBC on topics of their own, events on foxglove.Log, error flags by name, and the simulated
+    vehicle's pose (foxglove.PoseInFrame and a FrameTransform) for the 3D panel."""
+    path = tmp_path / "course.mcap"
+    before_ns = time.time_ns()
+    assert run_sim("--duration", "12", "--mcap", str(path))[0] == 0
+    after_ns = time.time_ns()
+    with path.open("rb") as stream:
+        read = list(make_reader(stream).iter_messages(log_time_order=True))
+    by_topic: dict[str, list[Any]] = {}
+    for schema, channel, message in read:
+        by_topic.setdefault(channel.topic, []).append((schema, message))
+    first_ns, last_ns = read[0][2].log_time, read[-1][2].log_time
+    assert before_ns <= first_ns <= after_ns  # the run's wall-clock start, not 1970
+    assert 11.9e9 < last_ns - first_ns <= 12e9  # the simulated seconds kept
+    movements = [json.loads(m.data) for _, m in by_topic["/bywire/can/MovementCommand"]]
+    sent = [
+        dbc.database().decode_message(0x101, frame.data, decode_choices=False)
+        for frame in runs[0].frames
+        if frame.arbitration_id == 0x101
+    ]
+    signals = [{k: v for k, v in m.items() if k not in ("time_s", "sender")} for m in movements]
+    assert signals == sent
+    assert max(m["throttle_norm"] for m in movements) > 0.1  # the course drives by CAN
+    (log_schema,) = {schema.name for schema, _ in by_topic["/bywire/log"]}
+    assert log_schema == "foxglove.Log"
+    assert len(by_topic["/bywire/log"]) == len(by_topic[EVENTS_TOPIC])
+    flags = [json.loads(m.data) for _, m in by_topic["/bywire/flags"]]
+    assert len(flags) == len(by_topic[STATE_TOPIC])
+    assert any(f["NOT_ARMED"] for f in flags)
+    assert not flags[-1]["NOT_ARMED"]
+    pose_schemas = {schema.name for schema, _ in by_topic["/bywire/pose"] + by_topic["/bywire/tf"]}
+    assert pose_schemas == {"foxglove.PoseInFrame", "foxglove.FrameTransform"}
+    path_m = [json.loads(m.data) for _, m in by_topic[VEHICLE_TOPIC]]
+    assert math.hypot(path_m[-1]["x_m"], path_m[-1]["y_m"]) > 1.0  # it went somewhere
+
+
 def test_mcap_channels_carry_their_json_schemas(tmp_path: Path) -> None:
     path = tmp_path / "short.mcap"
     assert run_sim("--duration", "1", "--mcap", str(path))[0] == 0
@@ -153,8 +205,9 @@ def test_mcap_channels_carry_their_json_schemas(tmp_path: Path) -> None:
         summary = make_reader(stream).get_summary()
     assert summary is not None
     channels = {channel.topic: channel for channel in summary.channels.values()}
-    assert set(channels) == TOPICS
-    for topic, channel in channels.items():
+    assert set(SCHEMAS) <= set(channels)
+    for topic in SCHEMAS:
+        channel = channels[topic]
         schema = summary.schemas[channel.schema_id]
         assert (channel.message_encoding, schema.encoding) == ("json", "jsonschema")
         assert json.loads(schema.data) == SCHEMAS[topic]
@@ -168,12 +221,14 @@ def test_every_state_message_matches_the_simulated_hardware_at_its_time(
     path = tmp_path / "course.mcap"
     assert run_sim("--duration", "10", "--mcap", str(path))[0] == 0
     world = runs[0].world
-    states = [(t / 1e9, body) for topic, t, body in read_mcap(path) if topic == STATE_TOPIC]
+    messages = list(read_mcap(path))
+    offset_ns = wall_offset_ns(messages)
+    states = [((t - offset_ns) / 1e9, body) for topic, t, body in messages if topic == STATE_TOPIC]
     assert len(states) == 500
     driving = [body for _, body in states if body["outputs"]["dac_throttle_volts"] > 0]
     assert len(driving) > 100
     for time_s, body in states:
-        assert body["time_s"] == time_s
+        assert body["time_s"] == pytest.approx(time_s, abs=1e-9)
         assert outputs_of(body) == hardware_at(world, time_s), time_s
     # The last message is the last pass's: the ports still held its levels when the run ended
     # (before the exit's safe writes, which the history shows after it).
@@ -190,9 +245,7 @@ def test_a_realtime_mcap_is_stamped_with_wall_clock_time(tmp_path: Path) -> None
     messages = list(read_mcap(path))
     assert {topic for topic, _, _ in messages} == TOPICS
     assert all(before_ns <= log_time_ns <= after_ns for _, log_time_ns, _ in messages)
-    # One offset maps the controller's clock to the wall clock, for every message.
-    offsets_ns = {log_time_ns - round(body["time_s"] * 1e9) for _, log_time_ns, body in messages}
-    assert max(offsets_ns) - min(offsets_ns) <= 1
+    wall_offset_ns(messages)  # one offset maps the controller's clock to the wall clock
     states = [body for topic, _, body in messages if topic == STATE_TOPIC]
     assert states[-1]["time_s"] > 0.5  # the run's whole second, not only its start
 
@@ -242,8 +295,9 @@ def test_a_foxglove_client_sees_the_channels_and_live_values_of_the_simulated_ha
         url = _wait_for_url(capsys)
         with connect(url, subprotocols=SUBPROTOCOLS, open_timeout=LIMIT_S) as client:
             channels = _advertised(client)
-            assert set(channels) == TOPICS
-            for topic, channel in channels.items():
+            assert set(SCHEMAS) <= set(channels)  # and Foxglove's own topics beside them
+            for topic in SCHEMAS:
+                channel = channels[topic]
                 assert (channel["encoding"], channel["schemaEncoding"]) == ("json", "jsonschema")
                 assert json.loads(channel["schema"]) == SCHEMAS[topic]
             subscribe = [{"id": 7, "channelId": channels[STATE_TOPIC]["id"]}]

@@ -48,7 +48,8 @@ def test_at_80_by_24_every_panel_and_task_row_is_on_screen_with_the_speed() -> N
             rows = _rows(app)
             assert list(rows) == [*(spec.name for spec in SCHEDULE), "idle"]
             screen = app.screen.region
-            for widget in [*app.query(".panel"), app.query_one(DataTable)]:
+            assert _panel(app, "flags") == "error flags: none"
+            for widget in [*app.query(".panel"), app.query_one("#flags"), app.query_one(DataTable)]:
                 assert screen.contains_region(widget.region), (widget.id, widget.region)
             table = app.query_one(DataTable)
             # The whole table is shown: header, six rows, the border; nothing scrolled away.
@@ -81,3 +82,35 @@ def test_q_quits_the_view() -> None:
 
     asyncio.run(quit_it())
     assert app.return_code == 0
+
+
+def test_ctrl_c_quits_the_view() -> None:
+    """Issue 32, defect 7: Textual's Ctrl-C only hinted at ctrl+q."""
+    app = DashboardApp(Feed(driving_by_rc()))
+
+    async def interrupt() -> bool:
+        async with app.run_test(size=SIZE) as pilot:
+            await pilot.press("ctrl+c")
+            await pilot.pause()
+            return app.is_running
+
+    assert asyncio.run(interrupt()) is False
+    assert app.return_code == 0
+
+
+def test_the_scenario_s_verdict_is_shown_beside_the_flags_once_known() -> None:
+    """Issue 32, defect 10: the view never said whether the scenario it started passed."""
+    verdicts: list[str | None] = [None]
+    app = DashboardApp(Feed(driving_by_rc()), source="scenario x", verdict=lambda: verdicts[-1])
+
+    async def look() -> tuple[str, str]:
+        async with app.run_test(size=SIZE) as pilot:
+            await pilot.pause()
+            before = _panel(app, "flags")
+            verdicts.append("FAILED (5 of 7 passed)")
+            app.refresh_view()
+            return before, _panel(app, "flags")
+
+    before, after = asyncio.run(look())
+    assert before == "error flags: none"
+    assert after == "error flags: none  ·  scenario FAILED (5 of 7 passed)"

@@ -4,12 +4,14 @@ from __future__ import annotations
 
 import pytest
 
+from bywire.control.error_flags import ErrorFlag
 from bywire.dashboard.snapshot import from_state
 from bywire.dashboard.view import (
     PANEL_WIDTH,
     TASK_COLUMNS,
     actuator_panel,
     command_panel,
+    flags_line,
     idle_cells,
     input_panel,
     mode_panel,
@@ -51,8 +53,17 @@ def test_a_lost_rc_link_shows_stop_latched_with_its_flag() -> None:
     assert "RC_TIMEOUT" in snap.error_flags
     panel = mode_panel(snap).plain
     assert "mode STOP  LATCHED" in panel
-    assert "flags: RC_TIMEOUT" in panel
+    assert "flags: 1 set (below)" in panel
+    assert flags_line(snap).plain == "error flags: RC_TIMEOUT"
     assert actuator_panel(snap).plain.splitlines()[2].startswith("e-brake ENGAGED")
+
+
+def test_every_flag_is_named_in_full_however_many_are_set() -> None:
+    """Issue 32, defect 10: the mode panel cut the flags at 36 columns."""
+    names = [str(flag.name) for flag in ErrorFlag][:6]
+    snap = from_state({**rc_lost(), "error_flags": names})
+    assert flags_line(snap).plain == "error flags: " + ", ".join(names)
+    assert "6 set" in mode_panel(snap).plain
 
 
 def test_every_panel_is_four_lines_that_fit_half_an_80_column_terminal() -> None:

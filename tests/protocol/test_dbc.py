@@ -83,13 +83,23 @@ def test_every_message_has_a_comment_and_a_20_ms_cycle_time() -> None:
         assert dbc.period_s(message.frame_id) == pytest.approx(0.02)
 
 
-def test_every_signal_has_a_unit_and_a_range() -> None:
+PSEUDO_UNITS = {"bool", "norm", "enum", "count", "crc8", "mac"}
+
+
+def test_every_signal_has_a_real_unit_or_none_and_a_range() -> None:
+    """Issue 32: pseudo-units made cantools print `0 bool`; a flag, a normalised value, an
+    enumeration, a counter, a CRC or a MAC has no unit (an enumeration names its values)."""
+    physical = set()
     for message in dbc.database().messages:
         for signal in message.signals:
-            assert signal.unit, f"{message.name}.{signal.name}"
+            assert signal.unit not in PSEUDO_UNITS, f"{message.name}.{signal.name}"
+            physical.add(signal.unit or "")
+            if signal.name in ("gear", "control_mode"):
+                assert signal.choices, f"{message.name}.{signal.name} names its values"
             assert signal.minimum is not None, signal.name
             assert signal.maximum is not None, signal.name
             assert signal.minimum < signal.maximum, signal.name
+    assert physical == {"", "m/s", "ms", "s"}
 
 
 def test_standard_ids_commands_before_reports_stop_first() -> None:

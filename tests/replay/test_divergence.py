@@ -58,3 +58,25 @@ def test_a_dac_write_is_shown_in_volts_beside_its_i2c_frame() -> None:
     assert f"dac.0 recorded 1.250 V (I2C {frame}), replayed 2.500 V (I2C {other})" in text
     assert "recorded 0.625 V" in divergence.describe(dac_vref_volts=2.5)  # the robot's Vref
     assert dac_volts("not hex") is None
+
+
+def test_the_same_value_written_another_number_of_times_is_never_shown_as_equal_values() -> None:
+    """Issue 32, defect 10: `can_tx.0x200 recorded 1104, replayed 1104`."""
+    twice = [Output(1.0, "can_tx.0x200", "1104"), Output(1.0, "can_tx.0x200", "1104")]
+    divergence = first_divergence(twice, twice[:1])
+    assert divergence is not None
+    text = divergence.describe()
+    assert "recorded 1104, replayed 1104" not in text
+    assert text.endswith(
+        "can_tx.0x200 written 2 times (1104, 1104) at that instant in the record,"
+        " 1 time (1104) on replay"
+    )
+
+
+def test_the_same_writes_in_another_order_say_so_with_both_orders() -> None:
+    divergence = first_divergence(A, [A[1], A[0], A[2]])
+    assert divergence is not None
+    assert divergence.describe().endswith(
+        "steering_pwm: the same writes, in another order among that instant's outputs"
+        " (recorded steering_pwm, gpio.x; replayed gpio.x, steering_pwm)"
+    )

@@ -79,3 +79,19 @@ def test_the_readme_scenario_example_is_a_valid_scenario() -> None:
     scenario = parse_scenario(example.group(1), "README.md")
     assert scenario.events[-1].values["fault"] == "rc_link_lost"
     assert scenario.expectations[0].after == "unplugged"
+
+
+@pytest.mark.parametrize(
+    ("given", "message"),
+    [
+        ("nosuch.toml", "nosuch.toml: no such file, and no packaged scenario is called 'nosuch';"),
+        ("test-corse.toml", "no such file, and no packaged scenario is called 'test-corse' (did"),
+        ("mine/nosuch.toml", "mine/nosuch.toml: no such file"),
+    ],
+)
+def test_a_file_that_is_not_there_is_no_such_file(given: str, message: str) -> None:
+    """Issue 32, defect 9: `--scenario nosuch.toml` said "unknown scenario"."""
+    with pytest.raises(ConfigError) as raised:
+        catalog.find_scenario(given)
+    assert message in str(raised.value)
+    assert "unknown scenario" not in str(raised.value)

@@ -65,6 +65,8 @@ def test_a_good_scenario_parses_with_events_in_time_order() -> None:
         ("[[expect]]\nafter = 'nothing'\nwithin_s = 0.1\nmode = 'stop'", "no event is labelled"),
         ("duraton_s = 3", "did you mean 'duration_s'"),
         ("name = ", "not valid TOML"),
+        ("needs_sensors = ['wheel_speeds']", "did you mean 'wheel_speed'"),
+        ("needs_sensors = 'wheel_speed'", "needs_sensors: must be a list"),
     ],
 )
 def test_bad_scenarios_are_refused_naming_the_key(text: str, message: str) -> None:

@@ -174,6 +174,22 @@ def test_expectations_after_a_run_cut_short_are_not_reached() -> None:
     assert summary.passed
 
 
+def test_expectations_after_a_run_stopped_by_a_signal_are_not_reached() -> None:
+    """Issue 32, defect 10: Ctrl-C (the loop asked to stop, as the signal handler does) showed
+    them FAIL, where --duration showed them not reached."""
+    run = SimRun(default_sim_config(), parse_scenario(SCENARIO, "unit.toml"))
+    run.world.clock.call_at(1.0, run.runtime.request_stop)
+    run.run()
+    summary = build_summary(run, WALL_S)
+    assert summary.simulated_s == pytest.approx(1.0, abs=0.011)
+    assert [e.status for e in summary.expectations] == ["not reached", "not reached"]
+    assert summary.passed
+    console = Console(file=io.StringIO(), width=100)
+    render(summary, console)
+    text = console.file.getvalue()  # type: ignore[attr-defined]
+    assert "0 of 2 expectations passed, 2 not reached (the run ended before them)" in text
+
+
 def test_json_has_stable_keys_and_numbers(summary: Summary) -> None:
     data = json.loads(json.dumps(summary.as_json()))
     assert set(data) == {

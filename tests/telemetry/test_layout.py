@@ -9,6 +9,7 @@ from typing import Any
 
 import pytest
 
+from bywire.telemetry.foxglove_topics import json_schemas
 from bywire.telemetry.layout import layout_json
 from bywire.telemetry.schemas import SCHEMAS, Schema
 
@@ -38,7 +39,7 @@ def _field(schema: Schema, names: list[str]) -> Schema:
 
 
 def _resolves(path: str) -> bool:
-    for topic, schema in SCHEMAS.items():
+    for topic, schema in (SCHEMAS | json_schemas()).items():
         if path == topic or path.startswith(topic + "."):
             names = path.removeprefix(topic).split(".")[1:]
             try:
@@ -65,3 +66,15 @@ def test_every_path_in_the_layout_names_a_field_of_the_feed() -> None:
 )
 def test_a_path_to_no_field_is_caught(path: str) -> None:
     assert not _resolves(path)
+
+
+def test_the_layout_uses_foxglove_s_own_topics() -> None:
+    """Issue 32: the shipped layout shows the decoded CAN topics, the flags by name, the
+    foxglove.Log events and the simulated vehicle's pose."""
+    text = layout_json()
+    shipped = json.loads(text)
+    paths = set(_paths(shipped))
+    assert "/bywire/can/MovementCommand.throttle_norm" in paths
+    assert "/bywire/flags.RC_TIMEOUT" in paths
+    assert '"topicToRender": "/bywire/log"' in text
+    assert '"/bywire/pose"' in text

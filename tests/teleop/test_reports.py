@@ -67,6 +67,16 @@ def test_a_latched_stop_and_no_errors_read_plainly() -> None:
     assert "errors none" in text
 
 
+def test_a_robot_in_stop_says_why_on_a_line_of_its_own() -> None:
+    """Issue 32, defect 4: teleop showed no warning when its gaps stopped the robot."""
+    mode = ModeReport(Gear.FORWARD, ControlMode.STOP, True, True, True)
+    flags = ErrorFlag.CAN_COMMAND_TIMEOUT | ErrorFlag.CAN_COMMAND_REJECTED
+    lines = report_lines(view_of(mode, ErrorReport(flags)), 1.0)
+    assert lines[1] == "robot in STOP (latched): CAN_COMMAND_TIMEOUT, CAN_COMMAND_REJECTED"
+    driving = report_lines(view_of(*REPORTS), 1.0)
+    assert not any(line.startswith("robot in STOP") for line in driving)
+
+
 def test_the_newest_report_wins() -> None:
     first, second = WheelSpeedReport(1.0, 1.0), WheelSpeedReport(-0.5, -0.5)
     view = fold(view_of(first, at_s=1.0), *dbc.encode_report(second), 1.5)

@@ -7,6 +7,7 @@ marked Tx when the controller sent it and Rx otherwise.
 
 from __future__ import annotations
 
+import importlib.util
 import time
 from collections import Counter
 from pathlib import Path
@@ -23,16 +24,26 @@ WRITERS: dict[str, Any] = {
     ".blf": can.BLFWriter,
     ".asc": can.ASCWriter,
     ".log": can.CanutilsLogWriter,
+    ".trc": can.TRCWriter,
+    ".csv": can.CSVWriter,
+    ".mf4": can.MF4Writer,  # needs asammdf (pip install 'bywire[mf4]')
 }
+FORMATS = "BLF, Vector ASC, candump -L, PEAK TRC, python-can CSV, ASAM MDF4"
 CHANNEL = "can0"
 
 
 def check_log_path(path: Path) -> None:
-    """ConfigError unless the suffix names a format we write and its folder exists."""
-    if path.suffix.lower() not in WRITERS:
+    """ConfigError unless the suffix names a format we write (and can: MF4 needs asammdf) and
+    its folder exists."""
+    suffix = path.suffix.lower()
+    if suffix not in WRITERS:
         raise ConfigError(
             f"cannot write a CAN log as {path.name!r}: the suffix must be one of"
-            f" {', '.join(WRITERS)} (BLF, Vector ASC, candump -L)"
+            f" {', '.join(WRITERS)} ({FORMATS})"
+        )
+    if suffix == ".mf4" and importlib.util.find_spec("asammdf") is None:
+        raise ConfigError(
+            "writing .mf4 needs the asammdf package: pip install 'bywire[mf4]' (or asammdf)"
         )
     if not path.parent.is_dir():
         raise ConfigError(f"cannot write {path}: folder {path.parent} does not exist")

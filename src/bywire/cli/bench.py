@@ -23,6 +23,7 @@ from bywire.bench.secoc import measure_secoc_cost
 from bywire.bench.table import render, render_tail, summary_line
 from bywire.bench.tail import ProbedClock
 from bywire.bench.virtual import measure_speedup, measure_verify_rate
+from bywire.cli.console import stdout_console
 from bywire.config import RobotConfig, default_sim_config, load_config
 from bywire.errors import ConfigError
 from bywire.runtime.realtime import RealtimeReport, apply_collector, apply_process
@@ -156,7 +157,7 @@ def run(args: argparse.Namespace) -> int:
     if args.json:
         print(json.dumps(as_json(result), indent=2))
     else:
-        out = Console()
+        out = stdout_console()
         out.print(render(result))
         out.print(summary_line(result))
         if realtime.tail is not None:

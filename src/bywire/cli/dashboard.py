@@ -16,7 +16,7 @@ from typing import TYPE_CHECKING
 
 from bywire.cli.arguments import positive_seconds
 from bywire.config import load_config
-from bywire.errors import ConfigError
+from bywire.errors import ConfigError, HardwareError
 from bywire.sim.catalog import DEFAULT_SCENARIO, find_scenario
 
 if TYPE_CHECKING:
@@ -29,7 +29,7 @@ shows the mode and latch, the speed, error flags by name, the movement set-point
 the actuator outputs, input ages and counts, and the task table (the counterpart of the thesis'
 Figure 30): measured rate, runtime share, worst start jitter, overruns and budget overruns, and
 the idle share. It fits an 80x24 terminal. When the feed ends the last picture stays on screen.
-q quits.
+q or Ctrl-C quits.
 
 With --attach it watches a running controller: `bywire run` with [telemetry] foxglove set (or
 --dashboard), or `bywire sim --realtime --foxglove PORT`. Without it, it starts the simulated
@@ -91,7 +91,7 @@ def run(args: argparse.Namespace) -> int:
             raise ConfigError(f"{', '.join(given)}: for the simulated robot, not with --attach")
         _step_aside()
         with _Ending() as ending:
-            return show(attach_url(args.attach), source=args.attach, ending=ending)
+            return show(attach_url(args.attach), source=args.attach, ending=ending, attach=True)
     from bywire.dashboard.child import SimFeed  # noqa: PLC0415
 
     find_scenario(args.scenario)  # a wrong name or file: one line here, not in the child
@@ -104,15 +104,28 @@ def run(args: argparse.Namespace) -> int:
     with _Ending() as ending:  # before the robot starts: a SIGTERM from now on stops it too
         sim = SimFeed(arguments, on_started=ending.robot_started)  # at this command's priority
         _step_aside()
+        name = Path(args.scenario).stem
         try:
-            return show(sim.url, source=f"scenario {Path(args.scenario).stem}", ending=ending)
+            status = show(sim.url, source=f"scenario {name}", ending=ending, verdict=sim.verdict)
         finally:
             sim.stop()
+        # After the view, on the terminal it leaves: the expectations' verdict.
+        print(f"scenario {name}: expectations {sim.verdict()}")
+        return status
 
 
-def show(url: str, *, source: str, ending: _Ending | None = None) -> int:
+def show(
+    url: str,
+    *,
+    source: str,
+    ending: _Ending | None = None,
+    attach: bool = False,
+    verdict: Callable[[], str | None] | None = None,
+) -> int:
     """The textual program on the feed at `url` (textual is imported only for this); with
-    `ending`, a SIGTERM closes the feed's client before the view goes."""
+    `ending`, a SIGTERM closes the feed's client before the view goes. With `attach`, a feed
+    that is not there is an error before any view opens (HardwareError, exit 2), within the
+    client's bounded wait, rather than a view that waits forever."""
     from bywire.dashboard.app import DashboardApp  # noqa: PLC0415 -- keeps `bywire --help` fast
     from bywire.dashboard.client import FeedClient  # noqa: PLC0415
 
@@ -120,7 +133,14 @@ def show(url: str, *, source: str, ending: _Ending | None = None) -> int:
     if ending is not None:
         ending.client = client
     try:
-        app = DashboardApp(client, source=source)
+        failed = client.wait_live() if attach else None
+        if failed is not None:
+            raise HardwareError(
+                f"--attach {source}: {failed}; is a controller serving its feed there"
+                " (`bywire run` with [telemetry] foxglove, or `bywire sim --realtime --foxglove"
+                " PORT`, which prints the port)?"
+            )
+        app = DashboardApp(client, source=source, verdict=verdict)
         app.run()
     finally:
         client.close()

@@ -1,10 +1,12 @@
-"""`bywire dbc`: show the CAN database's messages and signals, or generate C code from it."""
+"""`bywire dbc`: show the CAN database's messages and signals, generate C code from it, or hand
+the packaged albert.dbc to other tools (`path`, `export`)."""
 
 from __future__ import annotations
 
 import argparse
 import sys
 from collections.abc import Sequence
+from importlib import resources
 from pathlib import Path
 from typing import Any
 
@@ -13,7 +15,13 @@ from cantools.database.can.c_source import generate
 
 from bywire.errors import BywireError
 from bywire.protocol import protection_c, secoc_c
-from bywire.protocol.dbc import database, load_user_database
+from bywire.protocol.dbc import (
+    DBC_RESOURCE,
+    DbcError,
+    database,
+    load_database,
+    load_user_database,
+)
 
 
 class OutputError(BywireError, OSError):
@@ -21,7 +29,7 @@ class OutputError(BywireError, OSError):
 
 
 def configure(parser: argparse.ArgumentParser) -> None:
-    """Add the `show` and `codegen` sub-commands."""
+    """Add the `show`, `codegen`, `path` and `export` sub-commands."""
     commands = parser.add_subparsers(dest="dbc_command", metavar="ACTION", required=True)
     show = commands.add_parser("show", help="list messages and signals")
     codegen = commands.add_parser(
@@ -33,6 +41,13 @@ def configure(parser: argparse.ArgumentParser) -> None:
     )
     for sub in (show, codegen):
         sub.add_argument("--dbc", type=Path, metavar="FILE", help="DBC file (packaged albert.dbc)")
+    commands.add_parser(
+        "path",
+        help="print the path of the packaged albert.dbc (for cantools, SavvyCAN, Foxglove …)",
+    )
+    export = commands.add_parser("export", help="write the packaged albert.dbc to FILE")
+    export.add_argument("file", type=Path, metavar="FILE", help="where to write it ('-': stdout)")
+    export.add_argument("--force", action="store_true", help="overwrite FILE if it exists")
 
 
 def load_user_dbc(path: Path, command: str) -> Database:
@@ -47,6 +62,47 @@ def load_user_dbc(path: Path, command: str) -> Database:
     return loaded
 
 
+def load_codegen_dbc(path: Path) -> Database:
+    """The user's DBC for code generation: strictly, or DbcError naming the problem. Lenient
+    loading is for the tools that only read a file; C generated from a signal that does not fit
+    its message writes past the frame's buffer (cantools' own generator refuses such a file
+    unless told `--no-strict`)."""
+    try:
+        return load_database(path)
+    except DbcError as error:
+        raise DbcError(
+            f"{error}: C code is generated only from a DBC that passes cantools' strict checks"
+            " (fix the file; `bywire dbc show --dbc FILE` lists it as it loads)"
+        ) from None
+
+
+def packaged_dbc_path() -> Path:
+    """The packaged albert.dbc as a file on disk (an installed wheel holds it as one; a
+    zipped package would need `dbc export`)."""
+    resource = resources.files("bywire.protocol").joinpath(DBC_RESOURCE)
+    path = Path(str(resource))
+    if not path.is_file():
+        raise OutputError(
+            f"the packaged {DBC_RESOURCE} is not a file here: use `bywire dbc export FILE`"
+        )
+    return path
+
+
+def export_dbc(target: Path, *, force: bool) -> None:
+    """Write the packaged albert.dbc, byte for byte, to `target` ('-': stdout)."""
+    data = resources.files("bywire.protocol").joinpath(DBC_RESOURCE).read_bytes()
+    if str(target) == "-":
+        sys.stdout.buffer.write(data)
+        return
+    if target.exists() and not force:
+        raise OutputError(f"{target} exists: add --force to overwrite it, or choose another file")
+    try:
+        target.write_bytes(data)
+    except OSError as error:
+        raise OutputError(f"cannot write {target}: {error.strerror or error}") from error
+    print(f"{target} ({len(data)} bytes, albert.dbc)")
+
+
 def _c_identifier(text: str) -> str:
     if not (text.isascii() and text.isidentifier()):
         raise argparse.ArgumentTypeError(f"{text!r} is not a C identifier")
@@ -54,8 +110,20 @@ def _c_identifier(text: str) -> str:
 
 
 def run(args: argparse.Namespace) -> int:
-    """Run `show` or `codegen`; an unreadable DBC raises DbcError (one line, exit status 2)."""
-    loaded = database() if args.dbc is None else load_user_dbc(args.dbc, "dbc")
+    """Run `show`, `codegen`, `path` or `export`; an unreadable DBC raises DbcError (one line,
+    exit status 2)."""
+    if args.dbc_command == "path":
+        print(packaged_dbc_path())
+        return 0
+    if args.dbc_command == "export":
+        export_dbc(args.file, force=args.force)
+        return 0
+    if args.dbc is None:
+        loaded = database()
+    elif args.dbc_command == "codegen":
+        loaded = load_codegen_dbc(args.dbc)
+    else:
+        loaded = load_user_dbc(args.dbc, "dbc")
     if args.dbc_command == "show":
         print("\n".join(describe(loaded)))
     else:

@@ -3,11 +3,12 @@
 from __future__ import annotations
 
 import argparse
+import difflib
 import importlib
 import os
 import sys
 from collections.abc import Callable, Sequence
-from typing import Protocol
+from typing import NoReturn, Protocol
 
 from bywire import __version__
 from bywire.errors import BywireError
@@ -57,6 +58,42 @@ COMMANDS: dict[str, tuple[str, str]] = {
 }
 
 
+class _Parser(argparse.ArgumentParser):
+    """argparse, with the nearest option suggested for a misspelt one (`--scenaro`)."""
+
+    suggest_from: argparse.ArgumentParser | None = None
+    """The selected sub-command's parser: its options are what a user most likely meant."""
+
+    def error(self, message: str) -> NoReturn:
+        prefix = "unrecognized arguments: "
+        if message.startswith(prefix) and self.suggest_from is not None:
+            message += _suggestion(message.removeprefix(prefix).split(), self.suggest_from)
+            self.suggest_from.error(message)  # with the sub-command's usage
+        super().error(message)
+
+
+def _suggestion(given: list[str], parser: argparse.ArgumentParser) -> str:
+    """' (did you mean --scenario?)' for the first unknown option close to a known one."""
+    known = _options(parser)
+    for word in given:
+        if word.startswith("--"):
+            close = difflib.get_close_matches(word.split("=", 1)[0], known, n=1)
+            if close:
+                return f" (did you mean {close[0]}?)"
+    return ""
+
+
+def _options(parser: argparse.ArgumentParser) -> list[str]:
+    """Every option string of `parser` and of its sub-commands' parsers (`dbc show --dbc`)."""
+    found: list[str] = []
+    for action in parser._actions:  # argparse keeps them nowhere public
+        found += action.option_strings
+        if isinstance(action, argparse._SubParsersAction):
+            for sub in action.choices.values():
+                found += _options(sub)
+    return found
+
+
 class CommandModule(Protocol):
     """What a module in bywire.cli provides for its sub-command."""
 
@@ -72,7 +109,7 @@ def _load(name: str) -> CommandModule:
 
 def build_parser(selected: str | None) -> argparse.ArgumentParser:
     """The parser; only the selected sub-command's module is imported to add its options."""
-    parser = argparse.ArgumentParser(
+    parser = _Parser(
         prog="bywire",
         description="Low-level drive-by-wire controller: CAN and FlySky IBUS in, actuators out.",
     )
@@ -82,6 +119,7 @@ def build_parser(selected: str | None) -> argparse.ArgumentParser:
         command_parser = sub.add_parser(name, help=help_text, description=help_text)
         if name == selected:
             _load(name).configure(command_parser)
+            parser.suggest_from = command_parser
     return parser
 
 

@@ -11,10 +11,9 @@ import logging
 import time
 from pathlib import Path
 
-from rich.console import Console
-
 from bywire.cli.arguments import positive_seconds
 from bywire.cli.bus_options import add_bus_options, bus_from_args, bus_source
+from bywire.cli.console import stdout_console
 from bywire.monitor.feed import CanFeed
 from bywire.monitor.model import BusModel
 from bywire.monitor.view import snapshot_table
@@ -27,7 +26,7 @@ def configure(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--record",
         type=Path,
-        metavar="FILE.blf|.asc|.log",
+        metavar="FILE.blf|.asc|.log|.trc|.csv|.mf4",
         help="also write every frame (BLF, Vector ASC or candump -L, by suffix)",
     )
     parser.add_argument(
@@ -69,5 +68,5 @@ def _snapshot(feed: CanFeed, source: str, duration_s: float) -> int:
     for message in feed.drain():
         model.add(message.arbitration_id, bytes(message.data), message.timestamp)
     title = f"{source} ({feed.connection}): {model.frames} frames in {duration_s:g} s"
-    Console().print(snapshot_table(model.rows(time.time()), title), soft_wrap=True)
+    stdout_console().print(snapshot_table(model.rows(time.time()), title), soft_wrap=True)
     return 0 if model.frames else 1

@@ -54,6 +54,9 @@ def run(args: argparse.Namespace) -> int:
                 "output": divergence.name,
                 "recorded": divergence.recorded,
                 "replayed": divergence.replayed,
+                "recorded_writes": list(divergence.recorded_writes),  # that output's, that instant
+                "replayed_writes": list(divergence.replayed_writes),
+                "description": divergence.describe(start_s, vref_volts),
             }
             if divergence.name.startswith("dac."):
                 diverged["recorded_volts"] = dac_volts(divergence.recorded or "", vref_volts)

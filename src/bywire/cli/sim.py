@@ -15,7 +15,7 @@ import signal
 import sys
 import threading
 import time
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from dataclasses import replace
 from pathlib import Path
 from types import FrameType, ModuleType
@@ -27,31 +27,40 @@ from rich.table import Table
 
 from bywire.canlog.write import BusTally, CanLog, check_log_path
 from bywire.cli.arguments import positive_hertz, positive_seconds
+from bywire.cli.console import stdout_console
 from bywire.config import RobotConfig, default_sim_config, load_config
 from bywire.errors import ConfigError
 from bywire.hal.sim.clock import RealtimeClock
 from bywire.loopback import Endpoint, parse_endpoint
 from bywire.netbus.bridge import serve_bus
-from bywire.replay.recorder import SimRunRecorder
+from bywire.replay.recorder import SimRunRecorder, check_record_path
+from bywire.sim.applicability import not_applicable
 from bywire.sim.catalog import DEFAULT_SCENARIO, find_scenario, packaged_scenarios
 from bywire.sim.plot import check_plot_path, write_plot
 from bywire.sim.runner import SimRun
-from bywire.sim.suite import collect, junit_xml, run_case
+from bywire.sim.suite import Case, collect, junit_xml, run_case
 from bywire.sim.summary import build_summary, render
-from bywire.telemetry.capture import DEFAULT_RATE_HZ
+from bywire.telemetry.capture import DEFAULT_RATE_HZ, Capture, PoseCapture
 from bywire.telemetry.feed import FeedOptions, check_mcap_path, open_feed
+from bywire.telemetry.outbox import Outbox
 
 PROGRESS_PERIOD_S = 0.1  # simulated seconds between progress updates
 STOP_SIGNALS = (signal.SIGINT, signal.SIGTERM, signal.SIGHUP)
 INTERRUPTED = 130  # the shell's status for a run ended by Ctrl-C
 
 
-class _Console(Console):
-    """rich exits 1 when the reader goes away; `bywire sim | head` is no error (main says so)."""
+MAX_SPEED = 1000.0  # far past what the simulator keeps up with in real time; virtual time is faster
 
-    def on_broken_pipe(self) -> None:
-        self.quiet = True
-        raise BrokenPipeError
+
+def positive_speed(text: str) -> float:
+    """--speed N: a number above 0 and at most MAX_SPEED."""
+    try:
+        speed = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a number, got {text!r}") from None
+    if not 0.0 < speed <= MAX_SPEED:
+        raise argparse.ArgumentTypeError(f"must be above 0 and at most {MAX_SPEED:g}, got {text}")
+    return speed
 
 
 def _endpoint(text: str) -> Endpoint:
@@ -93,14 +102,22 @@ def configure(parser: argparse.ArgumentParser) -> None:
         "--realtime", action="store_true", help="pace the run by the wall clock (live view)"
     )
     parser.add_argument(
+        "--speed",
+        type=positive_speed,
+        metavar="N",
+        help="pace the run by the wall clock at N times real time (SITL's --speed: watch a run"
+        " in Foxglove at 5x); --speed 1 is --realtime",
+    )
+    parser.add_argument(
         "--json", action="store_true", help="print the summary as JSON and nothing else"
     )
     parser.add_argument("--plot", type=Path, metavar="FILE.png", help="write a plot of the run")
     parser.add_argument(
         "--log",
         type=Path,
-        metavar="FILE.blf|.asc|.log",
-        help="write every CAN frame (BLF, Vector ASC or candump -L, by suffix)",
+        metavar="FILE.blf|.asc|.log|.trc|.csv|.mf4",
+        help="write every CAN frame (BLF, Vector ASC, candump -L, PEAK TRC, python-can CSV or"
+        " ASAM MDF4 with asammdf, by suffix)",
     )
     parser.add_argument(
         "--rosbag",
@@ -144,6 +161,12 @@ def configure(parser: argparse.ArgumentParser) -> None:
         help=f"state messages per second of the feed (default: {DEFAULT_RATE_HZ:g})",
     )
     parser.add_argument(
+        "--force",
+        action="store_true",
+        help="overwrite the files of --plot, --log, --record and --mcap if they exist"
+        " (refused otherwise)",
+    )
+    parser.add_argument(
         "--config",
         type=Path,
         metavar="FILE",
@@ -153,7 +176,8 @@ def configure(parser: argparse.ArgumentParser) -> None:
         "--authenticated",
         action="store_true",
         help="SecOC-authenticated commands: the simulated computer signs, the controller"
-        " verifies (as [security] enabled = true; the configured key, or a random one)",
+        " verifies (as [security] enabled = true: its key file; without one, a key drawn from the"
+        " simulator's seed)",
     )
 
 
@@ -166,7 +190,11 @@ def run(args: argparse.Namespace) -> int:
     _check_one_run(args)
     robot = _robot(args)
     sim = SimRun(
-        robot, find_scenario(args.scenario), realtime=args.realtime, duration_s=args.duration
+        robot,
+        find_scenario(args.scenario),
+        realtime=args.realtime,
+        duration_s=args.duration,
+        speed=args.speed,
     )
     if args.serve is not None and not isinstance(sim.world.clock, RealtimeClock):
         raise ConfigError("--serve needs --realtime: virtual time outruns any client")
@@ -196,6 +224,7 @@ def _one_run(args: argparse.Namespace, sim: SimRun, stopped_by: list[int]) -> in
     if recorder is not None:
         recorder.write()
     summary = build_summary(sim, wall_s, tally)
+    aside = not_applicable(sim.scenario, sim.robot)
     if args.plot is not None:
         write_plot(sim, args.plot)
     files = {"plot": _name(args.plot), "can_log": _name(args.log)}
@@ -203,16 +232,20 @@ def _one_run(args: argparse.Namespace, sim: SimRun, stopped_by: list[int]) -> in
     files.update({} if args.mcap is None else {"mcap": str(args.mcap)})
     files.update({} if args.rosbag is None else {"rosbag": str(args.rosbag)})
     if args.json:
-        print(json.dumps({**summary.as_json(), "files": files}, indent=2))
+        document = {**summary.as_json(), "not_applicable": aside, "files": files}
+        print(json.dumps(document, indent=2))
     else:
-        console = _Console()
+        console = stdout_console()
         render(summary, console)
         for line in _file_lines(args, frames_logged):
             console.print(line, soft_wrap=True)
         if stopped_by:
             name = signal.Signals(stopped_by[0]).name
             console.print(f"Stopped by {name} after {summary.simulated_s:.1f} s", soft_wrap=True)
-    return 0 if summary.passed else 1
+        if aside is not None:
+            console.print(f"[yellow]{sim.scenario.name}: {escape(aside)}[/]", soft_wrap=True)
+    # A scenario that does not apply to the robot is no verdict on it (as `--all` sets it aside).
+    return 0 if summary.passed or aside is not None else 1
 
 
 @contextlib.contextmanager
@@ -264,6 +297,10 @@ def _check_one_run(args: argparse.Namespace) -> None:
     """Refuse what cannot work before the run starts, not after it."""
     if args.junit is not None:
         raise ConfigError("--junit needs --all: the report is of several scenarios")
+    if args.speed is not None and args.realtime and args.speed != 1.0:
+        raise ConfigError(
+            f"--realtime is --speed 1: give one of --realtime, --speed {args.speed:g}"
+        )
     if args.plot is not None:
         check_plot_path(args.plot)
     if args.log is not None:
@@ -272,6 +309,19 @@ def _check_one_run(args: argparse.Namespace) -> None:
         check_mcap_path(args.mcap)
     if args.rosbag is not None:
         rosbag_module().check_bag_path(args.rosbag)
+    if args.record is not None:
+        check_record_path(args.record)
+    for option in OUTPUT_FILES:
+        path = getattr(args, option)
+        if path is not None and path.exists() and not args.force:
+            raise ConfigError(
+                f"--{option} {path}: the file exists: add --force to overwrite it, or choose"
+                " another file"
+            )
+
+
+OUTPUT_FILES = ("plot", "log", "record", "mcap")
+"""The options that name a file the run writes: an existing one is kept unless --force."""
 
 
 def _name(path: Path | None) -> str | None:
@@ -299,7 +349,7 @@ def _play(
         if serve is not None:
             _serve(stack, sim, serve)
         if feed is not None and feed.wanted:
-            _feed(stack, sim, feed)
+            attach_feed(stack, sim, feed)
         if show_progress:
             stack.enter_context(_progress(sim))
         started = time.perf_counter()
@@ -319,8 +369,9 @@ def _serve(stack: contextlib.ExitStack, sim: SimRun, endpoint: Endpoint) -> None
     )
 
 
-def _feed(stack: contextlib.ExitStack, sim: SimRun, options: FeedOptions) -> None:
-    """The telemetry feed for the run, with every frame on the bus; the port goes to stderr."""
+def attach_feed(stack: contextlib.ExitStack, sim: SimRun, options: FeedOptions) -> None:
+    """The telemetry feed for the run, with every frame on the bus, as `--mcap` and `--foxglove`
+    attach it (bench/differential.py too); the port goes to stderr."""
     virtual_time = not isinstance(sim.world.clock, RealtimeClock)
     feed = stack.enter_context(open_feed(sim.runtime, options, virtual_time=virtual_time))
     sim.add_can_monitor(
@@ -328,6 +379,7 @@ def _feed(stack: contextlib.ExitStack, sim: SimRun, options: FeedOptions) -> Non
             frame.time_s, frame.arbitration_id, frame.data, frame.sender
         )
     )
+    sim.runtime.on_cycle.append(_pose_sampler(sim, feed.outbox, options.rate_hz))
     if options.foxglove is not None:
         host = options.foxglove.host
         url_host = f"[{host}]" if ":" in host else host
@@ -336,6 +388,21 @@ def _feed(stack: contextlib.ExitStack, sim: SimRun, options: FeedOptions) -> Non
             file=sys.stderr,
             flush=True,
         )
+
+
+def _pose_sampler(sim: SimRun, outbox: Outbox[Capture], rate_hz: float) -> Callable[[float], None]:
+    """After the loop's passes, at the feed's rate: where the simulated vehicle is (the 3D
+    panel's path). A plain tuple of four numbers, queued as the tap queues its captures."""
+    period_s = 1.0 / rate_hz
+    due = [sim.started_at]
+
+    def sample(now: float) -> None:
+        if now >= due[0]:
+            state = sim.world.vehicle.state
+            outbox.put(PoseCapture(now, state.x_m, state.y_m, state.heading_rad))
+            due[0] = now + period_s
+
+    return sample
 
 
 @contextlib.contextmanager
@@ -379,12 +446,7 @@ def _list(*, as_json: bool) -> None:
     table = Table("scenario", "duration", "description", box=None, pad_edge=False)
     for name, scenario in scenarios.items():
         table.add_row(name, f"{scenario.duration_s:g} s", scenario.description)
-    _Console().print(table)
-
-
-ONE_RUN_OPTIONS = (
-    *("duration", "realtime", "plot", "log", "record", "serve", "mcap", "foxglove", "rosbag"),
-)
+    stdout_console().print(table)
 
 
 def rosbag_module() -> ModuleType:
@@ -397,6 +459,18 @@ def rosbag_module() -> ModuleType:
         raise ConfigError("--rosbag needs rosbags: pip install 'bywire[ros]'") from None
 
 
+ONE_RUN_OPTIONS = (
+    "duration",
+    "realtime",
+    "speed",
+    *OUTPUT_FILES,
+    "force",
+    "serve",
+    "foxglove",
+    "rosbag",
+)
+
+
 def _run_all(args: argparse.Namespace) -> int:
     """Every scenario, one verdict line each (or JSON), the JUnit report; 1 if any failed."""
     given = [f"--{name}" for name in ONE_RUN_OPTIONS if getattr(args, name)]
@@ -404,35 +478,51 @@ def _run_all(args: argparse.Namespace) -> int:
         raise ConfigError(f"{', '.join(given)}: for one scenario; --all runs each as written")
     robot = _robot(args)
     found = collect(Path(args.all) if args.all else None)
-    console = _Console()
+    console = stdout_console()
     cases = []
     for name, origin, load in found:
         case = run_case(robot, name, origin, load)
         cases.append(case)
         if not args.json:
-            verdict = "[green]PASS[/]" if case.passed else "[red]FAIL[/]"
-            console.print(f"{verdict} {name} ({case.wall_s:.1f} s)", highlight=False)
-            for reason in case.reasons:
-                console.print(f"     {escape(reason)}", highlight=False)
+            _print_case(console, case)
     if args.junit is not None:
         args.junit.write_text(junit_xml(cases), encoding="utf-8")
-    failed = [case.name for case in cases if not case.passed]
+    failed = [case.name for case in cases if case.failed]
+    set_aside = [case.name for case in cases if case.not_applicable is not None]
     if args.json:
         rows = [
             {
                 "name": case.name,
                 "origin": case.origin,
                 "passed": case.passed,
-                "reasons": case.reasons,
+                "applicable": case.not_applicable is None,
+                "reasons": case.reasons if case.not_applicable is None else [case.not_applicable],
                 "wall_s": round(case.wall_s, 3),
             }
             for case in cases
         ]
-        print(json.dumps({"scenarios": rows, "failed": failed}, indent=2))
+        document = {"scenarios": rows, "failed": failed, "not_applicable": set_aside}
+        print(json.dumps(document, indent=2))
     else:
         colour = "red" if failed else "green"
+        applicable = len(cases) - len(set_aside)
+        aside = f" ({len(set_aside)} not applicable to this robot)" if set_aside else ""
         console.print(
-            f"[bold {colour}]{len(cases) - len(failed)} of {len(cases)} scenarios passed[/]"
-            + (f"; JUnit report: {args.junit}" if args.junit is not None else "")
+            f"[bold {colour}]{applicable - len(failed)} of {applicable} scenarios passed[/]{aside}"
+            + (f"; JUnit report: {args.junit}" if args.junit is not None else ""),
+            soft_wrap=True,
         )
     return 1 if failed else 0
+
+
+def _print_case(console: Console, case: Case) -> None:
+    """One verdict line (PASS, FAIL or N/A), and each reason indented below it."""
+    if case.not_applicable is not None:
+        console.print(f"[yellow]N/A [/] {case.name}", highlight=False)
+        reasons = [case.not_applicable]
+    else:
+        verdict = "[green]PASS[/]" if case.passed else "[red]FAIL[/]"
+        console.print(f"{verdict} {case.name} ({case.wall_s:.1f} s)", highlight=False)
+        reasons = case.reasons
+    for reason in reasons:
+        console.print(f"     {escape(reason)}", highlight=False, soft_wrap=True)

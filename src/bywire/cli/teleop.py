@@ -29,7 +29,8 @@ STANDARD_ID_MASK = 0x7FF
 EPILOG = f"""\
 keys:
 {chr(10).join(f"  {binding.key:<7} {binding.label}" for binding in KEYS)}
-  q       quit (one period of full brake, then the commands stop: the robot times out to STOP)
+  q       quit, as Ctrl-C does (one period of full brake, then the commands stop: the robot
+          times out to STOP)
 
 Holding a key auto-repeats it. With no up/down key for {HOLD_S} s the throttle ramps down to 0;
 with no left/right key for {HOLD_S} s the steering returns to the centre. Gear changes drop the

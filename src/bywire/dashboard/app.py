@@ -1,17 +1,19 @@
 """The `bywire dashboard` terminal program (textual): the feed's newest state, 4 times a second.
 
 The app reads decoded `/bywire/state` messages from a `FeedSource` (the Foxglove client) and
-never touches a controller; it fits an 80×24 terminal. `q` quits the view with exit status 0
-(`bywire run --dashboard` takes that as the operator's stop); once the feed has ended the last
-picture stays on screen, with the reason in the title bar.
+never touches a controller; it fits an 80×24 terminal. `q` (or Ctrl-C) quits the view with exit
+status 0 (`bywire run --dashboard` takes that as the operator's stop); once the feed has ended
+the last picture stays on screen, with the reason in the title bar.
 """
 
 from __future__ import annotations
 
-from typing import Any, Protocol
+from collections.abc import Callable
+from typing import Any, ClassVar, Protocol
 
 from rich.text import Text
 from textual.app import App, ComposeResult
+from textual.binding import BindingType
 from textual.containers import Horizontal
 from textual.widgets import DataTable, Footer, Header, Static
 
@@ -20,11 +22,13 @@ from bywire.dashboard.view import (
     TASK_COLUMNS,
     actuator_panel,
     command_panel,
+    flags_line,
     idle_cells,
     input_panel,
     mode_panel,
     task_cells,
 )
+from bywire.quit_keys import QUIT_BINDINGS
 
 REFRESH_S = 0.25
 PANELS = {"mode": "mode", "commands": "command", "actuators": "actuators", "inputs": "inputs"}
@@ -39,21 +43,30 @@ class FeedSource(Protocol):
     def status(self) -> str: ...
 
 
+Verdict = Callable[[], str | None]
+"""The scenario's verdict once its run has ended ("PASSED (7 of 7 passed)"), else None."""
+
+
 class DashboardApp(App[None]):
     """Panels for mode and flags, command, actuators and inputs; the task table below."""
 
     TITLE = "bywire dashboard"
-    BINDINGS = [("q", "quit", "Quit")]  # noqa: RUF012 -- textual's class attribute
+    BINDINGS: ClassVar[list[BindingType]] = [*QUIT_BINDINGS]  # q and Ctrl-C
     CSS = """
     Horizontal { height: 6; }
     .panel { border: round $primary; padding: 0 1; width: 1fr; height: 6; }
     #mode { border: round $accent; }
+    #flags { height: auto; padding: 0 1; }
     #tasks { height: auto; border: round $primary; }
     """
 
-    def __init__(self, feed: FeedSource, *, source: str = "") -> None:
+    def __init__(
+        self, feed: FeedSource, *, source: str = "", verdict: Verdict | None = None
+    ) -> None:
+        """`verdict`: for a scenario the view started, its verdict once the run has ended."""
         super().__init__()
         self.feed = feed
+        self._verdict = verdict
         self._source = source
         self.sub_title = source
         self._rows: set[str] = set()
@@ -66,6 +79,7 @@ class DashboardApp(App[None]):
         with Horizontal():
             yield Static(id="actuators", classes="panel")
             yield Static(id="inputs", classes="panel")
+        yield Static(id="flags")
         yield DataTable(id="tasks", cursor_type="none", show_cursor=False)
         yield Footer()
 
@@ -82,11 +96,13 @@ class DashboardApp(App[None]):
     def refresh_view(self) -> None:
         """Show the newest state; keep the last one on screen once the feed has ended."""
         self.sub_title = " · ".join(part for part in (self._source, self.feed.status) if part)
+        verdict = None if self._verdict is None else self._verdict()
         state = self.feed.latest()
         if state is None:
             return
         snap = from_state(state)
         self.query_one("#mode", Static).update(mode_panel(snap))
+        self.query_one("#flags", Static).update(flags_line(snap, verdict))
         self.query_one("#commands", Static).update(command_panel(snap))
         self.query_one("#actuators", Static).update(actuator_panel(snap))
         self.query_one("#inputs", Static).update(input_panel(snap))

@@ -13,6 +13,7 @@ also obeys), and the terminal's modes are put back as they were.
 from __future__ import annotations
 
 import contextlib
+import json
 import logging
 import os
 import re
@@ -23,6 +24,7 @@ import termios
 import threading
 import time
 from collections.abc import Callable, Sequence
+from typing import Any
 
 from bywire.errors import BywireError
 from bywire.priority import leave_realtime
@@ -108,6 +110,24 @@ class ViewProcess:
             log.warning("the dashboard ended (exit status %s); the controller runs on", status)
 
 
+SUMMARY_WAIT_S = 2.0  # how long the verdict waits for the ended run's summary to be read
+
+
+def scenario_verdict(summary: dict[str, Any]) -> str:
+    """One line from `bywire sim --json`'s summary: PASSED or FAILED with the count, the
+    expectations a run stopped early never reached, or why the verdict does not apply."""
+    statuses = [expectation["status"] for expectation in summary["expectations"]]
+    passed, unreached = statuses.count("pass"), statuses.count("not reached")
+    counted = f"{passed} of {len(statuses)} passed"
+    if unreached:
+        counted += f", {unreached} not reached"
+    if summary.get("not_applicable"):
+        return f"not applicable to this robot ({counted})"
+    if not summary["passed"]:
+        return f"FAILED ({counted})"
+    return f"not decided ({counted}: the run ended first)" if unreached else f"PASSED ({counted})"
+
+
 class SimFeed:
     """`bywire sim --realtime --foxglove 127.0.0.1:0 …` as a child: a robot for the view."""
 
@@ -119,20 +139,42 @@ class SimFeed:
     ) -> None:
         """Start the robot and wait for its feed's address; `on_started` gets its process at
         once (for whoever must stop it should this process be ended meanwhile)."""
-        command = bywire_command("sim", "--realtime", "--foxglove", "127.0.0.1:0", *arguments)
+        command = bywire_command(
+            "sim", "--realtime", "--json", "--foxglove", "127.0.0.1:0", *arguments
+        )
         self.process = subprocess.Popen(
             command,
             stdin=subprocess.DEVNULL,
-            stdout=subprocess.DEVNULL,
+            stdout=subprocess.PIPE,
             stderr=subprocess.PIPE,
             text=True,
         )
         if on_started is not None:
             on_started(self.process)
         self.lines: list[str] = []
+        self._summary: list[str] = []  # the run's summary, as JSON, once it has ended
+        self._summary_read = threading.Thread(target=self._read_summary, daemon=True)
+        self._summary_read.start()
         self.url = self._wait_for_url()
         self._drain = threading.Thread(target=self._keep_reading, daemon=True)
         self._drain.start()
+
+    def _read_summary(self) -> None:
+        leave_realtime()
+        assert self.process.stdout is not None
+        self._summary.append(self.process.stdout.read())
+
+    def verdict(self) -> str | None:
+        """The scenario's verdict once the run has ended ("PASSED (7 of 7 passed)"); None
+        while it runs."""
+        if self.process.poll() is None:
+            return None
+        self._summary_read.join(SUMMARY_WAIT_S)
+        try:
+            summary = json.loads("".join(self._summary))
+        except json.JSONDecodeError:
+            return f"the run ended without a summary (exit status {self.process.returncode})"
+        return scenario_verdict(summary)
 
     def _wait_for_url(self) -> str:
         assert self.process.stderr is not None

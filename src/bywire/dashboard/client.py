@@ -41,6 +41,8 @@ class FeedClient:
         self._events: collections.deque[dict[str, Any]] = collections.deque(maxlen=EVENTS_KEPT)
         self._status = f"connecting to {url}"
         self._ended = False
+        self._answered = threading.Event()  # live, or ended before it ever was
+        self._live = False
         self.received = 0
         self._connection: ClientConnection | None = None
         self._closing = threading.Event()
@@ -77,10 +79,21 @@ class FeedClient:
         with self._lock:
             return self._ended
 
-    def _set_status(self, status: str, *, ended: bool = False) -> None:
+    def wait_live(self, timeout_s: float = 2 * OPEN_TIMEOUT_S + 1.0) -> str | None:
+        """Wait until the feed is live (None) or has failed before it ever was: why, in one
+        line. Bounded: the connection and the channel advertisement each time out."""
+        if not self._answered.wait(timeout_s):
+            return f"no answer from {self.url} within {timeout_s:g} s"
+        with self._lock:
+            return None if self._live else self._status
+
+    def _set_status(self, status: str, *, ended: bool = False, live: bool = False) -> None:
         with self._lock:
             self._status = status
             self._ended = ended
+            self._live = self._live or live
+        if live or ended:
+            self._answered.set()
 
     def _follow(self) -> None:
         try:
@@ -95,18 +108,19 @@ class FeedClient:
                 if self._closing.is_set():  # closed while it was being opened
                     connection.close()
                 self._subscribe(connection)
-                self._set_status(f"live from {self.url}")
+                # Short: the title bar shows it after the source, within 80 columns.
+                self._set_status("live feed", live=True)
                 for data in connection:
                     if isinstance(data, bytes) and data and data[0] == MESSAGE_DATA:
                         self._take(data)
                     elif isinstance(data, str):
                         self._subscribe_new(connection, data)
         except ConnectionClosed:
-            self._set_status("feed ended: the controller stopped", ended=True)
+            self._set_status("feed ended", ended=True)
         except (OSError, InvalidHandshake, InvalidURI, TimeoutError) as error:
-            self._set_status(f"no feed at {self.url}: {error}", ended=True)
+            self._set_status(f"no feed at {self.url}: {_reason(error)}", ended=True)
         else:
-            self._set_status("feed ended: the controller stopped", ended=True)
+            self._set_status("feed ended", ended=True)
 
     def _subscribe(self, connection: ClientConnection) -> None:
         """Read the server's JSON messages up to the channel advertisement, then subscribe."""
@@ -138,6 +152,13 @@ class FeedClient:
                 self._state = body
             elif subscription == EVENTS_ID:
                 self._events.append(body)
+
+
+def _reason(error: Exception) -> str:
+    """The OS's words without Python's [Errno n], or the handshake's own."""
+    if isinstance(error, OSError) and error.strerror:
+        return error.strerror.lower()
+    return str(error) or type(error).__name__
 
 
 def feed_url(host: str, port: int) -> str:

@@ -38,11 +38,25 @@ def mode_panel(snap: DashboardSnapshot) -> Text:
     text.append(_fit(f"speed {speed}") + "\n", style="bold")
     latch = ", ".join(snap.latched) or "none"
     text.append(_fit(f"latched: {latch}") + "\n", style="yellow" if snap.latched else "")
-    flags = ", ".join(snap.error_flags) or "none"
-    if snap.watchdog_tripped:
-        flags = f"WATCHDOG; {flags}"
-    problem = bool(snap.error_flags) or snap.watchdog_tripped
-    text.append(_fit(f"flags: {flags}"), style="bold red" if problem else "green")
+    count = len(snap.error_flags) + snap.watchdog_tripped
+    summary = "none" if not count else f"{count} set (below)"
+    text.append(f"flags: {summary}", style="bold red" if count else "green")
+    return text
+
+
+def flags_line(snap: DashboardSnapshot, verdict: str | None = None) -> Text:
+    """Every error flag by name, in full, across the screen (it wraps rather than cut a name):
+    the mode panel has room for how many, not which. Then the verdict of the scenario the view
+    started, once its run has ended."""
+    names = [*(["WATCHDOG"] if snap.watchdog_tripped else []), *snap.error_flags]
+    if not names:
+        text = Text("error flags: none", style="green")
+    else:
+        text = Text(f"error flags: {', '.join(names)}", style="bold red")
+    if verdict is not None:
+        style = "bold green" if verdict.startswith("PASSED") else "bold red"
+        text.append("  ·  scenario ")
+        text.append(verdict, style=style if verdict[:6] in ("PASSED", "FAILED") else "yellow")
     return text
 
 

@@ -4,13 +4,16 @@ from __future__ import annotations
 
 import time
 from collections.abc import Callable
+from typing import ClassVar
 
 from textual.app import App, ComposeResult
+from textual.binding import BindingType
 from textual.widgets import DataTable, Footer, Header
 
 from bywire.monitor.feed import CanFeed
 from bywire.monitor.model import BusModel
 from bywire.monitor.view import COLUMNS, cells
+from bywire.quit_keys import QUIT_BINDINGS
 
 REFRESH_S = 0.25
 
@@ -19,7 +22,7 @@ class MonitorApp(App[None]):
     """Frames from ``feed`` into ``model``; one table row per id, keyed by the id."""
 
     TITLE = "bywire monitor"
-    BINDINGS = [("q", "quit", "Quit")]  # noqa: RUF012 -- textual's own declaration style
+    BINDINGS: ClassVar[list[BindingType]] = [*QUIT_BINDINGS]  # q and Ctrl-C
 
     def __init__(
         self,

@@ -1,7 +1,9 @@
 """A python-can bus read on a thread of its own: frames queued for the monitor, and recorded.
 
-``open_bus`` turns python-can's many failure modes into one HardwareError a user can act on; for
-socketcand it first checks that something listens, instead of python-can's 10 s of retries.
+``open_bus`` turns python-can's many failure modes into one HardwareError a user can act on (as
+`bywire run` does: `hal.linux.can_open`); for socketcand it first checks that something listens,
+instead of python-can's 10 s of retries, and for socketcan that the kernel has SocketCAN and the
+interface is there and up.
 """
 
 from __future__ import annotations
@@ -19,11 +21,13 @@ import can
 
 from bywire.canlog.write import WRITERS, check_log_path
 from bywire.errors import ConfigError, HardwareError
+from bywire.hal.linux.can_open import check_socketcan, open_error
 
 RECEIVE_TIMEOUT_S = 0.1  # how often the reader looks at its stop flag
 SILENT_S = 3.0  # no frame for this long: the connection is opened again
 RETRY_S = 1.0  # how often a lost bus is opened again
 CONNECT_TIMEOUT_S = 2.0
+DEFAULT_BITRATE_BPS = 500_000  # Albert's bus: what `ip link … bitrate` is told in a hint
 
 
 def open_bus(interface: str, channel: str, host: str, port: int, **options: Any) -> can.BusABC:
@@ -31,10 +35,12 @@ def open_bus(interface: str, channel: str, host: str, port: int, **options: Any)
     if interface == "socketcand":
         _check_listening(host, port)
         options = {**options, "host": host, "port": port}
+    elif interface == "socketcan":
+        check_socketcan(channel, int(options.get("bitrate", DEFAULT_BITRATE_BPS)))
     try:
         bus: can.BusABC = can.Bus(interface=interface, channel=channel, **options)
-    except (can.CanError, OSError, ValueError, ImportError) as error:
-        raise HardwareError(f"cannot open {interface} channel {channel}: {error}") from error
+    except Exception as error:  # drivers raise anything, even NameError
+        raise open_error(f"{interface} {channel}", interface, error) from error
     return bus
 
 

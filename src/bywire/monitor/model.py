@@ -21,7 +21,7 @@ from bywire.protocol import dbc
 
 RATE_WINDOW_S = 2.0
 HIDDEN_SIGNALS = {"crc"}  # checked, not shown
-BARE_UNITS = {"", "enum", "bool", "count"}  # pseudo-units: the value says it all
+BARE_UNITS = {""}  # a flag, a count, an enumeration or a normalised value: no unit (albert.dbc)
 
 
 @dataclass(frozen=True, slots=True)

@@ -40,8 +40,7 @@ def message_block(frame_id: int = ERROR_REPORT_ID) -> str:
     """The ``BO_`` line and one ``SG_`` line per flag, as they stand in albert.dbc."""
     lines = [f"BO_ {frame_id} ErrorReport: {ERROR_REPORT_LENGTH} BYWIRE"]
     lines += [
-        f' SG_ {flag.name} : {flag_bit(flag)}|1@1+ (1,0) [0|1] "bool" HLC'
-        for flag in flags_in_order()
+        f' SG_ {flag.name} : {flag_bit(flag)}|1@1+ (1,0) [0|1] "" HLC' for flag in flags_in_order()
     ]
     return "\n".join(lines) + "\n"
 

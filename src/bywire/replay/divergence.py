@@ -15,20 +15,45 @@ Instant = tuple[float, list[Output]]
 @dataclass(frozen=True, slots=True)
 class Divergence:
     """At `time_s` output `name` was `recorded` in the record but `replayed` on replay (each the
-    value after that instant's writes; None: not written yet)."""
+    value after that instant's writes; None: not written yet). The same value after different
+    writes (a frame sent twice, once on replay) or the same writes in another order among the
+    instant's outputs differ too: `*_writes` are that output's writes at the instant, `*_order`
+    the names of every write at the instant, in order."""
 
     time_s: float
     name: str
     recorded: OutputValue | None
     replayed: OutputValue | None
+    recorded_writes: tuple[OutputValue, ...] = ()
+    replayed_writes: tuple[OutputValue, ...] = ()
+    recorded_order: tuple[str, ...] = ()
+    replayed_order: tuple[str, ...] = ()
 
     def describe(self, start_s: float = 0.0, dac_vref_volts: float = DEFAULT_VREF_VOLTS) -> str:
         recorded = show(self.recorded, self.name, dac_vref_volts)
         replayed = show(self.replayed, self.name, dac_vref_volts)
+        head = f"first divergence at {self.time_s - start_s:.6f} s: {self.name}"
+        if recorded != replayed:
+            return f"{head} recorded {recorded}, replayed {replayed}"
+        if self.recorded_writes != self.replayed_writes:
+            return (
+                f"{head} written {_writes(self.recorded_writes, self.name, dac_vref_volts)} at"
+                " that instant in the record,"
+                f" {_writes(self.replayed_writes, self.name, dac_vref_volts)} on replay"
+            )
         return (
-            f"first divergence at {self.time_s - start_s:.6f} s: {self.name}"
-            f" recorded {recorded}, replayed {replayed}"
+            f"{head}: the same writes, in another order among that instant's outputs"
+            f" (recorded {', '.join(self.recorded_order)};"
+            f" replayed {', '.join(self.replayed_order)})"
         )
+
+
+def _writes(values: tuple[OutputValue, ...], name: str, dac_vref_volts: float) -> str:
+    """'2 times (1104, 1104)', '1 time (1104)', 'never'."""
+    if not values:
+        return "never"
+    times = "1 time" if len(values) == 1 else f"{len(values)} times"
+    return f"{times} ({', '.join(show(value, name, dac_vref_volts) for value in values)})"
 
 
 def show(
@@ -90,5 +115,14 @@ def first_divergence(recorded: Sequence[Output], replayed: Sequence[Output]) -> 
         state_replayed.update((o.name, o.value) for o in b)
         if [(o.name, o.value) for o in a] != [(o.name, o.value) for o in b]:
             name = _first_name(a, b)
-            return Divergence(time_s, name, state_recorded.get(name), state_replayed.get(name))
+            return Divergence(
+                time_s,
+                name,
+                state_recorded.get(name),
+                state_replayed.get(name),
+                tuple(o.value for o in a if o.name == name),
+                tuple(o.value for o in b if o.name == name),
+                tuple(o.name for o in a),
+                tuple(o.name for o in b),
+            )
     return None

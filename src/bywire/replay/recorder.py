@@ -1,7 +1,8 @@
 """Record a simulated run for `bywire replay`: tape the controller's ports, write the record.
 
 `SimRunRecorder.attach(sim)` puts the controller of a `SimRun` on taped ports before it runs
-(a fresh `Runtime` on the taped bundle, taking over the run's cycle observers); after the run,
+(`SimRun.put_controller_on`: the controller rebuilt on the taped bundle exactly as the run
+built it, so that taping changes nothing the run does); after the run,
 `write()` saves the record (`bywire.hal.tape.run_record`).
 """
 
@@ -14,7 +15,6 @@ from bywire.errors import ConfigError
 from bywire.hal.sim.clock import RealtimeClock
 from bywire.hal.tape.run_record import SENSOR_NAMES, RecordHeader, write_record
 from bywire.hal.tape.taped import Tape, taped_hardware
-from bywire.runtime.app import Runtime
 from bywire.sim.runner import SimRun
 
 
@@ -43,11 +43,8 @@ class SimRunRecorder:
                 f"cannot record {sim.scenario.name!r} for replay: it runs in real time"
                 " (drop --realtime; scenarios that stall the loop always run in real time)"
             )
-        before = sim.runtime
         tape = Tape(sim.world.clock)
-        runtime = Runtime(taped_hardware(before.hardware, tape), before.config)
-        runtime.on_cycle.extend(before.on_cycle)
-        sim.runtime = runtime
+        sim.put_controller_on(lambda hardware: taped_hardware(hardware, tape))
         return cls(sim, tape, path)
 
     def header(self) -> RecordHeader:
@@ -62,6 +59,7 @@ class SimRunRecorder:
             },
             sensors=tuple(name for name in SENSOR_NAMES if getattr(hardware, name) is not None),
             config_toml=describe(sim.robot),
+            authenticated=sim.secoc is not None,
         )
 
     def write(self) -> int:

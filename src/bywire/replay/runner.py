@@ -12,12 +12,16 @@ from dataclasses import dataclass
 
 from bywire.config import RobotConfig, parse_config
 from bywire.hal.sim.clock import VirtualClock
+from bywire.hal.sim.timers import PeriodicTimer
 from bywire.hal.tape.playback import replay_hardware
 from bywire.hal.tape.run_record import Output, RecordedRun, outputs_of
 from bywire.hal.tape.taped import Tape, taped_hardware
 from bywire.replay.divergence import Divergence, first_divergence
 from bywire.runtime.app import Runtime
 from bywire.runtime.settings import RuntimeConfig
+from bywire.runtime.watchdog import POLL_S as WATCHDOG_POLL_S
+from bywire.security.session import SecocReceiver
+from bywire.security.setup import controller_receiver, simulated_run_key
 
 
 @dataclass(frozen=True, slots=True)
@@ -34,14 +38,38 @@ def recorded_robot(record: RecordedRun) -> RobotConfig:
     return parse_config(record.header.config_toml, "the run record's configuration")
 
 
+def _receiver(record: RecordedRun) -> SecocReceiver | None:
+    """An authenticated run's verifier, as the simulated run built it: the recorded robot's key
+    (its key file, or the one drawn from its seed), freshness in memory from zero."""
+    if not record.header.authenticated:
+        return None
+    security = recorded_robot(record).security
+    key = simulated_run_key(security, recorded_robot(record).sim.seed)
+    return controller_receiver(dataclasses.replace(security, freshness_file=None), key)
+
+
 def replay(record: RecordedRun, robot: RobotConfig | None = None) -> ReplayResult:
     """Run the controller on the record's inputs (with `robot`, default: the recorded one)."""
     robot = recorded_robot(record) if robot is None else robot
     clock = VirtualClock(record.header.start_s)
     tape = Tape(clock)
     hardware = taped_hardware(replay_hardware(record, clock), tape)
-    # Virtual time: a watchdog thread would only watch how fast the replay runs.
-    config = dataclasses.replace(RuntimeConfig.from_robot(robot), watchdog_s=None)
-    Runtime(hardware, config).run(until_s=record.header.end_s)
+    # As the simulated run: the watchdog on the virtual clock, checked by a timer where its
+    # thread would poll (a thread would only watch how fast the replay runs); a DAC write that
+    # hung in the record hangs as long here, and the watchdog trips as it did.
+    runtime = Runtime(
+        hardware,
+        RuntimeConfig.from_robot(robot),
+        watchdog_thread=False,
+        secoc=_receiver(record),
+    )
+    watchdog = runtime.watchdog
+    if watchdog is not None:
+
+        def check(_tick_s: float) -> None:
+            watchdog.check()
+
+        PeriodicTimer(clock, WATCHDOG_POLL_S, check).start()
+    runtime.run(until_s=record.header.end_s)
     replayed = outputs_of(tape.events)
     return ReplayResult(record.outputs, replayed, first_divergence(record.outputs, replayed))

@@ -3,6 +3,7 @@ signer, and the ephemeral key a simulated run uses when the configuration names 
 
 from __future__ import annotations
 
+import random
 import secrets
 from pathlib import Path
 
@@ -20,6 +21,15 @@ def configured_key(security: SecuritySection) -> SecocKey:
     if security.key_file is None:
         return SecocKey(secrets.token_bytes(KEY_BYTES))
     return read_key_file(Path(security.key_file))
+
+
+def simulated_run_key(security: SecuritySection, seed: int) -> SecocKey:
+    """The key of a simulated run: the configured key file when [security] is on (the robot
+    uses it), else one drawn from the simulator's seed, so that an authenticated scenario on a
+    robot that does not authenticate needs no file and repeats bit for bit (its replay too)."""
+    if security.enabled and security.key_file is not None:
+        return read_key_file(Path(security.key_file))
+    return SecocKey(random.Random(f"secoc-key-{seed}").randbytes(KEY_BYTES))
 
 
 def controller_receiver(security: SecuritySection, key: SecocKey) -> SecocReceiver:

@@ -52,5 +52,16 @@ def find_scenario(name_or_path: str) -> Scenario:
     path = Path(name_or_path)
     looks_like_path = "/" in name_or_path or path.parent != Path(".")
     if looks_like_path or path.is_file():
+        if not path.exists():
+            raise ConfigError(f"{name_or_path}: no such file")
         return load_scenario(path)
+    stem = name_or_path.removesuffix(SUFFIX)
+    if name_or_path.endswith(SUFFIX) and stem not in scenario_names():
+        # A file's name, not a packaged scenario's: say what is missing (and what is packaged).
+        close = difflib.get_close_matches(stem, scenario_names(), n=1)
+        hint = f" (did you mean '{close[0]}'?)" if close else ""
+        raise ConfigError(
+            f"{name_or_path}: no such file, and no packaged scenario is called {stem!r}{hint};"
+            " `bywire sim --list` lists those"
+        )
     return packaged_scenario(name_or_path)

@@ -16,9 +16,10 @@ from typing import Any
 
 from bywire.config import RobotConfig
 from bywire.control.supervisor import Cause
-from bywire.errors import HardwareError
+from bywire.errors import ConfigError, HardwareError
+from bywire.hal.hardware import Hardware
 from bywire.hal.sim.can_bus import LoggedFrame
-from bywire.hal.sim.clock import RealtimeClock, VirtualClock
+from bywire.hal.sim.clock import RealtimeClock, ScaledRealtimeClock, VirtualClock
 from bywire.hal.sim.timers import PeriodicTimer
 from bywire.hal.sim.world import SimWorld
 from bywire.model import LIGHTS_OFF, ControlMode, Gear
@@ -26,7 +27,7 @@ from bywire.runtime.app import Runtime
 from bywire.runtime.settings import RuntimeConfig
 from bywire.runtime.watchdog import POLL_S as WATCHDOG_POLL_S
 from bywire.security.session import SecocReceiver
-from bywire.security.setup import configured_key, controller_receiver, sender_signer
+from bywire.security.setup import controller_receiver, sender_signer, simulated_run_key
 from bywire.sim.conditions import conditions_hold
 from bywire.sim.faults import BY_NAME
 from bywire.sim.observe import Observation, observe
@@ -92,28 +93,36 @@ class SimRun:
         *,
         realtime: bool = False,
         duration_s: float | None = None,
+        speed: float | None = None,
     ) -> None:
+        """`speed`: paced by the wall clock at that many times real time (`--speed N`)."""
         self.robot = robot
         self.scenario = scenario
         self.duration_s = scenario.duration_s if duration_s is None else duration_s
-        realtime = realtime or scenario.realtime
-        clock = RealtimeClock() if realtime else VirtualClock()
+        realtime = realtime or scenario.realtime or speed is not None
+        scaled = speed is not None and speed != 1.0
+        if scaled and scenario.realtime:
+            raise ConfigError(
+                f"--speed {speed:g}: scenario {scenario.name!r} stalls the loop in real time,"
+                " which a faster clock cannot (drop --speed)"
+            )
+        clock: VirtualClock
+        if scaled:
+            clock = ScaledRealtimeClock(speed=speed or 1.0)
+        else:
+            clock = RealtimeClock() if realtime else VirtualClock()
         self.world: SimWorld = SimWorld.from_robot(clock, robot)
-        config = RuntimeConfig.from_robot(robot)
-        # On virtual time the watchdog runs on the simulated clock, checked by a timer where the
-        # thread would poll: a write stalled in simulated time trips it exactly, and the wall
-        # clock's speed never does.
+        # The watchdog's own thread measures the wall clock: only where the run is paced 1:1 by
+        # it; elsewhere a timer checks it on the run's clock.
+        self._realtime = realtime and not scaled
         self.secoc = self._authentication(robot, scenario)
-        self.runtime = Runtime(
-            self.world.hardware, config, watchdog_thread=realtime, secoc=self.secoc
-        )
-        watchdog = self.runtime.watchdog
-        if watchdog is not None and not realtime:
-
-            def check(_tick_s: float) -> None:
-                watchdog.check()
-
-            PeriodicTimer(clock, WATCHDOG_POLL_S, check).start()
+        self.runtime = self._controller(self.world.hardware)
+        if self.runtime.watchdog is not None and not self._realtime:
+            # On virtual time the watchdog runs on the simulated clock, checked by a timer where
+            # the thread would poll: a write stalled in simulated time trips it exactly, and the
+            # wall clock's speed never does. The timer checks the controller of the moment
+            # (`put_controller_on` may build another before the run).
+            PeriodicTimer(clock, WATCHDOG_POLL_S, self._check_watchdog).start()
         self.record = RunRecord(verdicts=[Verdict(e) for e in scenario.expectations])
         self.started_at = clock.now()
         self.random = random.Random(robot.sim.seed)
@@ -132,13 +141,37 @@ class SimRun:
         """Called with the time when the controller ended on a failed output (a dead line),
         after its exit path wrote the safe state: what it left is observed once more."""
 
+    def _controller(self, hardware: Hardware) -> Runtime:
+        """The controller on `hardware`: the watchdog's own thread only on real time."""
+        return Runtime(
+            hardware,
+            RuntimeConfig.from_robot(self.robot),
+            watchdog_thread=self._realtime,
+            secoc=self.secoc,
+        )
+
+    def _check_watchdog(self, _tick_s: float) -> None:
+        watchdog = self.runtime.watchdog
+        if watchdog is not None:
+            watchdog.check()
+
+    def put_controller_on(self, wrap: Callable[[Hardware], Hardware]) -> Runtime:
+        """Before the run: rebuild the controller on `wrap(world.hardware)` (taped ports, for a
+        run record), built exactly as the first one (the same watchdog, on the same clock, and
+        the same verifier) and observed by the same observers. Whoever took `runtime` before
+        this call holds a controller that never runs."""
+        before = self.runtime
+        self.runtime = self._controller(wrap(self.world.hardware))
+        self.runtime.on_cycle.extend(before.on_cycle)
+        return self.runtime
+
     def _authentication(self, robot: RobotConfig, scenario: Scenario) -> SecocReceiver | None:
         """With [security] on or an authenticated scenario: the computer signs, the controller
-        verifies, both with the configured key (or a random one) and freshness in memory (the
+        verifies, both with the run's key (`simulated_run_key`) and freshness in memory (the
         restarts that persisted freshness is for are tested in tests/security)."""
         if not (robot.security.enabled or scenario.authenticated):
             return None
-        key = configured_key(robot.security)
+        key = simulated_run_key(robot.security, robot.sim.seed)
         self.world.hlc.sign_with(sender_signer(key))
         self.world.impostor.forge_authenticator = True
         memory = replace(robot.security, freshness_file=None)

@@ -51,6 +51,12 @@ ACTIONS = {action: set(keys) for action, keys in ACTION_VALUES.items()}
 FAULTS = {fault.name: fault.description for fault in FAULT_TABLE}
 CONDITIONS = {condition.key: condition.description for condition in CONDITION_TABLE}
 CONDITION_VALUES = {condition.key: condition.check for condition in CONDITION_TABLE}
+SENSORS = {
+    "wheel_speed": "the wheel-speed sensors",
+    "brake_pressure": "the hydraulic brake's pressure sensor",
+    "steering_encoder": "the steering encoder",
+}
+"""The optional sensors a scenario may need (`needs_sensors`), as a sentence names them."""
 EVENT_KEYS = {"at_s", "label", "fault", "count", "load", "stall_s", "line", "keyed", *ACTIONS}
 EXPECT_KEYS = {"after", "within_s", "during_s", "at_s", "label", *CONDITIONS}
 
@@ -99,6 +105,7 @@ class Scenario:
     expectations: tuple[Expectation, ...]
     realtime: bool = False  # paced by the wall clock (what the watchdog measures)
     authenticated: bool = False  # commands signed and verified (SecOC, docs/SECURITY.md)
+    needs_sensors: tuple[str, ...] = ()  # SENSORS its expectations rely on
 
 
 def _refuse(
@@ -199,7 +206,16 @@ def parse_scenario(text: str, origin: str) -> Scenario:
         document = tomllib.loads(text)
     except tomllib.TOMLDecodeError as error:
         raise ConfigError(f"{origin}: not valid TOML: {error}") from error
-    top_keys = {"name", "description", "duration_s", "realtime", "authenticated", "event", "expect"}
+    top_keys = {
+        "name",
+        "description",
+        "duration_s",
+        "realtime",
+        "authenticated",
+        "needs_sensors",
+        "event",
+        "expect",
+    }
     _check_keys(document, top_keys, origin, "")
     events = [
         _event(table, origin, f"event[{index}]")
@@ -220,7 +236,20 @@ def parse_scenario(text: str, origin: str) -> Scenario:
         expectations=tuple(expectations),
         realtime=_realtime(document, events, origin),
         authenticated=_authenticated(document, origin),
+        needs_sensors=_needs_sensors(document, origin),
     )
+
+
+def _needs_sensors(document: dict[str, Any], origin: str) -> tuple[str, ...]:
+    names = document.get("needs_sensors", [])
+    if not isinstance(names, list):
+        raise _refuse(origin, "needs_sensors", f"must be a list of sensor names, got {names!r}")
+    for name in names:
+        if name not in SENSORS:
+            raise _refuse(
+                origin, "needs_sensors", f"unknown sensor {name!r}", set(SENSORS), str(name)
+            )
+    return tuple(names)
 
 
 def _authenticated(document: dict[str, Any], origin: str) -> bool:
@@ -294,6 +323,8 @@ def scenario_toml(scenario: Scenario, header: str = "") -> str:
         document["realtime"] = True
     if scenario.authenticated:
         document["authenticated"] = True
+    if scenario.needs_sensors:
+        document["needs_sensors"] = list(scenario.needs_sensors)
     document.update(event=events, expect=expectations)
     comments = "".join(f"# {line}\n" if line else "#\n" for line in header.splitlines())
     return comments + tomli_w.dumps(document)

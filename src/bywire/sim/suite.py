@@ -1,8 +1,10 @@
 """`bywire sim --all`: every packaged scenario, or every scenario file in a folder, one after the
 other, with a verdict per scenario and a JUnit XML report that CI systems read.
 
-A file that does not load is a failed case of its own (with the loader's one-line reason): one
-bad file never hides the verdicts of the others.
+A file that does not load, or a run that cannot start (a key file it needs is missing), is a
+failed case of its own (with the one-line reason): one bad file never hides the verdicts of the
+others. A scenario that needs sensors the robot does not fit is set aside, not run
+(`applicability`).
 """
 
 from __future__ import annotations
@@ -15,6 +17,7 @@ from pathlib import Path
 
 from bywire.config import RobotConfig
 from bywire.errors import ConfigError
+from bywire.sim.applicability import not_applicable
 from bywire.sim.catalog import SUFFIX, packaged_scenario, scenario_names
 from bywire.sim.runner import SimRun
 from bywire.sim.scenario import Scenario, load_scenario
@@ -32,10 +35,17 @@ class Case:
     summary: Summary | None
     error: str | None
     wall_s: float
+    not_applicable: str | None = None
+    """Why the scenario does not apply to the robot (it was not run), or None."""
 
     @property
     def passed(self) -> bool:
         return self.error is None and self.summary is not None and self.summary.passed
+
+    @property
+    def failed(self) -> bool:
+        """Neither passed nor set aside as not applicable to the robot."""
+        return self.not_applicable is None and not self.passed
 
     @property
     def reasons(self) -> list[str]:
@@ -75,7 +85,13 @@ def run_case(robot: RobotConfig, name: str, origin: str, load: Loader) -> Case:
         scenario = load()
     except ConfigError as error:
         return Case(name, origin, None, str(error), time.perf_counter() - started)
-    sim = SimRun(robot, scenario)
+    reason = not_applicable(scenario, robot)
+    if reason is not None:
+        return Case(name, origin, None, None, time.perf_counter() - started, reason)
+    try:
+        sim = SimRun(robot, scenario)
+    except ConfigError as error:  # what the run needs and cannot have (a key file, say)
+        return Case(name, origin, None, str(error), time.perf_counter() - started)
     sim.run()
     wall_s = time.perf_counter() - started
     return Case(name, origin, build_summary(sim, wall_s), None, wall_s)
@@ -83,9 +99,10 @@ def run_case(robot: RobotConfig, name: str, origin: str, load: Loader) -> Case:
 
 def junit_xml(cases: list[Case], suite: str = "bywire sim") -> str:
     """A JUnit XML report: one testcase per scenario, a failure per failed expectation, an
-    error for a file that did not load."""
-    failures = sum(1 for case in cases if case.error is None and not case.passed)
+    error for a file that did not load, a skip for a scenario that does not apply."""
+    failures = sum(1 for case in cases if case.error is None and case.failed)
     errors = sum(1 for case in cases if case.error is not None)
+    skipped = sum(1 for case in cases if case.not_applicable is not None)
     root = ET.Element("testsuites")
     node = ET.SubElement(
         root,
@@ -94,6 +111,7 @@ def junit_xml(cases: list[Case], suite: str = "bywire sim") -> str:
         tests=str(len(cases)),
         failures=str(failures),
         errors=str(errors),
+        skipped=str(skipped),
         time=f"{sum(case.wall_s for case in cases):.3f}",
     )
     for case in cases:
@@ -104,7 +122,9 @@ def junit_xml(cases: list[Case], suite: str = "bywire sim") -> str:
             name=case.name,
             time=f"{case.wall_s:.3f}",
         )
-        if case.error is not None:
+        if case.not_applicable is not None:
+            ET.SubElement(testcase, "skipped", message=case.not_applicable)
+        elif case.error is not None:
             ET.SubElement(
                 testcase, "error", message=case.error, type="ConfigError"
             ).text = f"{case.origin}: {case.error}"

@@ -170,7 +170,7 @@ def _decided_at_s(verdict: Verdict, scenario: Scenario) -> float:
 
 def _result(verdict: Verdict, run: SimRun, simulated_s: float) -> ExpectationResult:
     expectation = verdict.expectation
-    cut_short = run.duration_s < run.scenario.duration_s
+    cut_short = simulated_s < run.scenario.duration_s  # by --duration, or by Ctrl-C
     if verdict.passed:
         status = "pass"
     elif cut_short and _decided_at_s(verdict, run.scenario) >= simulated_s:
@@ -326,7 +326,7 @@ def render(summary: Summary, console: Console) -> None:
     total = len(summary.expectations)
     passed = sum(e.status == "pass" for e in summary.expectations)
     unreached = sum(e.status == "not reached" for e in summary.expectations)
-    note = f", {unreached} not reached (run cut short by --duration)" if unreached else ""
+    note = f", {unreached} not reached (the run ended before them)" if unreached else ""
     colour = "green" if summary.passed else "red"
     say(f"\n[bold {colour}]{passed} of {total} expectations passed{note}[/]")
     for description in summary.failed:

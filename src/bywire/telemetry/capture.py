@@ -100,7 +100,17 @@ class CanCapture(NamedTuple):
     sender: str
 
 
-Capture = StateCapture | EventCapture | CanCapture
+class PoseCapture(NamedTuple):
+    """Where the simulated vehicle is at `time_s` (the simulator's truth, not the controller's):
+    x and y in metres from where it started, heading counter-clockwise from x."""
+
+    time_s: float
+    x_m: float
+    y_m: float
+    heading_rad: float
+
+
+Capture = StateCapture | EventCapture | CanCapture | PoseCapture
 
 
 def movement_values(movement: Movement | MovementCommand | RcRequest) -> MovementValues:

@@ -97,9 +97,9 @@ def open_sinks(
 
     Started before the controller is built (`bywire run`): the server's start takes tens of ms,
     which the loop's first deadlines must not wait for. `clock` is the controller's clock (the
-    log times are its times). On virtual time the log times are the simulated clock's and the
-    outbox waits for room rather than drop (no loop time exists to protect there); on real time
-    the log times are wall-clock (epoch) times and a full outbox drops its oldest capture.
+    log times are its times). Log times are wall-clock (epoch) times: on virtual time the run's
+    wall-clock start plus the simulated seconds, and the outbox waits for room rather than drop
+    (no loop time exists to protect there); on real time a full outbox drops its oldest capture.
     `outbox`: one made beforehand with `new_outbox` (a `TappedCanPort` built with the hardware
     already queues into it). `close_timeout_s` bounds how long the end waits for the writer to
     encode what is queued (a writer process still finishing its file is left to finish it).
@@ -122,7 +122,9 @@ def open_sinks(
     # writer process, never in the controller's.
     from bywire.telemetry.writer import TelemetryWriter  # noqa: PLC0415
 
-    writer = TelemetryWriter(queue)
+    # Log times start at the wall-clock time of the run and keep the simulated offsets (a file
+    # stamped from 1970 lands at the far left of Foxglove's timeline).
+    writer = TelemetryWriter(queue, log_offset_s=time.time() - clock.now())
     try:
         yield FeedSinks(queue, writer, _start(writer, options))
     finally:

@@ -1,8 +1,9 @@
 """The Foxglove layout shipped in docs/: the robot at a glance, built with foxglove-sdk's types.
 
 Commands against outputs (throttle set-point against the DAC volts, steering against the servo
-pulse, brake against the valve duty and speed), the mode and safety lines over time, the error
-flags, the task table and the event log. `python -m bywire.telemetry.layout > FILE` writes it;
+pulse, brake against the valve duty and speed) and the CAN commands decoded with the DBC, the mode
+and safety lines and the error flags by name over time, the simulated vehicle's path in 3D, the
+task table and the event log (foxglove.Log). `python -m bywire.telemetry.layout > FILE` writes it;
 a test checks that the shipped file is this one and that every path names a schema field.
 """
 
@@ -12,7 +13,15 @@ import json
 
 import foxglove.layouts as fl
 
-from bywire.telemetry.schemas import EVENTS_TOPIC, STATE_TOPIC
+from bywire.telemetry.foxglove_topics import (
+    CAN_MESSAGES_PREFIX,
+    FLAGS_TOPIC,
+    LOG_TOPIC,
+    POSE_TOPIC,
+    ROBOT_FRAME,
+    WORLD_FRAME,
+)
+from bywire.telemetry.schemas import STATE_TOPIC
 
 
 def _plot(title: str, series: list[tuple[str, str]], right: list[tuple[str, str]]) -> fl.PlotPanel:
@@ -50,6 +59,48 @@ def _mode_indicator() -> fl.IndicatorPanel:
     return fl.IndicatorPanel(title="Mode", config=config)
 
 
+def _can_plot() -> fl.PlotPanel:
+    """The higher-level computer's commands as the DBC decodes them off the bus."""
+    movement = f"{CAN_MESSAGES_PREFIX}MovementCommand"
+    series = [
+        fl.PlotSeries(value=f"{movement}.{signal}", label=f"MovementCommand.{signal}")
+        for signal in ("throttle_norm", "brake_norm", "steering_norm")
+    ]
+    return fl.PlotPanel(
+        title="CAN, decoded with albert.dbc", config=fl.PlotConfig(paths=series, show_legend=True)
+    )
+
+
+def _flag_lines() -> fl.StateTransitionsPanel:
+    """The flags that stop the robot, each by name over time."""
+    names = (
+        "NOT_ARMED",
+        "RC_TIMEOUT",
+        "RC_FAILSAFE",
+        "CAN_COMMAND_TIMEOUT",
+        "CAN_COMMAND_REJECTED",
+        "CAN_UNTRUSTED",
+        "REMOTE_STOP",
+        "WATCHDOG_TRIPPED",
+        "DAC_FAULT_STOP",
+    )
+    series = [fl.StateTransitionsSeries(value=f"{FLAGS_TOPIC}.{n}", label=n) for n in names]
+    return fl.StateTransitionsPanel(
+        title="Error flags by name", config=fl.StateTransitionsConfig(paths=series)
+    )
+
+
+def _robot_3d() -> fl.ThreeDeePanel:
+    """The simulated vehicle's path (bywire sim): its pose in the world frame, followed."""
+    pose = fl.BaseRendererPoseTopicSettings(visible=True, type="arrow")
+    return fl.ThreeDeePanel(
+        title="Simulated vehicle",
+        config=fl.ThreeDeeConfig(
+            topics={POSE_TOPIC: pose}, fixed_frame=WORLD_FRAME, follow_tf=ROBOT_FRAME
+        ),
+    )
+
+
 def layout() -> fl.Layout:
     commands = fl.SplitContainer(
         direction="column",
@@ -81,6 +132,7 @@ def layout() -> fl.Layout:
                     ],
                     [("speed_mps", "speed (m/s)")],
                 ),
+                _can_plot(),
             )
         ],
     )
@@ -89,21 +141,17 @@ def layout() -> fl.Layout:
         items=[
             fl.SplitItem(proportion=0.5, content=_mode_indicator()),
             fl.SplitItem(content=_state_lines()),
-            fl.SplitItem(
-                content=fl.RawMessagesPanel(
-                    title="Error flags",
-                    config=fl.RawMessagesConfig(topic_path=f"{STATE_TOPIC}.error_flags"),
-                )
-            ),
+            fl.SplitItem(content=_flag_lines()),
+            fl.SplitItem(content=_robot_3d()),
             fl.SplitItem(
                 content=fl.TablePanel(
                     title="Tasks", config=fl.TableConfig(topic_path=f"{STATE_TOPIC}.tasks")
                 )
             ),
             fl.SplitItem(
-                content=fl.RawMessagesPanel(
+                content=fl.LogPanel(
                     title="Events (mode, latches, flags)",
-                    config=fl.RawMessagesConfig(topic_path=EVENTS_TOPIC),
+                    config=fl.LogConfig(topic_to_render=LOG_TOPIC, show_level=True),
                 )
             ),
         ],

@@ -9,8 +9,15 @@ from __future__ import annotations
 from typing import Any
 
 from bywire.control.error_flags import flag_names
-from bywire.telemetry.capture import Capture, EventCapture, MovementValues, StateCapture, TaskRow
-from bywire.telemetry.schemas import CAN_TOPIC, EVENTS_TOPIC, LIGHTS, STATE_TOPIC
+from bywire.telemetry.capture import (
+    Capture,
+    EventCapture,
+    MovementValues,
+    PoseCapture,
+    StateCapture,
+    TaskRow,
+)
+from bywire.telemetry.schemas import CAN_TOPIC, EVENTS_TOPIC, LIGHTS, STATE_TOPIC, VEHICLE_TOPIC
 
 Message = dict[str, Any]
 
@@ -28,6 +35,13 @@ def message(capture: Capture) -> tuple[str, Message]:
             "kind": capture.kind,
             "name": capture.name,
             "mode": capture.mode,
+        }
+    if isinstance(capture, PoseCapture):
+        return VEHICLE_TOPIC, {
+            "time_s": capture.time_s,
+            "x_m": capture.x_m,
+            "y_m": capture.y_m,
+            "heading_rad": capture.heading_rad,
         }
     return CAN_TOPIC, {
         "time_s": capture.time_s,

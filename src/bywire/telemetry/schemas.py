@@ -14,6 +14,7 @@ from bywire.control.lights import LIGHT_LINES
 STATE_TOPIC = "/bywire/state"
 EVENTS_TOPIC = "/bywire/events"
 CAN_TOPIC = "/bywire/can"
+VEHICLE_TOPIC = "/bywire/vehicle"  # the simulated vehicle's pose (bywire sim only)
 
 Schema = dict[str, Any]
 
@@ -138,8 +139,14 @@ CAN_SCHEMA = _object(
     title="bywire.CanFrame",
 )
 
+VEHICLE_SCHEMA = _object(
+    {"time_s": _NUMBER, "x_m": _NUMBER, "y_m": _NUMBER, "heading_rad": _NUMBER},
+    "bywire.VehiclePose",
+)
+
 SCHEMAS: dict[str, Schema] = {
     STATE_TOPIC: STATE_SCHEMA,
     EVENTS_TOPIC: EVENT_SCHEMA,
     CAN_TOPIC: CAN_SCHEMA,
+    VEHICLE_TOPIC: VEHICLE_SCHEMA,
 }

@@ -15,17 +15,24 @@ import marshal
 import struct
 from collections.abc import Iterable
 
-from bywire.telemetry.capture import CanCapture, Capture, EventCapture, StateCapture
+from bywire.telemetry.capture import (
+    CanCapture,
+    Capture,
+    EventCapture,
+    PoseCapture,
+    StateCapture,
+)
 
 _LENGTH = struct.Struct("<I")
 HEADER_BYTES = _LENGTH.size
 MAX_FRAME_BYTES = 64 * 1024 * 1024  # far above any batch; a longer length is a corrupt stream
 MARSHAL_FORMAT = 2  # floats in binary, no back-references (format 3 added them, at a cost)
 
-_KINDS: tuple[type[StateCapture] | type[EventCapture] | type[CanCapture], ...] = (
+_KINDS: tuple[type[StateCapture | EventCapture | CanCapture | PoseCapture], ...] = (
     StateCapture,
     EventCapture,
     CanCapture,
+    PoseCapture,
 )
 _TAGS = {kind: tag for tag, kind in enumerate(_KINDS)}
 

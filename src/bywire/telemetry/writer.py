@@ -24,18 +24,22 @@ from bywire.errors import ConfigError
 from bywire.loopback import Endpoint, ListenAddress
 from bywire.priority import leave_realtime
 from bywire.telemetry.capture import Capture
+from bywire.telemetry.foxglove_topics import FoxgloveTopics
 from bywire.telemetry.messages import message
 from bywire.telemetry.outbox import Outbox
 from bywire.telemetry.schemas import SCHEMAS
+from bywire.telemetry.subprotocols import SubprotocolRelay
 
 POLL_S = 0.05  # how long the writer waits for a capture before looking at `closed` again
+UPSTREAM_HOST = "127.0.0.1"  # the SDK's own server, behind the relay (`subprotocols`)
 
 
 class TelemetryWriter:
     """Encodes every capture of `outbox` onto the channels of its own foxglove Context.
 
-    `log_offset_s` is added to the controller's clock for the log times: 0 on virtual time (the
-    log is in simulated seconds), the epoch offset on real time (so Foxglove shows wall time).
+    `log_offset_s` is added to the controller's clock for the log times: the epoch offset of the
+    run's start (so Foxglove shows wall time: on virtual time the run's wall-clock start plus the
+    simulated seconds).
     """
 
     def __init__(self, outbox: Outbox[Capture], *, log_offset_s: float = 0.0) -> None:
@@ -47,8 +51,10 @@ class TelemetryWriter:
             topic: foxglove.Channel(topic, schema=schema, context=self.context)
             for topic, schema in SCHEMAS.items()
         }
+        self._foxglove_topics = FoxgloveTopics(self.context)  # log, flags, decoded CAN, pose
         self._mcap: foxglove.MCAPWriter | None = None
         self._server: WebSocketServer | None = None
+        self._relay: SubprotocolRelay | None = None
         self._thread = threading.Thread(target=self._drain, name="bywire-telemetry", daemon=True)
         self.written = 0
 
@@ -60,14 +66,22 @@ class TelemetryWriter:
             raise ConfigError(f"cannot write the MCAP file {path}: {error}") from None
 
     def serve(self, endpoint: Endpoint | ListenAddress) -> int:
-        """Serve every channel to Foxglove WebSocket clients; returns the port it listens on."""
+        """Serve every channel to Foxglove WebSocket clients; returns the port it listens on.
+
+        The SDK's server listens on loopback at a port of its own; at `endpoint` a relay lets
+        clients that offer the older subprotocol name in too (`subprotocols`)."""
         try:
             self._server = foxglove.start_server(
-                name="bywire", host=endpoint.host, port=endpoint.port, context=self.context
+                name="bywire", host=UPSTREAM_HOST, port=0, context=self.context
             )
+            self._relay = SubprotocolRelay(
+                (endpoint.host, endpoint.port), (UPSTREAM_HOST, self._server.port)
+            ).start()
         except Exception as error:  # e.g. the port is taken
+            if self._server is not None:
+                self._server.stop()
             raise ConfigError(f"cannot serve Foxglove on {endpoint}: {error}") from None
-        return self._server.port
+        return self._relay.port
 
     def start(self) -> TelemetryWriter:
         self._thread.start()
@@ -80,6 +94,8 @@ class TelemetryWriter:
             self._thread.join(timeout_s)
         if self._mcap is not None:
             self._mcap.close()
+        if self._relay is not None:
+            self._relay.stop()
         if self._server is not None:
             self._server.stop()
 
@@ -100,4 +116,5 @@ class TelemetryWriter:
         log_time_ns = self._log_offset_ns + round(capture.time_s * 1e9)
         data = json.dumps(body, separators=(",", ":")).encode()
         self._channels[topic].log(data, log_time=log_time_ns)
+        self._foxglove_topics.write(capture, log_time_ns)
         self.written += 1

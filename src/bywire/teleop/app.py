@@ -4,9 +4,11 @@ With a gamepad (``gamepad``), each period first applies the pad's events (``PadI
 sticks and dead man drive, and the keyboard's other keys still work.
 
 All decisions are in the pure modules (``state``, ``frames``, ``reports``); this shell owns the
-bus, the clock and the screen. ``tick()`` is one send period: read what arrived, send the three
-command frames, advance the state. By default a textual interval calls it every 20 ms; a test
-passes ``auto_tick=False`` and calls it from a simulated clock, and ``now`` is that clock.
+bus, the clock and the screen. One send period reads what arrived, sends the three command
+frames and advances the state; by default a thread of its own runs it every 20 ms on absolute
+deadlines (``sender``), so that the screen's event loop never delays a command, and the screen,
+redrawn 10 times a second, shows the gaps it measured. A test passes ``auto_tick=False`` and
+calls ``tick()`` (a period, then the screen) from a simulated clock, and ``now`` is that clock.
 Reports arrive through a ``can.Notifier`` thread into a ``can.BufferedReader`` (``notifier=False``
 polls the bus in ``tick`` instead, for a single-threaded simulation). On exit one period of full
 brake goes out; then the commands stop and the controller's CAN timeout takes it to STOP.
@@ -14,23 +16,29 @@ brake goes out; then the commands stop and the controller's CAN timeout takes it
 
 from __future__ import annotations
 
+import threading
 import time
 from collections.abc import Callable
 from dataclasses import replace
-from typing import Protocol
+from typing import ClassVar, Protocol
 
 import can
 from rich.text import Text
 from textual import events
 from textual.app import App, ComposeResult
+from textual.binding import BindingType
 from textual.widgets import Static
 
+from bywire.quit_keys import QUIT_BINDINGS
 from bywire.security.session import SecocSigner
 from bywire.teleop.frames import SEND_PERIOD_S, Counters, frames
 from bywire.teleop.reports import ReportView, command_lines, fold, report_lines
+from bywire.teleop.sender import PeriodicSender, SendGaps
 from bywire.teleop.state import KEYS, TeleopState, advance, help_line, press
 
 KEY_NAMES = frozenset(binding.key for binding in KEYS)
+SHOW_PERIOD_S = 0.1  # the screen is redrawn 10 times a second; the sending does not wait on it
+ROBOT_TIMEOUT_S = 0.100  # the robot's default CAN command timeout: a longer gap stops it
 
 
 class PadInput(Protocol):
@@ -47,7 +55,7 @@ class TeleopApp(App[None]):
     """Drive the robot from the keyboard over ``bus``; ``q`` quits."""
 
     TITLE = "bywire teleop"
-    BINDINGS = [("q", "quit", "quit")]  # noqa: RUF012 -- textual's own class attribute
+    BINDINGS: ClassVar[list[BindingType]] = [*QUIT_BINDINGS]  # q and Ctrl-C
     CSS = """
     #commands { border: round $accent; padding: 0 1; height: auto; }
     #reports { border: round $primary; padding: 0 1; height: auto; }
@@ -78,22 +86,30 @@ class TeleopApp(App[None]):
         self._auto_tick = auto_tick
         self._reader: can.BufferedReader | None = can.BufferedReader() if notifier else None
         self._notifier: can.Notifier | None = None
+        self._lock = threading.Lock()  # the state, between the keys and the send thread
+        self._sender: PeriodicSender | None = None
+        self.gaps = SendGaps(SEND_PERIOD_S, ROBOT_TIMEOUT_S)
+        """The intervals between the periods sent, as the screen shows them."""
 
     def compose(self) -> ComposeResult:
         yield Static(id="commands")
         yield Static(id="reports")
-        yield Static(Text(help_line() + "  q: quit"), id="help")
+        yield Static(Text(help_line() + "  q/ctrl+c: quit"), id="help")
 
     def on_mount(self) -> None:
         if self._reader is not None:
             self._notifier = can.Notifier(self.bus, [self._reader], timeout=0.05)
         if self._auto_tick:
-            self.set_interval(SEND_PERIOD_S, self.tick)
+            # The commands go out from a thread of their own, never from the screen's loop.
+            self._sender = PeriodicSender(self._period, SEND_PERIOD_S, self._now).start()
+            self.set_interval(SHOW_PERIOD_S, lambda: self._show(self._now()))
         self._show(self._now())
 
     def on_unmount(self) -> None:
-        stopped = replace(self.state, throttle_norm=0.0, brake_norm=1.0)
-        self._send(stopped)
+        if self._sender is not None:
+            self._sender.stop()
+        with self._lock:
+            self._send(replace(self.state, throttle_norm=0.0, brake_norm=1.0))
         if self._notifier is not None:
             self._notifier.stop()
 
@@ -102,18 +118,25 @@ class TeleopApp(App[None]):
             event.stop()
             event.prevent_default()
             now_s = self._now()
-            self.state = press(self.state, event.key, now_s)
+            with self._lock:
+                self.state = press(self.state, event.key, now_s)
             self._show(now_s)
 
     def tick(self) -> None:
+        """One send period and the screen after it (a simulation's clock calls this)."""
+        self._period()
+        self._show(self._now())
+
+    def _period(self) -> None:
         """One send period: take in the reports, send the commands, advance the state."""
-        now_s = self._now()
-        self._receive(now_s)
-        if self.gamepad is not None:
-            self.state = self.gamepad.step(self.state, now_s)
-        self._send(self.state)
-        self.state = advance(self.state, now_s)
-        self._show(now_s)
+        with self._lock:
+            now_s = self._now()
+            self._receive(now_s)
+            if self.gamepad is not None:
+                self.state = self.gamepad.step(self.state, now_s)
+            self._send(self.state)
+            self.state = advance(self.state, now_s)
+            self.gaps.sent(now_s)
 
     def _send(self, state: TeleopState) -> None:
         period_frames, self.counters = frames(state, self.counters)
@@ -144,9 +167,11 @@ class TeleopApp(App[None]):
         return self.bus.recv(timeout=0.0)
 
     def _show(self, now_s: float) -> None:
-        sent = f"frames sent {self.frames_sent}  send errors {self.send_errors}"
+        with self._lock:
+            state, view = self.state, self.view
+            sent = f"frames sent {self.frames_sent}  send errors {self.send_errors}"
         pad = [] if self.gamepad is None else [self.gamepad.status()]
-        self.query_one("#commands", Static).update(
-            Text("\n".join([*command_lines(self.state), sent, *pad]))
-        )
-        self.query_one("#reports", Static).update(Text("\n".join(report_lines(self.view, now_s))))
+        commands = Text("\n".join([*command_lines(state), sent, *pad]) + "\n")
+        commands.append(self.gaps.line(), style="bold red" if self.gaps.late else "")
+        self.query_one("#commands", Static).update(commands)
+        self.query_one("#reports", Static).update(Text("\n".join(report_lines(view, now_s))))

@@ -12,6 +12,7 @@ from typing import TypeVar
 from bywire.control.error_flags import flag_names
 from bywire.errors import FrameError
 from bywire.model import (
+    ControlMode,
     ErrorReport,
     LightsReport,
     ModeReport,
@@ -131,10 +132,23 @@ def _ages_line(view: ReportView, now_s: float) -> str:
     return "report ages " + "  ".join(parts) + f"  bad frames {view.bad_frames}"
 
 
+def stop_causes(view: ReportView) -> str | None:
+    """Why the robot is in STOP, from its reports: the error flags it sends (the latched causes
+    among them), or None while it is not in STOP."""
+    mode, errors = view.get(ModeReport), view.get(ErrorReport)
+    if mode is None or mode.control_mode is not ControlMode.STOP:
+        return None
+    names = [] if errors is None else flag_names(errors.flags)
+    latched = "latched" if mode.stop_latched else "not latched"
+    return f"robot in STOP ({latched}): " + (", ".join(names) or "no flag set (mode switch)")
+
+
 def report_lines(view: ReportView, now_s: float) -> list[str]:
     """The robot's side of the status panel."""
+    causes = stop_causes(view)
     return [
         _mode_line(view),
+        *([] if causes is None else [causes]),
         _motion_line(view),
         _lights_line(view),
         _errors_line(view),

@@ -6,7 +6,7 @@ import time
 
 import pytest
 
-from bywire.hal.sim.clock import RealtimeClock, VirtualClock
+from bywire.hal.sim.clock import RealtimeClock, ScaledRealtimeClock, VirtualClock
 
 
 def test_wait_jumps_to_the_deadline_when_no_timer_is_due() -> None:
@@ -78,3 +78,18 @@ def test_realtime_clock_runs_timers_no_earlier_than_their_time() -> None:
     assert len(fired_at) == 1
     assert fired_at[0] >= due_s
     assert clock.now() >= due_s + 0.01
+
+
+def test_a_scaled_realtime_clock_runs_n_times_faster_than_the_wall_clock() -> None:
+    """`bywire sim --speed 10`: a timer 0.5 simulated seconds ahead fires after ~0.05 s of wall
+    time, never before it."""
+    clock = ScaledRealtimeClock(speed=10.0)
+    fired: list[float] = []
+    clock.call_at(0.5, lambda: fired.append(clock.now()))
+    started = time.monotonic()
+    clock.wait_until(0.6)
+    wall_s = time.monotonic() - started
+    assert fired
+    assert fired[0] >= 0.5
+    assert clock.now() >= 0.6
+    assert 0.06 <= wall_s < 0.6  # a tenth of the simulated time; real time would be 0.6 s

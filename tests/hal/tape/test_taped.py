@@ -1,12 +1,17 @@
-"""Taped ports: outputs noted when they change, CAN frames every time, sensor reads that change."""
+"""Taped ports: outputs noted when they change, CAN frames every time, sensor reads that change,
+DAC writes that hang."""
 
 from __future__ import annotations
 
 from bywire.hal.ports import CanFrame
 from bywire.hal.sim.clock import VirtualClock
+from bywire.hal.sim.dac import SimDac6574
 from bywire.hal.sim.gpio_pwm import SimPwmChannel
-from bywire.hal.tape.playback import ReplayCanPort, ReplayWheelSpeeds
-from bywire.hal.tape.taped import Tape, TapedCanPort, TapedPwm, TapedSensor
+from bywire.hal.sim.timers import PeriodicTimer
+from bywire.hal.tape.playback import ReplayCanPort, ReplayDac, ReplayWheelSpeeds
+from bywire.hal.tape.run_record import RecordedRun, RecordHeader
+from bywire.hal.tape.taped import Tape, TapedCanPort, TapedDac, TapedPwm, TapedSensor
+from bywire.protocol import dac6574
 
 
 def test_taped_outputs_are_noted_on_change_and_can_frames_every_time() -> None:
@@ -36,3 +41,33 @@ def test_a_taped_sensor_notes_the_reads_that_change_and_replays_them_in_order() 
     assert changes == [(0, (0.0, 0.0)), (2, (1.0, 1.0)), (3, None)]
     replayed = ReplayWheelSpeeds(changes)
     assert [replayed.read() for _ in range(4)] == readings
+
+
+def test_a_dac_write_that_hangs_is_taped_with_when_it_returned_and_hangs_as_long_on_replay() -> (
+    None
+):
+    clock = VirtualClock()
+    dac = SimDac6574(clock)
+    dac.on_stall = clock.advance  # as the simulated world wires it
+    tape = Tape(clock)
+    taped = TapedDac(dac, tape)
+    frame = dac6574.encode_write(0, 512)
+    taped.write(frame)
+    dac.stall_next_write(0.3)
+    taped.write(frame)
+    stalls = [(e["t"], e["call"], e["s"]) for e in tape.events if e["kind"] == "stall"]
+    assert stalls == [(0.3, 1, 0.3)]
+    record = RecordedRun(RecordHeader("x", 0.0, 1.0, {}, (), ""))
+    for event in tape.events:
+        record.add(event)
+    replay_clock = VirtualClock()
+    ticks: list[float] = []
+    PeriodicTimer(replay_clock, 0.1, ticks.append).start()  # the watchdog's timer, say
+    replayed = ReplayDac(
+        SimDac6574(replay_clock), set(), stalls=(replay_clock, record.stalls["dac"])
+    )
+    replayed.write(frame)
+    assert (replay_clock.now(), ticks) == (0.0, [])
+    replayed.write(frame)
+    assert replay_clock.now() == 0.3
+    assert len(ticks) == 3  # the timers ran inside the hung write, as they did when recorded

@@ -8,7 +8,9 @@ first, because python-can cannot set its bitrate (that needs `ip link`, as root)
 
 from __future__ import annotations
 
+import errno
 import logging
+import socket
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -67,7 +69,7 @@ def open_bus(settings: BusSettings) -> can.BusABC:
             f" fix can.interface (known: {known})"
         )
     if settings.interface == "socketcan":
-        _check_socketcan(settings)
+        check_socketcan(settings.channel, settings.bitrate_bps, settings.sysfs_root)
     filters: list[Any] = [
         {"can_id": frame_id, "can_mask": STANDARD_ID_MASK, "extended": False}
         for frame_id in settings.accept_ids
@@ -82,26 +84,48 @@ def open_bus(settings: BusSettings) -> can.BusABC:
             can_filters=filters or None,
         )
     except Exception as error:  # drivers raise anything, even NameError
-        raise _open_error(settings, error) from error
+        raise open_error(str(settings), settings.interface, error) from error
 
 
-def _check_socketcan(settings: BusSettings) -> None:
-    net = settings.sysfs_root / "class" / "net"
+NO_SOCKETCAN = (
+    "this kernel has no SocketCAN (address family AF_CAN not supported): load it with"
+    " `sudo modprobe can-raw` (and your adapter's driver, or `modprobe vcan` for a virtual bus);"
+    " in a container or WSL the host's kernel must provide it"
+)
+
+
+def check_socketcan(channel: str, bitrate_bps: int, sysfs_root: Path = Path("/sys")) -> None:
+    """HardwareError with the fix when SocketCAN or the interface is missing, or it is down."""
+    net = sysfs_root / "class" / "net"
     if not net.is_dir():
+        _check_af_can(f"CAN socketcan {channel}")
         return  # no sysfs here (a container): let python-can try
-    device = net / settings.channel
+    device = net / channel
     up = (
-        f"sudo ip link set {settings.channel} up type can bitrate {settings.bitrate_bps}"
+        f"sudo ip link set {channel} up type can bitrate {bitrate_bps}"
         " restart-ms 100 (or deploy/80-can.network)"
     )
     if not device.exists():
+        _check_af_can(f"CAN socketcan {channel}")  # no SocketCAN at all: that fix comes first
         raise HardwareError(
-            f"CAN socketcan {settings.channel}: no such network interface: plug in the adapter"
+            f"CAN socketcan {channel}: no such network interface: plug in the adapter"
             f" and load its driver (`ip link` lists interfaces), then {up}"
         )
     state = _read(device / "operstate")
     if state == "down":
-        raise HardwareError(f"CAN socketcan {settings.channel} is down: {up}")
+        raise HardwareError(f"CAN socketcan {channel} is down: {up}")
+
+
+def _check_af_can(where: str) -> None:
+    """A kernel without CAN refuses the socket itself, before any interface is looked at."""
+    family = getattr(socket, "AF_CAN", None)
+    if family is None:
+        raise HardwareError(f"{where}: SocketCAN needs Linux; use another python-can interface")
+    try:
+        socket.socket(family, socket.SOCK_RAW, socket.CAN_RAW).close()
+    except OSError as error:
+        if error.errno == errno.EAFNOSUPPORT:
+            raise HardwareError(f"{where}: {NO_SOCKETCAN}") from error
 
 
 def _read(path: Path) -> str:
@@ -111,9 +135,13 @@ def _read(path: Path) -> str:
         return ""
 
 
-def _open_error(settings: BusSettings, error: Exception) -> HardwareError:
-    where = f"CAN {settings}"
-    hint = INSTALL_HINTS.get(settings.interface, "check the adapter, its driver and can.channel")
+def open_error(what: str, interface: str, error: Exception) -> HardwareError:
+    """One line for python-can's failure to open `interface`, with the fix (`what`: the bus as
+    the user named it)."""
+    where = f"CAN {what}"
+    hint = INSTALL_HINTS.get(interface, "check the adapter, its driver and the channel")
+    if isinstance(error, OSError) and error.errno == errno.EAFNOSUPPORT:
+        return HardwareError(f"{where}: {NO_SOCKETCAN}")
     if isinstance(error, NotImplementedError | NameError | ImportError):
         return HardwareError(f"{where}: interface not available here: {hint}")
     if isinstance(error, PermissionError):

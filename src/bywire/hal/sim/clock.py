@@ -102,3 +102,24 @@ class RealtimeClock(VirtualClock):
         remaining_s = target_s - self.now()
         if remaining_s > 0:
             time.sleep(remaining_s)
+
+
+class ScaledRealtimeClock(RealtimeClock):
+    """Paced by the wall clock at `speed` times real time (SITL's `--speed N`): one wall second
+    is `speed` simulated seconds, so a team can watch a run in Foxglove at 5×."""
+
+    def __init__(self, start_s: float = 0.0, speed: float = 1.0) -> None:
+        if not speed > 0.0:
+            raise ValueError(f"speed must be > 0, got {speed}")
+        super().__init__(start_s)
+        self.speed = speed
+        self._start_s = start_s
+        self._wall_start_s = time.monotonic()
+
+    def now(self) -> float:
+        return self._start_s + (time.monotonic() - self._wall_start_s) * self.speed
+
+    def _sleep_until(self, target_s: float) -> None:
+        remaining_s = (target_s - self.now()) / self.speed
+        if remaining_s > 0:
+            time.sleep(remaining_s)

@@ -86,14 +86,28 @@ class ReplayCanPort:
 
 
 class ReplayDac:
-    """The DAC: a simulated DAC6574 (it checks every frame) that refuses the recorded writes."""
+    """The DAC: a simulated DAC6574 (it checks every frame) that refuses the recorded writes
+    and hangs in the recorded ones for as long as they hung (the clock's timers run meanwhile,
+    the watchdog's among them)."""
 
-    def __init__(self, inner: I2cDevice, refused_calls: set[int]) -> None:
+    def __init__(
+        self,
+        inner: I2cDevice,
+        refused_calls: set[int],
+        *,
+        stalls: tuple[VirtualClock, dict[int, float]] | None = None,
+    ) -> None:
+        """`stalls`: the clock, and for each call that hung when it returned (clock time)."""
         self._inner, self._refused_calls = inner, refused_calls
+        self._stalls = stalls
         self._writes = 0
 
     def write(self, data: bytes) -> None:
         call, self._writes = self._writes, self._writes + 1
+        if self._stalls is not None and call in self._stalls[1]:
+            clock, returned_s = self._stalls[0], self._stalls[1][call]
+            while clock.now() < returned_s:
+                clock.wait_until(returned_s)
         if call in self._refused_calls:
             raise HardwareError("DAC6574: no acknowledge (as recorded)")
         self._inner.write(data)
@@ -146,7 +160,11 @@ def replay_hardware(record: RecordedRun, clock: VirtualClock) -> Hardware:
         clock=clock,
         can=ReplayCanPort(clock, record.can_rx, record.refusals.get("can_tx", set())),
         rc_uart=ReplayByteStream(clock, record.rc_bytes),
-        dac=ReplayDac(SimDac6574(clock), record.refusals.get("dac", set())),
+        dac=ReplayDac(
+            SimDac6574(clock),
+            record.refusals.get("dac", set()),
+            stalls=(clock, record.stalls.get("dac", {})),
+        ),
         steering_pwm=SimPwmChannel(clock, periods["steering"], "steering"),
         hydrobrake_pwm=SimPwmChannel(clock, periods["hydrobrake"], "hydrobrake"),
         outputs=DigitalOutputs(**lines),

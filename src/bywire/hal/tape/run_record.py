@@ -6,7 +6,8 @@ floats are written as Python's shortest round-trip repr, so every value reads ba
 
     line 1  {"format": "bywire-run-record", "version": 1, "scenario": "test-course",
              "start_s": 0.0, "end_s": 5.0, "pwm_period_s": {"steering": 0.02, ...},
-             "sensors": ["wheel_speeds", ...], "config": "<robot TOML, as `config check`>"}
+             "sensors": ["wheel_speeds", ...], "config": "<robot TOML, as `config check`>",
+             "authenticated": false}
     then    one event per line, in the order it happened: {"t": <s>, "kind": <kind>, ...}
 
     kind      fields                          meaning
@@ -16,6 +17,8 @@ floats are written as Python's shortest round-trip repr, so every value reads ba
     sensor    name, read, value               the read-th read (from 0) of a sensor, when its
                                               value differs from the read before (null: none)
     refused   name ("can_tx"|"dac"), call     the call-th send or DAC write (from 0) failed
+    stall     name ("dac"), call, s           the call-th DAC write hung s seconds in the driver
+                                              (t: when it returned)
     out       name, value                     an output: steering_pwm, hydrobrake_pwm (pulse s),
                                               gpio.<line> (level), dac.<channel> (I2C frame hex)
                                               when they change; can_tx.0x<id> (payload hex) for
@@ -53,6 +56,9 @@ class RecordHeader:
     pwm_period_s: dict[str, float]
     sensors: tuple[str, ...]
     config_toml: str
+    authenticated: bool = False
+    """The controller verified SecOC-authenticated commands (with the key the configuration's
+    `simulated_run_key` gives)."""
 
     def as_json(self) -> Event:
         return {
@@ -64,6 +70,7 @@ class RecordHeader:
             "pwm_period_s": self.pwm_period_s,
             "sensors": list(self.sensors),
             "config": self.config_toml,
+            "authenticated": self.authenticated,
         }
 
     @classmethod
@@ -80,6 +87,7 @@ class RecordHeader:
             periods,
             tuple(str(name) for name in data["sensors"]),
             str(data["config"]),
+            bool(data.get("authenticated", False)),
         )
 
 
@@ -102,6 +110,8 @@ class RecordedRun:
     can_rx: list[tuple[float, list[CanFrame]]] = field(default_factory=list)
     sensor_reads: dict[str, list[tuple[int, SensorValue]]] = field(default_factory=dict)
     refusals: dict[str, set[int]] = field(default_factory=dict)
+    stalls: dict[str, dict[int, float]] = field(default_factory=dict)
+    """Per port, the calls that hung inside the driver and when each returned (clock time)."""
     outputs: list[Output] = field(default_factory=list)
 
     def add(self, event: Event) -> None:
@@ -119,6 +129,8 @@ class RecordedRun:
             reads.append((int(event["read"]), _sensor_value(event["value"])))
         elif kind == "refused":
             self.refusals.setdefault(str(event["name"]), set()).add(int(event["call"]))
+        elif kind == "stall":
+            self.stalls.setdefault(str(event["name"]), {})[int(event["call"])] = time_s
         elif kind == "out":
             self.outputs.append(Output(time_s, str(event["name"]), _output_value(event["value"])))
         else:

@@ -29,6 +29,9 @@ class Tape:
         self.events: list[Event] = []
         self._last_output: dict[str, OutputValue] = {}
 
+    def now(self) -> float:
+        return self._clock.now()
+
     def add(self, kind: str, **values: object) -> None:
         self.events.append({"t": self._clock.now(), "kind": kind, **values})
 
@@ -91,16 +94,26 @@ class TapedDac:
 
     def write(self, data: bytes) -> None:
         call, self._writes = self._writes, self._writes + 1
+        started_s = self._tape.now()
         try:
             self._inner.write(data)
         except HardwareError:
+            self._note_stall(call, started_s)
             self._tape.add("refused", name="dac", call=call)
             raise
+        self._note_stall(call, started_s)
         try:
             name = f"dac.{dac6574.decode_frame(data).channel}"
         except FrameError:
             name = "dac"  # a device that acknowledged a frame the codec cannot read: still noted
         self._tape.output(name, data.hex())
+
+    def _note_stall(self, call: int, started_s: float) -> None:
+        """A write that took simulated time (hung inside the driver): how long, so that replay
+        lets the same time run inside the same write (what the watchdog saw meanwhile)."""
+        stall_s = self._tape.now() - started_s
+        if stall_s > 0.0:
+            self._tape.add("stall", name="dac", call=call, s=stall_s)
 
 
 class TapedPwm:
