@@ -36,6 +36,7 @@ from bywire.protocol import dac6574
 from tests.hal.linux import fake_gpiod
 from tests.hal.linux.bench import Bench, make_bench
 from tests.hal.linux.fake_smbus import RecordingSMBus
+from tests.hal.linux.fake_sysfs import pwm_core_checks
 from tests.hal.linux.pty_rc import PtyRcLine
 
 SETTLE_S = 0.01
@@ -86,6 +87,7 @@ class LinuxRig:
 
     def __init__(self, root: Path, monkeypatch: pytest.MonkeyPatch, *, smbus: bool) -> None:
         monkeypatch.setattr(gpio_gpiod, "gpiod", fake_gpiod)
+        pwm_core_checks(monkeypatch)
         self.smbus: list[RecordingSMBus] = []
         if smbus:
             monkeypatch.setattr(dac_smbus2, "SMBus", self._recording_bus)
