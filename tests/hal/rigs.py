@@ -85,12 +85,15 @@ class LinuxRig:
 
     NOT_APPLICABLE: ClassVar[Mapping[str, str]] = {}
 
-    def __init__(self, root: Path, monkeypatch: pytest.MonkeyPatch, *, smbus: bool) -> None:
+    def __init__(
+        self, root: Path, monkeypatch: pytest.MonkeyPatch, *, smbus: bool, smbus_only: bool = False
+    ) -> None:
         monkeypatch.setattr(gpio_gpiod, "gpiod", fake_gpiod)
         pwm_core_checks(monkeypatch)
         self.smbus: list[RecordingSMBus] = []
+        self._smbus_only = smbus_only
         if smbus:
-            monkeypatch.setattr(dac_smbus2, "SMBus", self._recording_bus)
+            monkeypatch.setattr(dac_smbus2, "KernelI2cBus", self._recording_bus)
         self.bench: Bench = make_bench(root, iio=not smbus)
         self.line = PtyRcLine(self.bench.rc_link)
         config = parse_config(self.bench.config_text())
@@ -102,7 +105,7 @@ class LinuxRig:
         self._stack.callback(self.peer.shutdown)
 
     def _recording_bus(self, path: str) -> RecordingSMBus:
-        bus = RecordingSMBus(path)
+        bus = RecordingSMBus(path, smbus_only=self._smbus_only)
         self.smbus.append(bus)
         return bus
 
@@ -405,6 +408,7 @@ RIGS: dict[str, type[Rig]] = {
     "sim": SimRig,
     "linux-iio": LinuxRig,
     "linux-smbus2": LinuxRig,
+    "linux-smbus-only": LinuxRig,
     "sim-taped": TapedSimRig,
     "playback": PlaybackRig,
 }
@@ -418,7 +422,9 @@ def make_rig(backend: str, root: Path, monkeypatch: pytest.MonkeyPatch) -> Rig:
         return TapedSimRig()
     if backend == "playback":
         return PlaybackRig()
-    return LinuxRig(root, monkeypatch, smbus=backend == "linux-smbus2")
+    smbus_only = backend == "linux-smbus-only"
+    smbus = smbus_only or backend == "linux-smbus2"
+    return LinuxRig(root, monkeypatch, smbus=smbus, smbus_only=smbus_only)
 
 
 def not_applicable(backend: str) -> Mapping[str, str]:
