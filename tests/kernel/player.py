@@ -5,7 +5,14 @@ computer at their times; the robot's outputs are read back from the kernel every
 milliseconds and each expectation is judged on those readings with `bywire.sim.conditions`
 (`at_s`: the first reading from then on; `within_s`: some reading within the window after the
 labelled event; `during_s`: every reading in it). Speed cannot be measured here (no vehicle
-behind the motor controllers): conditions on it are left out, and listed as such.
+behind the motor controllers): conditions on it are left out, and listed as such, and so are
+expectations the caller names as not applicable, with the reason.
+
+A `within_s` window gets `GUEST_ALLOWANCE_S` more: the guest is one host CPU shared by bywire,
+the transmitter, the computer and the readings, every system call a round trip through ptrace,
+and the readings themselves went 100 ms without a turn under a loaded host. The deadlines are
+the simulator's to judge (and bench/'s to measure on real time); here the outputs must reach
+their state, through the kernel's devices, and stay there.
 """
 
 from __future__ import annotations
@@ -19,7 +26,8 @@ from bywire.sim.scenario import Expectation, Scenario
 from tests.kernel.robot import KernelRobot
 
 UNMEASURABLE = ("speed_min_mps", "speed_max_mps", "steering_held_since_s")
-READ_PERIOD_S = 0.004
+READ_PERIOD_S = 0.025  # each reading is ~20 sysfs reads, each a round trip through the host
+GUEST_ALLOWANCE_S = 0.25
 
 
 @dataclass
@@ -33,7 +41,9 @@ class Played:
     left_out: list[str] = field(default_factory=list)
 
 
-def play(robot: KernelRobot, scenario: Scenario) -> Played:
+def play(
+    robot: KernelRobot, scenario: Scenario, not_applicable: dict[str, str] | None = None
+) -> Played:
     played = Played()
     events = list(scenario.events)
     started_s = time.monotonic()
@@ -51,7 +61,11 @@ def play(robot: KernelRobot, scenario: Scenario) -> Played:
         played.readings.append(robot.observe(now_s))
         time.sleep(READ_PERIOD_S)
     for expectation in scenario.expectations:
-        _judge(expectation, played)
+        reason = (not_applicable or {}).get(expectation.describe())
+        if reason is not None:
+            played.left_out.append(f"{expectation.describe()}: {reason}")
+        else:
+            _judge(expectation, played)
     return played
 
 
@@ -84,7 +98,10 @@ def _window(expectation: Expectation, played: Played) -> list[Observation]:
     start_s = played.labels.get(str(expectation.after))
     if start_s is None:
         return []
-    end_s = start_s + (expectation.during_s or expectation.within_s or 0.0)
+    if expectation.during_s is not None:
+        end_s = start_s + expectation.during_s
+    else:
+        end_s = start_s + (expectation.within_s or 0.0) + GUEST_ALLOWANCE_S
     return [r for r in played.readings if start_s <= r.time_s <= end_s]
 
 

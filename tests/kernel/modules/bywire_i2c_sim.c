@@ -6,7 +6,10 @@
  * One device answers, at `address` (default 0x4c, a DAC6574): it acknowledges every write and
  * keeps the last 64 messages written to it, read back from the adapter's `written` attribute:
  * one message a line, oldest first, "<sequence number> <hex bytes>" (numbered from 1 since the
- * module was loaded, so a reader can tell what it has seen). Reads return zeros. Every other address, and this one while `present` is 0 (a device that lost power or
+ * module was loaded, so a reader can tell what it has seen); `latest` holds the last message for
+ * each first byte (a DAC6574's control byte: one per channel and kind), in the same form, so
+ * the state of the device can be read at any time, however many messages went by. Reads
+ * return zeros. Every other address, and this one while `present` is 0 (a device that lost power or
  * its cable), does not acknowledge: the transfer fails with ENXIO, as bus drivers report a NAK.
  */
 #include <linux/i2c.h>
@@ -28,6 +31,7 @@ struct kept_message {
 static struct kept_message kept[KEPT];
 static unsigned int kept_count, kept_next;
 static u64 sequence;
+static struct kept_message latest[256];
 static bool present = true;
 static DEFINE_MUTEX(lock);
 
@@ -39,6 +43,8 @@ static void keep(const struct i2c_msg *msg)
 	slot->len = min_t(u16, msg->len, MAX_LEN);
 	memcpy(slot->buf, msg->buf, slot->len);
 	kept_next = (kept_next + 1) % KEPT;
+	if (slot->len)
+		latest[slot->buf[0]] = *slot;
 	kept_count = min(kept_count + 1, (unsigned int)KEPT);
 }
 
@@ -98,6 +104,25 @@ static ssize_t written_show(struct device *dev, struct device_attribute *attr, c
 
 static DEVICE_ATTR_RO(written);
 
+static ssize_t latest_show(struct device *dev, struct device_attribute *attr, char *buf)
+{
+	unsigned int first, j;
+	ssize_t len = 0;
+
+	mutex_lock(&lock);
+	for (first = 0; first < ARRAY_SIZE(latest); first++) {
+		if (!latest[first].len)
+			continue;
+		len += sysfs_emit_at(buf, len, "%llu ", latest[first].sequence);
+		for (j = 0; j < latest[first].len; j++)
+			len += sysfs_emit_at(buf, len, "%02x", latest[first].buf[j]);
+		len += sysfs_emit_at(buf, len, "\n");
+	}
+	mutex_unlock(&lock);
+	return len;
+}
+static DEVICE_ATTR_RO(latest);
+
 static ssize_t present_show(struct device *dev, struct device_attribute *attr, char *buf)
 {
 	return sysfs_emit(buf, "%d\n", present);
@@ -127,6 +152,8 @@ static int __init sim_init(void)
 	ret = device_create_file(&sim_adapter.dev, &dev_attr_written);
 	if (!ret)
 		ret = device_create_file(&sim_adapter.dev, &dev_attr_present);
+	if (!ret)
+		ret = device_create_file(&sim_adapter.dev, &dev_attr_latest);
 	if (ret)
 		i2c_del_adapter(&sim_adapter);
 	return ret;
@@ -134,6 +161,7 @@ static int __init sim_init(void)
 
 static void __exit sim_exit(void)
 {
+	device_remove_file(&sim_adapter.dev, &dev_attr_latest);
 	device_remove_file(&sim_adapter.dev, &dev_attr_present);
 	device_remove_file(&sim_adapter.dev, &dev_attr_written);
 	i2c_del_adapter(&sim_adapter);
