@@ -58,7 +58,7 @@ if [[ ! -f $mdir/ready ]]; then
     cp "$here"/modules/*.c "$here/modules/Makefile" "$mdir/"
     make -s -C "$tree" ARCH=um M="$mdir" -j"$jobs" modules >&2
     # The tree's own modules the tier loads, beside ours: one directory for insmod.
-    for module in drivers/net/can/vcan drivers/i2c/i2c-stub \
+    for module in drivers/net/can/vcan drivers/net/can/vxcan drivers/i2c/i2c-stub \
         drivers/gpio/gpio-sim drivers/iio/dac/ti-dac5571; do
         cp "$tree/$module.ko" "$mdir/"
     done

@@ -35,6 +35,7 @@ SKIP_REASON = (
     "kernel tier: runs inside user-mode Linux: tests/kernel/run (README, 'The kernel tier')"
 )
 RC_TTY = "/dev/ttyS1"
+RC_TTY_TO_CLOSE = "/dev/ttyS3"  # the RC line a test may close for good (the rest keep ttyS1)
 CONTROL_TTY = "/dev/ttyS2"
 CONFIGFS_GPIO_SIM = Path("/sys/kernel/config/gpio-sim")
 SYS_I2C = Path("/sys/bus/i2c/devices")
@@ -60,15 +61,15 @@ def run(*command: str) -> str:
     return done.stdout
 
 
-def robot_config(can_channel: str, i2c_bus: int) -> str:
+def robot_config(can_channel: str, i2c_bus: int, rc_tty: str = RC_TTY) -> str:
     """A robot file for the guest's devices: the GPIO chip labelled as the bench's, the PWM
     simulator's two channels, the DAC at its address on `i2c_bus`, the RC line on ttyS1.
 
-    Its input timeouts and watchdog are the CLI tests' bench's (0.5 s, 2 s), not the robot's
-    (0.1 s, 0.2 s): every system call of a guest process is a round trip through ptrace on
-    the host, and bywire's passes, cheap on a board, overran by tens of milliseconds in the
-    guest (about half of the 100 Hz passes late with the guest 35 % idle), so the robot's own
-    numbers judged the guest's speed, not the device paths."""
+    Its input timeouts and watchdog are 1 s and 3 s, not the robot's 0.1 s and 0.2 s: every
+    system call of a guest process is a round trip through ptrace on the host, and bywire's
+    passes, cheap on a board, overran by tens of milliseconds in the guest (about half of the
+    100 Hz passes late with the guest 35 % idle), and stalled for 0.5 s at times on a loaded
+    host, so the robot's own numbers judged the guest's speed, not the device paths."""
     return f"""name = "kernel-robot"
 backend = "linux"
 gpio_chip = "{GPIO_LABEL}"
@@ -78,7 +79,7 @@ interface = "socketcan"
 channel = "{can_channel}"
 
 [rc]
-port = "{RC_TTY}"
+port = "{rc_tty}"
 
 [steering.pwm]
 chip = "bywire-pwm-sim.0"
@@ -93,9 +94,9 @@ i2c_bus = {i2c_bus}
 address = 0x{DAC_ADDRESS:02X}
 
 [timeouts]
-rc_timeout_s = 0.5
-can_command_timeout_s = 0.5
-watchdog_s = 2.0
+rc_timeout_s = 1.0
+can_command_timeout_s = 1.0
+watchdog_s = 3.0
 """
 
 
@@ -115,24 +116,38 @@ def rmmod(module: str) -> None:
 
 
 class Vcan:
-    """A vcan interface of its own, up; `close` deletes it."""
+    """A CAN interface of its own, up; `close` deletes it.
 
-    def __init__(self) -> None:
-        insmod("vcan")
-        self.name = f"vcan{uuid.uuid4().hex[:6]}"
-        run("ip", "link", "add", self.name, "type", "vcan")
+    `pair=False`: one vcan interface, every socket on it one node (`peer` is the same name).
+    `pair=True`: two vxcan interfaces joined as two nodes on a wire, `name` and `peer`: what one
+    sends goes through its own qdisc to the other. On a single vcan a frame reaches the other
+    sockets by the kernel's local echo, which a qdisc never sees, so netem's loss and delay
+    need the pair.
+    """
+
+    def __init__(self, *, pair: bool = False) -> None:
+        tag = uuid.uuid4().hex[:6]
+        if pair:
+            insmod("vxcan")
+            self.name, self.peer = f"vxa{tag}", f"vxb{tag}"
+            run("ip", "link", "add", self.name, "type", "vxcan", "peer", "name", self.peer)
+            run("ip", "link", "set", self.peer, "up")
+        else:
+            insmod("vcan")
+            self.name = self.peer = f"vcan{tag}"
+            run("ip", "link", "add", self.name, "type", "vcan")
         run("ip", "link", "set", self.name, "up")
 
     def set_up(self, up: bool) -> None:
         run("ip", "link", "set", self.name, "up" if up else "down")
 
-    def qdisc(self, *spec: str) -> None:
-        """Replace the root qdisc (`plug limit 1`, `netem loss 100%`…)."""
-        run("tc", "qdisc", "replace", "dev", self.name, "root", *spec)
+    def qdisc(self, *spec: str, on: str | None = None) -> None:
+        """Replace the root qdisc of `on` (default `name`): `plug limit 4`, `netem loss 100%`…"""
+        run("tc", "qdisc", "replace", "dev", on or self.name, "root", *spec)
 
     def close(self) -> None:
         with contextlib.suppress(ToolError):
-            run("ip", "link", "del", self.name)
+            run("ip", "link", "del", self.name)  # a vxcan pair goes as one
 
 
 class GpioSim:
@@ -172,12 +187,17 @@ class GpioSim:
         self.config.rmdir()
 
 
-def pwm_sim(npwm: int = 2) -> Path:
-    """A fresh PWM simulator (every channel unexported, period 0): its /sys/class/pwm chip."""
+def pwm_sim_gone() -> None:
+    """No PWM simulator (a board without the PWM overlay)."""
     for chip in (PWM_SIM_DEVICE / "pwm").glob("pwmchip*"):
         for channel in chip.glob("pwm[0-9]*"):  # an exported channel holds the module
             (chip / "unexport").write_text(channel.name.removeprefix("pwm"))
     rmmod("bywire_pwm_sim")
+
+
+def pwm_sim(npwm: int = 2) -> Path:
+    """A fresh PWM simulator (every channel unexported, period 0): its /sys/class/pwm chip."""
+    pwm_sim_gone()
     insmod("bywire_pwm_sim", f"npwm={npwm}")
     chip = next((PWM_SIM_DEVICE / "pwm").glob("pwmchip*"))
     return Path("/sys/class/pwm") / chip.name
@@ -283,7 +303,8 @@ class I2cSim:
 class HostLine:
     """The control line to the host; what it asks for arrives on the RC tty from outside."""
 
-    def __init__(self) -> None:
+    def __init__(self, tty_path: str = RC_TTY) -> None:
+        self.line = int(tty_path.removeprefix("/dev/ttyS"))
         self._fd = os.open(CONTROL_TTY, os.O_WRONLY | os.O_NOCTTY)
         tty.setraw(self._fd)
         attributes = termios.tcgetattr(self._fd)
@@ -292,11 +313,11 @@ class HostLine:
 
     def send_rc(self, data: bytes) -> None:
         """Put `data` on the RC receiver's line, from the host."""
-        self._write(f"w {data.hex()}\n")
+        self._write(f"w {self.line} {data.hex()}\n")
 
     def close_rc(self) -> None:
-        """The host closes its end of the RC line (end of file on the guest's tty)."""
-        self._write("close\n")
+        """The host closes its end of the RC line, for good (end of file on the guest's tty)."""
+        self._write(f"close {self.line}\n")
 
     def _write(self, text: str) -> None:
         data = text.encode("ascii")
@@ -307,11 +328,11 @@ class HostLine:
         os.close(self._fd)
 
 
-def flush_rc_tty() -> None:
+def flush_rc_tty(tty_path: str = RC_TTY) -> None:
     """The RC tty raw (no echo, no line editing, as a receiver's UART is used), and the bytes
     still waiting on it (from an earlier test) dropped."""
     time.sleep(0.05)
-    fd = os.open(RC_TTY, os.O_RDONLY | os.O_NOCTTY | os.O_NONBLOCK)
+    fd = os.open(tty_path, os.O_RDONLY | os.O_NOCTTY | os.O_NONBLOCK)
     try:
         tty.setraw(fd)
         termios.tcflush(fd, termios.TCIFLUSH)

@@ -198,9 +198,16 @@ class Computer:
 class KernelRobot:
     """The robot's devices, `bywire run` on them, and its transmitter and computer."""
 
-    def __init__(self, folder: Path, *, dac: str = "plain-i2c", extra_config: str = "") -> None:
+    def __init__(
+        self,
+        folder: Path,
+        *,
+        dac: str = "plain-i2c",
+        extra_config: str = "",
+        rc_tty: str = guest.RC_TTY,
+    ) -> None:
         self._devices = contextlib.ExitStack()
-        self.vcan = guest.Vcan()
+        self.vcan = guest.Vcan(pair=True)  # the robot on one end, the computer on the other
         self._devices.callback(self.vcan.close)
         self.gpio = guest.GpioSim(GPIO_LABEL, line_names())
         self._devices.callback(self.gpio.close)
@@ -209,16 +216,17 @@ class KernelRobot:
             guest.I2cStub() if dac == "smbus-only" else guest.I2cSim()
         )
         self._devices.callback(self.dac.close)
-        guest.flush_rc_tty()
-        self.host = guest.HostLine()
+        guest.flush_rc_tty(rc_tty)
+        self.host = guest.HostLine(rc_tty)
         self._devices.callback(self.host.close)
         self.config_path = folder / "robot.toml"
-        self.config_path.write_text(guest.robot_config(self.vcan.name, self.dac.bus) + extra_config)
+        text = guest.robot_config(self.vcan.name, self.dac.bus, rc_tty)
+        self.config_path.write_text(text + extra_config)
         self.config = parse_config(self.config_path.read_text())
         self.lines = {name: str(line.line) for name, line in output_lines(self.config).items()}
         self.transmitter = Transmitter(self.host, self.config)
         self._devices.callback(self.transmitter.close)
-        self.computer = Computer(self.vcan.name)
+        self.computer = Computer(self.vcan.peer)
         self._devices.callback(self.computer.close)
         self.log_path = folder / "bywire.log"
         self.process: subprocess.Popen[bytes] | None = None

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import subprocess
 import sys
+import tempfile
 from collections.abc import Iterator
 from pathlib import Path
 
@@ -36,6 +37,8 @@ def _check(config: Path, *user: str) -> subprocess.CompletedProcess[str]:
 
 
 def _config(folder: Path, text: str) -> Path:
+    """The robot file where any user may read it (pytest's tmp_path is its owner's alone)."""
+    folder = Path(tempfile.mkdtemp(prefix="bywire-check-", dir="/tmp"))
     folder.chmod(0o755)
     path = folder / "robot.toml"
     path.write_text(text)
@@ -55,7 +58,8 @@ def test_every_device_present_is_ready(
 
 
 def test_every_absent_device_is_named_with_what_to_do(tmp_path: Path) -> None:
-    text = guest.robot_config("vcan-absent", 9).replace(guest.RC_TTY, "/dev/ttyS9")
+    guest.pwm_sim_gone()
+    text = guest.robot_config("vcan-absent", 9).replace(guest.RC_TTY, "/dev/ttyUSB7")
     done = _check(_config(tmp_path, text))
     assert done.returncode == 2
     problems = [line for line in done.stdout.splitlines() if line.startswith("PROBLEM")]
@@ -64,7 +68,7 @@ def test_every_absent_device_is_named_with_what_to_do(tmp_path: Path) -> None:
         f"GPIO: no chip '{GPIO_LABEL}'",
         "/dev/i2c-9 does not exist: enable I2C",
         "PWM: no chip 'bywire-pwm-sim.0'",
-        "/dev/ttyS9",
+        "/dev/ttyUSB7 does not exist",
         "vcan-absent: no such network interface",
     ):
         assert expected in done.stdout, expected

@@ -2,9 +2,11 @@
 the kernel's devices (motors disabled, 0 V, e-brake engaged), the right flag in the robot's
 ErrorReport, and a log line that names the real cause.
 
-Flags the runtime does not raise yet are asserted in tests marked xfail, with the reason: the
-runtime does not read the ports' own state (`PythonCanPort.health`, `PyserialStream.fault`),
-which is the safety core's to change (runtime/), not this tier's.
+The robot and the computer sit on the two ends of a vxcan pair, so a qdisc on one end acts
+between them as on a wire. Flags and messages the runtime does not give yet are asserted in
+tests marked xfail, with the reason: it reads neither the ports' own state
+(`PythonCanPort.health`, `PyserialStream.fault`) nor logs a failed DAC write's cause, which is
+the safety core's to change (runtime/), not this tier's.
 """
 
 from __future__ import annotations
@@ -21,12 +23,13 @@ from bywire.model import ControlMode
 from tests.kernel import guest
 from tests.kernel.robot import KernelRobot
 
-SAFE_WITHIN_S = 5.0  # the tier's input timeouts are 0.5 s (guest.robot_config)
+SAFE_WITHIN_S = 5.0  # the tier's input timeouts are 1 s (guest.robot_config)
 
 
 @pytest.fixture
-def robot(tmp_path: Path) -> Iterator[KernelRobot]:
-    made = KernelRobot(tmp_path)
+def robot(tmp_path: Path, request: pytest.FixtureRequest) -> Iterator[KernelRobot]:
+    closes_rc = "rc_line_that_closes" in request.node.name
+    made = KernelRobot(tmp_path, rc_tty=guest.RC_TTY_TO_CLOSE if closes_rc else guest.RC_TTY)
     try:
         made.start()
         yield made
@@ -95,39 +98,44 @@ def test_can_link_down_raises_can_bus_off(robot: KernelRobot) -> None:
     wait_flag(robot, ErrorFlag.CAN_BUS_OFF)
 
 
-def test_a_full_transmit_queue_flags_the_reports_and_the_silence_stops_the_robot(
-    robot: KernelRobot,
-) -> None:
+def test_a_full_transmit_queue_is_flagged_and_never_starves_the_robot(robot: KernelRobot) -> None:
     drive_by_can(robot)
-    robot.vcan.qdisc("plug", "limit", "4")  # nothing leaves the interface: ENOBUFS when full
+    robot.vcan.qdisc("plug", "limit", "4")  # the robot's reports stop in its queue: ENOBUFS
     robot.vcan.qdisc("plug", "block")
-    wait_safe(robot)  # the computer's commands cannot leave either: the command timeout
+    time.sleep(1.5)
+    assert robot.observe(0.0).throttle_volts > 0.5  # commands still arrive: it drives on (§5.2)
     robot.vcan.qdisc("pfifo_fast")
     wait_flag(robot, ErrorFlag.CAN_TX_FAILED)
-    assert ErrorFlag.CAN_COMMAND_TIMEOUT in flags(robot)
-    assert robot.process is not None
-    assert robot.process.poll() is None
+    assert _mode(robot) is ControlMode.CAN
 
 
-def test_frames_lost_on_the_wire_stop_the_robot(robot: KernelRobot) -> None:
+def test_commands_lost_on_the_wire_stop_the_robot(robot: KernelRobot) -> None:
     drive_by_can(robot)
-    robot.vcan.qdisc("netem", "loss", "100%")
+    robot.vcan.qdisc("netem", "loss", "100%", on=robot.vcan.peer)  # the computer's side
     wait_safe(robot)
-    robot.vcan.qdisc("pfifo_fast")
+    robot.vcan.qdisc("pfifo_fast", on=robot.vcan.peer)
     wait_flag(robot, ErrorFlag.CAN_COMMAND_TIMEOUT)
 
 
-def test_frames_delayed_within_the_timeout_keep_the_robot_driving(robot: KernelRobot) -> None:
+def test_commands_delayed_within_the_timeout_keep_the_robot_driving(robot: KernelRobot) -> None:
     drive_by_can(robot)
-    robot.vcan.qdisc("netem", "delay", "200ms")  # each frame late, every one still in time
+    robot.vcan.qdisc("netem", "delay", "300ms", on=robot.vcan.peer)
     time.sleep(2.0)
     assert _mode(robot) is ControlMode.CAN
     assert robot.observe(0.0).throttle_volts > 0.5
 
 
+def test_commands_delayed_past_the_timeout_stop_the_robot(robot: KernelRobot) -> None:
+    drive_by_can(robot)
+    robot.vcan.qdisc("netem", "delay", "1500ms", on=robot.vcan.peer)
+    wait_safe(robot)
+    robot.vcan.qdisc("pfifo_fast", on=robot.vcan.peer)
+    wait_flag(robot, ErrorFlag.CAN_COMMAND_TIMEOUT)
+
+
 def test_a_bus_off_error_frame_is_logged_as_bus_off(robot: KernelRobot) -> None:
     drive_by_can(robot)
-    with can.Bus(interface="socketcan", channel=robot.vcan.name) as other:
+    with can.Bus(interface="socketcan", channel=robot.vcan.peer) as other:
         other.send(can.Message(arbitration_id=0x40, is_error_frame=True, dlc=8, data=bytes(8)))
     robot.wait_for("bus-off in the log", lambda: "bus-off" in robot.log(), SAFE_WITHIN_S)
 
@@ -142,10 +150,22 @@ def test_a_dac_that_stops_answering_stops_the_robot(robot: KernelRobot) -> None:
         SAFE_WITHIN_S,
     )
     wait_flag(robot, ErrorFlag.DAC_FAULT_STOP)
-    assert ErrorFlag.DAC_WRITE_FAILED in flags(robot) or robot.computer.mode is not None
-    assert "No such device or address" in robot.log()
+    assert _mode(robot) is ControlMode.STOP
     robot.dac.set_present(True)
-    robot.wait_for("0 V again", lambda: robot.observe(0.0).throttle_volts == 0.0)
+
+
+@pytest.mark.xfail(
+    reason="the runtime counts a failed DAC write (DAC_WRITE_FAILED, DAC_FAULT_STOP) but drops"
+    " the HardwareError that says why ('no acknowledge (No such device or address)'): nothing"
+    " in the log names the cause (safety core, runtime/actuators.py)",
+    strict=True,
+)
+def test_a_dac_that_stops_answering_is_named_in_the_log(robot: KernelRobot) -> None:
+    drive_by_can(robot)
+    assert isinstance(robot.dac, guest.I2cSim)
+    robot.dac.set_present(False)
+    wait_flag(robot, ErrorFlag.DAC_FAULT_STOP)
+    robot.wait_for("the cause in the log", lambda: "No such device or address" in robot.log())
 
 
 def test_a_gpio_chip_that_goes_away_leaves_no_throttle_and_says_why(robot: KernelRobot) -> None:
@@ -158,10 +178,24 @@ def test_a_gpio_chip_that_goes_away_leaves_no_throttle_and_says_why(robot: Kerne
 def test_an_rc_line_that_closes_stops_the_robot_by_rc(robot: KernelRobot) -> None:
     robot.transmitter.apply({"mode": "stop", "gear": "forward", "throttle": 0.0})
     time.sleep(0.5)
-    robot.transmitter.apply({"mode": "rc", "throttle": 0.3})
+    robot.transmitter.apply({"mode": "rc"})  # armed with the stick at zero
+    robot.wait_for("RC mode", lambda: _mode(robot) is ControlMode.RC, SAFE_WITHIN_S)
+    robot.transmitter.apply({"throttle": 0.5})
     robot.wait_for("RC drives", lambda: robot.observe(0.0).throttle_volts > 0.3, SAFE_WITHIN_S)
     robot.transmitter.sending = False
     robot.host.close_rc()
     wait_safe(robot)
     wait_flag(robot, ErrorFlag.RC_TIMEOUT)
     assert _mode(robot) is ControlMode.STOP
+
+
+@pytest.mark.xfail(
+    reason="the runtime never reads PyserialStream.fault: a receiver line that is gone stops the"
+    " robot by the RC timeout, but IBUS_PORT_FAILED is never raised (safety core,"
+    " runtime/app.py: a flag source for the port's fault)",
+    strict=True,
+)
+def test_an_rc_line_that_closes_raises_ibus_port_failed(robot: KernelRobot) -> None:
+    robot.transmitter.sending = False
+    robot.host.close_rc()
+    wait_flag(robot, ErrorFlag.IBUS_PORT_FAILED)
