@@ -14,7 +14,6 @@ from __future__ import annotations
 
 import contextlib
 import dataclasses
-import os
 import subprocess
 import sys
 import threading
@@ -300,8 +299,3 @@ class KernelRobot:
             self.process.wait()
         self._devices.close()
 
-
-def in_folder(folder: Path) -> Path:
-    folder.mkdir(parents=True, exist_ok=True)
-    os.chmod(folder, 0o755)
-    return folder
