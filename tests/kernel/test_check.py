@@ -38,7 +38,7 @@ def _check(config: Path, *user: str) -> subprocess.CompletedProcess[str]:
 
 def _config(folder: Path, text: str) -> Path:
     """The robot file where any user may read it (pytest's tmp_path is its owner's alone)."""
-    folder = Path(tempfile.mkdtemp(prefix="bywire-check-", dir="/tmp"))
+    folder = Path(tempfile.mkdtemp(prefix="bywire-check-"))
     folder.chmod(0o755)
     path = folder / "robot.toml"
     path.write_text(text)
