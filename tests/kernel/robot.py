@@ -298,4 +298,3 @@ class KernelRobot:
             self.process.kill()
             self.process.wait()
         self._devices.close()
-
