@@ -66,3 +66,18 @@ def test_ci_runs_the_ros_tier_after_the_readme_test_command_and_it_cannot_skip()
     source = (ROOT / module).read_text(encoding="utf-8")
     assert 'os.environ.get("BYWIRE_ROS_TIER") == "1"' in source
     assert "run `.ci/ros-tier`" in source
+
+
+def test_ci_runs_the_kernel_tier_as_the_readme_says_after_the_test_command() -> None:
+    readme = (ROOT / "README.md").read_text(encoding="utf-8")
+    tier = readme[readme.index("## The kernel tier") :]
+    blocks = re.findall(r"```sh\n(.*?)```", tier, flags=re.DOTALL)
+    install, run = (line.split("#")[0].strip() for line in blocks[0].splitlines()[:2])
+    ci_lines = [line.strip() for line in (ROOT / ".ci" / "run").read_text().splitlines()]
+    assert run == "tests/kernel/run"
+    assert ci_lines.index(run) > ci_lines.index(_readme_commands()[1])
+    packages = set(install.split()[3:])  # sudo apt-get install PACKAGES…
+    ci = (ROOT / ".ci" / "run").read_text(encoding="utf-8")
+    listed = re.search(r"apt-get install[^\n]*\n(.*?)>/dev/null", ci, re.DOTALL)
+    assert listed is not None
+    assert packages <= set(listed[1].split()), packages - set(listed[1].split())

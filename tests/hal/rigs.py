@@ -21,7 +21,7 @@ from typing import ClassVar
 import can
 import pytest
 
-from bywire.config import DacOutput, parse_config
+from bywire.config import DacOutput, RobotConfig, output_lines, parse_config
 from bywire.errors import HardwareError
 from bywire.hal.hardware import Hardware
 from bywire.hal.linux import dac_smbus2, gpio_gpiod
@@ -33,10 +33,13 @@ from bywire.hal.tape.playback import replay_hardware
 from bywire.hal.tape.run_record import Event, RecordedRun, RecordHeader
 from bywire.hal.tape.taped import Tape, taped_hardware
 from bywire.protocol import dac6574
+from tests.hal.linux import bench as fake_bench
 from tests.hal.linux import fake_gpiod
 from tests.hal.linux.bench import Bench, make_bench
 from tests.hal.linux.fake_smbus import RecordingSMBus
+from tests.hal.linux.fake_sysfs import pwm_core_checks
 from tests.hal.linux.pty_rc import PtyRcLine
+from tests.kernel import guest
 
 SETTLE_S = 0.01
 PWM_NAMES = {"steering": "steering_pwm", "hydrobrake": "hydrobrake_pwm"}
@@ -84,11 +87,15 @@ class LinuxRig:
 
     NOT_APPLICABLE: ClassVar[Mapping[str, str]] = {}
 
-    def __init__(self, root: Path, monkeypatch: pytest.MonkeyPatch, *, smbus: bool) -> None:
+    def __init__(
+        self, root: Path, monkeypatch: pytest.MonkeyPatch, *, smbus: bool, smbus_only: bool = False
+    ) -> None:
         monkeypatch.setattr(gpio_gpiod, "gpiod", fake_gpiod)
+        pwm_core_checks(monkeypatch)
         self.smbus: list[RecordingSMBus] = []
+        self._smbus_only = smbus_only
         if smbus:
-            monkeypatch.setattr(dac_smbus2, "SMBus", self._recording_bus)
+            monkeypatch.setattr(dac_smbus2, "KernelI2cBus", self._recording_bus)
         self.bench: Bench = make_bench(root, iio=not smbus)
         self.line = PtyRcLine(self.bench.rc_link)
         config = parse_config(self.bench.config_text())
@@ -100,7 +107,7 @@ class LinuxRig:
         self._stack.callback(self.peer.shutdown)
 
     def _recording_bus(self, path: str) -> RecordingSMBus:
-        bus = RecordingSMBus(path)
+        bus = RecordingSMBus(path, smbus_only=self._smbus_only)
         self.smbus.append(bus)
         return bus
 
@@ -398,13 +405,94 @@ class _FedCan:
         return [frame for hardware in self._fed for frame in hardware.can.receive()]
 
 
-Rig = SimRig | LinuxRig | PlaybackRig
+class KernelRig:
+    """The Linux backends through `open_hardware` on a real kernel's devices (tests/kernel/run):
+    gpio-sim lines, the PWM simulator behind the kernel's PWM core, a DAC on i2c-dev (plain I2C,
+    SMBus only, or through the kernel's ti-dac5571), the RC receiver on a kernel tty fed from
+    the host, and a vcan interface. Everything is read back from the kernel. Outside the guest
+    kernel the rig skips with one line saying how to run it."""
+
+    NOT_APPLICABLE: ClassVar[Mapping[str, str]] = {}
+    DACS = ("plain-i2c", "smbus-only", "iio")
+
+    def __init__(self, dac: str) -> None:
+        if not guest.in_tier():
+            pytest.skip(guest.SKIP_REASON)
+        self._stack = contextlib.ExitStack()
+        self._devices = contextlib.ExitStack()
+        try:
+            self._make_devices(dac)
+            config = parse_config(guest.robot_config(self.vcan.name, self.dac.bus))
+            self.hardware = self._stack.enter_context(open_hardware(config, LinuxPaths()))
+            self.peer = can.Bus(interface="socketcan", channel=self.vcan.name)
+            self._stack.callback(self.peer.shutdown)
+        except BaseException:
+            self._stack.close()
+            self._devices.close()
+            raise
+        _KERNEL_DEVICES.append(self._devices)
+
+    def _make_devices(self, dac: str) -> None:
+        while _KERNEL_DEVICES:  # the last rig's devices, kept for read-back after its close
+            _KERNEL_DEVICES.pop().close()
+        self.vcan = guest.Vcan()
+        self._devices.callback(self.vcan.close)
+        self.gpio = guest.GpioSim(fake_bench.GPIO_LABEL, fake_bench.line_names())
+        self._devices.callback(self.gpio.close)
+        self.pwm_chip = guest.pwm_sim()
+        self.dac: guest.I2cStub | guest.I2cSim = (
+            guest.I2cStub() if dac == "smbus-only" else guest.I2cSim()
+        )
+        self._devices.callback(self.dac.close)
+        if dac == "iio":
+            assert isinstance(self.dac, guest.I2cSim)
+            self.dac.bind_driver()
+        guest.flush_rc_tty()
+        self.host = guest.HostLine()
+        self._devices.callback(self.host.close)
+
+    def settle(self) -> None:
+        self.hardware.clock.wait_until(self.hardware.clock.now() + SETTLE_S)
+
+    def level(self, name: str) -> bool:
+        line = output_lines(RobotConfig())[name].line
+        return self.gpio.level(str(line))
+
+    def pulse_s(self, name: str) -> float:
+        _, duty_ns, enabled = guest.pwm_applied(0 if name == "steering" else 1)
+        return duty_ns / 1e9 if enabled else 0.0
+
+    def dac_code(self, channel: int) -> int:
+        return self.dac.code(channel)
+
+    def feed_rc(self, data: bytes) -> None:
+        self.host.send_rc(data)
+
+    def peer_send(self, frame_id: int, data: bytes) -> None:
+        self.peer.send(can.Message(arbitration_id=frame_id, data=data, is_extended_id=False))
+
+    def peer_frames(self) -> list[tuple[int, bytes]]:
+        frames = []
+        while (message := self.peer.recv(0.05)) is not None:
+            frames.append((message.arbitration_id, bytes(message.data)))
+        return frames
+
+    def close(self) -> None:
+        self._stack.close()
+
+
+_KERNEL_DEVICES: list[contextlib.ExitStack] = []
+
+
+Rig = SimRig | LinuxRig | PlaybackRig | KernelRig
 RIGS: dict[str, type[Rig]] = {
     "sim": SimRig,
     "linux-iio": LinuxRig,
     "linux-smbus2": LinuxRig,
+    "linux-smbus-only": LinuxRig,
     "sim-taped": TapedSimRig,
     "playback": PlaybackRig,
+    **{f"kernel-{dac}": KernelRig for dac in KernelRig.DACS},
 }
 BACKENDS = tuple(RIGS)
 
@@ -416,7 +504,11 @@ def make_rig(backend: str, root: Path, monkeypatch: pytest.MonkeyPatch) -> Rig:
         return TapedSimRig()
     if backend == "playback":
         return PlaybackRig()
-    return LinuxRig(root, monkeypatch, smbus=backend == "linux-smbus2")
+    if backend.startswith("kernel-"):
+        return KernelRig(backend.removeprefix("kernel-"))
+    smbus_only = backend == "linux-smbus-only"
+    smbus = smbus_only or backend == "linux-smbus2"
+    return LinuxRig(root, monkeypatch, smbus=smbus, smbus_only=smbus_only)
 
 
 def not_applicable(backend: str) -> Mapping[str, str]:

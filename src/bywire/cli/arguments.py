@@ -41,3 +41,18 @@ def whole_number(minimum: int) -> Callable[[str], int]:
         return value
 
     return parse
+
+
+def number_within(low: float, high: float) -> Callable[[str], float]:
+    """A number in `low`…`high`, as an argparse type (one line and exit 2 otherwise)."""
+
+    def parse(text: str) -> float:
+        try:
+            value = float(text)
+        except ValueError:
+            value = float("nan")
+        if not low <= value <= high:  # also refuses NaN
+            raise argparse.ArgumentTypeError(f"must be a number within {low}…{high}, got {text!r}")
+        return value
+
+    return parse

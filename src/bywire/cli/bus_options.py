@@ -32,16 +32,23 @@ def _keyword(text: str) -> tuple[str, Any]:
     return key, value
 
 
-def add_bus_options(parser: argparse.ArgumentParser) -> None:
-    """Add the shared bus options to a sub-command's parser."""
+def add_bus_options(
+    parser: argparse.ArgumentParser,
+    *,
+    default_interface: str | None = "socketcand",
+    interface_help: str = "python-can interface: socketcand (the simulator, default), socketcan,"
+    " pcan, …",
+) -> None:
+    """Add the shared bus options to a sub-command's parser (`default_interface` None: no bus
+    unless `-i` is given)."""
     group = parser.add_argument_group("CAN bus (as python-can's and cantools' tools take it)")
     group.add_argument(
         "-i",
         "--interface",
-        default="socketcand",
+        default=default_interface,
         choices=sorted(can.VALID_INTERFACES),
         metavar="NAME",
-        help="python-can interface: socketcand (the simulator, default), socketcan, pcan, …",
+        help=interface_help,
     )
     group.add_argument("-c", "--channel", default="can0", help="CAN channel (default: can0)")
     group.add_argument(

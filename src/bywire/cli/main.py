@@ -43,6 +43,10 @@ COMMANDS: dict[str, tuple[str, str]] = {
         "bywire.cli.monitor",
         "live view of the CAN bus decoded with the DBC: rates, ages, signals, CRC/counter errors",
     ),
+    "frame": (
+        "bywire.cli.frame",
+        "print valid command frames (counter, CRC, MAC) for cansend",
+    ),
     "teleop": (
         "bywire.cli.teleop",
         "drive the robot or the simulator from the keyboard; shows its reports",

@@ -27,12 +27,14 @@ from rich.table import Table
 
 from bywire.canlog.write import BusTally, CanLog, check_log_path
 from bywire.cli.arguments import positive_hertz, positive_seconds
+from bywire.cli.bus_options import add_bus_options, bus_from_args, bus_source
 from bywire.cli.console import stdout_console
 from bywire.config import RobotConfig, default_sim_config, load_config
 from bywire.errors import ConfigError
 from bywire.hal.sim.clock import RealtimeClock
 from bywire.loopback import Endpoint, parse_endpoint
 from bywire.netbus.bridge import serve_bus
+from bywire.netbus.interface import on_interface
 from bywire.replay.recorder import SimRunRecorder, check_record_path
 from bywire.sim.applicability import not_applicable
 from bywire.sim.catalog import DEFAULT_SCENARIO, find_scenario, packaged_scenarios
@@ -179,6 +181,13 @@ def configure(parser: argparse.ArgumentParser) -> None:
         " verifies (as [security] enabled = true: its key file; without one, a key drawn from the"
         " simulator's seed)",
     )
+    add_bus_options(
+        parser,
+        default_interface=None,
+        interface_help="with --realtime: put the simulated robot's CAN side on this python-can"
+        " interface (socketcan with -c vcan0 or can0, a USB adapter's …): candump, cansend and"
+        " other tools see and drive it; the rest stays simulated",
+    )
 
 
 def run(args: argparse.Namespace) -> int:
@@ -202,7 +211,7 @@ def run(args: argparse.Namespace) -> int:
         raise ConfigError("--foxglove needs --realtime: virtual time outruns any client")
     stopped_by: list[int] = []
     # A signal after the run's end (while the plot is drawn) is noted, never an interruption.
-    with _stop_on_signals(sim, stopped_by):
+    with _stop_on_signals(sim, stopped_by), _on_interface(args, sim):
         status = _one_run(args, sim, stopped_by)
     return INTERRUPTED if stopped_by else status
 
@@ -246,6 +255,19 @@ def _one_run(args: argparse.Namespace, sim: SimRun, stopped_by: list[int]) -> in
             console.print(f"[yellow]{sim.scenario.name}: {escape(aside)}[/]", soft_wrap=True)
     # A scenario that does not apply to the robot is no verdict on it (as `--all` sets it aside).
     return 0 if summary.passed or aside is not None else 1
+
+
+@contextlib.contextmanager
+def _on_interface(args: argparse.Namespace, sim: SimRun) -> Iterator[None]:
+    """The simulated bus on `-i`/`-c`'s interface for the run (real time only), or nothing."""
+    if args.interface is None:
+        yield
+        return
+    if not isinstance(sim.world.clock, RealtimeClock):
+        raise ConfigError("-i/--interface needs --realtime: virtual time outruns a real bus")
+    with on_interface(sim.world.bus, bus_from_args(args)):
+        print(f"the simulated bus is on {bus_source(args)}", file=sys.stderr, flush=True)
+        yield
 
 
 @contextlib.contextmanager

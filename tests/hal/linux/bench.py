@@ -23,7 +23,8 @@ PWM_DEVICE = "fe20c000.pwm"
 DAC_BUS, DAC_ADDRESS = 1, 0x4C
 
 
-def _line_names() -> list[str]:
+def line_names() -> list[str]:
+    """The test GPIO chip's line names: two of another use, then every output's."""
     names = [str(line.line) for line in output_lines(RobotConfig()).values()]
     return ["ID_SD", "ID_SC", *names]
 
@@ -102,7 +103,7 @@ def make_bench(root: Path, *, iio: bool = True) -> Bench:
     sysfs, dev = root / "sys", root / "dev"
     dev.mkdir(parents=True)
     fake_gpiod.make_chip(dev / "gpiochip0", "other-expander", ["A", "B"])
-    gpio_chip = fake_gpiod.make_chip(dev / "gpiochip1", GPIO_LABEL, _line_names())
+    gpio_chip = fake_gpiod.make_chip(dev / "gpiochip1", GPIO_LABEL, line_names())
     pwm_chip = make_pwm_chip(sysfs, 2, PWM_DEVICE)
     iio_device = make_iio_dac(sysfs, 0, DAC_BUS, DAC_ADDRESS) if iio else None
     return Bench(

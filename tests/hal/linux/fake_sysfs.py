@@ -1,8 +1,16 @@
-"""Temporary sysfs trees as the kernel presents them: PWM chips, an IIO DAC, a CAN netdev."""
+"""Temporary sysfs trees as the kernel presents them: PWM chips, an IIO DAC, a CAN netdev.
+
+A PWM channel's files refuse what the kernel's PWM core refuses (`pwm_core_checks`): a plain
+file would take any write, and so hid an opening order that a real 6.1 kernel refuses.
+"""
 
 from __future__ import annotations
 
+import errno
 from pathlib import Path
+from typing import Any
+
+import pytest
 
 NS_PER_S = 1_000_000_000
 
@@ -37,6 +45,26 @@ def make_pwm_channel(chip: Path, channel: int) -> Path:
         (pwm / name).write_text(f"{value}\n")
     (pwm / "polarity").write_text("normal\n")
     return pwm
+
+
+PWM_STATE = ("period", "duty_cycle", "enable")
+
+
+def pwm_core_checks(monkeypatch: pytest.MonkeyPatch) -> None:
+    """From now on (for the test), a write to a PWM channel's period, duty_cycle or enable under
+    any fake chip is checked as `pwm_apply_state()` in drivers/pwm/core.c checks the state it
+    makes: EINVAL when the period is 0 or the duty cycle exceeds the period, nothing changed."""
+    write_text = Path.write_text
+
+    def checked(path: Path, data: str, *args: Any, **kwargs: Any) -> int:
+        if path.name in PWM_STATE and all((path.parent / name).is_file() for name in PWM_STATE):
+            state = {name: int((path.parent / name).read_text()) for name in PWM_STATE}
+            state[path.name] = int(data)
+            if state["period"] == 0 or state["duty_cycle"] > state["period"]:
+                raise OSError(errno.EINVAL, "Invalid argument", str(path))
+        return write_text(path, data, *args, **kwargs)
+
+    monkeypatch.setattr(Path, "write_text", checked)
 
 
 def read_pwm(chip: Path, channel: int) -> tuple[int, int, int]:

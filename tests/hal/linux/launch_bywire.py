@@ -2,6 +2,7 @@
 
 Usage: python launch_bywire.py HLC_DIR CAN_CHANNEL -- BYWIRE_ARGS...
 
+- PWM: the fake sysfs tree refuses what the kernel's PWM core refuses (`pwm_core_checks`).
 - GPIO: the file-backed `fake_gpiod` is installed as `gpiod` before bywire imports it, so the
   real backend (`bywire.hal.linux.gpio_gpiod`) runs against it.
 - CAN: python-can's virtual bus exists only inside one process, so the higher-level computer
@@ -20,9 +21,13 @@ import threading
 from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[3]))  # the repository, for `tests`
+import pytest
+
 from tests.hal.linux import fake_gpiod
+from tests.hal.linux.fake_sysfs import pwm_core_checks
 
 sys.modules["gpiod"] = fake_gpiod
+pwm_core_checks(pytest.MonkeyPatch())
 
 import can  # noqa: E402
 

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 from pathlib import Path
+from typing import Any
 
 import pytest
 
@@ -16,11 +17,11 @@ from tests.hal.linux.fake_sysfs import make_iio_dac, read_iio
 ZEROS = [(0x4D, dac6574.encode_write(channel, 0)) for channel in dac6574.CHANNELS]
 
 
-def _smbus_dac() -> tuple[Smbus2Dac, RecordingSMBus]:
+def _smbus_dac(**adapter: Any) -> tuple[Smbus2Dac, RecordingSMBus]:
     buses: list[RecordingSMBus] = []
 
     def opener(path: str) -> RecordingSMBus:
-        buses.append(RecordingSMBus(path))
+        buses.append(RecordingSMBus(path, **adapter))
         return buses[-1]
 
     return Smbus2Dac("/dev/i2c-1", 0x4D, open_bus=opener), buses[0]
@@ -33,6 +34,31 @@ def test_smbus2_sends_each_frame_as_one_raw_transfer() -> None:
     assert bus.path == "/dev/i2c-1"
     assert bus.transfers == [*ZEROS, (0x4D, frame)]  # opened at 0 V on every channel
     assert frame == bytes((0b0001_0010, 613 >> 2, (613 & 0b11) << 6))
+
+
+def test_smbus2_on_an_smbus_only_adapter_sends_the_same_bytes_as_i2c_block_writes() -> None:
+    # i2c-stub and Intel i801 refuse plain I2C (EOPNOTSUPP); this was "no acknowledge... check
+    # the wiring" before. tests/kernel reads the bytes back from the kernel's i2c-stub.
+    dac, bus = _smbus_dac(smbus_only=True)
+    assert dac.smbus_only
+    frame = dac6574.encode_write(1, 613)
+    dac.write(frame)
+    assert bus.transfers == [*ZEROS, (0x4D, frame)]
+
+
+def test_smbus2_a_plain_i2c_refusal_is_named_not_taken_for_a_missing_acknowledge() -> None:
+    dac, bus = _smbus_dac()
+    bus.smbus_only = True  # the adapter claimed plain I2C, then refused it
+    with pytest.raises(HardwareError, match="this adapter cannot do plain I2C") as refused:
+        dac.write(dac6574.encode_write(0, 1))
+    assert "acknowledge" not in str(refused.value)
+
+
+def test_smbus2_an_address_a_kernel_driver_owns_is_refused_with_the_way_out() -> None:
+    with pytest.raises(HardwareError, match="a kernel driver owns this address") as refused:
+        _smbus_dac(owner="ti-dac5571")
+    assert "1-004d/driver/unbind" in str(refused.value)
+    assert "IIO" in str(refused.value)
 
 
 def test_smbus2_no_acknowledge_is_a_hardware_error_and_counted() -> None:

@@ -1,8 +1,10 @@
 """Sysfs PWM on a temporary tree: chips by device name, node or path; period, duty and enable in
-nanoseconds; export of a new channel; safe close."""
+nanoseconds; export of a new channel; safe close. The tree refuses what the kernel's PWM core
+refuses (`pwm_core_checks`); tests/kernel runs the same backend on a real 6.1 kernel."""
 
 from __future__ import annotations
 
+import errno
 import threading
 from pathlib import Path
 
@@ -10,13 +12,14 @@ import pytest
 
 from bywire.errors import HardwareError
 from bywire.hal.linux.pwm_sysfs import SysfsPwm, find_pwm_chip
-from tests.hal.linux.fake_sysfs import make_pwm_channel, make_pwm_chip, read_pwm
+from tests.hal.linux.fake_sysfs import make_pwm_channel, make_pwm_chip, pwm_core_checks, read_pwm
 
 
 @pytest.fixture
-def sysfs(tmp_path: Path) -> Path:
+def sysfs(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> Path:
     make_pwm_chip(tmp_path, 0, "fe804000.pwm-other", exported=())
     make_pwm_chip(tmp_path, 2, "fe20c000.pwm")
+    pwm_core_checks(monkeypatch)
     return tmp_path
 
 
@@ -74,3 +77,32 @@ def test_an_export_that_makes_no_channel_says_so(sysfs: Path) -> None:
     chip = find_pwm_chip(sysfs, "fe804000.pwm-other")
     with pytest.raises(HardwareError, match="made no pwm5: check the channel number"):
         SysfsPwm(chip, 5, 0.001)
+
+
+def test_the_tree_refuses_what_the_pwm_core_refuses(sysfs: Path) -> None:
+    channel = find_pwm_chip(sysfs, "fe20c000.pwm") / "pwm0"
+    with pytest.raises(OSError, match="Invalid argument") as refused:
+        (channel / "duty_cycle").write_text("0")  # a fresh channel: period 0
+    assert refused.value.errno == errno.EINVAL
+    (channel / "period").write_text("1000")
+    with pytest.raises(OSError, match="Invalid argument"):
+        (channel / "duty_cycle").write_text("1001")
+    assert (channel / "duty_cycle").read_text().strip() == "0"
+
+
+def test_a_fresh_channel_gets_its_period_before_its_duty_cycle(sysfs: Path) -> None:
+    # The kernel's EINVAL on duty_cycle with period 0 stopped the robot's PWM opening (6.1).
+    chip = find_pwm_chip(sysfs, "fe20c000.pwm")
+    assert read_pwm(chip, 1) == (0, 0, 0)
+    pwm = SysfsPwm(chip, 1, 0.001, "hydrobrake.pwm")
+    assert read_pwm(chip, 1) == (1_000_000, 0, 1)
+    pwm.close()
+
+
+def test_a_channel_left_with_a_long_duty_cycle_opens_at_a_shorter_period(sysfs: Path) -> None:
+    chip = find_pwm_chip(sysfs, "fe20c000.pwm")
+    left = SysfsPwm(chip, 0, 0.020)
+    left.set_pulse(0.0015)  # then the process dies: the channel keeps 20 ms / 1.5 ms
+    pwm = SysfsPwm(chip, 0, 0.001)
+    assert read_pwm(chip, 0) == (1_000_000, 0, 1)
+    pwm.close()

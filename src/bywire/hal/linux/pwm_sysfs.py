@@ -4,7 +4,8 @@ A chip is given as `pwmchipN`, as a path to its sysfs directory, or (what surviv
 updates) as its device's name (`1f00098000.pwm`), device-tree node (`pwm@7e20c000`) or a tail
 of its device path. Opening exports the channel if needed, sets the period with the duty cycle
 at 0 and enables the output: the line stays low until the first pulse is set. Times in sysfs are
-integer nanoseconds.
+integer nanoseconds; every write is checked by the kernel's PWM core, which refuses a period of
+0 or a duty cycle longer than the period, so the order of the writes matters.
 """
 
 from __future__ import annotations
@@ -57,7 +58,11 @@ class SysfsPwm:
         self._duty_ns: int | None = None
         if not self._dir.is_dir():
             self._export(chip, channel)
-        self._write("duty_cycle", 0)  # may exceed a new, shorter period otherwise
+        # The PWM core refuses any state with period 0 or duty > period (EINVAL). A fresh
+        # channel has period 0 (drivers without get_state, e.g. pwm-bcm2835): period first.
+        # A channel left with a period may hold a duty longer than ours: duty 0 first there.
+        if self._read("period") != 0:
+            self._write("duty_cycle", 0)
         self._write("period", self._period_ns)
         self._write("duty_cycle", 0)
         self._write("enable", 1)
@@ -102,6 +107,13 @@ class SysfsPwm:
                     f" {self._dir.name}: check the channel number (npwm)"
                 )
             time.sleep(0.01)
+
+    def _read(self, attribute: str) -> int | None:
+        """The attribute's value, None if it cannot be read (then assume the worst)."""
+        try:
+            return int((self._dir / attribute).read_text(encoding="ascii"))
+        except (OSError, ValueError):
+            return None
 
     def _write(self, attribute: str, value: int) -> None:
         path = self._dir / attribute

@@ -1,0 +1,124 @@
+"""`bywire frame`: command frames the controller accepts, printed for `cansend` (can-utils).
+
+A hand-written frame cannot pass the controller's checks (counter, CRC-8 and, on a robot with
+authenticated commands, the SecOC MAC); this prints valid ones, one `ID#HEXDATA` a line:
+`--count N` consecutive frames (the counter going up by one a frame, as the controller wants),
+each followed by its cryptographic PDU when `--key` is given. Encoded by the same codec the
+controller decodes with (`protocol.dbc`) and signed by the same signer as `bywire teleop`.
+"""
+
+from __future__ import annotations
+
+import argparse
+import dataclasses
+from collections.abc import Iterator
+from pathlib import Path
+
+from bywire.cli.arguments import number_within, whole_number
+from bywire.model import ControlCommand, Gear, LightsCommand, MovementCommand
+from bywire.protocol import dbc
+from bywire.security.keys import read_key_file
+from bywire.security.setup import sender_signer
+
+Command = MovementCommand | LightsCommand | ControlCommand
+DEFAULT_FRESHNESS = Path.home() / ".local" / "state" / "bywire" / "frame-freshness.json"
+EXAMPLES = """examples:
+  cansend vcan0 $(bywire frame control --re-enable)       # leave a latched STOP (CAN mode)
+  bywire frame movement --throttle 0.2 --gear forward --count 100 |
+    while read -r f; do cansend vcan0 "$f"; sleep 0.02; done  # 2 s of driving at 50 Hz
+"""
+
+
+def configure(parser: argparse.ArgumentParser) -> None:
+    parser.epilog = EXAMPLES
+    parser.formatter_class = argparse.RawDescriptionHelpFormatter
+    kinds = parser.add_subparsers(dest="message", metavar="MESSAGE", required=True)
+    movement = kinds.add_parser("movement", help="MovementCommand (0x101)")
+    unit = number_within(0.0, 1.0)
+    movement.add_argument(
+        "--steering", type=number_within(-1.0, 1.0), default=0.0, help="-1 (left) … 1 (right)"
+    )
+    movement.add_argument("--throttle", type=unit, default=0.0, help="0 … 1")
+    movement.add_argument("--brake", type=unit, default=0.0, help="0 … 1")
+    movement.add_argument("--gear", choices=[gear.name.lower() for gear in Gear], default="neutral")
+    lights = kinds.add_parser("lights", help="LightsCommand (0x102)")
+    for name in ("turn-left", "turn-right", "hazard", "low-beam"):
+        lights.add_argument(f"--{name}", action="store_true")
+    control = kinds.add_parser("control", help="ControlCommand (0x100)")
+    control.add_argument("--remote-stop", action="store_true", help="stop the robot (latched)")
+    control.add_argument(
+        "--re-enable", action="store_true", help="a re-enable request (acts on its rising edge)"
+    )
+    for sub in (movement, lights, control):
+        _common(sub)
+
+
+def _common(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument(
+        "--counter", type=_counter, default=0, help="the first frame's rolling counter, 0…15"
+    )
+    parser.add_argument(
+        "--count", type=whole_number(1), default=1, help="frames to print, counter +1 each"
+    )
+    parser.add_argument(
+        "--key",
+        type=Path,
+        metavar="FILE",
+        help="sign each frame (SecOC) for a robot with [security] enabled: its key file",
+    )
+    parser.add_argument(
+        "--freshness",
+        type=Path,
+        metavar="FILE",
+        default=DEFAULT_FRESHNESS,
+        help="with --key: this sender's freshness values (default: %(default)s)",
+    )
+
+
+def _counter(text: str) -> int:
+    value = whole_number(0)(text)
+    if value >= dbc.COUNTER_MODULUS:
+        raise argparse.ArgumentTypeError(f"must be 0…{dbc.COUNTER_MODULUS - 1}, got {text!r}")
+    return value
+
+
+def command_of(args: argparse.Namespace) -> Command:
+    """The command the options describe, with the first counter."""
+    if args.message == "movement":
+        gear = Gear[args.gear.upper()]
+        return MovementCommand(args.steering, args.throttle, args.brake, gear, args.counter)
+    if args.message == "lights":
+        return LightsCommand(
+            args.turn_left, args.turn_right, args.hazard, args.low_beam, args.counter
+        )
+    return ControlCommand(args.remote_stop, args.re_enable, args.counter)
+
+
+def frames(command: Command, count: int) -> Iterator[tuple[int, bytes]]:
+    """`count` frames of `command`, the counter going up by one a frame (modulo 16)."""
+    for index in range(count):
+        counter = (command.counter + index) % dbc.COUNTER_MODULUS
+        yield dbc.encode_command(dataclasses.replace(command, counter=counter))
+
+
+def cansend(frame_id: int, data: bytes) -> str:
+    """`ID#HEXDATA`, as can-utils' cansend takes a classic frame."""
+    return f"{frame_id:03X}#{data.hex().upper()}"
+
+
+def run(args: argparse.Namespace) -> int:
+    command = command_of(args)
+    signer = None
+    if args.key is not None:
+        args.freshness.parent.mkdir(parents=True, exist_ok=True, mode=0o700)
+        signer = sender_signer(read_key_file(args.key), args.freshness)
+    try:
+        for frame_id, data in frames(command, args.count):
+            print(cansend(frame_id, data))
+            if signer is not None:
+                pdu = signer.authenticator(frame_id, data)
+                print(cansend(pdu.arbitration_id, pdu.data))
+    finally:
+        if signer is not None:
+            signer.close()
+    return 0

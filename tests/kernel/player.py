@@ -1,0 +1,109 @@
+"""A scenario played in real time on `KernelRobot`, judged by the simulator's own conditions.
+
+The scenario's `rc`, `hlc`, `hlc_lights` and `hlc_control` actions go to the transmitter and the
+computer at their times; the robot's outputs are read back from the kernel every few
+milliseconds and each expectation is judged on those readings with `bywire.sim.conditions`
+(`at_s`: the first reading from then on; `within_s`: some reading within the window after the
+labelled event; `during_s`: every reading in it). Speed cannot be measured here (no vehicle
+behind the motor controllers): conditions on it are left out, and listed as such, and so are
+expectations the caller names as not applicable, with the reason.
+
+A `within_s` window gets `GUEST_ALLOWANCE_S` more: the guest is one host CPU shared by bywire,
+the transmitter, the computer and the readings, every system call a round trip through ptrace,
+and the readings themselves went 100 ms without a turn under a loaded host. The deadlines are
+the simulator's to judge (and bench/'s to measure on real time); here the outputs must reach
+their state, through the kernel's devices, and stay there.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field
+
+from bywire.sim.conditions import conditions_hold
+from bywire.sim.observe import Observation
+from bywire.sim.scenario import Expectation, Scenario
+from tests.kernel.robot import KernelRobot
+
+UNMEASURABLE = ("speed_min_mps", "speed_max_mps", "steering_held_since_s")
+READ_PERIOD_S = 0.025  # each reading is ~20 sysfs reads, each a round trip through the host
+GUEST_ALLOWANCE_S = 0.25
+
+
+@dataclass
+class Played:
+    """What a played scenario showed: every reading, the events' times, and the verdicts."""
+
+    readings: list[Observation] = field(default_factory=list)
+    labels: dict[str, float] = field(default_factory=dict)
+    failed: list[str] = field(default_factory=list)
+    passed: list[str] = field(default_factory=list)
+    left_out: list[str] = field(default_factory=list)
+
+
+def play(
+    robot: KernelRobot, scenario: Scenario, not_applicable: dict[str, str] | None = None
+) -> Played:
+    played = Played()
+    events = list(scenario.events)
+    started_s = time.monotonic()
+    while (now_s := time.monotonic() - started_s) < scenario.duration_s:
+        while events and events[0].at_s <= now_s:
+            event = events.pop(0)
+            if event.kind == "rc":
+                robot.transmitter.apply(event.values)
+            elif event.kind.startswith("hlc"):
+                robot.computer.apply(event.kind, event.values)
+            else:
+                raise ValueError(f"{scenario.name}: a {event.kind} event cannot be played here")
+            if event.label is not None:
+                played.labels[event.label] = now_s
+        played.readings.append(robot.observe(now_s))
+        time.sleep(READ_PERIOD_S)
+    for expectation in scenario.expectations:
+        reason = (not_applicable or {}).get(expectation.describe())
+        if reason is not None:
+            played.left_out.append(f"{expectation.describe()}: {reason}")
+        else:
+            _judge(expectation, played)
+    return played
+
+
+def _judge(expectation: Expectation, played: Played) -> None:
+    name = expectation.describe()
+    conditions = {k: v for k, v in expectation.conditions.items() if k not in UNMEASURABLE}
+    dropped = sorted(set(expectation.conditions) - set(conditions))
+    if dropped:
+        played.left_out.append(f"{name}: {', '.join(dropped)}")
+    if not conditions:
+        return
+    readings = _window(expectation, played)
+    if not readings:
+        played.failed.append(f"{name}: no reading in its window")
+        return
+    if expectation.at_s is not None:
+        held = conditions_hold(readings[0], conditions)
+    elif expectation.during_s is not None:
+        held = all(conditions_hold(reading, conditions) for reading in readings)
+    else:
+        held = any(conditions_hold(reading, conditions) for reading in readings)
+    (played.passed if held else played.failed).append(
+        name if held else f"{name}: {_shown(readings[-1], conditions)}"
+    )
+
+
+def _window(expectation: Expectation, played: Played) -> list[Observation]:
+    if expectation.at_s is not None:
+        return [r for r in played.readings if r.time_s >= expectation.at_s][:1]
+    start_s = played.labels.get(str(expectation.after))
+    if start_s is None:
+        return []
+    if expectation.during_s is not None:
+        end_s = start_s + expectation.during_s
+    else:
+        end_s = start_s + (expectation.within_s or 0.0) + GUEST_ALLOWANCE_S
+    return [r for r in played.readings if start_s <= r.time_s <= end_s]
+
+
+def _shown(reading: Observation, conditions: dict[str, object]) -> str:
+    return f"last reading at {reading.time_s:.3f} s: {reading}"

@@ -1,0 +1,300 @@
+"""`bywire run` on the linux backend inside the guest kernel, and the world around it.
+
+`KernelRobot` makes the robot's devices (a vcan interface, a gpio-sim chip with the robot's line
+names, the PWM simulator, a DAC on i2c-dev) and starts `bywire run` as a process of its own on
+them. From outside it drives the robot as the robot is driven: the simulated RC transmitter
+(`Transmitter`: real IBUS frames every 7.7 ms, put on the RC tty by the host) and the simulated
+higher-level computer (`Computer`: movement, lights and control commands at 50 Hz with counter
+and CRC on the vcan interface, reports read back from it). `observe()` reads every output back
+from the kernel (gpio-sim's levels, what the PWM chip was told, the DAC's bytes on the I2C bus)
+into the simulator's own `Observation`, so a scenario's expectations judge it by the same code.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import dataclasses
+import subprocess
+import sys
+import threading
+import time
+from collections.abc import Mapping
+from pathlib import Path
+from typing import Any
+
+import can
+
+from bywire.config import RobotConfig, output_lines, parse_config
+from bywire.control.lights import LIGHT_LINES, LightOutputs
+from bywire.hal.sim.rc_transmitter import idle_channels, raw_for_axis, raw_for_switch
+from bywire.model import (
+    ControlCommand,
+    ControlMode,
+    ErrorReport,
+    Gear,
+    LightsCommand,
+    ModeReport,
+    MovementCommand,
+    StatusReport,
+)
+from bywire.protocol import dac6574, dbc, ibus
+from bywire.sim.observe import Observation
+from tests.hal.linux.bench import GPIO_LABEL, line_names
+from tests.kernel import guest
+
+COMMAND_PERIOD_S = 0.02
+START_LIMIT_S = 60.0  # bywire's first start in the guest imports everything from hostfs
+WARM_UP_S = 2.0  # a new process in the guest is slow while it first touches its memory
+
+
+FRAMES_PER_WRITE = 3  # frames handed to the host at once: a third of the guest's work for it
+
+
+class Transmitter:
+    """The operator's sticks and switches, as IBUS frames on the RC tty every 7.7 ms (handed to
+    the host `FRAMES_PER_WRITE` at a time: the receiver's bytes arrive in bursts of 23 ms)."""
+
+    def __init__(self, host: guest.HostLine, config: RobotConfig) -> None:
+        self.mapping = config.rc.mapping
+        self._host = host
+        self._channels = list(idle_channels(self.mapping))
+        self._lock = threading.Lock()
+        self.sending = True
+        self._stop = threading.Event()
+        self._thread = threading.Thread(target=self._run, name="transmitter", daemon=True)
+        self._thread.start()
+
+    def apply(self, values: Mapping[str, Any]) -> None:
+        """A scenario's `rc = {…}` action."""
+        mapping = self.mapping
+        with self._lock:
+            if "mode" in values:
+                position = mapping.mode_positions.index(ControlMode[str(values["mode"]).upper()])
+                self._set(
+                    mapping.mode_switch.channel, raw_for_switch(position, mapping.mode_switch)
+                )
+            if "gear" in values:
+                position = mapping.gear_positions.index(Gear[str(values["gear"]).upper()])
+                self._set(
+                    mapping.gear_switch.channel, raw_for_switch(position, mapping.gear_switch)
+                )
+            if "steering" in values:
+                axis = mapping.steering
+                self._set(axis.channel, raw_for_axis(float(values["steering"]), axis))
+            if "throttle" in values:
+                axis = mapping.throttle_brake
+                self._set(axis.channel, raw_for_axis(float(values["throttle"]), axis))
+
+    def _set(self, channel: int, raw: int) -> None:
+        self._channels[channel] = raw
+
+    def _run(self) -> None:
+        next_s = time.monotonic()
+        while not self._stop.wait(max(0.0, next_s - time.monotonic())):
+            next_s += ibus.FRAME_PERIOD_S * FRAMES_PER_WRITE
+            if self.sending:
+                with self._lock:
+                    frame = ibus.encode_frame(self._channels)
+                self._host.send_rc(frame * FRAMES_PER_WRITE)
+
+    def close(self) -> None:
+        self._stop.set()
+        self._thread.join()
+
+
+class Computer:
+    """The higher-level computer on the vcan interface: commands at 50 Hz, reports read back."""
+
+    def __init__(self, channel: str) -> None:
+        heard = [ModeReport, ErrorReport, StatusReport]  # filtered in the kernel: fewer wake-ups
+        filters: list[Any] = [
+            {"can_id": dbc.frame_id(kind), "can_mask": 0x7FF, "extended": False} for kind in heard
+        ]
+        self.bus = can.Bus(interface="socketcan", channel=channel, can_filters=filters)
+        self.movement = MovementCommand(0.0, 0.0, 1.0, Gear.NEUTRAL, 0)
+        self.lights = LightsCommand(False, False, False, False, 0)
+        self.control = ControlCommand(False, False, 0)
+        self.sending = False
+        self.send_errors: list[str] = []
+        self.mode: ModeReport | None = None
+        self.errors: ErrorReport | None = None
+        self.status: StatusReport | None = None
+        self.reports = 0
+        self._movement: dict[str, Any] = {"steering": 0.0, "throttle": 0.0, "brake": 1.0}
+        self._movement["gear"] = "neutral"
+        self._counters: dict[type, int] = {}
+        self._stop = threading.Event()
+        self._threads = [
+            threading.Thread(target=self._send_loop, name="hlc-tx", daemon=True),
+            threading.Thread(target=self._receive_loop, name="hlc-rx", daemon=True),
+        ]
+        for thread in self._threads:
+            thread.start()
+
+    def apply(self, kind: str, values: Mapping[str, Any]) -> None:
+        """A scenario's `hlc`, `hlc_lights` or `hlc_control` action (sending starts at the
+        first)."""
+        if kind == "hlc":
+            self._movement.update(values)
+            moving = self._movement
+            self.movement = MovementCommand(
+                float(moving["steering"]), float(moving["throttle"]), float(moving["brake"]),
+                Gear[str(moving["gear"]).upper()], 0,
+            )  # fmt: skip
+        elif kind == "hlc_lights":
+            off = {"turn_left": False, "turn_right": False, "hazard": False, "low_beam": False}
+            self.lights = LightsCommand(**{**off, **values}, counter=0)
+        else:
+            self.control = ControlCommand(
+                bool(values.get("remote_stop", False)), bool(values.get("re_enable", False)), 0
+            )
+        self.sending = True
+
+    def _send_loop(self) -> None:
+        next_s = time.monotonic()
+        while not self._stop.wait(max(0.0, next_s - time.monotonic())):
+            next_s += COMMAND_PERIOD_S
+            if self.sending:
+                for command in (self.control, self.movement, self.lights):
+                    self._send(command)
+
+    def _send(self, command: MovementCommand | LightsCommand | ControlCommand) -> None:
+        counter = self._counters.get(type(command), 0)
+        frame_id, payload = dbc.encode_command(dataclasses.replace(command, counter=counter))
+        try:
+            self.bus.send(can.Message(arbitration_id=frame_id, data=payload, is_extended_id=False))
+        except can.CanError as error:
+            self.send_errors.append(str(error))
+            return
+        self._counters[type(command)] = (counter + 1) % dbc.COUNTER_MODULUS
+
+    def _receive_loop(self) -> None:
+        while not self._stop.is_set():
+            try:
+                message = self.bus.recv(0.1)
+            except can.CanError:
+                time.sleep(0.05)  # the interface is down: the robot cannot be heard either
+                continue
+            if message is None or message.is_error_frame:
+                continue
+            if message.arbitration_id in dbc.report_ids():
+                report = dbc.decode_report(message.arbitration_id, message.data)
+                if isinstance(report, ModeReport):
+                    self.mode = report
+                elif isinstance(report, ErrorReport):
+                    self.errors = report
+                elif isinstance(report, StatusReport):
+                    self.status = report
+                self.reports += 1
+
+    def close(self) -> None:
+        self._stop.set()
+        for thread in self._threads:
+            thread.join()
+        self.bus.shutdown()
+
+
+class KernelRobot:
+    """The robot's devices, `bywire run` on them, and its transmitter and computer."""
+
+    def __init__(
+        self,
+        folder: Path,
+        *,
+        dac: str = "plain-i2c",
+        extra_config: str = "",
+        rc_tty: str = guest.RC_TTY,
+    ) -> None:
+        self._devices = contextlib.ExitStack()
+        self.vcan = guest.Vcan(pair=True)  # the robot on one end, the computer on the other
+        self._devices.callback(self.vcan.close)
+        self.gpio = guest.GpioSim(GPIO_LABEL, line_names())
+        self._devices.callback(self.gpio.close)
+        guest.pwm_sim()
+        self.dac: guest.I2cStub | guest.I2cSim = (
+            guest.I2cStub() if dac == "smbus-only" else guest.I2cSim()
+        )
+        self._devices.callback(self.dac.close)
+        guest.flush_rc_tty(rc_tty)
+        self.host = guest.HostLine(rc_tty)
+        self._devices.callback(self.host.close)
+        self.config_path = folder / "robot.toml"
+        text = guest.robot_config(self.vcan.name, self.dac.bus, rc_tty)
+        self.config_path.write_text(text + extra_config)
+        self.config = parse_config(self.config_path.read_text())
+        self.lines = {name: str(line.line) for name, line in output_lines(self.config).items()}
+        self.transmitter = Transmitter(self.host, self.config)
+        self._devices.callback(self.transmitter.close)
+        self.computer = Computer(self.vcan.peer)
+        self._devices.callback(self.computer.close)
+        self.log_path = folder / "bywire.log"
+        self.process: subprocess.Popen[bytes] | None = None
+
+    def start(self) -> None:
+        """`bywire run` in a process of its own; returns when its reports arrive."""
+        command = [str(Path(sys.executable).with_name("bywire")), "run", "--config"]
+        with self.log_path.open("wb") as log:
+            self.process = subprocess.Popen(
+                [*command, str(self.config_path)], stdout=log, stderr=subprocess.STDOUT
+            )
+        self.wait_for("its first reports", lambda: self.computer.mode is not None, START_LIMIT_S)
+        time.sleep(WARM_UP_S)
+
+    def wait_for(self, what: str, condition: Any, limit_s: float = 5.0) -> float:
+        """Poll `condition` until it holds; the seconds it took. AssertionError naming `what`."""
+        started_s = time.monotonic()
+        while not condition():
+            if self.process is not None and self.process.poll() is not None:
+                raise AssertionError(f"bywire exited before {what}: {self.log()}")
+            if time.monotonic() - started_s > limit_s:
+                raise AssertionError(f"no {what} within {limit_s} s; bywire: {self.log()[-2000:]}")
+            time.sleep(0.002)
+        return time.monotonic() - started_s
+
+    def log(self) -> str:
+        return self.log_path.read_text(errors="replace") if self.log_path.exists() else ""
+
+    def observe(self, now_s: float) -> Observation:
+        """The robot's outputs as the kernel's devices hold them (mode and latch: its report)."""
+        dac = self.config.drive.dac
+        levels = {name: self.gpio.level(line) for name, line in self.lines.items()}
+        mode = self.computer.mode
+        period_ns, duty_ns, enabled = guest.pwm_applied(1)
+        steering_ns = guest.pwm_applied(0)[1]
+        return Observation(
+            time_s=now_s,
+            mode=ControlMode.STOP if mode is None else mode.control_mode,
+            latched=mode is not None and mode.stop_latched,
+            gear=Gear.NEUTRAL if mode is None else mode.gear,
+            steering_cmd_norm=0.0, throttle_cmd_norm=0.0, brake_cmd_norm=0.0,
+            steering_pulse_s=steering_ns / 1e9, steering_changed_at_s=0.0,
+            throttle_volts=self._volts(dac.throttle_channel),
+            regen_volts=self._volts(dac.regen_channel),
+            hydrobrake_duty=duty_ns / period_ns if enabled and period_ns else 0.0,
+            motors_enabled=levels["motors_enable"],
+            ebrake_engaged=not levels["ebrake_release"],
+            speed_mps=0.0, steering_actual_norm=0.0, distance_m=0.0,
+            lights=LightOutputs(**{name: levels[light.line] for name, light in LIGHT_LINES}),
+            error_flags=0 if self.computer.errors is None else int(self.computer.errors.flags),
+        )  # fmt: skip
+
+    def throttle_volts(self) -> float:
+        """The throttle output's volts, from the DAC's bytes on the bus."""
+        return self._volts(self.config.drive.dac.throttle_channel)
+
+    def _volts(self, channel: int) -> float:
+        code = self.dac.code(channel)
+        return dac6574.volts_from_code(code, self.config.drive.dac.vref_volts)
+
+    def stop(self) -> int:
+        """SIGTERM, as systemd stops it; its exit status."""
+        assert self.process is not None
+        if self.process.poll() is None:
+            self.process.terminate()
+        return self.process.wait(timeout=10)
+
+    def close(self) -> None:
+        if self.process is not None and self.process.poll() is None:
+            self.process.kill()
+            self.process.wait()
+        self._devices.close()
