@@ -28,7 +28,7 @@ from bywire.canlog.write import BusTally, CanLog, check_log_path
 from bywire.cli.arguments import positive_hertz, positive_seconds
 from bywire.config import RobotConfig, default_sim_config, load_config
 from bywire.errors import ConfigError
-from bywire.hal.sim.clock import RealtimeClock
+from bywire.hal.sim.clock import RealtimeClock, VirtualClock
 from bywire.loopback import Endpoint, parse_endpoint
 from bywire.netbus.bridge import serve_bus
 from bywire.replay.recorder import SimRunRecorder
@@ -38,7 +38,7 @@ from bywire.sim.runner import SimRun
 from bywire.sim.suite import collect, junit_xml, run_case
 from bywire.sim.summary import build_summary, render
 from bywire.telemetry.capture import DEFAULT_RATE_HZ
-from bywire.telemetry.feed import FeedOptions, check_mcap_path, open_feed
+from bywire.telemetry.feed import FeedOptions, FeedSinks, check_mcap_path, open_sinks
 
 PROGRESS_PERIOD_S = 0.1  # simulated seconds between progress updates
 STOP_SIGNALS = (signal.SIGINT, signal.SIGTERM, signal.SIGHUP)
@@ -157,23 +157,33 @@ def run(args: argparse.Namespace) -> int:
         return _run_all(args)
     _check_one_run(args)
     robot = _robot(args)
-    sim = SimRun(
-        robot, find_scenario(args.scenario), realtime=args.realtime, duration_s=args.duration
-    )
-    if args.serve is not None and not isinstance(sim.world.clock, RealtimeClock):
+    scenario = find_scenario(args.scenario)
+    realtime = args.realtime or scenario.realtime
+    if args.serve is not None and not realtime:
         raise ConfigError("--serve needs --realtime: virtual time outruns any client")
-    if args.foxglove is not None and not isinstance(sim.world.clock, RealtimeClock):
+    if args.foxglove is not None and not realtime:
         raise ConfigError("--foxglove needs --realtime: virtual time outruns any client")
+    feed = FeedOptions(args.mcap, args.foxglove, args.telemetry_rate)
     stopped_by: list[int] = []
-    # A signal after the run's end (while the plot is drawn) is noted, never an interruption.
-    with _stop_on_signals(sim, stopped_by):
-        status = _one_run(args, sim, stopped_by)
+    with contextlib.ExitStack() as sinks_open:
+        # The feed's writer (on real time a process of its own: ~0.2 s to start, seconds on a
+        # busy machine) is running before the robot's clock starts: the controller's first pass
+        # and the scenario's first events are on time, not late by the writer's start.
+        clock = RealtimeClock() if realtime else VirtualClock()
+        sinks = None
+        if feed.wanted:
+            sinks = sinks_open.enter_context(open_sinks(feed, clock, virtual_time=not realtime))
+        sim = SimRun(robot, scenario, duration_s=args.duration, clock=clock)
+        # A signal after the run's end (while the plot is drawn) is noted, never an interruption.
+        with _stop_on_signals(sim, stopped_by):
+            status = _one_run(args, sim, stopped_by, sinks)
     return INTERRUPTED if stopped_by else status
 
 
-def _one_run(args: argparse.Namespace, sim: SimRun, stopped_by: list[int]) -> int:
+def _one_run(
+    args: argparse.Namespace, sim: SimRun, stopped_by: list[int], sinks: FeedSinks | None
+) -> int:
     """Play `sim`, write its files, print its summary; 1 if an expectation failed."""
-    feed = FeedOptions(args.mcap, args.foxglove, args.telemetry_rate)
     recorder = None if args.record is None else SimRunRecorder.attach(sim, args.record)
     tally = BusTally()
     sim.add_can_monitor(tally)
@@ -182,7 +192,9 @@ def _one_run(args: argparse.Namespace, sim: SimRun, stopped_by: list[int]) -> in
         args.log,
         show_progress=sys.stderr.isatty() and not args.json,
         serve=args.serve,
-        feed=feed,
+        feed=None
+        if sinks is None
+        else (sinks, FeedOptions(args.mcap, args.foxglove, args.telemetry_rate)),
     )
     if recorder is not None:
         recorder.write()
@@ -270,7 +282,7 @@ def _play(
     *,
     show_progress: bool,
     serve: Endpoint | None = None,
-    feed: FeedOptions | None = None,
+    feed: tuple[FeedSinks, FeedOptions] | None = None,
 ) -> tuple[float, int]:
     """Run to the end; (wall seconds, frames logged). The log is closed even if the run fails."""
     with contextlib.ExitStack() as stack:
@@ -280,8 +292,8 @@ def _play(
             sim.add_can_monitor(log)
         if serve is not None:
             _serve(stack, sim, serve)
-        if feed is not None and feed.wanted:
-            _feed(stack, sim, feed)
+        if feed is not None:
+            _feed(stack, sim, *feed)
         if show_progress:
             stack.enter_context(_progress(sim))
         started = time.perf_counter()
@@ -301,20 +313,19 @@ def _serve(stack: contextlib.ExitStack, sim: SimRun, endpoint: Endpoint) -> None
     )
 
 
-def _feed(stack: contextlib.ExitStack, sim: SimRun, options: FeedOptions) -> None:
-    """The telemetry feed for the run, with every frame on the bus; the port goes to stderr."""
-    virtual_time = not isinstance(sim.world.clock, RealtimeClock)
-    feed = stack.enter_context(open_feed(sim.runtime, options, virtual_time=virtual_time))
+def _feed(stack: contextlib.ExitStack, sim: SimRun, sinks: FeedSinks, options: FeedOptions) -> None:
+    """The telemetry feed's tap for the run, its sinks already open, with every frame on the
+    bus; the port goes to stderr."""
+    tap = sinks.tap(sim.runtime, rate_hz=options.rate_hz).attach()
+    stack.callback(tap.detach)
     sim.add_can_monitor(
-        lambda frame: feed.tap.can_frame(
-            frame.time_s, frame.arbitration_id, frame.data, frame.sender
-        )
+        lambda frame: tap.can_frame(frame.time_s, frame.arbitration_id, frame.data, frame.sender)
     )
     if options.foxglove is not None:
         host = options.foxglove.host
         url_host = f"[{host}]" if ":" in host else host
         print(
-            f"serving telemetry to Foxglove on ws://{url_host}:{feed.port}",
+            f"serving telemetry to Foxglove on ws://{url_host}:{sinks.port}",
             file=sys.stderr,
             flush=True,
         )
@@ -337,8 +348,8 @@ def _progress(sim: SimRun) -> Iterator[None]:
     def update(elapsed_s: float) -> None:
         speedup = elapsed_s / max(time.perf_counter() - wall_start_s, 1e-9)
         live = f"×{speedup:.1f}"
-        if sim.record.samples:
-            now = sim.record.samples[-1]
+        now = sim.record.samples.last
+        if now is not None:
             live += f"  {now.mode.name:<4} {now.speed_mps:5.2f} m/s {now.distance_m:6.1f} m"
         progress.update(task, completed=min(elapsed_s, sim.duration_s), live=live)
 

@@ -30,6 +30,7 @@ from bywire.sim.conditions import conditions_hold
 from bywire.sim.faults import BY_NAME
 from bywire.sim.observe import Observation, observe
 from bywire.sim.scenario import Event, Expectation, Scenario
+from bywire.sim.trace import Trace
 
 RECORD_PERIOD_S = 0.010  # the plot's resolution; expectations see every pass of the loop
 SAFE_SEARCH_S = 2.0  # how long after a fault the run looks for safe outputs
@@ -72,7 +73,8 @@ class FaultTiming:
 class RunRecord:
     """Everything a run leaves for the summary, the plot and the checks."""
 
-    samples: list[Observation] = field(default_factory=list)
+    samples: Trace[Observation] = field(default_factory=Trace)
+    """What the plot draws: one observation every RECORD_PERIOD_S, thinned on a long run."""
     verdicts: list[Verdict] = field(default_factory=list)
     fault_timings: list[FaultTiming] = field(default_factory=list)
     top_speed_mps: float = 0.0
@@ -90,12 +92,20 @@ class SimRun:
         *,
         realtime: bool = False,
         duration_s: float | None = None,
+        clock: VirtualClock | None = None,
     ) -> None:
+        """`clock`: one made beforehand (a `RealtimeClock` when the run is real time), so that
+        what must be running before the controller's first pass (the telemetry writer) can start
+        on it first; by default a new one, real time when `realtime` or the scenario asks."""
         self.robot = robot
         self.scenario = scenario
         self.duration_s = scenario.duration_s if duration_s is None else duration_s
         realtime = realtime or scenario.realtime
-        clock = RealtimeClock() if realtime else VirtualClock()
+        if clock is None:
+            clock = RealtimeClock() if realtime else VirtualClock()
+        elif realtime and not isinstance(clock, RealtimeClock):
+            raise ValueError(f"{scenario.name} runs on real time; the clock given is virtual")
+        realtime = isinstance(clock, RealtimeClock)
         self.world: SimWorld = SimWorld.from_robot(clock, robot)
         config = RuntimeConfig.from_robot(robot)
         # On virtual time the watchdog runs on the simulated clock, checked by a timer where the
