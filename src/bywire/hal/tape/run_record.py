@@ -33,6 +33,7 @@ from typing import IO, Any
 
 from bywire.errors import ConfigError
 from bywire.hal.ports import CanFrame
+from bywire.textfile import check_regular
 
 FORMAT = "bywire-run-record"
 VERSION = 1
@@ -176,6 +177,7 @@ def write_record(path: Path, header: RecordHeader, events: Iterable[Event]) -> i
 
 def read_record(path: Path) -> RecordedRun:
     """Read a record; ConfigError naming the file and line for anything unreadable."""
+    check_regular(path, "run record")  # /dev/zero or a FIFO would be read for ever
     try:
         with _open(path, writing=False) as stream:
             return _parse(path, enumerate(stream, start=1))
