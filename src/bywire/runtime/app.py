@@ -86,6 +86,7 @@ class Runtime:
         self.clock = hardware.clock
         self.ibus = IbusReader(hardware.rc_uart, config.control.rc_mapping)
         self.can = CanReader(hardware.can, config.rx_checks, secoc=secoc)
+        self._announcement = () if secoc is None else secoc.announcement
         self.actuators = Actuators(hardware, config.actuators)
         self.started_at = self.clock.now()
         self.tasks = [PeriodicTask(spec, self.started_at) for spec in config.schedule]
@@ -318,3 +319,7 @@ class Runtime:
                 self.tx_faults.happened(now)
                 return
             self.reports_sent += 1
+        for frame_id, payload in self._announcement:  # SecOC: the trip counter senders sign in
+            if not self.hardware.can.send(CanFrame(frame_id, payload, now)):
+                self.tx_faults.happened(now)
+                return

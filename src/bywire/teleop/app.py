@@ -25,9 +25,9 @@ from textual import events
 from textual.app import App, ComposeResult
 from textual.widgets import Static
 
-from bywire.security.session import SecocSigner
+from bywire.security.session import TRIP_IDS, SecocSigner
 from bywire.teleop.frames import SEND_PERIOD_S, Counters, frames
-from bywire.teleop.reports import ReportView, command_lines, fold, report_lines
+from bywire.teleop.reports import ReportView, command_lines, fold, report_lines, signing_line
 from bywire.teleop.state import KEYS, TeleopState, advance, help_line, press
 
 KEY_NAMES = frozenset(binding.key for binding in KEYS)
@@ -74,6 +74,7 @@ class TeleopApp(App[None]):
         self.view = ReportView()
         self.frames_sent = 0
         self.send_errors = 0
+        self.freshness_problem: str | None = None
         self._now = now
         self._auto_tick = auto_tick
         self._reader: can.BufferedReader | None = can.BufferedReader() if notifier else None
@@ -116,10 +117,16 @@ class TeleopApp(App[None]):
         self._show(now_s)
 
     def _send(self, state: TeleopState) -> None:
+        signer = self.signer
+        if signer is not None and not signer.ready:
+            return  # nothing can be signed before the robot's trip counter is heard
         period_frames, self.counters = frames(state, self.counters)
         for frame_id, data in period_frames:
-            if self._send_frame(frame_id, data) and self.signer is not None:
-                authenticator = self.signer.authenticator(frame_id, data)
+            authenticator = None if signer is None else signer.authenticator(frame_id, data)
+            if signer is not None and authenticator is None:
+                self.send_errors += 1  # unsigned commands are never sent
+                continue
+            if self._send_frame(frame_id, data) and authenticator is not None:
                 self._send_frame(authenticator.arbitration_id, authenticator.data)
 
     def _send_frame(self, frame_id: int, data: bytes) -> bool:
@@ -136,7 +143,19 @@ class TeleopApp(App[None]):
         while (message := self._next_message()) is not None:
             if not message.is_error_frame and not message.is_extended_id:
                 data = bytes(message.data)
-                self.view = fold(self.view, message.arbitration_id, data, now_s)
+                if self.signer is not None and message.arbitration_id in TRIP_IDS:
+                    self._hear(message.arbitration_id, data)
+                else:
+                    self.view = fold(self.view, message.arbitration_id, data, now_s)
+
+    def _hear(self, frame_id: int, data: bytes) -> None:
+        assert self.signer is not None
+        try:
+            self.signer.hear(frame_id, data)
+        except OSError as error:
+            self.freshness_problem = f"cannot write the freshness file: {error.strerror}"
+        else:
+            self.freshness_problem = None
 
     def _next_message(self) -> can.Message | None:
         if self._reader is not None:
@@ -146,7 +165,8 @@ class TeleopApp(App[None]):
     def _show(self, now_s: float) -> None:
         sent = f"frames sent {self.frames_sent}  send errors {self.send_errors}"
         pad = [] if self.gamepad is None else [self.gamepad.status()]
+        signing = [] if self.signer is None else [signing_line(self.signer, self.freshness_problem)]
         self.query_one("#commands", Static).update(
-            Text("\n".join([*command_lines(self.state), sent, *pad]))
+            Text("\n".join([*command_lines(self.state), sent, *signing, *pad]))
         )
         self.query_one("#reports", Static).update(Text("\n".join(report_lines(self.view, now_s))))
