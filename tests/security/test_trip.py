@@ -19,9 +19,11 @@ import pytest
 
 from bywire.atomic_file import temporaries
 from bywire.errors import ConfigError
+from bywire.protocol import dbc
 from bywire.protocol.secoc import MAX_COUNTER, MAX_TRIP, SecocKey
 from bywire.security import freshness, trip
 from bywire.security.freshness import FreshnessStore
+from bywire.security.session import SecocReceiver, SecocSigner
 from bywire.security.state_file import state_bytes
 from bywire.security.trip import (
     MAX_LOADED_TRIP,
@@ -31,6 +33,7 @@ from bywire.security.trip import (
     reset_trip,
     start_trip,
 )
+from tests.tmpfs import entries, fill, read_only, small_tmpfs
 
 KEY = SecocKey(bytes(range(16)))
 OTHER_KEY = SecocKey(bytes(16))
@@ -255,3 +258,42 @@ def test_a_senders_file_always_covers_what_was_used(tmp_path: Path) -> None:
         on_disk = FreshnessStore(KEY, path).bound(0x101)
         assert value <= on_disk <= value + 16
     store.close()
+
+
+# --- full and read-only disks: nothing started, nothing left -----------------------------------
+
+
+@pytest.mark.parametrize("broken", ["full", "read-only"])
+def test_a_start_on_a_full_or_read_only_disk_is_refused_and_leaves_nothing(
+    tmp_path: Path, broken: str
+) -> None:
+    with small_tmpfs(tmp_path / "state") as state:
+        path = state / "freshness.json"
+        reset_trip(path, KEY, 41, NOW)
+        if broken == "full":
+            fill(state)
+        else:
+            read_only(state)
+        for _ in range(100):
+            with pytest.raises(FreshnessError) as refusal:
+                start_trip(path, KEY)
+            assert "cannot write the freshness file: " in str(refusal.value)
+            assert "refusing to start" in str(refusal.value)
+        assert read_trip(path, KEY) == 41
+        assert entries(state) == {"freshness.json"}
+
+
+def test_a_sender_on_a_full_disk_stops_signing_and_leaves_nothing(tmp_path: Path) -> None:
+    with small_tmpfs(tmp_path / "state") as state:
+        signer = SecocSigner(KEY, FreshnessStore(KEY, state / "sender.json", block=8))
+        for frame_id, data in SecocReceiver(KEY, 5, dbc.command_ids()).announcement:
+            signer.hear(frame_id, data)
+        assert signer.authenticator(0x101, bytes(8)) is not None
+        fill(state)
+        signed = [signer.authenticator(0x101, bytes(8)) for _ in range(1000)]
+        covered = sum(1 for pdu in signed if pdu is not None)
+        assert covered <= 8  # what the last durable block covers, never a value past it
+        assert signed[-1] is None
+        assert entries(state) == {"sender.json"}
+        signer.close()
+        assert FreshnessStore(KEY, state / "sender.json").bound(0x101) >= 1 + covered

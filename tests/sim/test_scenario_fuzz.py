@@ -17,7 +17,13 @@ from bywire.sim.scenario import load_scenario
 from tests.toml_mutations import assert_refused_in_one_line, mutated_files, run_bywire
 
 FOLDER = Path(__file__).resolve().parents[2] / "src" / "bywire" / "scenarios"
-SEEDS = ("test-course", "can-impostor-authenticated", "latch-causes", "dac-stall-watchdog")
+SEEDS = (
+    "test-course",
+    "can-impostor-authenticated",
+    "latch-causes",
+    "dac-stall-watchdog",
+    "rc-link-lost",
+)
 FILES = 2 * settings().max_examples  # per seed file: 200 on CI, 2,000 with the long profile
 TAKEN = (0, 1)  # the scenario ran (1: an expectation failed, or was not reached)
 
