@@ -20,6 +20,11 @@ NR_INODES = 64
 SKIP_REASON = "needs root to mount a small tmpfs (CI runs as root): full-disk tests skipped"
 
 
+def free_bytes(folder: Path) -> int:
+    status = os.statvfs(folder)
+    return status.f_bavail * status.f_frsize
+
+
 @contextlib.contextmanager
 def small_tmpfs(where: Path, size: str = SIZE) -> Iterator[Path]:
     """A fresh tmpfs of `size` mounted at `where` (made if missing), unmounted afterwards."""
@@ -39,15 +44,18 @@ def small_tmpfs(where: Path, size: str = SIZE) -> Iterator[Path]:
         subprocess.run(["umount", "-l", str(where)], check=False)
 
 
-def fill(folder: Path, *, inodes: bool = False) -> None:
-    """Take every free block of the filesystem under `folder`, as a full disk does (with
-    `inodes`, every free inode too: no file can even be made)."""
-    descriptor = os.open(folder / ".filler", os.O_WRONLY | os.O_CREAT | os.O_APPEND, 0o600)
+def fill(folder: Path, *, inodes: bool = False, leave_bytes: int = 0) -> None:
+    """Take every free block of the filesystem under `folder` but `leave_bytes`, as a disk
+    filling up does (with `inodes`, every free inode too: no file can even be made)."""
+    filler = folder / ".filler"
+    descriptor = os.open(filler, os.O_WRONLY | os.O_CREAT | os.O_APPEND, 0o600)
     try:
-        for size in (4096, 1):  # whole pages, then whatever is left
+        for size in (1 << 20, 4096, 1):  # large pieces, then whatever is left
             with contextlib.suppress(OSError):
                 while os.write(descriptor, b"\0" * size):
                     pass
+        if leave_bytes:
+            os.ftruncate(descriptor, max(os.fstat(descriptor).st_size - leave_bytes, 0))
     finally:
         os.close(descriptor)
     for index in range(NR_INODES if inodes else 0):

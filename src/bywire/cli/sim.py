@@ -14,7 +14,7 @@ import signal
 import sys
 import threading
 import time
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from dataclasses import replace
 from pathlib import Path
 from types import FrameType
@@ -187,25 +187,31 @@ def _one_run(
     recorder = None if args.record is None else SimRunRecorder.attach(sim, args.record)
     tally = BusTally()
     sim.add_can_monitor(tally)
-    wall_s, frames_logged = _play(
+    feed = (
+        None
+        if sinks is None
+        else (sinks, FeedOptions(args.mcap, args.foxglove, args.telemetry_rate))
+    )
+    wall_s, frames_logged, log_failure = _play(
         sim,
         args.log,
         show_progress=sys.stderr.isatty() and not args.json,
         serve=args.serve,
-        feed=None
-        if sinks is None
-        else (sinks, FeedOptions(args.mcap, args.foxglove, args.telemetry_rate)),
+        feed=feed,
     )
+    # A file that cannot be written whole is one line of its own; the run, the summary and the
+    # other files go on (exit 1: what was asked for is not all there).
+    failures = [] if log_failure is None else [log_failure]
     if recorder is not None:
-        recorder.write()
+        failures += _written(recorder.write)
     summary = build_summary(sim, wall_s, tally)
     if args.plot is not None:
-        write_plot(sim, args.plot)
+        failures += _written(lambda: write_plot(sim, args.plot))
     files = {"plot": _name(args.plot), "can_log": _name(args.log)}
     files.update({} if recorder is None else {"record": str(recorder.path)})
     files.update({} if args.mcap is None else {"mcap": str(args.mcap)})
     if args.json:
-        print(json.dumps({**summary.as_json(), "files": files}, indent=2))
+        print(json.dumps({**summary.as_json(), "files": files, "file_errors": failures}, indent=2))
     else:
         console = _Console()
         render(summary, console)
@@ -214,7 +220,18 @@ def _one_run(
         if stopped_by:
             name = signal.Signals(stopped_by[0]).name
             console.print(f"Stopped by {name} after {summary.simulated_s:.1f} s", soft_wrap=True)
-    return 0 if summary.passed else 1
+    for failure in failures:
+        print(f"bywire sim: error: {failure}", file=sys.stderr, flush=True)
+    return 0 if summary.passed and not failures else 1
+
+
+def _written(write: Callable[[], object]) -> list[str]:
+    """Write one of the run's files; its failure as a line, or nothing."""
+    try:
+        write()
+    except ConfigError as error:
+        return [str(error)]
+    return []
 
 
 @contextlib.contextmanager
@@ -283,8 +300,9 @@ def _play(
     show_progress: bool,
     serve: Endpoint | None = None,
     feed: tuple[FeedSinks, FeedOptions] | None = None,
-) -> tuple[float, int]:
-    """Run to the end; (wall seconds, frames logged). The log is closed even if the run fails."""
+) -> tuple[float, int, str | None]:
+    """Run to the end; (wall seconds, frames logged, why the log stopped early if it did). The
+    log is closed even if the run fails."""
     with contextlib.ExitStack() as stack:
         log = None
         if log_path is not None:
@@ -298,7 +316,10 @@ def _play(
             stack.enter_context(_progress(sim))
         started = time.perf_counter()
         sim.run()
-        return time.perf_counter() - started, 0 if log is None else log.frames
+        wall_s = time.perf_counter() - started
+    if log is None:
+        return wall_s, 0, None
+    return wall_s, log.frames, log.failure
 
 
 def _serve(stack: contextlib.ExitStack, sim: SimRun, endpoint: Endpoint) -> None:
@@ -396,7 +417,10 @@ def _run_all(args: argparse.Namespace) -> int:
             for reason in case.reasons:
                 console.print(f"     {escape(reason)}", highlight=False)
     if args.junit is not None:
-        args.junit.write_text(junit_xml(cases), encoding="utf-8")
+        try:
+            args.junit.write_text(junit_xml(cases), encoding="utf-8")
+        except OSError as error:
+            raise ConfigError(f"cannot write {args.junit}: {error.strerror or error}") from None
     failed = [case.name for case in cases if not case.passed]
     if args.json:
         rows = [

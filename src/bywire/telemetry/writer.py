@@ -12,7 +12,9 @@ one message's encoding (tens of µs) for it, not the interpreter's 5 ms switch i
 
 from __future__ import annotations
 
+import contextlib
 import json
+import sys
 import threading
 import time
 from pathlib import Path
@@ -24,6 +26,7 @@ from bywire.errors import ConfigError
 from bywire.loopback import Endpoint, ListenAddress
 from bywire.priority import leave_realtime
 from bywire.telemetry.capture import Capture
+from bywire.telemetry.mcap_file import CHUNK_BYTES, McapFile
 from bywire.telemetry.messages import message
 from bywire.telemetry.outbox import Outbox
 from bywire.telemetry.schemas import SCHEMAS
@@ -48,15 +51,24 @@ class TelemetryWriter:
             for topic, schema in SCHEMAS.items()
         }
         self._mcap: foxglove.MCAPWriter | None = None
+        self._file: McapFile | None = None
+        self.mcap_failure: str | None = None
+        """Why the recording stopped early (a full disk, a failed write), once it has."""
         self._server: WebSocketServer | None = None
         self._thread = threading.Thread(target=self._drain, name="bywire-telemetry", daemon=True)
         self.written = 0
 
     def record(self, path: Path) -> None:
-        """Write every channel to an MCAP file at `path` (overwritten if it exists)."""
+        """Write every channel to an MCAP file at `path` (overwritten if it exists), through a
+        file that keeps space ahead and never fails the SDK (`mcap_file`)."""
         try:
-            self._mcap = foxglove.open_mcap(path, allow_overwrite=True, context=self.context)
-        except Exception as error:  # the SDK raises its own types for I/O failures
+            self._file = McapFile(path)
+            options = foxglove.mcap.MCAPWriteOptions(chunk_size=CHUNK_BYTES)
+            self._mcap = foxglove.open_mcap(
+                self._file, context=self.context, writer_options=options
+            )
+        except Exception as error:  # OSError, or the SDK's own types for I/O failures
+            self._close_file()
             raise ConfigError(f"cannot write the MCAP file {path}: {error}") from None
 
     def serve(self, endpoint: Endpoint | ListenAddress) -> int:
@@ -80,6 +92,7 @@ class TelemetryWriter:
             self._thread.join(timeout_s)
         if self._mcap is not None:
             self._mcap.close()
+        self._close_file()
         if self._server is not None:
             self._server.stop()
 
@@ -101,3 +114,30 @@ class TelemetryWriter:
         data = json.dumps(body, separators=(",", ":")).encode()
         self._channels[topic].log(data, log_time=log_time_ns)
         self.written += 1
+        if self._file is not None and (self._file.full or self._file.error is not None):
+            self._stop_recording(self._file)
+
+    def _stop_recording(self, file: McapFile) -> None:
+        """The disk is full (or a write failed): finish the file here and say so, once."""
+        if self._mcap is not None:
+            with contextlib.suppress(Exception):  # nothing it raises may end the live feed
+                self._mcap.close()
+            self._mcap = None
+        self._close_file()
+        self._file = None  # nothing more goes to it, and nothing more is said
+        if file.error is None:
+            self.mcap_failure = (
+                f"{file.path}: the disk is full: recording stopped after {self.written}"
+                " messages; the file is a complete MCAP up to there"
+            )
+        else:
+            self.mcap_failure = (
+                f"{file.path}: cannot write ({file.error.strerror or file.error}): recording"
+                f" stopped after {self.written} messages; the file ends at the failure"
+            )
+        print(f"bywire telemetry: {self.mcap_failure}", file=sys.stderr, flush=True)
+
+    def _close_file(self) -> None:
+        if self._file is not None:
+            with contextlib.suppress(OSError):
+                self._file.close()
