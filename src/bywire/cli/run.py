@@ -189,7 +189,7 @@ def feed_options(robot: RobotConfig, *, mcap: Path | None, dashboard: bool) -> F
         foxglove = parse_listen_address(section.foxglove, allow_remote=section.allow_remote)
     if foxglove is None and dashboard:
         foxglove = Endpoint(DEFAULT_HOST, 0)
-    options = FeedOptions(mcap_path, foxglove, section.rate_hz)
+    options = FeedOptions(mcap_path, foxglove, section.rate_hz, origins=section.allowed_origins)
     return options if options.wanted else None
 
 

@@ -27,6 +27,7 @@ from rich.table import Table
 from bywire.canlog.write import BusTally, CanLog, check_log_path
 from bywire.cli.arguments import positive_hertz, positive_seconds
 from bywire.config import RobotConfig, default_sim_config, load_config
+from bywire.config.sections import ORIGIN
 from bywire.errors import ConfigError
 from bywire.hal.sim.clock import RealtimeClock, VirtualClock
 from bywire.loopback import Endpoint, parse_endpoint
@@ -58,6 +59,14 @@ def _endpoint(text: str) -> Endpoint:
         return parse_endpoint(text)
     except ConfigError as error:
         raise argparse.ArgumentTypeError(str(error)) from None
+
+
+def _origin(text: str) -> str:
+    if not ORIGIN.fullmatch(text):
+        raise argparse.ArgumentTypeError(
+            f"{text!r}: not an origin such as https://app.foxglove.dev"
+        )
+    return text
 
 
 def configure(parser: argparse.ArgumentParser) -> None:
@@ -129,6 +138,16 @@ def configure(parser: argparse.ArgumentParser) -> None:
         " port (host 127.0.0.1, ::1 or localhost; port 0: any free port)",
     )
     parser.add_argument(
+        "--foxglove-origin",
+        action="append",
+        default=[],
+        type=_origin,
+        metavar="ORIGIN",
+        help="with --foxglove: a web page origin the server lets in (repeatable), e.g."
+        " https://app.foxglove.dev; by default no web page is (a browser tab of any site could"
+        " read the feed), only clients that send no Origin (the desktop app, bywire dashboard)",
+    )
+    parser.add_argument(
         "--telemetry-rate",
         type=positive_hertz,
         default=DEFAULT_RATE_HZ,
@@ -163,7 +182,9 @@ def run(args: argparse.Namespace) -> int:
         raise ConfigError("--serve needs --realtime: virtual time outruns any client")
     if args.foxglove is not None and not realtime:
         raise ConfigError("--foxglove needs --realtime: virtual time outruns any client")
-    feed = FeedOptions(args.mcap, args.foxglove, args.telemetry_rate)
+    feed = FeedOptions(
+        args.mcap, args.foxglove, args.telemetry_rate, origins=tuple(args.foxglove_origin)
+    )
     stopped_by: list[int] = []
     with contextlib.ExitStack() as sinks_open:
         # The feed's writer (on real time a process of its own: ~0.2 s to start, seconds on a

@@ -92,4 +92,6 @@ def _value(key: str, value: object) -> str:
         return f"0x{value:02X}"
     if isinstance(value, Mapping):
         return "{ " + ", ".join(f"{k} = {_value(k, v)}" for k, v in value.items()) + " }"
+    if isinstance(value, tuple | list):
+        return "[" + ", ".join(_value(key, item) for item in value) + "]"
     return repr(value)

@@ -28,9 +28,11 @@ from bywire.priority import leave_realtime
 from bywire.telemetry.capture import Capture
 from bywire.telemetry.mcap_file import CHUNK_BYTES, McapFile
 from bywire.telemetry.messages import message
+from bywire.telemetry.origin_gate import OriginGate
 from bywire.telemetry.outbox import Outbox
 from bywire.telemetry.schemas import SCHEMAS
 
+INTERNAL_HOST = "127.0.0.1"  # where the SDK's own server listens, behind the gate
 POLL_S = 0.05  # how long the writer waits for a capture before looking at `closed` again
 
 
@@ -55,6 +57,7 @@ class TelemetryWriter:
         self.mcap_failure: str | None = None
         """Why the recording stopped early (a full disk, a failed write), once it has."""
         self._server: WebSocketServer | None = None
+        self._gate: OriginGate | None = None
         self._thread = threading.Thread(target=self._drain, name="bywire-telemetry", daemon=True)
         self.written = 0
 
@@ -71,15 +74,23 @@ class TelemetryWriter:
             self._close_file()
             raise ConfigError(f"cannot write the MCAP file {path}: {error}") from None
 
-    def serve(self, endpoint: Endpoint | ListenAddress) -> int:
-        """Serve every channel to Foxglove WebSocket clients; returns the port it listens on."""
+    def serve(self, endpoint: Endpoint | ListenAddress, origins: tuple[str, ...] = ()) -> int:
+        """Serve every channel to Foxglove WebSocket clients; returns the port it listens on.
+
+        The SDK's server listens on a loopback port of its own, behind an `OriginGate` on
+        `endpoint` that turns away web pages of any origin but `origins`."""
         try:
             self._server = foxglove.start_server(
-                name="bywire", host=endpoint.host, port=endpoint.port, context=self.context
+                name="bywire", host=INTERNAL_HOST, port=0, context=self.context
+            )
+            self._gate = OriginGate(
+                endpoint.host, endpoint.port, (INTERNAL_HOST, self._server.port), origins
             )
         except Exception as error:  # e.g. the port is taken
+            if self._server is not None:
+                self._server.stop()
             raise ConfigError(f"cannot serve Foxglove on {endpoint}: {error}") from None
-        return self._server.port
+        return self._gate.port
 
     def start(self) -> TelemetryWriter:
         self._thread.start()
@@ -93,6 +104,8 @@ class TelemetryWriter:
         if self._mcap is not None:
             self._mcap.close()
         self._close_file()
+        if self._gate is not None:
+            self._gate.close()
         if self._server is not None:
             self._server.stop()
 
