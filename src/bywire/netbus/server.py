@@ -26,6 +26,7 @@ import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
 
+from bywire.accepting import Slots, accepted
 from bywire.errors import ConfigError, FrameError
 from bywire.loopback import Endpoint
 from bywire.netbus import socketcand
@@ -77,9 +78,8 @@ class SocketcandServer:
         self.dropped_frames = 0
         self.refused = 0
         """Connections closed for not speaking the protocol, over the limit, or too slow."""
-        self._max_connections = max_connections
+        self._slots = Slots(max_connections)
         self._handshake_s = handshake_s
-        self._connections = 0
         self._clients: list[_Client] = []
         self._lock = threading.Lock()
         self._stopping = threading.Event()
@@ -143,20 +143,11 @@ class SocketcandServer:
         thread.start()
 
     def _accept_loop(self) -> None:
-        while not self._stopping.is_set():
-            try:
-                sock, _ = self._listener.accept()
-            except TimeoutError:
-                continue
-            except OSError:
-                return
+        for sock in accepted(self._listener, self._stopping):
             sock.settimeout(SOCKET_TIMEOUT_S)
             sock.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
-            with self._lock:
-                full = self._connections >= self._max_connections
-                self._connections += 0 if full else 1
-            if full:
-                self._refuse(sock, f"too many connections ({self._max_connections} at most)")
+            if not self._slots.take():
+                self._refuse(sock, f"too many connections ({self._slots.limit} at most)")
                 continue
             client = _Client(next(self._numbers), sock)
             self._spawn(self._serve, f"socketcand-client-{client.number}", client)
@@ -187,8 +178,7 @@ class SocketcandServer:
             pass
         finally:
             self._forget(client)
-            with self._lock:
-                self._connections -= 1
+            self._slots.give()
             if client.writing:
                 client.outbox.put(_STOP)
             else:

@@ -19,6 +19,8 @@ import threading
 import time
 from collections.abc import Iterable
 
+from bywire.accepting import Slots, accepted
+
 HEAD_LIMIT_BYTES = 16 << 10
 HEAD_TIMEOUT_S = 5.0
 MAX_CONNECTIONS = 32
@@ -59,7 +61,7 @@ class OriginGate:
         self._stopping = threading.Event()
         self._lock = threading.Lock()
         self._sockets: set[socket.socket] = set()
-        self._connections = 0
+        self._slots = Slots(MAX_CONNECTIONS)
         self._thread = threading.Thread(target=self._accept_loop, name="origin-gate", daemon=True)
         self._thread.start()
 
@@ -78,17 +80,8 @@ class OriginGate:
             _close(sock)
 
     def _accept_loop(self) -> None:
-        while not self._stopping.is_set():
-            try:
-                sock, _ = self._listener.accept()
-            except TimeoutError:
-                continue
-            except OSError:
-                return
-            with self._lock:
-                full = self._connections >= MAX_CONNECTIONS
-                self._connections += 0 if full else 1
-            if full:
+        for sock in accepted(self._listener, self._stopping):
+            if not self._slots.take():
                 self._answer(sock, 503, "too many connections")
                 continue
             threading.Thread(target=self._pass, args=(sock,), daemon=True).start()
@@ -115,8 +108,8 @@ class OriginGate:
         except OSError:
             pass
         finally:
+            self._slots.give()
             with self._lock:
-                self._connections -= 1
                 self._sockets -= {client, upstream}
             _close(client)
             if upstream is not None:
