@@ -64,11 +64,11 @@ class SecocSigner:
             return None
         payload, self._announcement = self._announcement, None
         trip = secoc.verified_trip(self._key, payload, bytes(data))
-        if trip is None:
-            with_key = None
+        if trip is None:  # forged, damaged, or the robot has another key (its check value says)
             if len(payload) == secoc.TRIP_PAYLOAD_BYTES:
-                with_key = secoc.decode_trip(payload)
-            self.announced_key_check = None if with_key is None else with_key.key_check
+                announced = secoc.decode_trip(payload).key_check
+                if announced != self._key.check_value:
+                    self.announced_key_check = announced
             return None
         adoption = self.store.adopt(trip)
         if adoption is Adoption.LOWER:
