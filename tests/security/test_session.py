@@ -112,6 +112,7 @@ def test_an_announcement_that_does_not_verify_is_not_taken(damage: object) -> No
     for frame_id, data in damage(frames):  # type: ignore[operator]
         assert signer.hear(frame_id, data) is None
     assert not signer.ready
+    assert signer.announced_key_check is None  # our key's check value: no hint of another key
 
 
 def test_an_announcement_with_another_key_names_its_check_value() -> None:
