@@ -49,3 +49,20 @@ def test_ci_runs_the_readme_test_command_verbatim() -> None:
     test_command = _readme_commands()[1]
     ci_lines = (ROOT / ".ci" / "run").read_text(encoding="utf-8").splitlines()
     assert test_command in ci_lines
+
+
+def test_ci_runs_the_ros_tier_after_the_readme_test_command_and_it_cannot_skip() -> None:
+    """The ROS 2 tier runs after the main suite, in its own venv, where a missing rclpy fails
+    instead of skipping; the main suite's skip line names the script that enables it."""
+    ci_lines = (ROOT / ".ci" / "run").read_text(encoding="utf-8").splitlines()
+    tier_call = "bash .ci/ros-tier"
+    assert tier_call in ci_lines
+    assert ci_lines.index(tier_call) > ci_lines.index(_readme_commands()[1])
+    tier = (ROOT / ".ci" / "ros-tier").read_text(encoding="utf-8")
+    assert "set -euo pipefail" in tier
+    run_line = next(line for line in tier.splitlines() if "pytest" in line)
+    assert run_line.startswith("BYWIRE_ROS_TIER=1 .venv-ros/bin/python -m pytest")
+    module = run_line.split()[-1]
+    source = (ROOT / module).read_text(encoding="utf-8")
+    assert 'os.environ.get("BYWIRE_ROS_TIER") == "1"' in source
+    assert "run `.ci/ros-tier`" in source

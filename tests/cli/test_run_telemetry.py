@@ -123,10 +123,10 @@ def test_a_foxglove_client_attaches_to_the_server_the_telemetry_section_asks_for
             assert state is not None
             assert state["outputs"]["ebrake_engaged"] is True
             assert state["outputs"]["motors_enabled"] is False
-            assert [task["name"] for task in state["tasks"]][:3] == [
+            assert [task["name"] for task in state["tasks"]][:3] == [  # in order of importance
+                "hydrobrake",
                 "steering",
                 "driving",
-                "hydrobrake",
             ]
         finally:
             client.close()

@@ -1,7 +1,9 @@
 """Test helper: run the pure decision over a list of (now, inputs) as the shell would feed it.
 
 The shell counts RC and ControlCommand frames and takes the ControlCommand's edges between
-consecutive frames; here a slot whose stamp changed from the previous step is a new frame.
+consecutive frames; here a slot whose stamp changed from the previous step is a new frame, and
+a remote stop's rising edge between them a stop request (the reader also counts one in any
+intact frame, trusted or not: a test sets `stop_requests` for that).
 Controller tests use a debounce of one frame unless they test the debounce itself.
 """
 
@@ -22,6 +24,7 @@ Steps = list[tuple[float, ControlInputs]]
 def framed(steps: Steps) -> Steps:
     """The steps with frame counts and edges filled in, as the runtime's readers do."""
     previous, rc_frames, control_frames, result = ControlInputs(), 0, 0, []
+    stop_requests = 0
     for now, inputs in steps:
         edges = inputs.control_edges
         if inputs.rc is not None and (
@@ -34,8 +37,13 @@ def framed(steps: Steps) -> Steps:
             control_frames += 1
             before = None if previous.control is None else previous.control.value
             edges = command_edges(before, inputs.control.value)
+            stop_requests += edges.remote_stop
         counted = replace(
-            inputs, rc_frames=rc_frames, control_frames=control_frames, control_edges=edges
+            inputs,
+            rc_frames=rc_frames,
+            control_frames=control_frames,
+            control_edges=edges,
+            stop_requests=max(stop_requests, inputs.stop_requests),
         )
         result.append((now, counted))
         previous = counted

@@ -25,6 +25,7 @@ from bywire.control.error_flags import ErrorFlag
 from bywire.control.monitors import MonitorConfig
 from bywire.control.rc_mapping import RcRequest
 from bywire.control.steering import SteeringConfig
+from bywire.control.stop import StopPhase
 from bywire.control.supervisor import Cause, SupervisorConfig
 from bywire.control.validity import Stamped
 from bywire.model import (
@@ -66,8 +67,14 @@ def armed_rc(now: float, **changes: Unpack[RcChanges]) -> list[tuple[float, Cont
 
 
 def assert_safe(outputs: ControlOutputs) -> None:
+    """STOP: throttle 0 V, both brakes on; the drive off, or (category 1, no speed known yet)
+    powered to brake with the regenerative brake at full."""
     assert outputs.mode is ControlMode.STOP
-    assert outputs.drive == SAFE_DRIVE
+    assert outputs.drive.throttle_volts == 0.0
+    assert outputs.drive == SAFE_DRIVE or (
+        outputs.stop_phase is StopPhase.BRAKING
+        and outputs.drive.regen_volts == CONFIG.drive.max_regen_volts
+    )
     assert outputs.ebrake_engaged
     assert outputs.hydrobrake_duty == 1.0
 

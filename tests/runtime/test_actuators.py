@@ -6,11 +6,12 @@ import math
 
 import pytest
 
+from bywire.control.dac_health import DAC_LEAK
 from bywire.control.drive import DriveOutputs
 from bywire.control.lights import LIGHT_LINES, LightOutputs
 from bywire.hal.sim.clock import VirtualClock
 from bywire.hal.sim.world import SimWorld
-from bywire.runtime.actuators import DAC_LEAK, ActuatorConfig, Actuators
+from bywire.runtime.actuators import ActuatorConfig, Actuators
 
 DRIVING = DriveOutputs(2.0, 0.0, enable=True, forward=True, reverse=False)
 FASTER = DriveOutputs(3.0, 0.0, enable=True, forward=True, reverse=False)

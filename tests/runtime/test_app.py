@@ -117,9 +117,10 @@ def test_a_command_message_losing_trust_is_news_even_when_no_request_changed() -
     robot.run(0.5)
     runtime = robot.runtime
     assert not runtime._news()  # nothing arrived since the last decision
-    trust = next(iter(runtime.can.trust.values()))
-    for _ in range(COUNTER_MISS_LIMIT):
-        trust.record(miss=True)
+    frame_id = next(iter(runtime.can.states))
+    runtime.can.states[frame_id] = replace(
+        runtime.can.states[frame_id], window=(True,) * COUNTER_MISS_LIMIT, untrusted=True
+    )
     assert runtime.can.untrusted
     assert runtime._news()
 

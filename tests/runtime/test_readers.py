@@ -3,10 +3,13 @@ between consecutive accepted frames, and every bad frame counted once at the pol
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import pytest
 
 from bywire.config import TimeoutsSection
 from bywire.control.command_edges import CommandEdges
+from bywire.control.input_stage import Verdict
 from bywire.control.rc_mapping import RcMapping
 from bywire.control.validity import is_fresh
 from bywire.hal.ports import CanFrame
@@ -94,30 +97,64 @@ def test_consecutive_counters_are_accepted_and_wrap() -> None:
     assert Link().send(14, 15, 0, 1) == [14, 15, 0, 1]
 
 
-def test_a_repeated_frame_is_rejected_and_the_sequence_goes_on() -> None:
+def test_an_identical_repeat_is_dropped_harmlessly_and_the_sequence_goes_on() -> None:
+    # A driver that sends every frame twice (or a redundant scheme) is no second sender.
     link = Link()
     assert link.send(3, 4, 4, 5) == [3, 4, 5]
-    assert link.reader.rejected[dbc.RejectReason.COUNTER] == 1
+    assert link.reader.verdicts[Verdict.REPEAT] == 1
+    assert link.reader.rejected[dbc.RejectReason.COUNTER] == 0
+    assert link.reader.reject_faults.count == 0
     assert not link.reader.untrusted
+
+
+def test_a_repeat_asking_for_something_else_is_a_second_sender() -> None:
+    link = Link()
+    assert link.send(3, 4) == [3, 4]
+    forged = dbc.encode_command(MovementCommand(1.0, 0.0, 0.0, Gear.FORWARD, 4))[1]
+    assert link.send(4, data=forged) == []
+    assert link.reader.verdicts[Verdict.CONFLICT] == 1
+    assert link.reader.untrusted
 
 
 def test_one_lost_frame_costs_one_frame_and_leaves_the_message_trusted() -> None:
     link = Link()
     assert link.send(3, 5, 6) == [3, 6]  # 5 skipped a counter; 6 follows 5 and is accepted
-    assert list(link.reader.trust[MOVEMENT_ID].misses) == [False, True, False]
+    assert link.reader.states[MOVEMENT_ID].window == (False, True, False)
     assert not link.reader.untrusted
 
 
-def test_a_second_sender_one_counter_ahead_makes_the_message_untrusted() -> None:
-    """Hazard 10: half the frames intact, so a leaky count (+1 miss, -1 good) stays balanced."""
+def test_a_second_sender_taking_over_the_sequence_is_caught_by_the_computers_next_frame() -> None:
+    """Hazard 10 and issue 30: a second node sends the computer's next counter half a period
+    after the computer, asking for something else. Its one frame is used; the computer's own
+    next frame then repeats that counter asking for something else: a conflict, the id
+    untrusted. Before, its frames drove the throttle for 55 ms (three misses in a window)."""
     link = Link()
-    interleaved = [c for k in range(8) for c in (2 * k % 16, (2 * k + 1) % 16, (2 * k + 1) % 16)]
-    accepted = link.send(*interleaved)
-    misses = list(link.reader.trust[MOVEMENT_ID].misses)
-    assert sum(misses) >= COUNTER_MISS_LIMIT
+    own = MovementCommand(0.1, 0.2, 0.0, Gear.FORWARD, 0)
+    taken: list[float] = []
+    for counter in range(8):
+        link.sender.send(
+            CanFrame(MOVEMENT_ID, dbc.encode_command(replace(own, counter=counter))[1])
+        )
+        link.clock.advance(0.01)
+        taken += [c.value.throttle_norm for c in link.reader.poll(link.clock.now())]  # type: ignore[union-attr]
+        if counter >= 5:  # the impostor, half a period later, with the computer's next counter
+            forged = replace(own, throttle_norm=0.8, counter=counter + 1)
+            link.sender.send(CanFrame(MOVEMENT_ID, dbc.encode_command(forged)[1]))
+        link.clock.advance(0.01)
+        taken += [c.value.throttle_norm for c in link.reader.poll(link.clock.now())]  # type: ignore[union-attr]
+    assert taken.count(0.8) == 1  # one period of its request, then nothing
+    assert link.reader.verdicts[Verdict.CONFLICT] >= 1
     assert link.reader.untrusted
-    assert len(accepted) < len(interleaved) * 2 // 3
-    assert link.reader.untrusted_frames > 0
+
+
+def test_a_second_sender_whose_frames_fail_to_conflict_is_still_caught_by_its_misses() -> None:
+    """Counters out of step (a replaying node) cost trust over the window as before."""
+    link = Link()
+    interleaved = [c for k in range(8) for c in (2 * k % 16, (2 * k + 5) % 16)]
+    accepted = link.send(*interleaved)
+    assert sum(link.reader.states[MOVEMENT_ID].window) >= COUNTER_MISS_LIMIT
+    assert link.reader.untrusted
+    assert len(accepted) < 3
 
 
 def test_an_untrusted_message_needs_a_whole_window_of_good_frames() -> None:
@@ -138,7 +175,20 @@ def test_a_frame_the_codec_could_not_read_restarts_the_sequence_instead_of_a_mis
     assert link.send(3) == [3]
     assert link.send(4, data=bad) == []
     assert link.send(5) == [5]
-    assert True not in link.reader.trust[MOVEMENT_ID].misses
+    assert True not in link.reader.states[MOVEMENT_ID].window
+
+
+def test_a_forgery_after_an_unreadable_frame_is_judged_against_the_last_frame_read() -> None:
+    """Issue 30, finding 1: a second node answered each frame with a bad CRC and then a forgery
+    carrying the counter just used; the unreadable frame reset the expected counter, so the
+    forgery was accepted (full right lock at 0.78 m/s)."""
+    link = Link()
+    assert link.send(3) == [3]
+    _, payload = dbc.encode_command(MovementCommand(0.0, 0.0, 0.0, Gear.FORWARD, 4))
+    assert link.send(4, data=bytes([payload[0] ^ 1, *payload[1:]])) == []
+    forged = dbc.encode_command(MovementCommand(1.0, 0.0, 0.0, Gear.FORWARD, 3))[1]
+    assert link.send(3, data=forged) == []
+    assert link.reader.untrusted
 
 
 def test_corrupt_frames_are_counted_per_frame_and_flagged_at_the_poll_time() -> None:
@@ -212,6 +262,68 @@ def test_a_remote_stop_counts_as_arriving_on_the_first_frame_that_carries_it() -
     assert link.control(1, stop=True) == CommandEdges()
     link.clock.advance(0.15)
     assert link.control(2, stop=True) == CommandEdges(remote_stop=True)  # the safe direction
+
+
+# --- a stop always gets through (issue 29) -------------------------------------------------------
+
+
+def _raw_control(link: Link, counter: int, *, stop: bool) -> None:
+    frame_id, payload = dbc.encode_command(ControlCommand(stop, False, counter))
+    link.sender.send(CanFrame(frame_id, payload))
+    link.clock.advance(0.02)
+    link.reader.poll(link.clock.now())
+
+
+def test_a_stop_in_an_intact_frame_arrives_whatever_its_counter() -> None:
+    link = Link()
+    counter = link.settle()
+    before = link.reader.stop_requests
+    _raw_control(link, counter + 3, stop=True)  # a skipped counter: a miss, the stop passes
+    assert link.reader.rejected[dbc.RejectReason.COUNTER] == 1
+    assert link.reader.stop_requests == before + 1
+
+
+def test_a_stop_arrives_on_an_untrusted_id_and_a_re_enable_does_not() -> None:
+    link = Link()
+    counter = link.settle()
+    frame_id, payload = dbc.encode_command(ControlCommand(False, True, counter - 1))
+    link.sender.send(CanFrame(frame_id, payload))  # a second sender: the counter just used
+    link.clock.advance(0.02)
+    link.reader.poll(link.clock.now())
+    assert link.reader.untrusted
+    before = link.reader.stop_requests
+    _raw_control(link, counter, stop=True)
+    assert link.reader.stop_requests == before + 1
+    assert link.control(counter + 1, re_enable=True) == CommandEdges()
+
+
+def test_a_stop_held_by_every_frame_is_one_arrival_and_a_corrupt_one_none() -> None:
+    link = Link()
+    counter = link.settle()
+    before = link.reader.stop_requests
+    _raw_control(link, counter, stop=True)
+    arrivals = link.reader.stop_requests
+    assert arrivals > before  # the frame may be counted by both paths: one arrival
+    for offset in range(1, 10):  # held by every later frame
+        _raw_control(link, counter + offset, stop=True)
+    assert link.reader.stop_requests == arrivals
+    frame_id, payload = dbc.encode_command(ControlCommand(True, False, 0))
+    link.clock.advance(0.2)
+    link.sender.send(CanFrame(frame_id, payload[:-1] + bytes((payload[-1] ^ 0x5A,))))
+    link.clock.advance(0.02)
+    link.reader.poll(link.clock.now())
+    assert link.reader.stop_requests == arrivals  # a bad CRC carries nothing, not even a stop
+
+
+def test_an_untrusted_lights_id_affects_the_lights_alone() -> None:
+    link = Link()
+    frame_id = dbc.frame_id(LightsCommand)
+    for counter in (0, 1, 0, 1, 0, 1, 0, 1):  # two senders on one id
+        payload = dbc.encode_command(LightsCommand(False, False, True, False, counter))[1]
+        link.sender.send(CanFrame(frame_id, payload))
+    link.poll()
+    assert link.reader.lights_untrusted
+    assert not link.reader.untrusted
 
 
 # --- IBUS ----------------------------------------------------------------------------------------

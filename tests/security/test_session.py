@@ -10,7 +10,7 @@ from bywire.hal.ports import CanFrame
 from bywire.protocol import dbc, secoc
 from bywire.protocol.secoc import MAX_COUNTER, SecocKey
 from bywire.security.freshness import Adoption, FreshnessStore
-from bywire.security.session import AuthFailure, SecocReceiver, SecocSigner
+from bywire.security.session import DELIVERY_SLACK_S, AuthFailure, SecocReceiver, SecocSigner
 
 KEY = SecocKey(bytes(range(16)))
 MOVEMENT = 0x101
@@ -53,10 +53,34 @@ def test_a_pdu_later_than_the_window_leaves_the_command_rejected() -> None:
     auth = _signed(signer, MOVEMENT, payload)
     receiver.offer(MOVEMENT, payload, 1.000)
     assert receiver.expire(1.004) == []
-    assert receiver.expire(1.006) == [(MOVEMENT, AuthFailure.NO_AUTHENTICATOR)]
-    late = receiver.offer(auth.arbitration_id, auth.data, 1.006)
+    late = receiver.offer(auth.arbitration_id, auth.data, 1.006)  # stamped 6 ms after it
     assert late.verified is None
-    assert late.failures == ((MOVEMENT, AuthFailure.ORPHAN),)
+    assert late.failures == (
+        (MOVEMENT, AuthFailure.NO_AUTHENTICATOR),
+        (MOVEMENT, AuthFailure.ORPHAN),
+    )
+
+
+def test_a_pdu_stamped_within_the_window_pairs_even_when_read_a_poll_later() -> None:
+    # Issue 32: in real time the loop read a command and its PDU in different polls, 10 ms
+    # apart, and expired the command first: the pairing failed in pairs, on every command.
+    signer, receiver = _ends(window_s=0.005)
+    payload = bytes(8)
+    auth = _signed(signer, MOVEMENT, payload)
+    receiver.offer(MOVEMENT, payload, 1.000)
+    assert receiver.expire(1.010) == []  # the poll that read the command
+    paired = receiver.offer(auth.arbitration_id, auth.data, 1.001)  # read by the next poll
+    assert paired.verified == (MOVEMENT, payload)
+    assert paired.failures == ()
+
+
+def test_a_command_whose_pdu_never_comes_expires_after_the_window_and_the_slack() -> None:
+    _, receiver = _ends(window_s=0.005)
+    receiver.offer(MOVEMENT, bytes(8), 1.000)
+    assert receiver.expire(1.000 + 0.005 + DELIVERY_SLACK_S - 0.001) == []
+    assert receiver.expire(1.000 + 0.005 + DELIVERY_SLACK_S + 0.001) == [
+        (MOVEMENT, AuthFailure.NO_AUTHENTICATOR)
+    ]
 
 
 def test_a_malformed_pdu_and_a_displaced_command_are_failures() -> None:

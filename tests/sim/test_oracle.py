@@ -357,8 +357,17 @@ def test_h5_holds_the_steering_from_when_the_drive_must_be_cut_not_from_the_stop
 def test_driving_on_in_stop_is_h1_alone_not_h5_as_well() -> None:
     oracle = _in_stop(duty=0.0)
     oracle.world.gpio["motors_enable"].set(True)
+    oracle.world.gpio["ebrake_release"].set(True)
     oracle.observe(0.01)
     assert [v.invariant for v in oracle.violations] == ["H1"]
+
+
+def test_a_stop_with_the_e_brake_engaged_is_judged_by_h5_even_with_the_drive_powered() -> None:
+    # A controlled stop (category 1) keeps the enable line high: its hydraulic brake is judged.
+    oracle = _in_stop(duty=0.0)
+    oracle.world.gpio["motors_enable"].set(True)
+    oracle.observe(0.01)
+    assert "H5" in {v.invariant for v in oracle.violations}
 
 
 # --- a write that hangs the loop, short of a watchdog trip ---------------------------------------

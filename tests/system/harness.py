@@ -12,6 +12,18 @@ from bywire.runtime.app import Runtime
 from bywire.runtime.settings import RuntimeConfig
 
 THROTTLE_CHANNEL = 0
+REGEN_CHANNEL = 1
+
+
+def volts_at(history: list[tuple[float, int, float]], wanted: int, time_s: float) -> float:
+    """The volts DAC channel `wanted` drove at `time_s`, from the DAC's change history."""
+    volts = 0.0
+    for stamp_s, channel, value in history:
+        if stamp_s > time_s:
+            break
+        if channel == wanted:
+            volts = value
+    return volts
 
 
 @dataclass
@@ -52,13 +64,13 @@ class Robot:
         return self.world.gpio[line].level_at(time_s)
 
     def throttle_volts(self, time_s: float) -> float:
-        volts = 0.0
-        for stamp_s, channel, value in self.world.dac.history:
-            if stamp_s > time_s:
-                break
-            if channel == THROTTLE_CHANNEL:
-                volts = value
-        return volts
+        return self._dac_volts(THROTTLE_CHANNEL, time_s)
+
+    def regen_volts(self, time_s: float) -> float:
+        return self._dac_volts(REGEN_CHANNEL, time_s)
+
+    def _dac_volts(self, wanted: int, time_s: float) -> float:
+        return volts_at(self.world.dac.history, wanted, time_s)
 
     def first_time(self, after_s: float, condition: Callable[[float], bool]) -> float | None:
         """Earliest change time ≥ after_s at which `condition(time)` holds (every output change)."""
@@ -68,6 +80,16 @@ class Robot:
         return next((stamp for stamp in [after_s, *times] if condition(stamp)), None)
 
     def safe_at(self, time_s: float) -> bool:
+        """Stopping: e-brake engaged, throttle at 0 V, and the drive off or (a controlled stop,
+        category 1) braking with the regenerative brake."""
+        return (
+            not self.level("ebrake_release", time_s)
+            and self.throttle_volts(time_s) == 0.0
+            and (not self.level("motors_enable", time_s) or self.regen_volts(time_s) > 0.0)
+        )
+
+    def off_at(self, time_s: float) -> bool:
+        """The drive's power removed: enable low, e-brake engaged, throttle at 0 V."""
         return (
             not self.level("ebrake_release", time_s)
             and not self.level("motors_enable", time_s)

@@ -15,14 +15,15 @@ from typing import Any
 
 import pytest
 
-from bywire.control import controller, mux, supervisor
+from bywire.control import controller, dac_health, mux, supervisor
 from bywire.control.drive import drive_outputs
+from bywire.control.input_stage import Decoded, MessageState, Verdict, message_step
 from bywire.control.interlocks import interlock_step
 from bywire.control.mux import Movement
 from bywire.control.steering import steering_step
 from bywire.control.supervisor import DRIVING_MODES, SupervisorState, supervisor_step
 from bywire.model import ControlMode
-from bywire.runtime import actuators, readers, write_gate
+from bywire.runtime import readers, write_gate
 
 OldBug = Callable[[pytest.MonkeyPatch], None]
 
@@ -63,7 +64,7 @@ def row_6_no_debounce(monkeypatch: pytest.MonkeyPatch) -> None:
 
 
 def row_7_only_consecutive_dac_failures_count(monkeypatch: pytest.MonkeyPatch) -> None:
-    monkeypatch.setattr(actuators, "DAC_LEAK", 1.0)  # one good write wipes the count
+    monkeypatch.setattr(dac_health, "DAC_LEAK", 1.0)  # one good write wipes the count
 
 
 def row_8_a_write_in_flight_lands_after_the_trip(monkeypatch: pytest.MonkeyPatch) -> None:
@@ -76,14 +77,18 @@ def row_8_a_write_in_flight_lands_after_the_trip(monkeypatch: pytest.MonkeyPatch
     monkeypatch.setattr(write_gate.WriteGate, "write", unchecked)
 
 
-def row_12_a_leaky_counter_half_an_impostor_balances(monkeypatch: pytest.MonkeyPatch) -> None:
-    levels: dict[int, int] = {}  # by id(): each trust keeps its own leaky level
+def issue_30_an_unreadable_frame_restarts_the_sequence(monkeypatch: pytest.MonkeyPatch) -> None:
+    # dce19d3's reader: a frame the codec could not read started the sequence afresh, so a
+    # forgery carrying the counter just used, right after a bad CRC, was accepted (issue 30,
+    # finding 1: full right lock at 0.78 m/s, the id never untrusted).
+    def restarting(
+        state: MessageState, frame: Decoded, at: float, timeout: float
+    ) -> tuple[MessageState, Verdict]:
+        if not frame.readable:
+            return MessageState(window=state.window, untrusted=state.untrusted), Verdict.UNREADABLE
+        return message_step(state, frame, at, timeout)
 
-    def leaky(self: readers._CounterTrust, miss: bool) -> None:
-        levels[id(self)] = max(levels.get(id(self), 0) + (1 if miss else -1), 0)
-        self.untrusted = levels[id(self)] >= 3
-
-    monkeypatch.setattr(readers._CounterTrust, "record", leaky)
+    monkeypatch.setattr(readers, "message_step", restarting)
 
 
 def hazard_10_a_re_enable_forgives_a_second_sender(monkeypatch: pytest.MonkeyPatch) -> None:
@@ -162,7 +167,7 @@ OLD_BUGS: dict[str, OldBug] = {
         row_6_no_debounce,
         row_7_only_consecutive_dac_failures_count,
         row_8_a_write_in_flight_lands_after_the_trip,
-        row_12_a_leaky_counter_half_an_impostor_balances,
+        issue_30_an_unreadable_frame_restarts_the_sequence,
         hazard_10_a_re_enable_forgives_a_second_sender,
         hazard_6_stop_spares_the_hydraulic_brake,
         hazard_19_the_interlock_takes_the_robot_for_standing,

@@ -46,6 +46,10 @@ COMMANDS: dict[str, tuple[str, str]] = {
         "bywire.cli.teleop",
         "drive the robot or the simulator from the keyboard; shows its reports",
     ),
+    "ros2": (
+        "bywire.cli.ros2",
+        "the higher-level computer's ROS 2 node: cmd_vel in, odom and diagnostics out",
+    ),
     "dashboard": (
         "bywire.cli.dashboard",
         "live view of the controller on the simulated robot: mode, outputs, flags, task table",

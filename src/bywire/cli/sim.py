@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import argparse
 import contextlib
+import importlib
 import json
 import signal
 import sys
@@ -17,7 +18,7 @@ import time
 from collections.abc import Callable, Iterator
 from dataclasses import replace
 from pathlib import Path
-from types import FrameType
+from types import FrameType, ModuleType
 
 from rich.console import Console
 from rich.markup import escape
@@ -109,6 +110,13 @@ def configure(parser: argparse.ArgumentParser) -> None:
         type=Path,
         metavar="FILE.blf|.asc|.log",
         help="write every CAN frame (BLF, Vector ASC or candump -L, by suffix)",
+    )
+    parser.add_argument(
+        "--rosbag",
+        type=Path,
+        metavar="DIR",
+        help="write a rosbag2 (MCAP) of the bus to this new folder: every frame, the decoded"
+        " reports, odometry and diagnostics, for ros2 bag and Foxglove (needs bywire[ros])",
     )
     parser.add_argument(
         "--record",
@@ -219,6 +227,7 @@ def _one_run(
         show_progress=sys.stderr.isatty() and not args.json,
         serve=args.serve,
         feed=feed,
+        rosbag=args.rosbag,
     )
     # A file that cannot be written whole is one line of its own; the run, the summary and the
     # other files go on (exit 1: what was asked for is not all there).
@@ -231,6 +240,7 @@ def _one_run(
     files = {"plot": _name(args.plot), "can_log": _name(args.log)}
     files.update({} if recorder is None else {"record": str(recorder.path)})
     files.update({} if args.mcap is None else {"mcap": str(args.mcap)})
+    files.update({} if args.rosbag is None else {"rosbag": str(args.rosbag)})
     if args.json:
         print(json.dumps({**summary.as_json(), "files": files, "file_errors": failures}, indent=2))
     else:
@@ -288,6 +298,8 @@ def _file_lines(args: argparse.Namespace, frames_logged: int) -> list[str]:
         lines.append(f"Run record: {args.record} (for bywire replay)")
     if args.mcap is not None:
         lines.append(f"MCAP: {args.mcap} (open it in Foxglove)")
+    if args.rosbag is not None:
+        lines.append(f"rosbag2: {args.rosbag} (ros2 bag info {args.rosbag})")
     return lines
 
 
@@ -308,6 +320,8 @@ def _check_one_run(args: argparse.Namespace) -> None:
         check_log_path(args.log)
     if args.mcap is not None:
         check_mcap_path(args.mcap)
+    if args.rosbag is not None:
+        rosbag_module().check_bag_path(args.rosbag)
 
 
 def _name(path: Path | None) -> str | None:
@@ -321,6 +335,7 @@ def _play(
     show_progress: bool,
     serve: Endpoint | None = None,
     feed: tuple[FeedSinks, FeedOptions] | None = None,
+    rosbag: Path | None = None,
 ) -> tuple[float, int, str | None]:
     """Run to the end; (wall seconds, frames logged, why the log stopped early if it did). The
     log is closed even if the run fails."""
@@ -329,6 +344,9 @@ def _play(
         if log_path is not None:
             log = stack.enter_context(CanLog(log_path, sim.started_at))
             sim.add_can_monitor(log)
+        if rosbag is not None:
+            bag = rosbag_module().RosbagExport(rosbag, sim.started_at, time.time(), sim.robot)
+            sim.add_can_monitor(stack.enter_context(bag))
         if serve is not None:
             _serve(stack, sim, serve)
         if feed is not None:
@@ -417,7 +435,19 @@ def _list(*, as_json: bool) -> None:
     _Console().print(table)
 
 
-ONE_RUN_OPTIONS = ("duration", "realtime", "plot", "log", "record", "serve", "mcap", "foxglove")
+ONE_RUN_OPTIONS = (
+    *("duration", "realtime", "plot", "log", "record", "serve", "mcap", "foxglove", "rosbag"),
+)
+
+
+def rosbag_module() -> ModuleType:
+    """bywire.ros2.bag, whose rosbags is optional: one line saying how to get it otherwise."""
+    try:
+        return importlib.import_module("bywire.ros2.bag")
+    except ModuleNotFoundError as error:
+        if error.name is None or not error.name.startswith("rosbags"):
+            raise
+        raise ConfigError("--rosbag needs rosbags: pip install 'bywire[ros]'") from None
 
 
 def _run_all(args: argparse.Namespace) -> int:

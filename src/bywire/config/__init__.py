@@ -22,12 +22,14 @@ from bywire.config.model import (
     RobotConfig,
     SimSection,
     SteeringSection,
+    StopSection,
     TasksSection,
     TelemetrySection,
     TimeoutsSection,
     output_lines,
 )
 from bywire.config.render import as_dict, describe
+from bywire.config.vehicle import VehicleSection
 
 __all__ = [
     "OUTPUT_LINE_KEYS",
@@ -45,9 +47,11 @@ __all__ = [
     "RobotConfig",
     "SimSection",
     "SteeringSection",
+    "StopSection",
     "TasksSection",
     "TelemetrySection",
     "TimeoutsSection",
+    "VehicleSection",
     "as_dict",
     "default_sim_config",
     "describe",

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 from bywire.config.reader import Interval
+from bywire.control.stop import MAX_CONTROLLED_STOP_S, MIN_CONTROLLED_STOP_S
 from bywire.protocol import bittiming
 
 POSITIVE_NORM_PER_S = Interval(0.0, 100.0, "norm/s", low_open=True)
@@ -25,6 +26,10 @@ THRESHOLD_NORM = Interval(0.0, 1.0, high_open=True)
 BLINK_HZ = Interval(0.5, 5.0, "Hz")
 INPUT_TIMEOUT_S = Interval(0.020, 1.0, "s")
 WATCHDOG_S = Interval(0.020, 5.0, "s")
+PASS_BUDGET_S = Interval(0.002, 0.050, "s")
+WRITE_BUDGET_S = Interval(0.0005, 0.020, "s")
+CONTROLLED_STOP_S = Interval(MIN_CONTROLLED_STOP_S, MAX_CONTROLLED_STOP_S, "s")
+STOP_DECEL_MPS2 = Interval(0.1, 5.0, "m/s²")
 TASK_RATE_HZ = Interval(1.0, 1000.0, "Hz")
 TELEMETRY_RATE_HZ = Interval(0.1, 1000.0, "Hz")
 GPIO_OFFSETS = range(1024)

@@ -24,12 +24,14 @@ from bywire.config.sections import (
     realtime_section,
     sim_section,
     steering_section,
+    stop_section,
     supervisor_section,
     tasks_section,
     telemetry_section,
     timeouts_section,
 )
 from bywire.config.security import SecuritySection, security_section
+from bywire.config.vehicle import vehicle_section
 from bywire.errors import ConfigError
 from bywire.security.keys import check_configuration_file, read_key_file
 from bywire.textfile import read_text
@@ -103,6 +105,7 @@ def build_robot(data: Mapping[str, object], problems: Problems) -> RobotConfig:
         ebrake=ebrake_section(root.table("ebrake"), chip),
         lights=lights_section(root.table("lights"), chip),
         timeouts=timeouts_section(root.table("timeouts")),
+        stop=stop_section(root.table("stop")),
         interlocks=interlocks_section(root.table("interlocks")),
         monitors=monitors_section(root.table("monitors")),
         supervisor=supervisor_section(root.table("supervisor")),
@@ -111,6 +114,7 @@ def build_robot(data: Mapping[str, object], problems: Problems) -> RobotConfig:
         telemetry=telemetry_section(root.table("telemetry")),
         sim=sim_section(root.table("sim")),
         security=security_section(root.table("security"), backend),
+        vehicle=vehicle_section(root.table("vehicle")),
     )
     root.close()
     return config

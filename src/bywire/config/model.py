@@ -11,6 +11,7 @@ from dataclasses import dataclass, field, fields
 from typing import Literal
 
 from bywire.config.security import SecuritySection
+from bywire.config.vehicle import VehicleSection
 from bywire.control.drive import DriveConfig
 from bywire.control.hydrobrake import DEFAULT_THRESHOLD_NORM
 from bywire.control.interlocks import InterlockConfig
@@ -147,6 +148,9 @@ class TimeoutsSection:
     rc_timeout_s: float = 0.100
     can_command_timeout_s: float = 0.100
     watchdog_s: float = 0.200
+    pass_budget_s: float = 0.020  # one loop pass; also how late it may start (timing.Budgets)
+    write_budget_s: float = 0.010  # one GPIO or PWM write
+    dac_transfer_budget_s: float = 0.010  # one I2C transfer to the DAC
     can_message_timeout_s: tuple[tuple[str, float], ...] = tuple(
         (name, 0.100) for name in CAN_COMMAND_NAMES
     )
@@ -166,6 +170,16 @@ class TasksSection:
     def rate_hz(self, name: str) -> float:
         """The configured rate of the task `name` (KeyError for no such task)."""
         return dict(self.rates_hz)[name]
+
+
+@dataclass(frozen=True, slots=True)
+class StopSection:
+    """How a controlled stop (category 1, `bywire.control.stop`) may last: the drive stays
+    powered to brake for at most `controlled_max_s`, and must slow the robot by at least
+    `controlled_min_decel_mps2` (where a wheel-speed sensor can tell), else power goes off."""
+
+    controlled_max_s: float = 2.5
+    controlled_min_decel_mps2: float = 0.5
 
 
 @dataclass(frozen=True, slots=True)
@@ -243,6 +257,7 @@ class RobotConfig:
     ebrake: EbrakeSection = field(default_factory=EbrakeSection)
     lights: LightsSection = field(default_factory=LightsSection)
     timeouts: TimeoutsSection = field(default_factory=TimeoutsSection)
+    stop: StopSection = field(default_factory=StopSection)
     interlocks: InterlockConfig = field(default_factory=InterlockConfig)
     monitors: MonitorConfig = field(default_factory=MonitorConfig)
     supervisor: SupervisorConfig = field(default_factory=SupervisorConfig)
@@ -251,6 +266,7 @@ class RobotConfig:
     telemetry: TelemetrySection = field(default_factory=TelemetrySection)
     sim: SimSection = field(default_factory=SimSection)
     security: SecuritySection = field(default_factory=SecuritySection)
+    vehicle: VehicleSection = field(default_factory=VehicleSection)
 
 
 OUTPUT_SECTIONS = ("drive", "ebrake", "lights")

@@ -9,6 +9,7 @@ from bywire.config.limits import (
     BITRATES_BPS,
     BOOST_GAIN,
     CLOCKS_HZ,
+    CONTROLLED_STOP_S,
     CPU_NUMBERS,
     DEADBAND_NORM,
     DEBOUNCE_FRAMES,
@@ -18,6 +19,7 @@ from bywire.config.limits import (
     FIFO_PRIORITY,
     IBUS_BAUD,
     INPUT_TIMEOUT_S,
+    PASS_BUDGET_S,
     POSITIVE_NORM_PER_S,
     PRESSURE_BAR,
     PULSE_S,
@@ -33,11 +35,13 @@ from bywire.config.limits import (
     SPEED_CHANGE_MPS2,
     SPEED_STEP_MPS,
     STANDSTILL_MPS,
+    STOP_DECEL_MPS2,
     TASK_RATE_HZ,
     TELEMETRY_RATE_HZ,
     TOLERANCE_NORM,
     TOP_SPEED_MPS,
     WATCHDOG_S,
+    WRITE_BUDGET_S,
 )
 from bywire.config.model import (
     ALL_CPUS,
@@ -50,6 +54,7 @@ from bywire.config.model import (
     RealtimeSection,
     SimSection,
     SteeringSection,
+    StopSection,
     TasksSection,
     TelemetrySection,
     TimeoutsSection,
@@ -189,7 +194,26 @@ def timeouts_section(table: Table) -> TimeoutsSection:
         rc_timeout_s=table.number("rc_timeout_s", default.rc_timeout_s, INPUT_TIMEOUT_S),
         can_command_timeout_s=can_default_s,
         watchdog_s=table.number("watchdog_s", default.watchdog_s, WATCHDOG_S),
+        pass_budget_s=table.number("pass_budget_s", default.pass_budget_s, PASS_BUDGET_S),
+        write_budget_s=table.number("write_budget_s", default.write_budget_s, WRITE_BUDGET_S),
+        dac_transfer_budget_s=table.number(
+            "dac_transfer_budget_s", default.dac_transfer_budget_s, WRITE_BUDGET_S
+        ),
         can_message_timeout_s=per_message,
+    )
+    table.close()
+    return section
+
+
+def stop_section(table: Table) -> StopSection:
+    default = StopSection()
+    section = StopSection(
+        controlled_max_s=table.number(
+            "controlled_max_s", default.controlled_max_s, CONTROLLED_STOP_S
+        ),
+        controlled_min_decel_mps2=table.number(
+            "controlled_min_decel_mps2", default.controlled_min_decel_mps2, STOP_DECEL_MPS2
+        ),
     )
     table.close()
     return section

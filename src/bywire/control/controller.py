@@ -13,7 +13,7 @@ from dataclasses import dataclass, field
 from typing import Protocol, TypeVar
 
 from bywire.control.command_edges import NO_EDGES, CommandEdges
-from bywire.control.drive import DriveConfig, DriveOutputs, drive_outputs
+from bywire.control.drive import SAFE_DRIVE, DriveConfig, DriveOutputs, braking_drive, drive_outputs
 from bywire.control.error_flags import ErrorFlag
 from bywire.control.hydrobrake import DEFAULT_THRESHOLD_NORM, hydrobrake_duty
 from bywire.control.interlocks import InterlockConfig, InterlockState, interlock_step
@@ -22,13 +22,20 @@ from bywire.control.monitors import MonitorConfig, MonitorInputs, MonitorState, 
 from bywire.control.mux import Movement, movement_from
 from bywire.control.rc_mapping import RcMapping, RcRequest
 from bywire.control.speed_check import SpeedCheckState, cleared, speed_check_step, trusted_speed
-from bywire.control.steering import SteeringConfig, SteeringState, steering_step
+from bywire.control.steering import (
+    SteeringConfig,
+    SteeringState,
+    pulse_for_steering,
+    steering_step,
+)
+from bywire.control.stop import NOT_STOPPING, StopConfig, StopPhase, StopState, stop_step
 from bywire.control.supervisor import (
     Cause,
     SupervisorConfig,
     SupervisorInputs,
     SupervisorState,
     counting,
+    stop_category,
     supervisor_step,
 )
 from bywire.control.validity import Stamped, fresh, is_fresh
@@ -64,6 +71,7 @@ class ControlConfig:
     interlocks: InterlockConfig = field(default_factory=InterlockConfig)
     monitors: MonitorConfig = field(default_factory=MonitorConfig)
     supervisor: SupervisorConfig = field(default_factory=SupervisorConfig)
+    stop: StopConfig = field(default_factory=StopConfig)
 
 
 @value
@@ -73,9 +81,12 @@ class ControlInputs:
     `rc` holds None as its value when the last frame was intact but implausible (failsafe flags,
     a channel out of range): that counts as a lost link at once, not after the timeout.
     `rc_frames` and `control_frames` count arrivals, so the decision sees which frame is new;
-    `control_edges` are the edges the newest ControlCommand frame made (see `command_edges`).
+    `control_edges` are the edges the newest ControlCommand frame made (see `command_edges`);
+    `stop_requests` counts remote stop requests that arrived, from any intact frame (the reader
+    passes them whatever the counter or trust): a change is a remote stop arriving.
     `fault_flags` are the conditions only the shell can see (DAC writes, CAN transmit, overruns);
-    `dac_failing`, `watchdog_tripped` and `can_untrusted` are the shell's conditions that stop.
+    `dac_failing`, `watchdog_tripped`, `timing_fault` and `can_untrusted` (a movement or control
+    id) are the shell's conditions that stop; `lights_untrusted` affects the lights alone.
     """
 
     rc: Stamped[RcRequest | None] | None = None
@@ -85,10 +96,13 @@ class ControlInputs:
     control_edges: CommandEdges = NO_EDGES
     rc_frames: int = 0
     control_frames: int = 0
+    stop_requests: int = 0
     fault_flags: int = 0
     dac_failing: bool = False
     watchdog_tripped: bool = False
     can_untrusted: bool = False
+    lights_untrusted: bool = False
+    timing_fault: bool = False
     speed_mps: float | None = None  # signed, positive forward; None without a speed sensor
     hydrobrake_pressure_bar: float | None = None  # None without a pressure sensor
     steering_measured_norm: float | None = None  # None without a steering encoder
@@ -107,6 +121,9 @@ class ControlState:
     applied_throttle_norm: float = 0.0  # as applied by the previous step (0 while disabled)
     rc_frames_seen: int = 0
     control_frames_seen: int = 0
+    stop_requests_seen: int = 0
+    stop: StopState = NOT_STOPPING
+    drive_applied: DriveOutputs = SAFE_DRIVE  # as the previous step left it
 
 
 @value
@@ -118,6 +135,8 @@ class ControlOutputs:
     movement: Movement  # after the supervisor's throttle gate and the interlocks
     direction_change_held: bool
     steering_pulse_s: float
+    steering_hold_pulse_s: float  # the commanded position, without boost: what a trip holds
+    stop_phase: StopPhase
     drive: DriveOutputs
     hydrobrake_duty: float
     ebrake_engaged: bool
@@ -141,8 +160,16 @@ def _sources(inputs: ControlInputs, now: float, config: ControlConfig) -> _Sourc
         rc=fresh(inputs.rc, now, config.rc_timeout_s),
         can_movement=fresh(inputs.movement, now, config.movement_timeout_s),
         control=fresh(inputs.control, now, config.control_timeout_s),
-        lights=fresh(inputs.lights, now, config.lights_timeout_s),
+        lights=_lights(inputs, now, config),
     )
+
+
+def _lights(inputs: ControlInputs, now: float, config: ControlConfig) -> LightsCommand | None:
+    """The lights asked for: while the id is untrusted (another sender), the last trusted
+    request is held whatever its age, and the lights alone are affected."""
+    if inputs.lights_untrusted and inputs.lights is not None:
+        return inputs.lights.value
+    return fresh(inputs.lights, now, config.lights_timeout_s)
 
 
 def _conditions(
@@ -161,6 +188,7 @@ def _conditions(
         (sources.control is not None and sources.control.remote_stop, Cause.REMOTE_STOP),
         (inputs.dac_failing, Cause.DAC_FAULT),
         (inputs.watchdog_tripped, Cause.WATCHDOG),
+        (inputs.timing_fault, Cause.TIMING),
         *((bool(stopping & int(flag)), cause) for flag, cause in MONITOR_CAUSES),
     )
     return frozenset(cause for holds, cause in held if holds)
@@ -177,7 +205,7 @@ def _supervisor_inputs(
         rc_frame=inputs.rc_frames != state.rc_frames_seen,
         rc_throttle_zero=rc is not None and rc.throttle_norm == 0.0,
         can_throttle_zero=can is not None and can.throttle_norm == 0.0,
-        remote_stop_rising=new_control and inputs.control_edges.remote_stop,
+        remote_stop_rising=inputs.stop_requests != state.stop_requests_seen,
         re_enable_edge=new_control and inputs.control_edges.re_enable,
     )
 
@@ -214,6 +242,8 @@ def _input_flags(
         flags |= ErrorFlag.REMOTE_STOP
     if inputs.can_untrusted:
         flags |= ErrorFlag.CAN_UNTRUSTED
+    if inputs.lights_untrusted:
+        flags |= ErrorFlag.LIGHTS_UNTRUSTED
     return flags
 
 
@@ -261,12 +291,18 @@ def controller_step(
     driving = supervisor.mode is not ControlMode.STOP
     if driving and state.supervisor.mode is ControlMode.STOP:
         speed_check = cleared(speed_check)  # an arming event acknowledges a sensor fault
+    speed_mps = trusted_speed(speed_check, inputs.speed_mps)
     interlock, movement, held = interlock_step(
-        state.interlock,
-        _requested(supervisor, sources),
-        trusted_speed(speed_check, inputs.speed_mps),
-        now,
-        config.interlocks,
+        state.interlock, _requested(supervisor, sources), speed_mps, now, config.interlocks
+    )
+    stop, stop_phase = stop_step(
+        state.stop,
+        stopping=not driving,
+        category=stop_category(supervisor.latched),
+        powered=state.drive_applied.enable,
+        speed_mps=speed_mps,
+        now=now,
+        config=config.stop,
     )
     # In STOP the steering holds where it is: centring at speed would be a swerve.
     target_norm = movement.steering_norm if driving else state.steering.setpoint_norm
@@ -282,15 +318,22 @@ def controller_step(
     )
     if speed_check.faulted:
         flags |= int(ErrorFlag.SPEED_SENSOR_FAULT)
+    if stop.escalated:
+        flags |= int(ErrorFlag.STOP_ESCALATED)
     light_request = _light_request(supervisor.mode, sources, movement, flags)
     duty = hydrobrake_duty(movement.brake_norm, config.hydrobrake_threshold_norm)
-    drive = drive_outputs(movement, enabled=driving, config=config.drive)
+    if stop_phase is StopPhase.BRAKING:  # category 1: the drive brakes, powered, at 0 V
+        drive = braking_drive(state.drive_applied, config.drive)
+    else:
+        drive = drive_outputs(movement, enabled=driving, config=config.drive)
     outputs = ControlOutputs(
         mode=supervisor.mode,
         causes=supervisor.latched,
         movement=movement,
         direction_change_held=held,
         steering_pulse_s=pulse_s,
+        steering_hold_pulse_s=pulse_for_steering(steering.setpoint_norm, config.steering),
+        stop_phase=stop_phase,
         drive=drive,
         hydrobrake_duty=duty,
         ebrake_engaged=not driving,
@@ -308,6 +351,9 @@ def controller_step(
         movement.throttle_norm if drive.enable else 0.0,
         inputs.rc_frames,
         inputs.control_frames,
+        inputs.stop_requests,
+        stop,
+        drive,
     )
     return new_state, outputs
 
@@ -327,6 +373,8 @@ class Arrivals(Protocol):
     def control_edges(self) -> CommandEdges: ...
     @property
     def rc_frames(self) -> int: ...
+    @property
+    def stop_requests(self) -> int: ...
 
 
 T = TypeVar("T")
@@ -350,6 +398,8 @@ def changes_decision(
     asks for something new, and not on the hundreds a second that only repeat a request.
     """
     if arrivals.rc_frames != seen.rc_frames and counting(state.supervisor, config.supervisor):
+        return True
+    if arrivals.stop_requests != seen.stop_requests:
         return True
     return not (
         _repeats(arrivals.rc, seen.rc, decided_at, config.rc_timeout_s, operator.eq)

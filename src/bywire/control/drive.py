@@ -56,3 +56,15 @@ def drive_outputs(movement: Movement, enabled: bool, config: DriveConfig) -> Dri
         forward=movement.gear is Gear.FORWARD,
         reverse=movement.gear is Gear.REVERSE,
     )
+
+
+def braking_drive(previous: DriveOutputs, config: DriveConfig) -> DriveOutputs:
+    """A controlled stop's drive (category 1): powered, throttle at 0 V, the regenerative brake
+    at full, the direction lines as they were (the motor controllers brake the way they turn)."""
+    return DriveOutputs(
+        throttle_volts=0.0,
+        regen_volts=config.max_regen_volts,
+        enable=True,
+        forward=previous.forward,
+        reverse=previous.reverse,
+    )

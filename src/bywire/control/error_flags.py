@@ -42,6 +42,9 @@ class ErrorFlag(enum.IntFlag):
     SPEED_SENSOR_FAULT = 1 << 21  # wheel speeds changed faster than the robot can: not used
     NOT_ARMED = 1 << 22  # power-up STOP: the mode switch has not yet passed through STOP
     CAN_AUTH_FAILED = 1 << 23  # a command failed SecOC verification ([security] on)
+    TIMING_FAULT = 1 << 24  # a pass, a port write or a DAC transfer overran its budget
+    LIGHTS_UNTRUSTED = 1 << 25  # LightsCommand's id is untrusted: the last trusted lights held
+    STOP_ESCALATED = 1 << 26  # a controlled stop did not slow the robot: power removed
 
 
 DESCRIPTIONS: dict[ErrorFlag, str] = {
@@ -69,6 +72,9 @@ DESCRIPTIONS: dict[ErrorFlag, str] = {
     ErrorFlag.SPEED_SENSOR_FAULT: "Wheel speeds changed faster than the robot can.",
     ErrorFlag.NOT_ARMED: "Power-up STOP: the mode switch has not yet passed through STOP.",
     ErrorFlag.CAN_AUTH_FAILED: "A command failed SecOC verification (authentication on).",
+    ErrorFlag.TIMING_FAULT: "A loop pass, port write or DAC transfer overran its budget: STOP.",
+    ErrorFlag.LIGHTS_UNTRUSTED: "LightsCommand's id is untrusted: the last trusted lights held.",
+    ErrorFlag.STOP_ESCALATED: "A controlled stop did not slow the robot: drive power removed.",
 }
 """What each flag means, one sentence: the comment of its signal in albert.dbc."""
 
@@ -86,6 +92,7 @@ RECOVERABLE = (
     | ErrorFlag.CAN_AUTH_FAILED
     | ErrorFlag.RC_FAILSAFE
     | ErrorFlag.TASK_OVERRUN
+    | ErrorFlag.LIGHTS_UNTRUSTED
 )
 
 

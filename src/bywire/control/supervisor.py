@@ -33,6 +33,7 @@ import enum
 from dataclasses import replace
 
 from bywire.control.error_flags import ErrorFlag
+from bywire.control.stop import StopCategory
 from bywire.control.values import value
 from bywire.model import ControlMode
 
@@ -40,32 +41,77 @@ DEFAULT_DEBOUNCE_FRAMES = 3
 
 
 class Cause(enum.Enum):
-    """Why STOP is latched; each has its own error flag and its own clearing rule."""
+    """Why STOP is latched: one row per cause, with the error flag it keeps up while latched and
+    its stop category (`bywire.control.stop`); each has its own clearing rule (below).
 
-    POWER_UP = "power-up: move the mode switch through STOP to arm"
-    RC_LOST = "RC frames stopped arriving"
-    RC_IMPLAUSIBLE = "RC frame implausible or failsafe"
-    CAN_LOST = "CAN movement commands stale while in CAN mode"
-    CAN_UNTRUSTED = "a CAN command id carries frames from a second sender or a replay"
-    REMOTE_STOP = "remote stop requested over CAN"
-    DAC_FAULT = "DAC writes failing: motors disabled"
-    WATCHDOG = "the control loop stalled: watchdog tripped"
-    HYDRO_PRESSURE = "hydraulic brake builds no pressure"
-    STEERING_ENCODER = "steering does not follow its command"
+    Category 0 (power off at once) where the drive itself is suspect, category 1 (a controlled
+    stop: the drive powered to brake, then off) where it is healthy: `docs/SAFETY.md` says why
+    for each."""
+
+    def __init__(self, description: str, flag: ErrorFlag, category: StopCategory) -> None:
+        self.description = description
+        self.flag = flag
+        self.category = category
+
+    # nothing drives yet: there is no drive to keep powered
+    POWER_UP = (
+        "power-up: move the mode switch through STOP to arm",
+        ErrorFlag.NOT_ARMED,
+        StopCategory.POWER_OFF,
+    )
+    # the inputs are lost or suspect; the drive is healthy and can brake
+    RC_LOST = ("RC frames stopped arriving", ErrorFlag.RC_TIMEOUT, StopCategory.CONTROLLED)
+    RC_IMPLAUSIBLE = (
+        "RC frame implausible or failsafe",
+        ErrorFlag.RC_FAILSAFE,
+        StopCategory.CONTROLLED,
+    )
+    CAN_LOST = (
+        "CAN movement commands stale while in CAN mode",
+        ErrorFlag.CAN_COMMAND_TIMEOUT,
+        StopCategory.CONTROLLED,
+    )
+    CAN_UNTRUSTED = (
+        "a CAN command id carries frames from a second sender or a replay",
+        ErrorFlag.CAN_UNTRUSTED,
+        StopCategory.CONTROLLED,
+    )
+    REMOTE_STOP = (
+        "remote stop requested over CAN",
+        ErrorFlag.REMOTE_STOP,
+        StopCategory.CONTROLLED,
+    )
+    # the drive path itself is suspect: it may not do what it is told
+    DAC_FAULT = (
+        "DAC writes failing: motors disabled",
+        ErrorFlag.DAC_FAULT_STOP,
+        StopCategory.POWER_OFF,
+    )
+    WATCHDOG = (
+        "the control loop stalled: watchdog tripped",
+        ErrorFlag.WATCHDOG_TRIPPED,
+        StopCategory.POWER_OFF,
+    )
+    # a brake or the steering fails; the drive is healthy, and may be the only brake left
+    HYDRO_PRESSURE = (
+        "hydraulic brake builds no pressure",
+        ErrorFlag.HYDRO_PRESSURE_FAULT,
+        StopCategory.CONTROLLED,
+    )
+    STEERING_ENCODER = (
+        "steering does not follow its command",
+        ErrorFlag.STEERING_ENCODER_FAULT,
+        StopCategory.CONTROLLED,
+    )
+    # the loop cannot keep its deadlines: a controlled stop needs the loop to watch it
+    TIMING = (
+        "a loop pass, a port write or a DAC transfer overran its time budget",
+        ErrorFlag.TIMING_FAULT,
+        StopCategory.POWER_OFF,
+    )
 
 
-CAUSE_FLAGS: dict[Cause, ErrorFlag] = {
-    Cause.POWER_UP: ErrorFlag.NOT_ARMED,
-    Cause.RC_LOST: ErrorFlag.RC_TIMEOUT,
-    Cause.RC_IMPLAUSIBLE: ErrorFlag.RC_FAILSAFE,
-    Cause.CAN_LOST: ErrorFlag.CAN_COMMAND_TIMEOUT,
-    Cause.CAN_UNTRUSTED: ErrorFlag.CAN_UNTRUSTED,
-    Cause.REMOTE_STOP: ErrorFlag.REMOTE_STOP,
-    Cause.DAC_FAULT: ErrorFlag.DAC_FAULT_STOP,
-    Cause.WATCHDOG: ErrorFlag.WATCHDOG_TRIPPED,
-    Cause.HYDRO_PRESSURE: ErrorFlag.HYDRO_PRESSURE_FAULT,
-    Cause.STEERING_ENCODER: ErrorFlag.STEERING_ENCODER_FAULT,
-}
+CAUSE_FLAGS: dict[Cause, ErrorFlag] = {cause: cause.flag for cause in Cause}
 """The flag each latched cause keeps up, so a latched STOP always names its cause."""
 
 CAN_BOUND = frozenset({Cause.CAN_LOST, Cause.CAN_UNTRUSTED, Cause.REMOTE_STOP})
@@ -81,6 +127,15 @@ ACKNOWLEDGED_BY_ARMING = frozenset({Cause.POWER_UP, Cause.WATCHDOG})
 """Causes with no condition of their own to wait for: the arming event itself clears them."""
 
 DRIVING_MODES = (ControlMode.RC, ControlMode.CAN)
+
+
+def stop_category(causes: frozenset[Cause]) -> StopCategory:
+    """How a STOP for these causes stops: power off if any of them says so, else controlled
+    (the operator's switch at STOP with nothing latched is a controlled stop too)."""
+    for cause in causes:
+        if cause.category is StopCategory.POWER_OFF:
+            return StopCategory.POWER_OFF
+    return StopCategory.CONTROLLED
 
 
 @value
@@ -150,7 +205,7 @@ class SupervisorState:
         """The error flags of every latched cause."""
         flags = ErrorFlag(0)
         for cause in self.latched:
-            flags |= CAUSE_FLAGS[cause]
+            flags |= cause.flag
         return flags
 
 

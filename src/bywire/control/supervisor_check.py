@@ -29,9 +29,11 @@ from bywire.model import ControlMode
 
 STOP = ControlMode.STOP
 RC_GONE = frozenset({Cause.RC_LOST, Cause.RC_IMPLAUSIBLE})
-SAME_RULES = frozenset({Cause.DAC_FAULT, Cause.HYDRO_PRESSURE, Cause.STEERING_ENCODER})
+SAME_RULES = frozenset(
+    {Cause.DAC_FAULT, Cause.HYDRO_PRESSURE, Cause.STEERING_ENCODER, Cause.TIMING}
+)
 """Causes the supervisor treats alike (latch in any mode, cleared at STOP once gone): the
-default search lets DAC_FAULT stand for all three; `same_rules` proves they are alike."""
+default search lets DAC_FAULT stand for all four; `same_rules` proves they are alike."""
 
 TRANSITIONS: tuple[str, ...] = (
     "CAN->RC: handover",
@@ -43,6 +45,7 @@ TRANSITIONS: tuple[str, ...] = (
     "CAN->STOP: RC_LOST latched",
     "CAN->STOP: REMOTE_STOP latched",
     "CAN->STOP: STEERING_ENCODER latched",
+    "CAN->STOP: TIMING latched",
     "CAN->STOP: WATCHDOG latched",
     "CAN->STOP: the switch at STOP",
     "CAN: throttle opened at zero",
@@ -56,6 +59,7 @@ TRANSITIONS: tuple[str, ...] = (
     "RC->STOP: RC_LOST latched",
     "RC->STOP: REMOTE_STOP latched",
     "RC->STOP: STEERING_ENCODER latched",
+    "RC->STOP: TIMING latched",
     "RC->STOP: WATCHDOG latched",
     "RC->STOP: the switch at STOP",
     "RC: throttle opened at zero",
@@ -80,6 +84,8 @@ TRANSITIONS: tuple[str, ...] = (
     "STOP: REMOTE_STOP latched",
     "STOP: STEERING_ENCODER cleared at STOP",
     "STOP: STEERING_ENCODER latched",
+    "STOP: TIMING cleared at STOP",
+    "STOP: TIMING latched",
     "STOP: WATCHDOG cleared at STOP",
     "STOP: WATCHDOG latched",
     "STOP: arming refused, a cause latched",

@@ -235,6 +235,16 @@ def decode_command(frame: int, data: bytes | bytearray, previous_counter: int | 
     return command
 
 
+def decode_intact(frame: int, data: bytes | bytearray) -> Command:
+    """The command in an intact frame (id, length, CRC and ranges good) whatever its counter, or
+    CommandRejected: enough to honour a request that can only make the robot safer (a remote
+    stop passes the counter and trust checks that guard against being *moved*)."""
+    counter, command, out_of_range = _unpacked_command(frame, bytes(data))
+    if command is None:
+        raise CommandRejected(RejectReason.RANGE, frame, counter, out_of_range)
+    return command
+
+
 @lru_cache(maxsize=CODEC_CACHE_SIZE)
 def _unpacked_command(frame: int, data: bytes) -> tuple[int, Command | None, str]:
     """Everything `decode_command` checks that depends on the frame alone: its counter and

@@ -1,33 +1,36 @@
 """Actuator writes: output levels from the control step onto the hardware ports.
 
 Every loop write goes through the `WriteGate`, so once the watchdog has tripped no loop write
-reaches a port until the trip is acknowledged. DAC writes can fail (a NAK, a loose I2C cable):
-failures are counted and flagged, and two rules turn them into a hardware fault (R-DAC-FAULT):
+reaches a port until the trip is acknowledged; the gate also times every write against its
+budget (`bywire.runtime.timing`). DAC writes can fail (a NAK, a loose I2C cable) or crawl (a
+slave stretching the clock): failures are counted and flagged, and three rules turn them into a
+hardware fault (R-DAC-FAULT), by the pure rules of `bywire.control.dac_health`: a leaky count
+of failed transfers, a failed write that should have lowered a voltage, and transfers slower than
+their budget (each counts by the budgets it took); once the DAC is failing, the pass writes no
+more DAC channels, so the loop is back on time sooner.
 
-- a leaky count: each failed write adds 1, each good one takes `DAC_LEAK` away; reaching
-  `dac_failure_limit` escalates, and the escalation holds until the count has drained to zero.
-  Three failures in a row escalate; so does every other write failing (+0.75 a pair), which a
-  count of *consecutive* failures never would;
-- a failed write that should have *lowered* a channel's voltage: the DAC may still drive the
-  old, higher voltage, so this alone is a fault until that channel is written successfully.
+While any holds, the motors' enable line is driven low at once and stays low, and the decision
+latches STOP (DAC_FAULT, category 0) until the operator re-arms.
 
-While either holds, the motors' enable line is driven low at once and stays low, and the
-decision latches STOP (DAC_FAULT) until the operator re-arms.
+`write_safe` writes every output's safe level in order of importance (enable, e-brake, hydraulic
+brake, DAC, direction, lights) and goes on past any output that fails, reporting each: a dead
+lamp line must not leave the throttle at 4.75 V.
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from collections.abc import Sequence
+from dataclasses import dataclass, field
 
+from bywire.control.dac_health import DacHealth, Transfer, dac_step
 from bywire.control.drive import DriveOutputs
 from bywire.control.lights import LIGHT_LINES, LightOutputs
 from bywire.errors import HardwareError
 from bywire.hal.hardware import Hardware
 from bywire.protocol import dac6574
 from bywire.runtime.recent_fault import RecentFault
-from bywire.runtime.write_gate import WriteGate
-
-DAC_LEAK = 0.25  # one failure is forgiven after four good writes
+from bywire.runtime.timing import Budgets, Overruns, overrun_weight
+from bywire.runtime.write_gate import Action, WriteGate
 
 
 @dataclass(frozen=True, slots=True)
@@ -40,43 +43,65 @@ class ActuatorConfig:
     dac_failure_limit: int = 3  # failures in a row (30 ms at 100 Hz) before STOP
     safe_hydrobrake_duty: float = 1.0
     safe_steering_pulse_s: float = 0.0015
+    budgets: Budgets = field(default_factory=Budgets)
 
 
 class Actuators:
     """Writes levels to the ports through the gate and keeps the DAC's health."""
 
-    def __init__(self, hardware: Hardware, config: ActuatorConfig) -> None:
+    def __init__(
+        self, hardware: Hardware, config: ActuatorConfig, overruns: Overruns | None = None
+    ) -> None:
         self._hardware = hardware
         self._config = config
+        self._now = hardware.clock.now
+        self.overruns = overruns if overruns is not None else Overruns(config.budgets)
+        self.safe_failures: tuple[str, ...] = ()
+        """What the latest `write_safe` could not write, one line each."""
+        self._hold_pulse_s: float | None = None  # the commanded steering, without boost
+        self._slow_transfer = False  # a DAC transfer of this write overran its budget
         self.dac_failures = RecentFault()
         self.dac_clamps = RecentFault()
-        self.dac_failure_level = 0.0
-        self._dac_escalated = False
-        self._dac_volts: dict[int, float] = {}  # the last value each channel acknowledged
-        self._dac_lowering_failed: set[int] = set()
+        self.dac_health = DacHealth()
         lines = hardware.outputs
         self.gate = WriteGate(
-            {
+            {  # in order of importance: the watchdog makes them safe in this order
                 "motors_enable": lambda: lines.motors_enable.set(False),
-                "motors_direction": lambda: self._write_direction(False, False),
+                "ebrake": lambda: lines.ebrake_release.set(False),
+                "hydrobrake": lambda: self._write_hydrobrake(config.safe_hydrobrake_duty),
                 "dac": lambda: self._write_dac_pair(0.0, 0.0, None),
-                "hydrobrake": lambda: self._write_brakes(config.safe_hydrobrake_duty, True),
-                "steering": None,  # holds where it is
-                "lights": self._write_lights_tripped,
-            }
+                "motors_direction": lambda: _each(self._direction_writes(False, False)),
+                "lights": lambda: _each(self._tripped_light_writes()),
+                "steering": self._hold_steering,  # the commanded position: a swerve otherwise
+            },
+            now=self._now,
+            overruns=self.overruns,
+            untimed=("dac",),  # timed per transfer (`_write_dac`)
         )
 
     @property
     def dac_failing(self) -> bool:
         """The DAC cannot be trusted to drive what it was told (see the module's rules)."""
-        return self._dac_escalated or bool(self._dac_lowering_failed)
+        return self.dac_health.failing
+
+    @property
+    def dac_failure_level(self) -> float:
+        return self.dac_health.level
 
     def acknowledged_volts(self, channel: int) -> float | None:
         """What `channel` was last told and acknowledged (None before its first good write)."""
-        return self._dac_volts.get(channel)
+        return self.dac_health.volts(channel)
 
-    def write_steering(self, pulse_s: float) -> None:
-        self.gate.write("steering", lambda: self._hardware.steering_pwm.set_pulse(pulse_s))
+    def write_steering(self, pulse_s: float, hold_pulse_s: float | None = None) -> None:
+        """`pulse_s` (boosted, perhaps); `hold_pulse_s` is the commanded position without the
+        boost, which the watchdog holds if it trips (default: `pulse_s`)."""
+        hold_s = pulse_s if hold_pulse_s is None else hold_pulse_s
+
+        def write() -> None:  # the hold changes only with a write the gate lets through
+            self._hold_pulse_s = hold_s
+            self._hardware.steering_pwm.set_pulse(pulse_s)
+
+        self.gate.write("steering", write)
 
     def write_drive(self, drive: DriveOutputs, now: float) -> None:
         """Table 2's signals; the enable line goes low first and high last."""
@@ -93,20 +118,52 @@ class Actuators:
             self.gate.write("motors_enable", lambda: enable.set(True))
 
     def write_brakes(self, hydrobrake_duty: float, ebrake_engaged: bool) -> None:
-        self.gate.write("hydrobrake", lambda: self._write_brakes(hydrobrake_duty, ebrake_engaged))
+        """The spring brake's line first, then the hydraulic brake's duty."""
+        release = self._hardware.outputs.ebrake_release
+        self.gate.write("ebrake", lambda: release.set(not ebrake_engaged))
+        self.gate.write("hydrobrake", lambda: self._write_hydrobrake(hydrobrake_duty))
 
     def write_lights(self, lights: LightOutputs) -> None:
         self.gate.write("lights", lambda: self._write_lights(lights))
 
-    def write_safe(self, now: float, *, centre_steering: bool) -> None:
-        """Every output to its de-energised state, past the gate; the DAC is tried but its failure
-        cannot stop the rest. The steering is centred only when asked (at start-up): at any
-        other time centring would be a swerve, so it holds."""
-        self._hardware.outputs.all_low()
-        self._write_brakes(self._config.safe_hydrobrake_duty, True)
+    def write_safe(self, now: float, *, centre_steering: bool) -> tuple[str, ...]:
+        """Every output to its de-energised state, past the gate, in order of importance (enable,
+        e-brake, hydraulic brake, DAC, direction, lights), each tried whatever failed before
+        it; returns (and keeps in `safe_failures`) what could not be written, one line each.
+        The steering is centred only when asked (at start-up): at any other time centring
+        would be a swerve, so it holds."""
+        lines, config = self._hardware.outputs, self._config
+        writes: list[tuple[str, str, Action]] = [
+            ("motors_enable", "motors_enable", lambda: lines.motors_enable.set(False)),
+            ("ebrake", "ebrake_release", lambda: lines.ebrake_release.set(False)),
+            (
+                "hydrobrake",
+                "hydrobrake",
+                lambda: self._write_hydrobrake(config.safe_hydrobrake_duty),
+            ),
+            *(
+                ("dac", f"DAC channel {channel}", self._safe_dac(channel, now))
+                for channel in (config.dac_throttle_channel, config.dac_regen_channel)
+            ),
+            *(
+                ("motors_direction", name, write)
+                for name, write in self._direction_writes(False, False)
+            ),
+            *(("lights", light.line, _low(lines, light.line)) for _, light in LIGHT_LINES),
+        ]
         if centre_steering:
-            self._hardware.steering_pwm.set_pulse(self._config.safe_steering_pulse_s)
-        self.gate.write_safe("dac", lambda: self._write_dac_pair(0.0, 0.0, now))
+            pulse_s = config.safe_steering_pulse_s
+            writes.append(
+                ("steering", "steering", lambda: self._hardware.steering_pwm.set_pulse(pulse_s))
+            )
+        failures = []
+        for port, name, write in writes:
+            try:
+                self.gate.write_safe(port, write)
+            except Exception as error:
+                failures.append(f"{name}: {error or type(error).__name__}")
+        self.safe_failures = tuple(failures)
+        return self.safe_failures
 
     def watchdog_trip(self) -> None:
         """From the watchdog's thread: refuse the loop's writes and make every output safe."""
@@ -114,58 +171,108 @@ class Actuators:
 
     # --- the ports ------------------------------------------------------------------------------
 
+    def _direction_writes(self, forward: bool, reverse: bool) -> list[tuple[str, Action]]:
+        lines = self._hardware.outputs
+        return [
+            ("motors_forward", lambda: lines.motors_forward.set(forward)),
+            ("motors_reverse", lambda: lines.motors_reverse.set(reverse)),
+        ]
+
     def _write_direction(self, forward: bool, reverse: bool) -> None:
         lines = self._hardware.outputs
         lines.motors_forward.set(forward)
         lines.motors_reverse.set(reverse)
 
-    def _write_brakes(self, hydrobrake_duty: float, ebrake_engaged: bool) -> None:
+    def _write_hydrobrake(self, duty: float) -> None:
         pwm = self._hardware.hydrobrake_pwm
-        pwm.set_pulse(hydrobrake_duty * pwm.period_s)
-        self._hardware.outputs.ebrake_release.set(not ebrake_engaged)
+        pwm.set_pulse(duty * pwm.period_s)
+
+    def _hold_steering(self) -> None:
+        """The watchdog's steering: the last commanded position, not a boosted pulse."""
+        if self._hold_pulse_s is not None:
+            self._hardware.steering_pwm.set_pulse(self._hold_pulse_s)
 
     def _write_lights(self, lights: LightOutputs) -> None:
         lines = self._hardware.outputs
         for name, light in LIGHT_LINES:
             getattr(lines, light.line).set(getattr(lights, name))
 
-    def _write_lights_tripped(self) -> None:
+    def _tripped_light_writes(self) -> list[tuple[str, Action]]:
         """Each light's own safe level (`LightLine.tripped`): the error LED on, the rest held."""
         lines = self._hardware.outputs
-        for _, light in LIGHT_LINES:
-            if light.tripped is not None:
-                getattr(lines, light.line).set(light.tripped)
+        return [
+            (light.line, _setter(lines, light.line, light.tripped))
+            for _, light in LIGHT_LINES
+            if light.tripped is not None
+        ]
+
+    def _safe_dac(self, channel: int, now: float) -> Action:
+        def write() -> None:
+            self._write_dac(channel, 0.0, now)
+            if self.dac_health.volts(channel) != 0.0:  # a slow transfer that landed counts
+                raise HardwareError("0 V not acknowledged")
+
+        return write
 
     def _write_dac_pair(self, throttle_volts: float, regen_volts: float, now: float | None) -> None:
+        self._slow_transfer = False
         self._write_dac(self._config.dac_throttle_channel, throttle_volts, now)
+        if self._slow_transfer and now is not None:
+            return  # the loop's write: no more crawling transfers in this pass
         self._write_dac(self._config.dac_regen_channel, regen_volts, now)
 
-    def _write_dac(self, channel: int, volts: float, now: float | None) -> None:
-        """One channel; `now` None for the safe writes, which only count towards health."""
+    def _write_dac(self, channel: int, volts: float, now: float | None) -> bool:
+        """One channel; `now` None for the watchdog's safe writes, which only count towards
+        health. True when the transfer was acknowledged within its budget."""
         conversion = dac6574.code_from_volts(volts, self._config.dac_vref_volts)
         wanted = dac6574.volts_from_code(conversion.code, self._config.dac_vref_volts)
         if conversion.clamped and now is not None:
             self.dac_clamps.happened(now)
+        started_s = self._now()
         try:
             self._hardware.dac.write(dac6574.encode_write(channel, conversion.code))
         except HardwareError:
-            self._dac_failed(channel, wanted, now)
-        else:
-            self._dac_volts[channel] = wanted
-            self._dac_lowering_failed.discard(channel)
-            self.dac_failure_level = max(self.dac_failure_level - DAC_LEAK, 0.0)
-            if self.dac_failure_level == 0.0:
-                self._dac_escalated = False
+            self._dac_went(channel, wanted, Transfer.FAILED, 1.0, now)
+            return False
+        ended_s = self._now()
+        budget_s = self._config.budgets.dac_transfer_s
+        if self.overruns.check("DAC transfer", ended_s - started_s, budget_s, ended_s):
+            weight = overrun_weight(ended_s - started_s, budget_s)
+            self._dac_went(channel, wanted, Transfer.SLOW, weight, now)
+            self._slow_transfer = self.dac_failing
+            return False
+        self._dac_went(channel, wanted, Transfer.ACKNOWLEDGED, 1.0, now)
+        return True
 
-    def _dac_failed(self, channel: int, wanted: float, now: float | None) -> None:
-        if now is not None:
-            self.dac_failures.happened(now)
-        self.dac_failure_level = min(
-            self.dac_failure_level + 1.0, 2.0 * self._config.dac_failure_limit
+    def _dac_went(
+        self, channel: int, wanted: float, transfer: Transfer, weight: float, now: float | None
+    ) -> None:
+        limit = self._config.dac_failure_limit
+        self.dac_health = dac_step(
+            self.dac_health, channel, wanted, transfer, limit=limit, weight=weight
         )
-        if self.dac_failure_level >= self._config.dac_failure_limit:
-            self._dac_escalated = True
-        if wanted < self._dac_volts.get(channel, 0.0):
-            self._dac_lowering_failed.add(channel)
+        if transfer is not Transfer.ACKNOWLEDGED and now is not None:
+            self.dac_failures.happened(now)
         if self.dac_failing:
             self._hardware.outputs.motors_enable.set(False)  # the safe direction: never gated
+
+
+def _each(writes: Sequence[tuple[str, Action]]) -> None:
+    """Every write tried, whatever fails; then HardwareError naming each one that failed."""
+    failed = []
+    for name, write in writes:
+        try:
+            write()
+        except Exception as error:
+            failed.append(f"{name}: {error or type(error).__name__}")
+    if failed:
+        raise HardwareError("; ".join(failed))
+
+
+def _setter(lines: object, line: str, level: bool) -> Action:
+    output = getattr(lines, line)
+    return lambda: output.set(level)
+
+
+def _low(lines: object, line: str) -> Action:
+    return _setter(lines, line, False)

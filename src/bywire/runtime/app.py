@@ -4,14 +4,19 @@ Each pass of the loop reads the clock once, then: reads every input port, takes 
 once (if a periodic task is due, or an input arrived that can change it: `changes_decision`), and
 writes each output at most once: the outputs of every due task, and whatever else the decision
 changed, so that command to actuator latency is not bound to the 100 Hz tick and a STOP is
-written whole at once, not at each output's own task rate. The same pass runs on the robot and on
-the simulator's virtual clock, so the robot runs what the simulator ran. Periodic tasks keep
-absolute deadlines from the schedule table. Outputs start safe and end safe, whatever happens.
+written whole at once, not at each output's own task rate. The writes go in the schedule table's
+order, which is their order of importance: the brakes and the enable line before the slow I2C
+transfers to the DAC. The same pass runs on the robot and on the simulator's virtual clock, so
+the robot runs what the simulator ran. Periodic tasks keep absolute deadlines from the schedule
+table. Every pass has a budget (`bywire.runtime.timing`): one that overruns it is a fault, and
+only a pass that kept time feeds the watchdog. Outputs start safe and end safe, whatever
+happens: the safe writes go on past any output that fails, and each failure is logged.
 """
 
 from __future__ import annotations
 
 import gc
+import logging
 import time
 from collections import deque
 from collections.abc import Callable
@@ -41,11 +46,13 @@ from bywire.runtime.reports import Health, build_reports
 from bywire.runtime.schedule import PeriodicTask, TaskFn
 from bywire.runtime.sensors import SensorReadings, read_sensors
 from bywire.runtime.settings import RuntimeConfig
+from bywire.runtime.timing import Overruns
 from bywire.runtime.watchdog import Watchdog
 from bywire.security.session import SecocReceiver
 
 CycleObserver = Callable[[float], None]
 MODE_LOG_LENGTH = 256  # mode changes kept for tools and tests; nothing grows with run time
+log = logging.getLogger(__name__)
 
 
 @dataclass(slots=True)
@@ -60,6 +67,7 @@ class _InputSlots:
     control_edges: CommandEdges = NO_EDGES
     rc_frames: int = 0
     control_frames: int = 0
+    stop_requests: int = 0
 
 
 class Runtime:
@@ -87,7 +95,8 @@ class Runtime:
         self.ibus = IbusReader(hardware.rc_uart, config.control.rc_mapping)
         self.can = CanReader(hardware.can, config.rx_checks, secoc=secoc)
         self._announcement = () if secoc is None else secoc.announcement
-        self.actuators = Actuators(hardware, config.actuators)
+        self.overruns = Overruns(config.actuators.budgets)
+        self.actuators = Actuators(hardware, config.actuators, self.overruns)
         self.started_at = self.clock.now()
         self.tasks = [PeriodicTask(spec, self.started_at) for spec in config.schedule]
         self.state = ControlState()
@@ -126,6 +135,7 @@ class Runtime:
             (self.actuators.dac_clamps, ErrorFlag.DAC_VALUE_CLAMPED),
             (self.tx_faults, ErrorFlag.CAN_TX_FAILED),
             (self.overrun_faults, ErrorFlag.TASK_OVERRUN),
+            (self.overruns.recent, ErrorFlag.TASK_OVERRUN),
         )
         self._stop_requested = False
 
@@ -135,7 +145,7 @@ class Runtime:
 
     def run(self, until_s: float | None = None) -> None:
         """Loop until `until_s` (clock time) or `request_stop`; outputs safe before and after."""
-        self.actuators.write_safe(self.clock.now(), centre_steering=True)
+        self._write_safe("start-up", centre_steering=True)
         # Everything built so far lives as long as the process: keep it out of the collector's
         # full passes, which otherwise stall the loop for ~10 ms now and then (unless the robot
         # file says `gc_freeze = false`).
@@ -147,15 +157,20 @@ class Runtime:
                 now = self.clock.now()
                 if until_s is not None and now >= until_s:
                     break
-                self._pass(now)
+                on_time = self._pass(now)
                 for observer in self.on_cycle:
                     observer(now)
-                if self.watchdog is not None:
+                if self.watchdog is not None and on_time:
                     self.watchdog.feed()
                 self.clock.wait_until(self._next_wake(until_s))
         finally:
             self._stop_watchdog()
-            self.actuators.write_safe(self.clock.now(), centre_steering=False)
+            self._write_safe("exit", centre_steering=False)
+
+    def _write_safe(self, when: str, *, centre_steering: bool) -> None:
+        """The safe state, every output tried; each one that failed is logged by name."""
+        for failure in self.actuators.write_safe(self.clock.now(), centre_steering=centre_steering):
+            log.error("safe state at %s: %s (every other output was still written)", when, failure)
 
     def _start_watchdog(self) -> None:
         if self.watchdog is not None:
@@ -181,51 +196,40 @@ class Runtime:
 
     # --- one pass: read, decide, write --------------------------------------------------------
 
-    def _pass(self, now: float) -> None:
+    def _pass(self, now: float) -> bool:
+        """One pass at `now`; True when it kept time: it started within the pass budget of its
+        earliest deadline and its last write landed within the budget (only then is the
+        watchdog fed). A pass that overran is a timing fault."""
         new_input = self._poll_inputs(now) and self._news()
         due = [task for task in self.tasks if task.due(now)]
         if not (new_input or due):
-            return
+            return True
+        late_s = now - min(task.next_deadline_s for task in due) if due else 0.0
         started = time.perf_counter()
         before = self.outputs
         outputs = self._decide(now)
         decided_s = (time.perf_counter() - started) / max(len(due), 1)
-        written: set[TaskFn] = set()
-        for task in due:
+        changed = _changed_writes(before, outputs)
+        for task in self.tasks:  # the table's order is the order of importance
+            write = task.spec.run
+            if not task.due(now):
+                if write in changed:
+                    write(self, outputs, now)
+                continue
             started = time.perf_counter()
-            task.spec.run(self, outputs, now)
+            write(self, outputs, now)
             spent_s = time.perf_counter() - started + decided_s
             task.stats.record(now - task.next_deadline_s, spent_s, task.spec.budget_s)
             overruns_before = task.stats.overruns
             task.advance(now)
             if task.stats.overruns > overruns_before:
                 self.overrun_faults.happened(now)
-            written.add(task.spec.run)
-        self._write_changes(before, outputs, now, written)
-
-    def _write_changes(
-        self, before: ControlOutputs | None, after: ControlOutputs, now: float, written: set[TaskFn]
-    ) -> None:
-        """Write at once what the decision changed, unless a due task just wrote it: a STOP that
-        time alone reveals, decided at a tick of the fastest task, engages the e-brake then, not
-        at the brake task's own (slower) tick. The periodic tasks refresh everything anyway; an
-        unchanged DAC value is not worth an I2C transfer."""
-        changed = (
-            (
-                tasks.write_steering,
-                before is None or after.steering_pulse_s != before.steering_pulse_s,
-            ),
-            (tasks.write_drive, before is None or after.drive != before.drive),
-            (
-                tasks.write_brakes,
-                before is None
-                or (after.hydrobrake_duty, after.ebrake_engaged)
-                != (before.hydrobrake_duty, before.ebrake_engaged),
-            ),
-        )
-        for write, differs in changed:
-            if differs and write not in written:
-                write(self, after, now)
+        ended_s = self.clock.now()
+        budget_s = self.overruns.budgets.pass_s
+        if self.overruns.check("pass", ended_s - now, budget_s, ended_s):
+            return False
+        self.overruns.on_time()
+        return late_s <= budget_s
 
     # --- inputs -------------------------------------------------------------------------------
 
@@ -239,12 +243,18 @@ class Runtime:
             slots.rc_frames += 1
         for command in commands:
             self._store(command)
-        return rc is not None or bool(commands)
+        stop_requested = self.can.stop_requests != slots.stop_requests
+        slots.stop_requests = self.can.stop_requests
+        return rc is not None or bool(commands) or stop_requested
 
     def _news(self) -> bool:
         """Whether what arrived can change the latest decision (`changes_decision`): a frame that
         only repeats a request waits for the next periodic decision, as time alone does."""
-        return self.can.untrusted != self.inputs.can_untrusted or changes_decision(
+        trust = (self.can.untrusted, self.can.lights_untrusted)
+        return trust != (
+            self.inputs.can_untrusted,
+            self.inputs.lights_untrusted,
+        ) or changes_decision(
             self.state, self.inputs, self.decided_at, self._slots, self.config.control
         )
 
@@ -274,10 +284,13 @@ class Runtime:
             control_edges=slots.control_edges,
             rc_frames=slots.rc_frames,
             control_frames=slots.control_frames,
+            stop_requests=slots.stop_requests,
             fault_flags=active_flags(self._flag_sources, now),
             dac_failing=self.actuators.dac_failing,
             watchdog_tripped=watchdog_tripped,
             can_untrusted=self.can.untrusted,
+            lights_untrusted=self.can.lights_untrusted,
+            timing_fault=self.overruns.active(),
             speed_mps=sensors.checked_speed_mps,
             hydrobrake_pressure_bar=sensors.checked_pressure_bar,
             steering_measured_norm=sensors.checked_steering_norm,
@@ -323,3 +336,22 @@ class Runtime:
             if not self.hardware.can.send(CanFrame(frame_id, payload, now)):
                 self.tx_faults.happened(now)
                 return
+
+
+def _changed_writes(before: ControlOutputs | None, after: ControlOutputs) -> frozenset[TaskFn]:
+    """The writes whose outputs the decision changed: written at once, even where their task is
+    not due: a STOP that time alone reveals, decided at a tick of the fastest task, engages the
+    e-brake then, not at the brake task's own (slower) tick. The periodic tasks refresh
+    everything anyway; an unchanged DAC value is not worth an I2C transfer."""
+    if before is None:
+        return frozenset({tasks.write_steering, tasks.write_drive, tasks.write_brakes})
+    changed = (
+        (tasks.write_steering, after.steering_pulse_s != before.steering_pulse_s),
+        (tasks.write_drive, after.drive != before.drive),
+        (
+            tasks.write_brakes,
+            (after.hydrobrake_duty, after.ebrake_engaged)
+            != (before.hydrobrake_duty, before.ebrake_engaged),
+        ),
+    )
+    return frozenset(write for write, differs in changed if differs)

@@ -7,24 +7,36 @@ input so that the matching error flag is set while faults keep coming and clears
 
 from __future__ import annotations
 
-from collections import Counter, deque
+from collections import Counter
 from collections.abc import Sequence
 from dataclasses import replace
 
 from bywire.config import TimeoutsSection
-from bywire.control.command_edges import NO_EDGES, CommandEdges, command_edges
+from bywire.control.command_edges import NO_EDGES, CommandEdges
+from bywire.control.input_stage import (
+    COUNTER_MISS_LIMIT,
+    COUNTER_WINDOW,
+    Decoded,
+    EdgeState,
+    MessageState,
+    StopRequests,
+    Verdict,
+    edges_forgotten,
+    edges_step,
+    message_step,
+    stop_request_step,
+)
 from bywire.control.rc_mapping import RcMapping, RcRequest, rc_request
 from bywire.control.validity import Stamped
 from bywire.hal.ports import ByteStream, CanFrame, CanPort
-from bywire.model import Command, ControlCommand, ControlMode
+from bywire.model import Command, ControlCommand, ControlMode, LightsCommand
 from bywire.protocol import dbc
 from bywire.protocol.ibus import IbusParser
 from bywire.runtime.recent_fault import RecentFault
 from bywire.runtime.rx_checks import RxCheck, rx_check, rx_checks
 from bywire.security.session import AuthFailure, SecocReceiver
 
-COUNTER_WINDOW = 16  # the last frames of a command message whose counters are judged
-COUNTER_MISS_LIMIT = 3  # this many counter misses among them: the message is not trusted
+__all__ = ["COUNTER_MISS_LIMIT", "COUNTER_WINDOW", "CanReader", "IbusReader", "arrival"]
 
 
 class IbusReader:
@@ -95,41 +107,23 @@ def _believed(stamp: float | None, now: float) -> float:
     return stamp if stamp is not None and 0.0 < stamp <= now else now
 
 
-class _CounterTrust:
-    """Whether one command message's counter can be trusted, judged over its last frames."""
-
-    def __init__(self) -> None:
-        self.misses: deque[bool] = deque(maxlen=COUNTER_WINDOW)
-        self.untrusted = False
-
-    def record(self, miss: bool) -> None:
-        self.misses.append(miss)
-        count = sum(self.misses)
-        if count >= COUNTER_MISS_LIMIT:
-            self.untrusted = True
-        elif count == 0 and len(self.misses) == COUNTER_WINDOW:
-            self.untrusted = False
-
-
 class CanReader:
-    """Controller's CAN port → checked commands; counters judged per message, rejects counted.
+    """Controller's CAN port → checked commands: the shell of the CAN input stage.
 
-    Each command message's counter is judged over its last COUNTER_WINDOW frames (opendbc judges
-    a leaky count; a window also catches what that misses): COUNTER_MISS_LIMIT repeated or
-    skipped counters among them make the message *untrusted*. A second sender on the id, or a
-    replaying node, then cannot drive even with half its frames intact (a leaky count of +1 per
-    miss and -1 per good frame stays balanced at half). Its frames are dropped and the shell
-    reports CAN_UNTRUSTED, which stops CAN mode, until a whole window of good frames in a row.
+    Every rule lives in the pure stage (`bywire.control.input_stage`): per command message, the
+    counter, repeats, second senders (a payload conflict, two frames in one period) and trust;
+    ControlCommand's edges and their settling after a gap; and the stop requests that pass every
+    filter (R-STOP-PASS). This class only reads the port, decodes each frame with the codec,
+    steps the stage with the frame's arrival stamp, and counts and flags what it refused.
 
-    ControlCommand edges (`control_edges`, see `bywire.control.command_edges`) are taken between
-    consecutive accepted frames: a rejected or dropped frame, or a gap longer than `gap_s`,
-    leaves no previous frame to compare with; and after a gap a re-enable counts only once the
-    frames have been arriving for `gap_s` again (a burst of queued frames is no request).
+    Trust is proportionate: an untrusted movement or control id (`untrusted`) stops CAN mode
+    (CAN_UNTRUSTED); an untrusted lights id (`lights_untrusted`) affects the lights alone.
 
     With `secoc` (authentication on), a command frame counts only once its cryptographic PDU
-    has arrived and verified (`bywire.security.session`); a failure rejects it whole, is
-    counted in `auth_failures`, flags CAN_AUTH_FAILED and is a miss of the id's trust window,
-    so persistent failures make the message untrusted as counter misses do.
+    has arrived and verified (`bywire.security.session`), the two paired by their arrival stamps;
+    a failure rejects it whole, is counted in `auth_failures` and flags CAN_AUTH_FAILED, but costs
+    the id no trust: a node without the key must not be able to make the computer's signed frames
+    (its stop among them) be dropped. Verified frames then go through the stage as above.
     """
 
     def __init__(
@@ -145,101 +139,122 @@ class CanReader:
         self._secoc = secoc
         self.auth_failures: Counter[AuthFailure] = Counter()
         self.auth_faults = RecentFault()
+        self._rows = {check.frame_id: check for check in checks}
         self._gap_s = rx_check(checks, ControlCommand).timeout_s
-        self._command_ids = frozenset(check.frame_id for check in checks)
         self._control_id = dbc.frame_id(ControlCommand)
-        self._previous_counter: dict[int, int | None] = dict.fromkeys(self._command_ids)
-        self.trust = {frame_id: _CounterTrust() for frame_id in self._command_ids}
+        self._lights_id = dbc.frame_id(LightsCommand)
+        self.states = {frame_id: MessageState() for frame_id in self._rows}
+        """Each command message's input-stage state, by frame id."""
         self.rejected: Counter[dbc.RejectReason] = Counter()
+        self.verdicts: Counter[Verdict] = Counter()
         self.reject_faults = RecentFault()
         self.ignored_frames = 0
-        self.untrusted_frames = 0
         self.control_edges = NO_EDGES
         """The edges of the ControlCommand frames accepted by the latest poll (any of them)."""
-        self._previous_control: Stamped[ControlCommand] | None = None
-        self._control_back_at = 0.0  # when ControlCommand frames resumed after a gap
+        self._edges = EdgeState()
+        self._stops = StopRequests()
+
+    @property
+    def stop_requests(self) -> int:
+        """How many remote stop requests have arrived: the decision acts on a change."""
+        return self._stops.count
 
     @property
     def untrusted(self) -> bool:
-        """Some command message is not trusted now."""
-        return any(trust.untrusted for trust in self.trust.values())
+        """A movement or control command message is not trusted now (CAN_UNTRUSTED)."""
+        return any(
+            state.untrusted
+            for frame_id, state in self.states.items()
+            if frame_id != self._lights_id
+        )
+
+    @property
+    def lights_untrusted(self) -> bool:
+        """The lights command is not trusted now: it affects the lights alone."""
+        state = self.states.get(self._lights_id)
+        return state is not None and state.untrusted
+
+    @property
+    def untrusted_frames(self) -> int:
+        return self.verdicts[Verdict.UNTRUSTED]
 
     def poll(self, now: float) -> list[Stamped[Command]]:
         """Every command accepted since the last poll, oldest first."""
         accepted: list[Stamped[Command]] = []
         self.control_edges = NO_EDGES
         secoc = self._secoc
-        if secoc is not None and (expired := secoc.expire(now)):
-            self._auth_failed(expired, now)
         for frame in self._port.receive():
             frame_id, data = frame.arbitration_id, frame.data
+            arrived_at = arrival(frame, now)
             if secoc is not None and frame_id in secoc.received_ids:
-                outcome = secoc.offer(frame_id, data, now)
+                outcome = secoc.offer(frame_id, data, arrived_at)
                 if outcome.failures:
                     self._auth_failed(outcome.failures, now)
                 if outcome.verified is None:
                     continue
                 frame_id, data = outcome.verified
-            if frame_id not in self._command_ids:
-                self.ignored_frames += 1
-                continue
-            command = self._checked(frame_id, data, now)
-            if command is None:
-                if frame_id == self._control_id:
-                    self._previous_control = None
-                continue
-            arrived_at = arrival(frame, now)
-            if isinstance(command, ControlCommand):
-                self._edges(command, arrived_at)
-            accepted.append(Stamped(command, arrived_at))
+            command = self._staged(frame_id, data, arrived_at, now)
+            if command is not None:
+                accepted.append(Stamped(command, arrived_at))
+        if secoc is not None and (expired := secoc.expire(now)):
+            self._auth_failed(expired, now)
         return accepted
 
-    def _checked(self, frame_id: int, data: bytes, now: float) -> Command | None:
-        """The decoded command, or None when rejected or untrusted (counted either way)."""
-        try:
-            command = dbc.decode_command(frame_id, data, self._previous_counter[frame_id])
-        except dbc.CommandRejected as rejected:
-            self._reject(rejected, now)
+    def _staged(self, frame_id: int, data: bytes, arrived_at: float, now: float) -> Command | None:
+        """One frame through the input stage: its command if it is to be used."""
+        row = self._rows.get(frame_id)
+        if row is None:
+            self.ignored_frames += 1
             return None
-        self._previous_counter[frame_id] = command.counter
-        trust = self.trust[frame_id]
-        trust.record(miss=False)
-        if trust.untrusted:
-            self.untrusted_frames += 1
-            self.reject_faults.happened(now)
+        decoded, reason = _decoded(frame_id, data)
+        if frame_id == self._control_id:
+            self._stops = stop_request_step(self._stops, decoded.command, arrived_at, self._gap_s)
+        state, verdict = message_step(self.states[frame_id], decoded, arrived_at, row.timeout_s)
+        self.states[frame_id] = state
+        self.verdicts[verdict] += 1
+        if not verdict.used:
+            self._refused(frame_id, verdict, reason, now)
             return None
+        command = decoded.command
+        if isinstance(command, ControlCommand):
+            self._edges, edges = edges_step(self._edges, command, arrived_at, self._gap_s)
+            self.control_edges = CommandEdges(
+                re_enable=self.control_edges.re_enable or edges.re_enable,
+                remote_stop=self.control_edges.remote_stop or edges.remote_stop,
+            )
+            if edges.remote_stop:  # a 0→1 between accepted frames: a new request, however soon
+                self._stops = StopRequests(self._stops.count + 1, self._stops.seen_at)
         return command
 
+    def _refused(
+        self, frame_id: int, verdict: Verdict, reason: dbc.RejectReason | None, now: float
+    ) -> None:
+        """Count and flag a frame the stage refused (an identical repeat is neither)."""
+        if verdict is Verdict.REPEAT:
+            return
+        if frame_id == self._control_id:
+            self._edges = edges_forgotten(self._edges)
+        if reason is not None:
+            self.rejected[reason] += 1
+        elif verdict is Verdict.COUNTER:
+            self.rejected[dbc.RejectReason.COUNTER] += 1
+        self.reject_faults.happened(now)
+
     def _auth_failed(self, failures: Sequence[tuple[int, AuthFailure]], now: float) -> None:
+        """Counted and flagged; never a miss of the id's trust window (see the class)."""
         for frame_id, failure in failures:
             self.auth_failures[failure] += 1
             self.auth_faults.happened(now)
-            self.trust[frame_id].record(miss=True)
             if frame_id == self._control_id:
-                self._previous_control = None
+                self._edges = edges_forgotten(self._edges)
 
-    def _edges(self, command: ControlCommand, now: float) -> None:
-        previous = self._previous_control
-        recent = previous is not None and now - previous.received_at <= self._gap_s
-        if not recent:
-            self._control_back_at = now
-        edges = command_edges(previous.value if previous is not None and recent else None, command)
-        # Frames that waited in a transmit queue while the link was down arrive in a burst when
-        # it is back: a request among them is stale. A re-enable counts once the link has been
-        # back for one command timeout.
-        settled = now - self._control_back_at >= self._gap_s
-        self.control_edges = CommandEdges(
-            re_enable=self.control_edges.re_enable or (edges.re_enable and settled),
-            remote_stop=self.control_edges.remote_stop or edges.remote_stop,
-        )
-        self._previous_control = Stamped(command, now)
 
-    def _reject(self, rejected: dbc.CommandRejected, now: float) -> None:
-        self.rejected[rejected.reason] += 1
-        self.reject_faults.happened(now)
-        if rejected.reason is dbc.RejectReason.COUNTER:
-            self.trust[rejected.frame_id].record(miss=True)
-        # An intact frame: follow its counter, as panda does, so one lost frame does not reject
-        # every later one. A frame the codec could not read says nothing of the sender's
-        # sequence: the next frame starts it afresh instead of counting as a miss.
-        self._previous_counter[rejected.frame_id] = rejected.counter
+def _decoded(frame_id: int, data: bytes) -> tuple[Decoded, dbc.RejectReason | None]:
+    """The frame as the codec reads it, and why it refused it (None: intact and in range)."""
+    try:
+        command = dbc.decode_intact(frame_id, data)
+    except dbc.CommandRejected as rejected:
+        if rejected.reason is dbc.RejectReason.RANGE:
+            return Decoded(readable=True, counter=rejected.counter), rejected.reason
+        return Decoded(readable=False), rejected.reason
+    return Decoded(readable=True, counter=command.counter, command=command), None

@@ -42,13 +42,16 @@ class TaskSpec:
 
 
 # Table 1 of the thesis: the one schedule table. The RC and CAN readers are event-driven and
-# not in it.
+# not in it. The rows are in order of importance, which is the order a pass writes in: the brakes
+# (the e-brake line, then the hydraulic duty), the steering (one PWM write: the servo holds what
+# the decision commanded even if a slow write after it trips the watchdog), then the drive (the
+# enable line down first, the slow I2C transfers to the DAC after), the lights and the reports.
 SCHEDULE: tuple[TaskSpec, ...] = (
+    TaskSpec("hydrobrake", 100.0, 0.002, tasks.write_brakes),
     TaskSpec("steering", 100.0, 0.002, tasks.write_steering),
     TaskSpec("driving", 100.0, 0.002, tasks.write_drive),
-    TaskSpec("hydrobrake", 100.0, 0.002, tasks.write_brakes),
-    TaskSpec("can_tx", 50.0, 0.004, tasks.send_reports),
     TaskSpec("lights", 20.0, 0.005, tasks.write_lights),
+    TaskSpec("can_tx", 50.0, 0.004, tasks.send_reports),
 )
 TASK_NAMES = tuple(spec.name for spec in SCHEDULE)
 

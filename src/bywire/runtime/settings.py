@@ -6,10 +6,12 @@ from dataclasses import dataclass, field, replace
 
 from bywire.config import RobotConfig, TimeoutsSection
 from bywire.control.controller import ControlConfig
+from bywire.control.stop import STANDSTILL_LIMIT_MPS, StopConfig
 from bywire.model import ControlCommand, LightsCommand, MovementCommand
 from bywire.runtime.actuators import ActuatorConfig
 from bywire.runtime.rx_checks import RxCheck, rx_checks
 from bywire.runtime.schedule import SCHEDULE, TaskSpec
+from bywire.runtime.timing import Budgets
 
 
 @dataclass(frozen=True, slots=True)
@@ -44,13 +46,24 @@ class RuntimeConfig:
             interlocks=robot.interlocks,
             monitors=robot.monitors,
             supervisor=robot.supervisor,
+            stop=StopConfig(
+                max_s=robot.stop.controlled_max_s,
+                min_decel_mps2=robot.stop.controlled_min_decel_mps2,
+                standstill_mps=min(robot.interlocks.standstill_speed_mps, STANDSTILL_LIMIT_MPS),
+            ),
         )
+        timeouts = robot.timeouts
         dac = robot.drive.dac
         actuators = ActuatorConfig(
             dac_throttle_channel=dac.throttle_channel,
             dac_regen_channel=dac.regen_channel,
             dac_vref_volts=dac.vref_volts,
             safe_steering_pulse_s=servo.center_pulse_s,
+            budgets=Budgets(
+                pass_s=timeouts.pass_budget_s,
+                write_s=timeouts.write_budget_s,
+                dac_transfer_s=timeouts.dac_transfer_budget_s,
+            ),
         )
         schedule = tuple(replace(spec, rate_hz=robot.tasks.rate_hz(spec.name)) for spec in SCHEDULE)
         return cls(

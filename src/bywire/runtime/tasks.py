@@ -18,7 +18,7 @@ if TYPE_CHECKING:
 
 
 def write_steering(runtime: Runtime, outputs: ControlOutputs, _now: float) -> None:
-    runtime.actuators.write_steering(outputs.steering_pulse_s)
+    runtime.actuators.write_steering(outputs.steering_pulse_s, outputs.steering_hold_pulse_s)
 
 
 def write_drive(runtime: Runtime, outputs: ControlOutputs, now: float) -> None:

@@ -9,13 +9,24 @@ before it lets the port go, and the watchdog's own thread writes it again once i
 So after a trip no port keeps a level the loop wrote, and no loop write starts, until reset;
 the loop's writes meanwhile re-assert each port's safe level (one that failed may land later).
 
+The ports are listed in order of importance (motors' enable line, e-brake, hydraulic brake,
+DAC, ...): the watchdog makes them safe in that order, and a port whose safe write fails (a dead
+line, a driver that raises) is reported in `failures` and passed over, never the end of it.
+
+Every loop write is timed on the hardware clock against the write budget
+(`bywire.runtime.timing`), except the ports the actuators time themselves (the DAC, per
+transfer): a write that hangs in its driver is a fault, not just a slow pass.
+
 A port's safe action may be None: the steering holds where it is (centring at speed is a swerve).
 """
 
 from __future__ import annotations
 
+import math
 import threading
-from collections.abc import Callable
+from collections.abc import Callable, Collection
+
+from bywire.runtime.timing import Overruns
 
 Action = Callable[[], None]
 
@@ -23,8 +34,23 @@ Action = Callable[[], None]
 class WriteGate:
     """Per-port locks and the trip flag, shared by the loop and the watchdog's thread."""
 
-    def __init__(self, safe_actions: dict[str, Action | None]) -> None:
+    def __init__(
+        self,
+        safe_actions: dict[str, Action | None],
+        *,
+        now: Callable[[], float] | None = None,
+        overruns: Overruns | None = None,
+        untimed: Collection[str] = (),
+    ) -> None:
+        """`safe_actions` in order of importance; `now` and `overruns` time the loop's writes
+        (ports in `untimed` excepted) against `overruns.budgets.write_s`."""
         self._safe = dict(safe_actions)
+        self._now = now
+        self._overruns = overruns
+        self._budget_s = math.inf if overruns is None else overruns.budgets.write_s
+        self._timed = frozenset(safe_actions) - frozenset(untimed)
+        self.failures: list[tuple[str, str]] = []
+        """(port, what went wrong) for every safe write that failed at a trip, oldest first."""
         self._locks = {port: threading.Lock() for port in safe_actions}
         self._owners: dict[str, int | None] = dict.fromkeys(safe_actions)
         self._holders = {port: _Held(self, port) for port in safe_actions}  # one each, reused
@@ -44,7 +70,14 @@ class WriteGate:
             if self._tripped:
                 self._write_safe(port)
                 return False
-            action()
+            now = self._now
+            if now is None or port not in self._timed:
+                action()
+            else:
+                started_s = now()
+                action()
+                ended_s = now()
+                self._timed_out(port, ended_s - started_s, ended_s)
             if not self._tripped:
                 return True
             self._write_safe(port)  # tripped while we were inside the port
@@ -60,20 +93,32 @@ class WriteGate:
                 action()
 
     def trip(self) -> None:
-        """From the watchdog's thread: refuse the loop's writes, make every port safe."""
+        """From the watchdog's thread: refuse the loop's writes, make every port safe, in order
+        of importance, going on past any that fails (each is kept in `failures`)."""
         self._tripped = True
         blocked = []
         for port, lock in self._locks.items():
             if lock.acquire(blocking=False):
                 try:
-                    self._write_safe(port)
+                    self._try_safe(port)
                 finally:
                     lock.release()
             else:
                 blocked.append(port)
         for port in blocked:
             if self._owners[port] != threading.get_ident():  # never wait on our own thread
-                self.write_safe(port)
+                with self._held(port):
+                    self._try_safe(port)
+
+    def _try_safe(self, port: str) -> None:
+        try:
+            self._write_safe(port)
+        except Exception as error:
+            self.failures.append((port, str(error) or type(error).__name__))
+
+    def _timed_out(self, port: str, spent_s: float, ended_s: float) -> None:
+        if self._overruns is not None:
+            self._overruns.check(f"{port} write", spent_s, self._budget_s, ended_s)
 
     def reset(self) -> None:
         """The trip was acknowledged: the loop may write again."""

@@ -27,6 +27,11 @@ from bywire.security.freshness import Adoption, FreshnessStore
 
 DEFAULT_WINDOW_S = 0.005
 PENDING_PER_ID = 2  # command frames of one id waiting for their authenticator
+DELIVERY_SLACK_S = 0.020
+"""How late a frame may reach the receiver after its arrival stamp (a receive thread, a busy
+loop): a command frame waits this much longer than the window before it expires, so that its
+PDU, stamped within the window but read a poll later, still pairs (issue 32: in real time the
+pairing failed in pairs, PDU without command and command without PDU)."""
 TRIP_IDS = frozenset((TRIP_ID, secoc.auth_id(TRIP_ID)))
 """The controller's trip counter announcement and its cryptographic PDU: what `hear` takes."""
 
@@ -156,33 +161,39 @@ class SecocReceiver:
         }
 
     def expire(self, now: float) -> list[tuple[int, AuthFailure]]:
-        """Command frames whose authenticator did not come within the window: failures."""
+        """Command frames whose authenticator did not come within the window (and the delivery
+        slack): failures. Call it after offering every frame read at `now`."""
         failures: list[tuple[int, AuthFailure]] = []
         for frame_id, pending in self._pending.items():
-            while pending and now - pending[0][1] > self._window_s:
+            while pending and now - pending[0][1] > self._window_s + DELIVERY_SLACK_S:
                 pending.popleft()
                 failures.append((frame_id, AuthFailure.NO_AUTHENTICATOR))
         return failures
 
     def offer(self, frame_id: int, data: bytes, now: float) -> Outcome:
-        """Take one command frame or cryptographic PDU received at `now`."""
+        """Take one command frame or cryptographic PDU that arrived at `now` (its arrival
+        stamp: the two frames of a command pair when the PDU arrived within the window)."""
         pending = self._pending.get(frame_id)
         if pending is None:
-            return self._pair(secoc.authentic_id(frame_id), data)
+            return self._pair(secoc.authentic_id(frame_id), data, now)
         pending.append((bytes(data), now))  # a command frame: it waits for its PDU
         if len(pending) > PENDING_PER_ID:  # displaced without its authenticator
             pending.popleft()
             return Outcome(failures=((frame_id, AuthFailure.NO_AUTHENTICATOR),))
         return WAITING
 
-    def _pair(self, frame_id: int, data: bytes) -> Outcome:
+    def _pair(self, frame_id: int, data: bytes, arrived_at: float) -> Outcome:
         try:
             authenticator = secoc.decode_authenticator(data)
         except FrameError:
             return Outcome(failures=((frame_id, AuthFailure.MALFORMED),))
         pending = self._pending[frame_id]
+        stale: list[tuple[int, AuthFailure]] = []
+        while pending and arrived_at - pending[0][1] > self._window_s:  # too old to pair
+            pending.popleft()
+            stale.append((frame_id, AuthFailure.NO_AUTHENTICATOR))
         if not pending:
-            return Outcome(failures=((frame_id, AuthFailure.ORPHAN),))
+            return Outcome(failures=(*stale, (frame_id, AuthFailure.ORPHAN)))
         # The acceptance rule (secoc.verified_freshness), the value rebuilt once for every
         # waiting frame: it depends on the PDU and the last accepted value only.
         freshness = secoc.rebuilt_freshness(
@@ -190,12 +201,12 @@ class SecocReceiver:
         )
         if secoc.trip_of(freshness) != self.trip:  # past this trip's last message counter
             pending.clear()
-            return Outcome(failures=((frame_id, AuthFailure.EXHAUSTED),))
+            return Outcome(failures=(*stale, (frame_id, AuthFailure.EXHAUSTED)))
         for index in range(len(pending) - 1, -1, -1):  # newest first: it is usually the one
             payload = pending[index][0]
             expected = secoc.truncated_mac(self._key, frame_id, payload, freshness)
             if hmac.compare_digest(expected, authenticator.mac):
                 del pending[index]
                 self.last_accepted[frame_id] = freshness
-                return Outcome(verified=(frame_id, payload))
-        return Outcome(failures=((frame_id, AuthFailure.BAD_MAC),))
+                return Outcome(verified=(frame_id, payload), failures=tuple(stale))
+        return Outcome(failures=(*stale, (frame_id, AuthFailure.BAD_MAC)))

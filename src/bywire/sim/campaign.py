@@ -15,8 +15,10 @@ of the loop. Which rows of the supervisor's transition table the campaign took i
 
 from __future__ import annotations
 
+import contextlib
 import heapq
-from collections.abc import Callable, Iterable, Sequence
+import logging
+from collections.abc import Callable, Iterable, Iterator, Sequence
 from dataclasses import dataclass, field
 from typing import Any, cast
 
@@ -26,7 +28,7 @@ from bywire.control.supervisor_check import transition_labels
 from bywire.hal.sim.clock import VirtualClock
 from bywire.model import ControlMode, Gear
 from bywire.runtime.watchdog import POLL_S as WATCHDOG_POLL_S
-from bywire.sim.oracle import CAN_ONLY, CAN_SILENT, HazardOracle, OracleTiming
+from bywire.sim.oracle import CAN_ONLY, CAN_SILENT, SLOW_TRANSFER_S, HazardOracle, OracleTiming
 from bywire.sim.runner import SimRun
 from bywire.sim.scenario import Event, Scenario
 
@@ -69,10 +71,16 @@ VOCABULARY: dict[str, Sequence[object]] = {
     "can_flood": (0.0, 0.5, 1.0),  # other nodes' share of the bus (0: they stop)
     "remote_stop": (False, True),
     "re_enable": (None,),
-    "impostor": range(5, 41),  # frames a second node sends on the computer's id
+    "impostor": range(5, 41),  # frames a second node sends on the computer's movement id
+    "impostor_control": range(5, 41),  # …on its control id (an idle teleop: no stop, no enable)
+    "impostor_lights": range(5, 41),  # …on its lights id (the hazard lights)
+    "impostor_keyed": range(5, 41),  # …on the movement id, signing with the computer's key
+    "secoc": (True,),  # the campaign runs with authenticated commands (drawn at its start)
     # the actuators and sensors
     "dac": ("fail", "alternate", "alternate", "restore"),
     "stall": ("short", "long"),  # a DAC write hangs for a quarter or 1.5 watchdog periods
+    "dac_slow": (0.002, 0.08),  # every DAC transfer takes this long, and succeeds
+    "line": ("turn_left_light", "brake_light", "hydrobrake"),  # an output dies: the loop ends
     "wheel_sensor": (False, True),
     "hydrobrake": (False, True),  # builds no pressure, or works again
     "ebrake": (False,),  # the spring brake fails to engage
@@ -248,6 +256,24 @@ class _Compiler:
     def _impostor(self, at_s: float, frames: int) -> None:
         self._fault(at_s, "can_impostor", count=frames)
 
+    def _impostor_control(self, at_s: float, frames: int) -> None:
+        self._fault(at_s, "can_impostor_control", count=frames)
+
+    def _impostor_lights(self, at_s: float, frames: int) -> None:
+        self._fault(at_s, "can_impostor_lights", count=frames)
+
+    def _impostor_keyed(self, at_s: float, frames: int) -> None:
+        self._fault(at_s, "can_impostor", count=frames, keyed=True)
+
+    def _secoc(self, _at_s: float, _on: bool) -> None:
+        return  # the whole campaign is authenticated (`compile_steps`)
+
+    def _dac_slow(self, at_s: float, transfer_s: float) -> None:
+        self._fault(at_s, "dac_slow", stall_s=transfer_s)
+
+    def _line(self, at_s: float, name: str) -> None:
+        self._fault(at_s, "line_dead", line=name)
+
     def _dac(self, at_s: float, how: str) -> None:
         faults = {"fail": "dac_fail", "alternate": "dac_nak_alternate", "restore": "dac_restore"}
         self._fault(at_s, faults[how])
@@ -284,6 +310,7 @@ def compile_steps(steps: Iterable[Step], robot: RobotConfig, name: str = "campai
         duration_s=round(end_s + TAIL_S, 6),
         events=events,
         expectations=(),
+        authenticated=any(step.action == "secoc" for step in steps),
     )
 
 
@@ -297,6 +324,7 @@ class OracleWitness:
 
     oracle: HazardOracle
     clock: VirtualClock
+    authenticated: bool = False  # commands signed: a second sender without the key is harmless
     remote_stop: bool = False
     re_enable: bool = False
 
@@ -359,10 +387,14 @@ class OracleWitness:
             "can_resume": lambda: self._can_back("can_lost", now),
             "can_unplug": lambda: self._can_fault("can_unplugged", True, now),
             "can_plug": lambda: self._can_back("can_unplugged", now),
-            "can_impostor": lambda: self._impostor(count, now),
+            "can_impostor": lambda: self._impostor(count, now, values),
+            "can_impostor_control": lambda: self._impostor(count, now, values),
+            "dac_slow": lambda: self._slow_dac(float(values["stall_s"]), now),
+            "line_dead": lambda: oracle.line_died(str(values["line"])),
+            "ebrake_fail": lambda: setattr(oracle, "ebrake_failed", True),
             "dac_fail": lambda: oracle.dac_failing(now, every_other=False),
             "dac_nak_alternate": lambda: oracle.dac_failing(now, every_other=True),
-            "dac_restore": lambda: oracle.fault("dac_fail", False, now),
+            "dac_restore": lambda: self._dac_restored(now),
             "dac_stall": lambda: self._stall(float(values["stall_s"]), now),
             "wheel_sensor_dead": oracle.sensor_dies,
             "wheel_sensor_restore": oracle.sensor_restored,
@@ -373,10 +405,27 @@ class OracleWitness:
             oracle.blind(CAN, now, now + (count + 1) * IMPOSTOR_PERIOD_S)
         elif fault in actions:
             actions[fault]()
-        # Anything else (a flood, the spring brake or the steering failing, an encoder dead) may
-        # stop the robot or not: the oracle never needs to know that it did.
+        # Anything else (a flood, the steering failing, an encoder dead, a second sender on the
+        # lights' id) may stop the robot or not: the oracle never needs to know that it did.
 
-    def _impostor(self, frames: int, now: float) -> None:
+    def _dac_restored(self, now: float) -> None:
+        self.oracle.fault("dac_fail", False, now)
+        self.oracle.fault("dac_slow", False, now)
+        self.oracle.write_lag_s = 0.0
+
+    def _slow_dac(self, transfer_s: float, now: float) -> None:
+        """Every DAC transfer crawls: each pass that writes the DAC is that much longer, and one
+        slower than any robot file's budget is a fault (category 0)."""
+        self.oracle.write_lag_s = 2 * transfer_s  # two transfers a pass, at most
+        if transfer_s > SLOW_TRANSFER_S:
+            self.oracle.hang(now, now + self.oracle.timing.driving_period_s + transfer_s)
+            self.oracle.fault("dac_slow", True, now)
+        else:  # ordinary transfers again: a crawl before is over (its latch is the switch's)
+            self.oracle.fault("dac_slow", False, now)
+
+    def _impostor(self, frames: int, now: float, values: dict[str, Any]) -> None:
+        if self.authenticated and not values.get("keyed"):
+            return  # its frames never verify, and cost the computer's no trust: no effect
         self._can_fault("can_impostor", True, now)
         # Over when its last frame is sent: the controller may trust the id again soon after
         # (a window of good frames), and the oracle must never think a fault lasts longer.
@@ -430,12 +479,26 @@ class Campaign:
         timing = OracleTiming.for_robot(self.robot)
         dac = self.robot.drive.dac
         oracle = HazardOracle(run.world, dac.throttle_channel, dac.regen_channel, timing=timing)
-        run.on_event.append(OracleWitness(oracle, clock))
+        run.on_event.append(OracleWitness(oracle, clock, scenario.authenticated))
+        run.on_exit.append(oracle.exited)
         log = TransitionLog(run)
         run.runtime.on_cycle.append(oracle.observe)
         run.runtime.on_cycle.append(log.observe)
-        run.run()
+        with _quiet_runtime():  # a campaign's failing DAC at its end is no news: the oracle judges
+            run.run()
         return CampaignResult(oracle, run.duration_s, len(scenario.events), log.seen, scenario)
+
+
+@contextlib.contextmanager
+def _quiet_runtime() -> Iterator[None]:
+    """The runtime's log (safe writes that failed at its exit) silenced for one campaign."""
+    logger = logging.getLogger("bywire.runtime.app")
+    level = logger.level
+    logger.setLevel(logging.CRITICAL)
+    try:
+        yield
+    finally:
+        logger.setLevel(level)
 
 
 @dataclass(slots=True)

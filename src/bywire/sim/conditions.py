@@ -57,6 +57,11 @@ CONDITIONS: tuple[Condition, ...] = (
               lambda o, wanted: o.throttle_volts >= float(wanted)),
     Condition("motors_enabled", "the motors' enable line", flag,
               lambda o, wanted: o.motors_enabled is bool(wanted)),
+    Condition("drive_safe", "throttle at 0 V and the motors disabled or braking by "
+              "regeneration (a controlled stop)", flag,
+              lambda o, wanted: o.drive_safe is bool(wanted)),
+    Condition("regen_volts_min", "regenerative brake DAC output at least this (V)", VOLTS,
+              lambda o, wanted: o.regen_volts >= float(wanted)),
     Condition("ebrake_engaged", "the emergency brake is engaged", flag,
               lambda o, wanted: o.ebrake_engaged is bool(wanted)),
     Condition("speed_min_mps", "vehicle speed at least this (m/s, signed)", SPEED,

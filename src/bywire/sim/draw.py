@@ -34,6 +34,10 @@ CAMPAIGN_S = 10.0
 DELAY_S = (0.005, 0.6)  # the wait before each step, drawn uniformly, to the millisecond
 WEIGHTS = {action: 4.0 if action in OPERATOR else 1.0 for action in VOCABULARY}
 WEIGHTS.update(ebrake=0.25, encoder=0.25)  # lasting faults: rarer, or the robot stays stopped
+WEIGHTS.update(line=0.1, secoc=0.0)  # a dead line ends the campaign; authentication opens one
+SECOC_CHANCE = 0.25
+"""A campaign runs with authenticated commands (a second sender without the key is harmless
+then, one with it is an impostor like any other)."""
 FOLLOW_UP_CHANCE = 0.5
 FOLLOW_UP_DELAY_S = (0.05, 1.2)
 
@@ -49,6 +53,7 @@ ENDINGS: dict[tuple[str, object], Step] = {
     ("remote_stop", True): Step(0.0, "remote_stop", False),
     ("dac", "fail"): Step(0.0, "dac", "restore"),
     ("dac", "alternate"): Step(0.0, "dac", "restore"),
+    **{("dac_slow", t): Step(0.0, "dac", "restore") for t in VOCABULARY["dac_slow"]},
     ("wheel_sensor", False): Step(0.0, "wheel_sensor", True),
     ("hydrobrake", False): Step(0.0, "hydrobrake", True),
     ("servo", False): Step(0.0, "servo", True),
@@ -64,6 +69,10 @@ DEMANDS: dict[tuple[str, object], dict[ControlMode, Episode]] = {
     ("hydrobrake", False): {
         CAN: (Step(0.0, "can_brake", 1.0),),
         RC: (Step(0.0, "rc_throttle", -1.0),),
+    },
+    ("ebrake", False): {  # latent; the hydraulic brake fails as the source brakes at speed
+        CAN: (Step(0.3, "hydrobrake", False), Step(0.0, "can_brake", 1.0)),
+        RC: (Step(0.3, "hydrobrake", False), Step(0.0, "rc_throttle", -1.0)),
     },
     ("servo", False): {  # the monitor latches; the servo is freed, and the operator re-arms
         CAN: (Step(0.0, "can_steer", 0.5), Step(0.4, "servo", True), Step(0.1, "arm", CAN)),
@@ -107,6 +116,9 @@ SECOND_SENDER_ROLLING: Episode = (  # then a re-enable once the id is trusted ag
     Step(0.3, "impostor", 20),
     *_re_enable_after(20 * IMPOSTOR_PERIOD_S + 0.5),
 )
+BRAKES_FAIL_ROLLING: dict[ControlMode, Episode] = {  # the spring brake broken unnoticed
+    mode: (Step(0.5, "ebrake", False), *DEMANDS[("ebrake", False)][mode]) for mode in (RC, CAN)
+}
 IN_MOTION: dict[tuple[str, object], dict[ControlMode, tuple[Episode, ...]]] = {
     **{
         ("can_throttle", t): {
@@ -115,11 +127,14 @@ IN_MOTION: dict[tuple[str, object], dict[ControlMode, tuple[Episode, ...]]] = {
                 REVERSE_ROLLING[CAN],
                 *SENSOR_DIES_ROLLING[CAN],
                 SECOND_SENDER_ROLLING,
+                BRAKES_FAIL_ROLLING[CAN],
             )
         }
         for t in (0.2, 0.6)
     },
-    ("rc_throttle", 0.8): {RC: (REVERSE_ROLLING[RC], *SENSOR_DIES_ROLLING[RC])},
+    ("rc_throttle", 0.8): {
+        RC: (REVERSE_ROLLING[RC], *SENSOR_DIES_ROLLING[RC], BRAKES_FAIL_ROLLING[RC])
+    },
     **{("rc_steer", s): {RC: ((Step(0.0, "switch", STOP),),)} for s in (-0.6, 0.5)},
     **{("can_steer", s): {CAN: ((Step(0.0, "remote_stop", True),),)} for s in (-0.5, 0.5)},
 }
@@ -189,6 +204,8 @@ def draw_campaign(seed: int, index: int, campaign_s: float = CAMPAIGN_S) -> list
     if opening.random() < ROLLING_OPENING_CHANCE:
         steps[-1] = Step(0.15, source, ROLLING_THROTTLE[mode])
         upcoming = _drawn(IN_MOTION[(source, ROLLING_THROTTLE[mode])][mode], opening)
+    if random.Random(f"bywire-verify-secoc:{seed}:{index}").random() < SECOC_CHANCE:
+        steps.insert(0, Step(0.0, "secoc", True))
     actions, weights = list(WEIGHTS), list(WEIGHTS.values())
     at_s, switch = sum(step.delay_s for step in steps), mode
     while True:

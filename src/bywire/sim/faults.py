@@ -6,7 +6,8 @@ README describe it from here; a run applies it through the same row. A new fault
 (and, if the world cannot yet do it, a method on the simulated device).
 
 A row's `apply` gets the run and the event's values: `count` (frames, bytes), `load` (a share of
-the bus) and `stall_s` (seconds), each defaulted by the loader.
+the bus), `stall_s` (seconds), `line` (an output's name) and `keyed` (a second sender that has
+the key), each defaulted by the loader.
 """
 
 from __future__ import annotations
@@ -16,6 +17,7 @@ from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
 
 from bywire.hal.sim.hlc import Corruption
+from bywire.model import Command, ControlCommand, LightsCommand, MovementCommand
 
 if TYPE_CHECKING:
     from bywire.sim.runner import SimRun
@@ -64,6 +66,17 @@ def _ebrake_fail(run: SimRun, _values: FaultValues) -> None:
 
 def _encoder_fail(run: SimRun, _values: FaultValues) -> None:
     run.world.steering_encoder.failed = True
+
+
+def _impostor(kind: type[Command]) -> Apply:
+    def apply(run: SimRun, values: FaultValues) -> None:
+        run.world.impostor.start(_count(values), kind=kind, keyed=bool(values.get("keyed")))
+
+    return apply
+
+
+def _line_dead(run: SimRun, values: FaultValues) -> None:
+    run.world.output(str(values["line"])).fail()
 
 
 def _ibus_garbage(run: SimRun, values: FaultValues) -> None:
@@ -129,8 +142,20 @@ FAULTS: tuple[Fault, ...] = (
           "gives",
           lambda run, v: run.world.rc.implausible_next_frames(_count(v))),
     Fault("can_impostor", "a second node sends `count` movement commands on the computer's id, "
-          "each with the counter the computer will use next, asking for throttle 0.8",
-          lambda run, v: run.world.impostor.start(_count(v))),
+          "each with the counter the computer will use next, asking for throttle 0.8 (with "
+          "authentication: without the key, unless `keyed`)",
+          _impostor(MovementCommand)),
+    Fault("can_impostor_control", "a second node (an idle teleop) sends `count` control "
+          "commands, neither stop nor re-enable, on the computer's id with its next counter",
+          _impostor(ControlCommand)),
+    Fault("can_impostor_lights", "a second node sends `count` lights commands (hazard on) on "
+          "the computer's id with its next counter",
+          _impostor(LightsCommand)),
+    Fault("dac_slow", "every DAC transfer takes `stall_s` and succeeds (dac_restore ends it)",
+          lambda run, v: run.world.dac.slow_writes(float(v["stall_s"]))),
+    Fault("line_dead", "the output `line` (a GPIO line, or the steering or hydrobrake PWM) "
+          "dies: every write to it fails",
+          _line_dead),
     Fault("wheel_sensor_dead", "the wheel-speed sensor reads 0 m/s from now on, whatever the "
           "wheels do",
           lambda run, _v: run.world.wheel_sensor.die()),

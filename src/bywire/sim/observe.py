@@ -39,14 +39,16 @@ class Observation:
     error_flags: int
 
     @property
+    def drive_safe(self) -> bool:
+        """The drive stops the robot: throttle at 0 V, and the motors disabled or (a controlled
+        stop, category 1) braking with the regenerative brake."""
+        return self.throttle_volts == 0.0 and (not self.motors_enabled or self.regen_volts > 0.0)
+
+    @property
     def safe(self) -> bool:
-        """STOP with every drive output safe: no throttle, motors disabled, e-brake engaged."""
-        return (
-            self.mode is ControlMode.STOP
-            and self.throttle_volts == 0.0
-            and not self.motors_enabled
-            and self.ebrake_engaged
-        )
+        """STOP with every drive output safe: the drive stopping (`drive_safe`), the e-brake
+        engaged."""
+        return self.mode is ControlMode.STOP and self.drive_safe and self.ebrake_engaged
 
 
 def observe(

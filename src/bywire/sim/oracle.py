@@ -26,6 +26,22 @@ and the vehicle's true speed) and checks the output invariants of `docs/SAFETY.m
   set-point, and only the brake is judged).
 - H6 **brake beats throttle.** With the motors enabled, throttle volts above zero never come with
   a brake (regenerative volts or hydraulic duty above zero) for longer than a control period.
+- H7 **a stop stops.** While the e-brake line is engaged and the robot moves, it slows by at
+  least `REQUIRED_DECEL_MPS2` for as long as any brake can work: the spring brake and the
+  hydraulic brake unless they failed, and the drive's regenerative brake for the first
+  `REGEN_WINDOW_S` of a stop whose cause leaves the drive healthy (category 1). A stop that cuts
+  the drive's power without cause throws the last brake away.
+- H8 **the exit path never gives up.** When the controller ends on a failed output (a dead line),
+  every other output is left at its safe level: enable low, e-brake engaged, hydraulic brake at
+  full duty, throttle at 0 V.
+
+H1 allows a controlled stop (category 1, `bywire.control.stop`): the enable line may stay high,
+with the throttle at 0 V and the regenerative brake applied, for at most `CONTROLLED_STOP_LIMIT_S`
+after the stop began and never once the robot has stood still for `STANDSTILL_GRACE_S` (with a
+wheel sensor that never died), unless a cause that makes the drive suspect is in force (failing
+or crawling DAC writes, a watchdog trip): then the enable line must be low. These figures are the
+requirements' (`docs/SAFETY.md`), not the configuration's: the robot file's own bound is held
+inside them at load.
 
 Each violation carries what the hardware should have shown (`Violation.expected`, conditions of
 a scenario's expectation), so `bywire verify` can write it as a scenario that fails there.
@@ -41,9 +57,31 @@ from typing import Any
 
 from bywire.config.consistency import CONTROL_TASKS
 from bywire.config.model import RobotConfig
+from bywire.control.stop import (
+    MAX_CONTROLLED_STOP_S,
+    MIN_CONTROLLED_STOP_S,
+    STANDSTILL_LIMIT_MPS,
+)
 from bywire.hal.sim.world import SimWorld
 from bywire.model import ControlMode, MovementCommand
 
+CONTROLLED_STOP_LIMIT_S = MAX_CONTROLLED_STOP_S
+"""The longest a controlled stop may keep the drive powered (the requirement; a robot file's
+`[stop] controlled_max_s` is held within it at load)."""
+REGEN_WINDOW_S = MIN_CONTROLLED_STOP_S
+"""How long a controlled stop surely keeps its regenerative brake (unless standing still)."""
+STANDSTILL_GRACE_S = 0.05
+"""Standing still this long, with a wheel sensor that tells the truth, ends a controlled stop."""
+REQUIRED_DECEL_MPS2 = 1.0
+"""The least deceleration of a stop while any brake works (the simulated robot's weakest brake,
+regeneration alone with rolling drag, gives 1.65 m/s²)."""
+BRAKE_REACT_S = 0.05
+"""How long a brake may take to bite once applied."""
+SLOW_TRANSFER_S = 0.020
+"""A DAC transfer slower than this is no ordinary one (the robot file's budget is at most this):
+STOP, category 0. Transfers of 2 ms are ordinary and must never stop the robot."""
+POWER_OFF_KINDS = frozenset({"dac_fail", "dac_slow", "watchdog"})
+"""Stops whose cause makes the drive suspect: category 0, the enable line low."""
 CAN_PERIOD_S = 0.020  # the simulated computer's movement commands
 CAN_STALE_S = CAN_PERIOD_S + 0.005  # a CAN value may still be seen a period (and wire time) late
 
@@ -118,6 +156,8 @@ class OracleTiming:
             "can_impostor": 0.200,  # its frames are judged over a window of 16 counters
             # Three failed writes (the leaky count), a period to act, and two of margin.
             "dac_fail": 6 * self.driving_period_s,
+            # The next transfer (within a driving period) crawls; enable low as it returns.
+            "dac_slow": self.driving_period_s + 2 * period + 0.005,
             "watchdog": self.watchdog_s + 3 * period,
         }[kind]
 
@@ -141,7 +181,7 @@ CAN_SILENT = frozenset({"can_lost", "can_unplugged"})
 """Faults in which nothing the computer sends arrives."""
 CAN_ONLY = frozenset({*CAN_SILENT, "can_impostor", "remote_stop"})
 """Faults that stop CAN mode and refuse arming into CAN, never RC."""
-SWITCH_ONLY = frozenset({"rc_link_lost", "rc_failsafe", "dac_fail"})
+SWITCH_ONLY = frozenset({"rc_link_lost", "rc_failsafe", "dac_fail", "dac_slow"})
 """Faults whose latched cause only the operator's switch clears, never a CAN re-enable (S8);
 implausible frames (`stop_event`) and the watchdog's trip (`HazardOracle.stall`) are such too,
 and so is a second sender (CAN_UNTRUSTED) once it has surely latched (`_impostor_latched_from`)."""
@@ -150,14 +190,21 @@ DAC_LATCH_WRITES = 20
 every other write failing trips the leaky count after eight writes; the rest is margin."""
 
 
-INVARIANTS = ("H1", "H2", "H3", "H4", "H5", "H6")
+INVARIANTS = ("H1", "H2", "H3", "H4", "H5", "H6", "H7", "H8")
 SAFE_LEVELS: dict[str, dict[str, Any]] = {
-    "H1": {"motors_enabled": False, "ebrake_engaged": True},
+    "H1": {"ebrake_engaged": True, "throttle_volts_max": 0.0},
     "H2": {"throttle_volts_max": 0.0},
     "H3": {"motors_enabled": False, "ebrake_engaged": True, "throttle_volts_max": 0.0},
     "H4": {"throttle_volts_max": 0.0},
     "H5": {"hydrobrake_duty_min": 1.0},
     "H6": {"throttle_volts_max": 0.0},
+    "H7": {"ebrake_engaged": True},
+    "H8": {
+        "motors_enabled": False,
+        "ebrake_engaged": True,
+        "hydrobrake_duty_min": 1.0,
+        "throttle_volts_max": 0.0,
+    },
 }
 """What the hardware should show where each invariant broke (a steering pulse held since the
 stop is added where that is what broke): the conditions of a scenario's expectation."""
@@ -225,7 +272,7 @@ class _Source:
 
 @dataclass(slots=True)
 class HazardOracle:
-    """Told every action; `observe` after every pass checks H1-H6 on the world's hardware."""
+    """Told every action; `observe` after every pass checks H1-H8 on the world's hardware."""
 
     world: SimWorld
     throttle_channel: int = 0
@@ -274,6 +321,17 @@ class HazardOracle:
     hung_from: float = -1.0  # a write hangs the loop (short of a trip) from then…
     hung_until: float = -1.0  # …until then (`hang`)
     brake_with_throttle_at: float | None = None  # since when H6's combination shows
+    ebrake_failed: bool = False  # the spring brake does not engage (undetectable: row 6)
+    sensor_ever_dead: bool = False  # the wheel sensor died once: its standstill may not count
+    demand_since: float | None = None  # H1 has demanded the stop since then (its deadline)
+    standstill_since: float | None = None  # the robot stands still since then, in that stop
+    rolled_in_stop: bool = False  # the robot clearly moved in that stop: its sensor read motion
+    power_off_from: float | None = None  # a cause that makes the drive suspect acts by then
+    braking_from: tuple[float, float] | None = None  # H7: the e-brake engaged then, at that speed
+    braking_credit_s: float = 0.0  # H7: how long since then some brake could work
+    braking_seen_s: float = 0.0  # H7: when the credit was last counted
+    dead_lines: set[str] = field(default_factory=set)  # outputs whose writes fail (H8)
+    write_lag_s: float = 0.0  # every DAC transfer crawls: each pass may end this much later
 
     # --- what was done ----------------------------------------------------------------------------
 
@@ -291,6 +349,10 @@ class HazardOracle:
         deadline = self._past_hang(now, deadline)
         if kind in RC_BORNE:
             self.rc_borne_at = now
+        if kind in POWER_OFF_KINDS and (
+            self.power_off_from is None or deadline < self.power_off_from
+        ):
+            self.power_off_from = deadline
         if self.armed_ok:
             self.armed_ok = False
             self.drive_allowed_until = deadline
@@ -360,7 +422,12 @@ class HazardOracle:
             self._link_hides_switch(active, now)
         if active:
             if kind == "can_impostor":
-                self.impostor_met_drive = self.world.gpio["motors_enable"].level
+                # Driving, not stopping: a controlled stop keeps the enable line high too, but
+                # the e-brake engaged says STOP.
+                gpio = self.world.gpio
+                self.impostor_met_drive = (
+                    gpio["motors_enable"].level and gpio["ebrake_release"].level
+                )
             self.faults.add(kind)
             self.began[kind] = (now, self.armed_ok)
             self.stop_event(kind, now)
@@ -553,12 +620,14 @@ class HazardOracle:
         # A robot without the sensors (a Linux robot file today) is judged as one whose wheel
         # sensor died at power-up: the no-sensor rule must hold it, from standstill on.
         self.sensor_dead = not self.world.sensors_fitted
+        self.sensor_ever_dead = self.sensor_dead
 
     def sensor_dies(self) -> None:
         """The wheel-speed sensor reads 0 m/s from now on, whatever the robot does (a sensor
         that is not fitted has nothing to lose)."""
         if self.world.sensors_fitted:
             self.sensor_dead, self.died_at_mps = True, abs(self.world.vehicle.state.speed_mps)
+            self.sensor_ever_dead = True
 
     def sensor_restored(self) -> None:
         self.sensor_dead = not self.world.sensors_fitted
@@ -574,6 +643,7 @@ class HazardOracle:
     def _past_hang(self, from_s: float, until_s: float) -> float:
         """`until_s`, the end of something the loop must do from `from_s`; if a hang overlaps
         that, one pass after the hang instead (the rest of the hung pass, then one more)."""
+        until_s += self.write_lag_s
         if self.hung_from > until_s or self.hung_until < from_s:
             return until_s
         return max(until_s, self.hung_until + 2 * self.timing.control_period_s)
@@ -603,8 +673,9 @@ class HazardOracle:
         self._h2(now, volts if enable else 0.0)
         self._h3(now, enable, released, volts)
         self._h4(now, enable, volts)
-        self._h5(now, cut=not (allowed or enable or released))
+        self._h5(now, cut=not (allowed or released))
         self._h6(now, enable, volts)
+        self._h7(now, released)
 
     def _resolve_arming(self, now: float) -> None:
         if self.pending_arm is None or now < self.pending_arm[0] + self.timing.settle_s:
@@ -637,13 +708,58 @@ class HazardOracle:
         )
 
     def _h1(self, now: float, enable: bool, released: bool, volts: float) -> bool:
-        """Flags driving that is not allowed; returns whether it is."""
+        """Flags driving that is not allowed; returns whether it is. In a stop the enable line
+        may stay high only as a controlled stop's (`_controlled`)."""
         allowed = self._drive_allowed(now)
+        if allowed:
+            self.demand_since = self.standstill_since = None
+            self.rolled_in_stop = False
+            if self.armed_ok:  # re-armed: what a category 0 cause demanded is over
+                self.power_off_from = None
+            return True
+        if self.demand_since is None:
+            self.demand_since = now
+        speed = abs(self.world.vehicle.state.speed_mps)
+        if speed > self.timing.standstill_mps + 0.1:
+            self.rolled_in_stop = True
+        if speed > 0.0:
+            self.standstill_since = None
+        elif self.standstill_since is None:
+            self.standstill_since = now
         # A failed DAC may hold its last voltage: the enable line is what stops the motors.
-        if (enable or released) and not allowed:
-            detail = f"enable={enable} ebrake_release={released} throttle={volts:.2f} V"
-            self._flag("H1", now, detail)
+        if released or (enable and not self._controlled(now, volts)):
+            regen = self.world.dac.volts(self.regen_channel)
+            detail = (
+                f"enable={enable} ebrake_release={released} throttle={volts:.2f} V "
+                f"regen={regen:.2f} V"
+            )
+            expected = {} if self._controlled_may_last(now) else {"motors_enabled": False}
+            self._flag("H1", now, detail, **expected)
         return allowed
+
+    def _power_off_demanded(self, now: float) -> bool:
+        """A cause that makes the drive suspect has surely been acted on (its deadline passed):
+        category 0 from then until the next arming."""
+        due = (self.power_off_from, self.tripped_at)
+        return any(from_s is not None and now >= from_s for from_s in due)
+
+    def _controlled_may_last(self, now: float) -> bool:
+        """A controlled stop may still keep the drive powered now (the time bound, standstill)."""
+        if self._power_off_demanded(now) or self.demand_since is None:
+            return False
+        if now > self.demand_since + CONTROLLED_STOP_LIMIT_S:
+            return False
+        # A standstill the sensor proved (it read motion in this stop, with no throttle since):
+        # the controller sees it within a reading.
+        still = self.standstill_since
+        proven = self.rolled_in_stop and not (self.sensor_ever_dead or self.sensor_dead)
+        return not (proven and still is not None and now > still + STANDSTILL_GRACE_S)
+
+    def _controlled(self, now: float, volts: float) -> bool:
+        """The enable line high as a controlled stop: throttle at 0 V, the regenerative brake
+        applied, within the stop's bounds."""
+        regen = self.world.dac.volts(self.regen_channel)
+        return volts <= 0.0 and regen > 0.0 and self._controlled_may_last(now)
 
     def _dac_unsure(self, now: float) -> bool:
         """A DAC whose writes fail may hold an old voltage until a period after they work."""
@@ -709,6 +825,60 @@ class HazardOracle:
                 f"in STOP: steering pulse {pulse * 1000:.3f} ms, held at {held_ms:.3f} ms",
                 steering_held_since_s=hold.from_s,
             )
+
+    def _h7(self, now: float, released: bool) -> None:
+        """While the e-brake is engaged and the robot moves, it slows by `REQUIRED_DECEL_MPS2`
+        for as long as some brake can work."""
+        speed = abs(self.world.vehicle.state.speed_mps)
+        if released or speed <= STANDSTILL_LIMIT_MPS:  # a controlled stop may end there
+            self.braking_from = None
+            return
+        if self.braking_from is None:
+            self.braking_from, self.braking_credit_s, self.braking_seen_s = (now, speed), 0.0, now
+            return
+        began_s, start_mps = self.braking_from
+        if self._some_brake_works(now, began_s):
+            self.braking_credit_s += now - self.braking_seen_s
+        self.braking_seen_s = now
+        slowed_mps = REQUIRED_DECEL_MPS2 * max(self.braking_credit_s - BRAKE_REACT_S, 0.0)
+        allowed_mps = start_mps + 0.05 - slowed_mps
+        if speed > allowed_mps:
+            forward = self.world.vehicle.state.speed_mps > 0.0
+            bound = {"speed_max_mps": allowed_mps} if forward else {"speed_min_mps": -allowed_mps}
+            self._flag(
+                "H7",
+                now,
+                f"braking since {began_s:.3f} s from {start_mps:.2f} m/s: {speed:.2f} m/s, "
+                f"at most {allowed_mps:.2f} m/s",
+                **bound,
+            )
+            self.braking_from = (now, speed)  # once a stop, not at every pass after
+            self.braking_credit_s = 0.0
+
+    def _some_brake_works(self, now: float, began_s: float) -> bool:
+        """The spring or hydraulic brake works, or the drive can regenerate: a controlled
+        stop's first `REGEN_WINDOW_S` (its cause leaves the drive healthy and the DAC works)."""
+        if not (self.ebrake_failed and self.brake_failed):
+            return True
+        healthy = not (self._power_off_demanded(now) or self._dac_unsure(now))
+        return healthy and now - began_s <= REGEN_WINDOW_S
+
+    def exited(self, now: float) -> None:
+        """The controller ended on a failed output: H8, every other output safe."""
+        world = self.world
+        levels = {
+            "motors_enable": not world.gpio["motors_enable"].level,
+            "ebrake_release": not world.gpio["ebrake_release"].level,
+            "hydrobrake": world.pwm.hydrobrake.duty >= FULL_DUTY,
+            "dac": world.dac.volts(self.throttle_channel) <= 0.0 or self._dac_unsure(now),
+        }
+        unsafe = [name for name, safe in levels.items() if not safe and name not in self.dead_lines]
+        if unsafe:
+            self._flag("H8", now, f"after the controller ended: not safe: {', '.join(unsafe)}")
+
+    def line_died(self, name: str) -> None:
+        """Every write to the output `name` fails from now on."""
+        self.dead_lines.add(name)
 
     def _h6(self, now: float, enable: bool, volts: float) -> None:
         """Brake and throttle together for longer than a control period: the brake and the

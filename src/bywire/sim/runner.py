@@ -16,6 +16,7 @@ from typing import Any
 
 from bywire.config import RobotConfig
 from bywire.control.supervisor import Cause
+from bywire.errors import HardwareError
 from bywire.hal.sim.can_bus import LoggedFrame
 from bywire.hal.sim.clock import RealtimeClock, VirtualClock
 from bywire.hal.sim.timers import PeriodicTimer
@@ -78,6 +79,7 @@ class RunRecord:
     verdicts: list[Verdict] = field(default_factory=list)
     fault_timings: list[FaultTiming] = field(default_factory=list)
     top_speed_mps: float = 0.0
+    ended_by: str | None = None  # the output failure that ended the controller, if one did
     error_flags_seen: int = 0  # once the robot had been armed (or had left power-up)
     power_up_flags: int = 0  # while still in the power-up state, before the first arming
 
@@ -136,6 +138,9 @@ class SimRun:
         self.runtime.on_cycle.append(self._observe)
         self.on_event: list[Callable[[Event, float], None]] = []
         """Called with each event just applied and the time (the hazard oracle's witness)."""
+        self.on_exit: list[Callable[[float], None]] = []
+        """Called with the time when the controller ended on a failed output (a dead line),
+        after its exit path wrote the safe state: what it left is observed once more."""
 
     def _authentication(self, robot: RobotConfig, scenario: Scenario) -> SecocReceiver | None:
         """With [security] on or an authenticated scenario: the computer signs, the controller
@@ -168,7 +173,16 @@ class SimRun:
         for event in self.scenario.events:
             clock.call_at(self.started_at + event.at_s, functools.partial(self._apply, event))
         self.world.start()
-        self.runtime.run(until_s=self.started_at + self.duration_s)
+        try:
+            self.runtime.run(until_s=self.started_at + self.duration_s)
+        except HardwareError as error:  # as on the robot: the loop ends, its exit path is safe
+            now = clock.now()
+            self.record.ended_by = (
+                f"the controller stopped at {now - self.started_at:.3f} s: {error}"
+            )
+            self._observe(now)
+            for listener in self.on_exit:
+                listener(now)
         self.world.stop()
         for verdict in self.record.verdicts:
             if verdict.passed is None:

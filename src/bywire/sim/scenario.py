@@ -59,7 +59,7 @@ ACTIONS = {action: set(keys) for action, keys in ACTION_VALUES.items()}
 FAULTS = {fault.name: fault.description for fault in FAULT_TABLE}
 CONDITIONS = {condition.key: condition.description for condition in CONDITION_TABLE}
 CONDITION_VALUES = {condition.key: condition.check for condition in CONDITION_TABLE}
-EVENT_KEYS = {"at_s", "label", "fault", "count", "load", "stall_s", *ACTIONS}
+EVENT_KEYS = {"at_s", "label", "fault", "count", "load", "stall_s", "line", "keyed", *ACTIONS}
 EXPECT_KEYS = {"after", "within_s", "during_s", "at_s", "label", *CONDITIONS}
 DEFAULT_DURATION_S = 30.0
 
@@ -182,6 +182,8 @@ def _event(table: dict[str, Any], origin: str, where: str) -> Event:
             "count": table.get("count", 1),
             "load": table.get("load", 1.0),
             "stall_s": table.get("stall_s", 0.5),
+            "line": table.get("line", "turn_left_light"),
+            "keyed": table.get("keyed", False),
         }
         _check_values(values, FAULT_VALUES, origin, where)
     else:
@@ -336,12 +338,14 @@ def scenario_toml(scenario: Scenario, header: str = "") -> str:
     }
     if scenario.realtime:
         document["realtime"] = True
+    if scenario.authenticated:
+        document["authenticated"] = True
     document.update(event=events, expect=expectations)
     comments = "".join(f"# {line}\n" if line else "#\n" for line in header.splitlines())
     return comments + tomli_w.dumps(document)
 
 
-_FAULT_VALUE_KEYS = ("fault", "count", "load", "stall_s")
+_FAULT_VALUE_KEYS = ("fault", "count", "load", "stall_s", "line", "keyed")
 
 
 def load_scenario(path: Path) -> Scenario:

@@ -77,8 +77,26 @@ ACTION_VALUES: dict[str, dict[str, Check]] = {
 }
 """Every key of every action, with what its value may be."""
 
+OUTPUT_LINES = (
+    "motors_enable",
+    "motors_forward",
+    "motors_reverse",
+    "ebrake_release",
+    "brake_light",
+    "reverse_light",
+    "turn_left_light",
+    "turn_right_light",
+    "low_beam",
+    "error_led",
+    "steering",
+    "hydrobrake",
+)
+"""Every output a `line_dead` fault may kill: the GPIO lines and the two PWM channels."""
+
 FAULT_VALUES: dict[str, Check] = {
     "count": whole(1, 100_000),
     "load": UNIT,
     "stall_s": number(0.001, 10.0, "s"),
+    "line": one_of(OUTPUT_LINES),
+    "keyed": flag,
 }

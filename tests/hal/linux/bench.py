@@ -71,6 +71,9 @@ address = 0x{DAC_ADDRESS:02X}
 rc_timeout_s = 0.5
 can_command_timeout_s = 0.5
 watchdog_s = 2.0
+pass_budget_s = 0.05         # the stand-ins write files: milliseconds each on a busy machine
+write_budget_s = 0.02
+dac_transfer_budget_s = 0.02
 """
         return text + "".join(f"\n{line}" for line in extra.values())
 

@@ -11,6 +11,7 @@ from __future__ import annotations
 import enum
 import json
 import os
+import threading
 import types
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass
@@ -18,6 +19,7 @@ from pathlib import Path
 from typing import Any
 
 MARKER = "fake-gpiochip"
+_SAVING = threading.Lock()  # one state snapshot at a time, whole
 
 
 class Value(enum.Enum):
@@ -151,7 +153,10 @@ class LineRequest:
         self._save()
 
     def _save(self) -> None:
+        # A temporary file of the calling thread's own: the loop and the watchdog's thread may
+        # set lines of one request at the same time, as libgpiod allows.
         target = Path(f"{self._chip}.state.json")
-        temporary = target.with_suffix(".tmp")
-        temporary.write_text(json.dumps(self._state))
-        os.replace(temporary, target)
+        temporary = target.with_suffix(f".{threading.get_ident()}.tmp")
+        with _SAVING:
+            temporary.write_text(json.dumps(self._state))
+            os.replace(temporary, target)

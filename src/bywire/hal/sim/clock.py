@@ -90,6 +90,13 @@ class RealtimeClock(VirtualClock):
                 return
             self._timers.pop()[1]()
         self._input_pending = False
+        self._run_overdue()
+
+    def _run_overdue(self) -> None:
+        """Everything already due happens before the loop looks (a frame that arrived while it
+        was busy is in the receive buffer on a robot too), not one event per wake-up."""
+        while (next_s := self._timers.next_time()) is not None and next_s <= self.now():
+            self._timers.pop()[1]()
 
     def _sleep_until(self, target_s: float) -> None:
         remaining_s = target_s - self.now()

@@ -51,16 +51,18 @@ class SimDac6574:
         self._fail_pattern: tuple[bool, ...] = ()
         self._pattern_index = 0
         self._stall_next_s: float | None = None
+        self._slow_s: float | None = None  # every write takes this long (`slow_writes`)
         self.on_stall: Callable[[float], None] | None = None
         """Called with the stall's length when a stalled write begins (the world lets the
         simulated time run meanwhile); the write lands when it returns, as an I2C write lands
         at its last acknowledge."""
 
     def write(self, data: bytes) -> None:
+        stall_s = self._slow_s
         if self._stall_next_s is not None:
             stall_s, self._stall_next_s = self._stall_next_s, None
-            if self.on_stall is not None:
-                self.on_stall(stall_s)
+        if stall_s is not None and self.on_stall is not None:
+            self.on_stall(stall_s)
         if self._failing():
             self.failed_writes += 1
             raise HardwareError("DAC6574: no acknowledge (simulated bus fault)")
@@ -111,10 +113,18 @@ class SimDac6574:
         self._fail_pattern, self._pattern_index = tuple(pattern), 0
 
     def stop_failing(self) -> None:
-        """Acknowledge writes again."""
+        """Acknowledge writes again, at full speed."""
         self._fail_until_s = None
         self._fail_count = 0
         self._fail_pattern = ()
+        self._slow_s = None
+
+    def slow_writes(self, transfer_s: float) -> None:
+        """Every write from now on takes `transfer_s` before it lands, and succeeds (a slave
+        stretching the clock, a bus shared with a slow device) until ``stop_failing()``."""
+        if not transfer_s >= 0.0:
+            raise ValueError(f"transfer_s must be >= 0, got {transfer_s}")
+        self._slow_s = transfer_s
 
     def stall_next_write(self, stall_s: float) -> None:
         """The next write hangs inside the driver for ``stall_s`` before it lands."""

@@ -63,9 +63,20 @@ class SimDigitalOut:
     ) -> None:
         self.name = name
         self._recorder: _Recorder[bool] = _Recorder(clock, False, history_limit)
+        self.dead = False
+        """Every write raises (a broken driver, a loose connector): `fail()` / `restore()`."""
 
     def set(self, level: bool) -> None:
+        if self.dead:
+            raise HardwareError(f"GPIO line {self.name or '?'}: write failed (simulated dead line)")
         self._recorder.record(bool(level))
+
+    def fail(self) -> None:
+        """From now on every write raises HardwareError and the level stays where it was."""
+        self.dead = True
+
+    def restore(self) -> None:
+        self.dead = False
 
     @property
     def level(self) -> bool:
@@ -111,12 +122,23 @@ class SimPwmChannel:
         self.name = name
         self._period_s = period_s
         self._recorder: _Recorder[float] = _Recorder(clock, 0.0, history_limit)
+        self.dead = False
+        """Every write raises (a broken driver, a loose connector): `fail()` / `restore()`."""
+
+    def fail(self) -> None:
+        """From now on every write raises HardwareError and the pulse stays where it was."""
+        self.dead = True
+
+    def restore(self) -> None:
+        self.dead = False
 
     @property
     def period_s(self) -> float:
         return self._period_s
 
     def set_pulse(self, pulse_s: float) -> None:
+        if self.dead:
+            raise HardwareError(f"PWM {self.name or 'channel'}: write failed (simulated dead line)")
         if not 0.0 <= pulse_s <= self._period_s:
             raise HardwareError(
                 f"PWM {self.name or 'channel'}: pulse {pulse_s} s is outside 0..{self._period_s} s"

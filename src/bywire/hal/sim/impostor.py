@@ -1,8 +1,13 @@
-"""A second sender on the movement command's id: a misconfigured node, or an attacker.
+"""A second sender on one of the computer's command ids: a misconfigured node, or an attacker.
 
 It sends between the real computer's frames, each time with the counter the real sender will use
 next, so every frame it sends is intact and in sequence, and the real sender's next frame then
-repeats it: half the frames on the id are accepted, all of them the impostor's (hazard 10).
+repeats it: half the frames on the id are accepted, all of them the impostor's (hazard 10). On
+the movement id it asks for throttle; on the control id it is an idle `bywire teleop` (neither a
+stop nor a re-enable); on the lights id it asks for the hazard lights.
+
+With authentication on it has no key and guesses a MAC (`forge_authenticator`), unless it is
+`keyed`: a compromised node that signs with the computer's own key and freshness.
 """
 
 from __future__ import annotations
@@ -11,14 +16,15 @@ from bywire.hal.ports import CanFrame
 from bywire.hal.sim.can_port import SimCanPort
 from bywire.hal.sim.hlc import COMMAND_PERIOD_S, SimHigherLevelComputer
 from bywire.hal.sim.timers import PeriodicTimer, SimClock
-from bywire.model import Gear, MovementCommand
+from bywire.model import Command, ControlCommand, Gear, LightsCommand, MovementCommand
 from bywire.protocol import dbc, secoc
 
 IMPOSTOR_NODE = "impostor"
 
 
 class SimImpostor:
-    """Sends `count` movement commands with the real sender's next counter, half a period off."""
+    """Sends `count` commands of one kind with the real sender's next counter, half a period
+    off."""
 
     def __init__(self, clock: SimClock, port: SimCanPort, real: SimHigherLevelComputer) -> None:
         self._clock = clock
@@ -27,30 +33,53 @@ class SimImpostor:
         self._timer = PeriodicTimer(clock, COMMAND_PERIOD_S, self._send)
         self._remaining = 0
         self.throttle_norm = 0.8
+        self.kind: type[Command] = MovementCommand
+        self.keyed = False
         self.frames_sent = 0
         self.forge_authenticator = False
-        """Also send a cryptographic PDU (SecOC) after each frame: it has no key, so its MAC is
-        a guess (deterministic bytes, so runs reproduce)."""
+        """Also send a cryptographic PDU (SecOC) after each frame: without the key its MAC is a
+        guess (deterministic bytes, so runs reproduce)."""
 
-    def start(self, count: int, throttle_norm: float = 0.8) -> None:
-        """Send `count` frames asking for `throttle_norm`, the first half a period from now."""
+    def start(
+        self,
+        count: int,
+        throttle_norm: float = 0.8,
+        kind: type[Command] = MovementCommand,
+        *,
+        keyed: bool = False,
+    ) -> None:
+        """Send `count` frames of `kind` (a movement frame asking for `throttle_norm`), the first
+        half a period from now; `keyed`: signed with the computer's key and freshness."""
         self._remaining, self.throttle_norm = count, throttle_norm
+        self.kind, self.keyed = kind, keyed
         self._timer.start(self._clock.now() + COMMAND_PERIOD_S / 2)
 
     def stop(self) -> None:
         self._remaining = 0
         self._timer.stop()
 
+    def _command(self, counter: int) -> Command:
+        if self.kind is ControlCommand:
+            return ControlCommand(remote_stop=False, re_enable=False, counter=counter)
+        if self.kind is LightsCommand:
+            return LightsCommand(False, False, True, False, counter)
+        return MovementCommand(0.0, self.throttle_norm, 0.0, Gear.FORWARD, counter)
+
     def _send(self, _tick_s: float) -> None:
         if self._remaining <= 0:
             self._timer.stop()
             return
-        counter = self._real.next_counter(MovementCommand)
-        command = MovementCommand(0.0, self.throttle_norm, 0.0, Gear.FORWARD, counter)
+        command = self._command(self._real.next_counter(self.kind))
         frame_id, payload = dbc.encode_command(command)
         if self._port.send(CanFrame(frame_id, payload)):
             self.frames_sent += 1
-            if self.forge_authenticator:
+            signer = self._real.signer
+            authenticator = None
+            if self.keyed and signer is not None:  # in the trip the computer heard, if it has
+                authenticator = signer.authenticator(frame_id, payload)
+            if authenticator is not None:
+                self._port.send(authenticator)
+            elif self.forge_authenticator:
                 guess = (self.frames_sent * 0x9E3779B97F4A7C15).to_bytes(16, "little")[:8]
                 self._port.send(CanFrame(secoc.auth_id(frame_id), guess))
         self._remaining -= 1

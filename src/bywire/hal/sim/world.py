@@ -175,7 +175,7 @@ class SimWorld:
     ) -> SimWorld:
         """The simulated robot wired as a robot configuration says (DAC channels, brake PWM
         period, DAC reference, CAN bit rate, RC mapping, the sensors its backend fits, and
-        `[sim]`: seed, IBUS frame period, top speed)."""
+        `[sim]`: seed, IBUS frame period, top speed; `[vehicle]`: its geometry)."""
         dac = robot.drive.dac
         return cls.create(
             clock,
@@ -187,7 +187,12 @@ class SimWorld:
             rc_frame_period_s=robot.sim.rc_frame_period_s,
             dac_vref_volts=dac.vref_volts,
             can_bitrate_bps=robot.can.bitrate_bps,
-            vehicle_config=VehicleConfig(top_speed_mps=robot.sim.top_speed_mps),
+            vehicle_config=VehicleConfig(
+                top_speed_mps=robot.sim.top_speed_mps,
+                wheelbase_m=robot.vehicle.wheelbase_m,
+                track_m=robot.vehicle.track_m,
+                max_steering_angle_rad=robot.vehicle.max_steering_angle_rad,
+            ),
             bus_log_limit=bus_log_limit,
             sensors=sensors_fitted(robot.backend),
         )
@@ -195,6 +200,13 @@ class SimWorld:
     @property
     def sensors_fitted(self) -> bool:
         return self.hardware.wheel_speeds is not None
+
+    def output(self, name: str) -> SimDigitalOut | SimPwmChannel:
+        """A GPIO line, or the "steering" or "hydrobrake" PWM channel, by its name."""
+        if name in ("steering", "hydrobrake"):
+            channel: SimPwmChannel = getattr(self.pwm, name)
+            return channel
+        return self.gpio[name]
 
     def start(self, *, rc: bool = True, hlc: bool = True, vehicle: bool = True) -> None:
         """Start the transmitter, the higher-level computer and the vehicle from now."""

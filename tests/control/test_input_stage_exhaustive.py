@@ -1,0 +1,217 @@
+"""The CAN input stage checked exhaustively: every reachable state of one command message ×
+every abstract frame (unreadable; an intact one whose counter is the same, the next, one
+further or far off, asking for request A, B or something out of range; arriving early, on time
+or after a gap), breadth-first from the first frame, every invariant on every transition.
+
+Times are kept relative to the step and capped where the rules stop telling them apart, and
+counters relative to the last one, so the reachable states are finite; the trust window is cut
+to WINDOW frames (the rule does not depend on its length), which keeps them few. Then teeth:
+the rules of dce19d3's reader put back one at a time are each found.
+"""
+
+from __future__ import annotations
+
+from collections import deque
+from collections.abc import Callable
+from dataclasses import replace
+
+import pytest
+
+from bywire.control import input_stage
+from bywire.control.input_stage import Decoded, MessageState, Verdict, message_step
+from bywire.model import Gear, MovementCommand, same_request
+
+PERIOD_S, TIMEOUT_S = 0.020, 0.100
+WINDOW = 4
+A = MovementCommand(0.0, 0.2, 0.0, Gear.FORWARD, 0)
+B = MovementCommand(1.0, 0.8, 0.0, Gear.FORWARD, 0)
+REQUESTS: tuple[MovementCommand | None, ...] = (A, B, None)  # None: intact, out of range
+OFFSETS = (0, 1, 2, 5)
+WAITS_S = (0.5 * PERIOD_S, PERIOD_S, PERIOD_S + TIMEOUT_S)  # on a 10 ms grid
+Frame = tuple[Decoded, float, int | None]  # the frame, the wait before it, its counter offset
+
+Invariant = Callable[[MessageState, Frame, MessageState, Verdict], bool]
+
+
+def _frames() -> list[Frame]:
+    frames: list[Frame] = [(Decoded(readable=False), wait, None) for wait in WAITS_S]
+    for offset in OFFSETS:
+        for request in REQUESTS:
+            for wait in WAITS_S:
+                frames.append((Decoded(True, offset, request), wait, offset))
+    return frames
+
+
+def _at(state: MessageState, frame: Frame) -> Decoded:
+    """The frame with its counter relative to the state's (0 before the first)."""
+    decoded, _, offset = frame
+    if offset is None or decoded.counter is None:
+        return decoded
+    counter = ((state.counter or 0) + offset) % 16
+    command = None if decoded.command is None else replace(decoded.command, counter=counter)
+    return Decoded(True, counter, command)
+
+
+def _relative(time_s: float | None, now: float, cap_s: float) -> float | None:
+    return None if time_s is None else max(round(time_s - now, 6), -cap_s)
+
+
+def _canonical(state: MessageState, now: float) -> MessageState:
+    """The state as seen from `now`: times relative and capped, the counter rotated to 0."""
+    last = None if state.last is None else replace(state.last, counter=0)
+    return MessageState(
+        counter=None if state.counter is None else 0,
+        last=last,
+        last_at=_relative(state.last_at, now, TIMEOUT_S + PERIOD_S),
+        lost=min(state.lost, 3),
+        window=state.window,
+        untrusted=state.untrusted,
+    )
+
+
+def _never_accepts_the_counter_just_used(
+    before: MessageState, frame: Frame, after: MessageState, verdict: Verdict
+) -> bool:
+    gap = before.last_at is None or frame[1] - before.last_at > TIMEOUT_S  # it starts afresh
+    return not (verdict.used and frame[2] == 0 and before.counter is not None and not gap)
+
+
+def _unreadable_changes_nothing_but_the_lost_count(
+    before: MessageState, frame: Frame, after: MessageState, verdict: Verdict
+) -> bool:
+    if frame[0].readable:
+        return True
+    return replace(after, lost=before.lost) == before and after.lost == before.lost + 1
+
+
+def _identical_repeats_cost_no_trust(
+    before: MessageState, frame: Frame, after: MessageState, verdict: Verdict
+) -> bool:
+    decoded, wait_s, offset = frame
+    gap = before.last_at is None or wait_s - before.last_at > TIMEOUT_S
+    identical = (
+        offset == 0
+        and before.counter is not None
+        and before.last is not None
+        and decoded.command is not None
+        and same_request(decoded.command, before.last)
+    )
+    if not identical or gap:
+        return True
+    return after.window == before.window and after.untrusted == before.untrusted
+
+
+def _nothing_used_while_untrusted(
+    before: MessageState, frame: Frame, after: MessageState, verdict: Verdict
+) -> bool:
+    return not (verdict.used and after.untrusted)
+
+
+def _a_conflict_distrusts_at_once(
+    before: MessageState, frame: Frame, after: MessageState, verdict: Verdict
+) -> bool:
+    return verdict is not Verdict.CONFLICT or after.untrusted
+
+
+def _trust_returns_only_after_a_clean_window(
+    before: MessageState, frame: Frame, after: MessageState, verdict: Verdict
+) -> bool:
+    regained = before.untrusted and not after.untrusted
+    return not regained or (len(after.window) == WINDOW and not any(after.window))
+
+
+def _misses_distrust(
+    before: MessageState, frame: Frame, after: MessageState, verdict: Verdict
+) -> bool:
+    return sum(after.window) < input_stage.COUNTER_MISS_LIMIT or after.untrusted
+
+
+INVARIANTS: dict[str, Invariant] = {
+    "I1 the counter just used is never accepted (but after a gap)": (
+        _never_accepts_the_counter_just_used
+    ),
+    "I2 an unreadable frame moves nothing": _unreadable_changes_nothing_but_the_lost_count,
+    "I3 an identical repeat costs no trust": _identical_repeats_cost_no_trust,
+    "I4 nothing is used while untrusted": _nothing_used_while_untrusted,
+    "I5 a conflict distrusts at once": _a_conflict_distrusts_at_once,
+    "I6 trust returns only after a clean window": _trust_returns_only_after_a_clean_window,
+    "I7 misses distrust": _misses_distrust,
+}
+
+
+Step = Callable[[MessageState, Decoded, float, float], tuple[MessageState, Verdict]]
+
+
+def explore(
+    step: Step = message_step, max_violations: int = 1
+) -> tuple[int, int, list[tuple[str, list[Frame]]]]:
+    """(states, transitions, violations with their shortest frame sequence)."""
+    frames = _frames()
+    start = MessageState()
+    seen = {start}
+    paths: dict[MessageState, list[Frame]] = {start: []}
+    queue, transitions, violations = deque([start]), 0, []
+    while queue:
+        state = queue.popleft()
+        for frame in frames:
+            decoded = _at(state, frame)
+            after, verdict = step(state, decoded, frame[1], TIMEOUT_S)
+            transitions += 1
+            for name, holds in INVARIANTS.items():
+                if not holds(state, (decoded, frame[1], frame[2]), after, verdict):
+                    violations.append((name, [*paths[state], frame]))
+                    if len(violations) >= max_violations:
+                        return len(seen), transitions, violations
+            key = _canonical(after, frame[1])
+            if key not in seen:
+                seen.add(key)
+                paths[key] = [*paths[state], frame]
+                queue.append(key)
+    return len(seen), transitions, violations
+
+
+@pytest.fixture(autouse=True)
+def _small_window(monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.setattr(input_stage, "COUNTER_WINDOW", WINDOW)
+
+
+def test_every_reachable_state_keeps_every_invariant(capsys: pytest.CaptureFixture[str]) -> None:
+    states, transitions, violations = explore()
+    with capsys.disabled():
+        print(
+            f"\ninput stage exhaustive check: {states} states, {len(_frames())} frames, "
+            f"{transitions} transitions, {len(INVARIANTS)} invariants on each"
+        )
+    assert violations == []
+    assert states > 500
+
+
+# --- teeth: dce19d3's reader rules, put back, are found ----------------------------------------
+
+
+def _found(monkeypatch: pytest.MonkeyPatch, name: str, fake: object) -> set[str]:
+    monkeypatch.setattr(input_stage, name, fake)
+    return {violation for violation, _ in explore(max_violations=1)[2]}
+
+
+def test_an_unreadable_frame_that_resets_the_sequence_is_found() -> None:
+    def resetting(
+        state: MessageState, frame: Decoded, at: float, timeout: float
+    ) -> tuple[MessageState, Verdict]:
+        if not frame.readable:  # dce19d3: "the next frame starts it afresh"
+            return MessageState(window=state.window, untrusted=state.untrusted), Verdict.UNREADABLE
+        return message_step(state, frame, at, timeout)
+
+    found = {violation for violation, _ in explore(resetting, max_violations=1)[2]}
+    assert "I2 an unreadable frame moves nothing" in found
+
+
+def test_a_repeat_judged_as_a_counter_miss_is_found(monkeypatch: pytest.MonkeyPatch) -> None:
+    def old_repeat(state: MessageState, frame: Decoded) -> Verdict:
+        if state.counter is not None and frame.counter == state.counter:
+            return Verdict.COUNTER  # dce19d3: every repeat a miss, whatever it asked
+        return original(state, frame)
+
+    original = input_stage._judged
+    found = _found(monkeypatch, "_judged", old_repeat)
+    assert "I3 an identical repeat costs no trust" in found

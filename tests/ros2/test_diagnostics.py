@@ -1,0 +1,106 @@
+"""The diagnostics' content: every error flag in one subsystem, latched causes named as ERROR,
+stale reports STALE, the link's and the inputs' figures."""
+
+from __future__ import annotations
+
+from bywire.control.error_flags import ErrorFlag
+from bywire.model import ControlMode, StatusReport
+from bywire.ros2.diagnostics import (
+    FLAG_GROUPS,
+    Level,
+    LinkHealth,
+    flag_statuses,
+    inputs_status,
+    link_status,
+    mode_line,
+    mode_status,
+    statuses,
+)
+from bywire.ros2.robot import RobotStatus
+
+LATCHED = RobotStatus(
+    reporting=True,
+    report_age_s=0.01,
+    mode=ControlMode.STOP,
+    latched=True,
+    flags=ErrorFlag.REMOTE_STOP | ErrorFlag.CAN_COMMAND_REJECTED,
+)
+
+
+def test_every_flag_belongs_to_exactly_one_subsystem() -> None:
+    for flag in ErrorFlag:
+        owners = [name for name, members in FLAG_GROUPS.items() if flag in members]
+        assert len(owners) == 1, (flag, owners)
+
+
+def test_a_latched_cause_is_named_and_an_error() -> None:
+    status = mode_status(LATCHED, engaged=False, remote_stop=True)
+    assert status.level is Level.ERROR
+    assert status.message == "STOP latched: REMOTE_STOP"
+    assert ("latched_causes", "REMOTE_STOP") in status.values
+    commands = next(s for s in flag_statuses(LATCHED) if s.name == "bywire: CAN commands")
+    assert commands.level is Level.ERROR
+    assert ("REMOTE_STOP", "latched") in commands.values
+    assert ("CAN_COMMAND_REJECTED", "up") in commands.values
+
+
+def test_a_flag_that_is_not_a_latched_cause_is_a_warning() -> None:
+    driving = RobotStatus(True, 0.01, ControlMode.CAN, flags=ErrorFlag.IBUS_CHECKSUM)
+    rc = next(s for s in flag_statuses(driving) if s.name == "bywire: RC link")
+    assert rc.level is Level.WARN
+    assert rc.message == "IBUS_CHECKSUM"
+    others = [s for s in flag_statuses(driving) if s.name != "bywire: RC link"]
+    assert {s.level for s in others} == {Level.OK}
+    assert mode_status(driving, engaged=True, remote_stop=False).level is Level.OK
+
+
+def test_without_reports_everything_of_the_robot_is_stale() -> None:
+    silent = RobotStatus(reporting=False, report_age_s=None)
+    assert mode_status(silent, engaged=False, remote_stop=False).level is Level.STALE
+    assert {s.level for s in flag_statuses(silent)} == {Level.STALE}
+    assert link_status(LinkHealth(bus="active"), silent).level is Level.ERROR
+
+
+def test_the_link_and_inputs_carry_their_figures() -> None:
+    health = LinkHealth(
+        bus="active",
+        frames_sent=120,
+        send_errors=2,
+        command_age_s=0.05,
+        refused=3,
+        last_refusal="header stamp older than max_stamp_age_s",
+        last_refusal_age_s=1.0,
+    )
+    link = link_status(health, LATCHED)
+    assert link.level is Level.WARN
+    assert ("send_errors", "2") in link.values
+    inputs = inputs_status(health, StatusReport(12, 0, 4095, 20))
+    assert inputs.level is Level.WARN
+    assert ("robot_can_command_age_ms", "20") in inputs.values
+    assert ("commands_refused", "3") in inputs.values
+    stale_refusal = LinkHealth(last_refusal="x", last_refusal_age_s=60.0)
+    assert inputs_status(stale_refusal, None).level is Level.OK
+
+
+def test_one_array_has_mode_each_group_link_and_inputs() -> None:
+    names = [
+        s.name for s in statuses(LATCHED, LinkHealth(), None, engaged=False, remote_stop=False)
+    ]
+    assert len(names) == len(set(names)) == 1 + len(FLAG_GROUPS) + 2
+    assert all(name.startswith("bywire: ") for name in names)
+
+
+def test_the_mode_line_names_mode_arming_enabling_and_causes() -> None:
+    driving = RobotStatus(True, 0.01, ControlMode.CAN, armed=True)
+    assert mode_line(driving, engaged=True) == "CAN armed enabled"
+    assert mode_line(driving, engaged=False) == "CAN armed"
+    assert mode_line(LATCHED, engaged=False) == "STOP latched REMOTE_STOP"
+    assert mode_line(RobotStatus(False, None), engaged=False) == "UNKNOWN no reports"
+
+
+def test_a_starved_link_is_a_warning() -> None:
+    driving = RobotStatus(True, 0.01, ControlMode.CAN)
+    assert link_status(LinkHealth(bus="active", max_period_s=0.021), driving).level is Level.OK
+    starved = link_status(LinkHealth(bus="active", max_period_s=0.08), driving)
+    assert starved.level is Level.WARN
+    assert "0.080 s" in starved.message
