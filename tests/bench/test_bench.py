@@ -246,7 +246,9 @@ def test_on_virtual_time_the_phases_count_the_100_hz_tasks_and_the_flood_fills_t
     assert virtual_result.peak_rss_bytes > 0
 
 
-def test_the_authenticated_phase_pairs_every_signed_command_under_flood_with_the_pdus_delay() -> None:
+def test_the_authenticated_phase_pairs_every_signed_command_under_flood_with_the_pdus_delay() -> (
+    None
+):
     """Issue 32: the bench's SecOC phase. On virtual time a command takes effect when its
     cryptographic PDU has crossed the flooded bus, never at the command frame's own instant
     (which would mean nothing was verified): every command paired, none rejected, no STOP."""

@@ -43,7 +43,7 @@ def configure(parser: argparse.ArgumentParser) -> None:
     parser.epilog = (
         "Runs the controller on the simulated robot in real time: a nominal phase and a phase"
         " with the CAN bus flooded by other nodes, each first driven over CAN and then by RC,"
-        " and the flood phase again with authenticated commands (SecOC: \"secoc_flood\");"
+        ' and the flood phase again with authenticated commands (SecOC: "secoc_flood");'
         " then the test course in virtual time. Exit status 0 whether or not targets are met."
     )
     parser.add_argument(
