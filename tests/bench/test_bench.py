@@ -265,6 +265,8 @@ def test_the_authenticated_phase_pairs_every_signed_command_under_flood_with_the
     can = phase.can_latency
     assert can.samples == pytest.approx((PHASE_S / 2 - SETTLE_S) / 0.020, abs=1)
     assert can.unpaired == 0
+    assert can.p50_s is not None
+    assert can.max_s is not None
     pdu_bits = 130  # an 8-byte frame with its stuff bits, at most, at 500 kbit/s: 0.26 ms
     assert pdu_bits / 500_000 / 2 < can.p50_s <= can.max_s < 3 * pdu_bits / 500_000
     assert phase.stops == 0
