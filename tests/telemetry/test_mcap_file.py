@@ -43,7 +43,7 @@ def _write_until(writer: TelemetryWriter, captures: list[Capture], limit: int) -
         shift = (index // len(captures)) * 10.0
         writer.write(capture._replace(time_s=capture.time_s + shift))
         if writer.mcap_failure is not None:
-            return writer.written
+            return writer.messages
     raise AssertionError(f"the recording never stopped in {limit} messages")
 
 
@@ -144,4 +144,4 @@ def test_the_writer_prints_nothing_while_the_disk_has_room(
         writer.close()
     assert err.getvalue() == ""
     assert writer.mcap_failure is None
-    assert _messages(tmp_path / "run.mcap") == len(captures)
+    assert _messages(tmp_path / "run.mcap") == writer.messages >= len(captures)

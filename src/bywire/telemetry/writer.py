@@ -63,6 +63,9 @@ class TelemetryWriter:
         self._gate: OriginGate | None = None
         self._thread = threading.Thread(target=self._drain, name="bywire-telemetry", daemon=True)
         self.written = 0
+        """Captures written."""
+        self.messages = 0
+        """Messages logged for them (a capture may add one to a Foxglove topic as well)."""
 
     def record(self, path: Path) -> None:
         """Write every channel to an MCAP file at `path` (overwritten if it exists), through a
@@ -130,7 +133,7 @@ class TelemetryWriter:
         log_time_ns = self._log_offset_ns + round(capture.time_s * 1e9)
         data = json.dumps(body, separators=(",", ":")).encode()
         self._channels[topic].log(data, log_time=log_time_ns)
-        self._foxglove_topics.write(capture, log_time_ns)
+        self.messages += 1 + self._foxglove_topics.write(capture, log_time_ns)
         self.written += 1
         if self._file is not None and (self._file.full or self._file.error is not None):
             self._stop_recording(self._file)
@@ -145,13 +148,13 @@ class TelemetryWriter:
         self._file = None  # nothing more goes to it, and nothing more is said
         if file.error is None:
             self.mcap_failure = (
-                f"{file.path}: the disk is full: recording stopped after {self.written}"
+                f"{file.path}: the disk is full: recording stopped after {self.messages}"
                 " messages; the file is a complete MCAP up to there"
             )
         else:
             self.mcap_failure = (
                 f"{file.path}: cannot write ({file.error.strerror or file.error}): recording"
-                f" stopped after {self.written} messages; the file ends at the failure"
+                f" stopped after {self.messages} messages; the file ends at the failure"
             )
         print(f"bywire telemetry: {self.mcap_failure}", file=sys.stderr, flush=True)
 
