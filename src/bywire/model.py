@@ -74,6 +74,10 @@ class LightsCommand:
 Command = ControlCommand | MovementCommand | LightsCommand
 """Any command frame's content."""
 COMMAND_TYPES: tuple[type[Command], ...] = (ControlCommand, MovementCommand, LightsCommand)
+MOVES_NOTHING: frozenset[type[Command]] = frozenset({LightsCommand})
+"""Commands that move nothing: a second sender on one of their ids holds that function's last
+trusted request. Losing trust in any other command, a new one included unless it is named
+here, stops CAN driving (CAN_UNTRUSTED): the safe default (hazard row 39)."""
 
 
 def request_fields(kind: type[Command]) -> tuple[str, ...]:

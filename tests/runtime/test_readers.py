@@ -26,7 +26,7 @@ from bywire.runtime.readers import (
     arrival,
 )
 from bywire.runtime.recent_fault import FAULT_HOLD_S, RecentFault
-from bywire.runtime.rx_checks import rx_checks
+from bywire.runtime.rx_checks import RxCheck, rx_checks
 
 CHANNELS = (1750, 1500, 1500, 1500, 1500, 1000, 1500) + (1500,) * 7
 FRAME = ibus.encode_frame(CHANNELS)
@@ -38,11 +38,11 @@ MOVEMENT_ID = dbc.frame_id(MovementCommand)
 class Link:
     """A sender and the controller's reader on one simulated bus."""
 
-    def __init__(self) -> None:
+    def __init__(self, checks: tuple[RxCheck, ...] | None = None) -> None:
         self.clock = VirtualClock()
         bus = SimCanBus(self.clock)
         self.sender = bus.attach("hlc", tx_mailboxes=64)
-        self.reader = CanReader(bus.attach("bywire", True))
+        self.reader = CanReader(bus.attach("bywire", True), checks)
 
     def queue(self, *counters: int, data: bytes | None = None) -> None:
         for counter in counters:
@@ -324,6 +324,23 @@ def test_an_untrusted_lights_id_affects_the_lights_alone() -> None:
     link.poll()
     assert link.reader.lights_untrusted
     assert not link.reader.untrusted
+
+
+def test_whether_an_untrusted_id_stops_can_driving_is_its_rows_not_a_list_of_ids() -> None:
+    """A new command message stops CAN driving when a second sender takes its id, unless its row
+    says it moves nothing (a horn, added by hand, once stopped the robot as the lamps did)."""
+    rows = rx_checks(TimeoutsSection())
+    assert [row.moves_the_robot for row in rows] == [True, True, False]  # control, movement, lights
+    moving_lights = tuple(
+        replace(row, moves_the_robot=True) if row.kind is LightsCommand else row for row in rows
+    )
+    link = Link(moving_lights)
+    frame_id = dbc.frame_id(LightsCommand)
+    for counter in (0, 1, 0, 1, 0, 1, 0, 1):  # two senders on one id
+        payload = dbc.encode_command(LightsCommand(False, False, True, False, counter))[1]
+        link.sender.send(CanFrame(frame_id, payload))
+    link.poll()
+    assert link.reader.untrusted
 
 
 # --- IBUS ----------------------------------------------------------------------------------------

@@ -123,8 +123,10 @@ class CanReader:
     filter (R-STOP-PASS). This class only reads the port, decodes each frame with the codec,
     steps the stage with the frame's arrival stamp, and counts and flags what it refused.
 
-    Trust is proportionate: an untrusted movement or control id (`untrusted`) stops CAN mode
-    (CAN_UNTRUSTED); an untrusted lights id (`lights_untrusted`) affects the lights alone.
+    Trust is proportionate, by the row: an untrusted id of a command that moves the robot
+    (`untrusted`; movement, control, and any command not named in `model.MOVES_NOTHING`) stops
+    CAN mode (CAN_UNTRUSTED); an untrusted lights id (`lights_untrusted`) affects the lights
+    alone.
 
     With `secoc` (authentication on), a command frame counts only once its cryptographic PDU
     has arrived and verified (`bywire.security.session`), the two paired by their arrival stamps;
@@ -168,11 +170,11 @@ class CanReader:
 
     @property
     def untrusted(self) -> bool:
-        """A movement or control command message is not trusted now (CAN_UNTRUSTED)."""
+        """A command message that moves the robot is not trusted now (CAN_UNTRUSTED)."""
         return any(
             state.untrusted
             for frame_id, state in self.states.items()
-            if frame_id != self._lights_id
+            if self._rows[frame_id].moves_the_robot
         )
 
     @property

@@ -14,7 +14,7 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 
 from bywire.config import TimeoutsSection
-from bywire.model import COMMAND_TYPES, Command
+from bywire.model import COMMAND_TYPES, MOVES_NOTHING, Command
 from bywire.protocol import dbc
 
 MIN_PERIODS_PER_TIMEOUT = 2
@@ -31,6 +31,7 @@ class RxCheck:
     counter_modulus: int  # the rolling counter in the low nibble before the CRC byte
     period_s: float  # how often the sender sends it (DBC GenMsgCycleTime)
     timeout_s: float  # older than this, the message counts as lost
+    moves_the_robot: bool = True  # losing trust in it stops CAN driving (`MOVES_NOTHING`)
 
     @property
     def name(self) -> str:
@@ -68,4 +69,5 @@ def _row(kind: type[Command], timeout_s: float) -> RxCheck:
         counter_modulus=dbc.COUNTER_MODULUS,
         period_s=dbc.period_s(frame_id),
         timeout_s=timeout_s,
+        moves_the_robot=kind not in MOVES_NOTHING,
     )
