@@ -315,13 +315,17 @@ def test_a_stop_held_by_every_frame_is_one_arrival_and_a_corrupt_one_none() -> N
     assert link.reader.stop_requests == arrivals  # a bad CRC carries nothing, not even a stop
 
 
-def test_an_untrusted_lights_id_affects_the_lights_alone() -> None:
-    link = Link()
+def _two_senders_on_the_lights_id(link: Link) -> None:
     frame_id = dbc.frame_id(LightsCommand)
-    for counter in (0, 1, 0, 1, 0, 1, 0, 1):  # two senders on one id
+    for counter in (0, 1, 0, 1, 0, 1, 0, 1):  # their counters interleave
         payload = dbc.encode_command(LightsCommand(False, False, True, False, counter))[1]
         link.sender.send(CanFrame(frame_id, payload))
     link.poll()
+
+
+def test_an_untrusted_lights_id_affects_the_lights_alone() -> None:
+    link = Link()
+    _two_senders_on_the_lights_id(link)
     assert link.reader.lights_untrusted
     assert not link.reader.untrusted
 
@@ -335,11 +339,7 @@ def test_whether_an_untrusted_id_stops_can_driving_is_its_rows_not_a_list_of_ids
         replace(row, moves_the_robot=True) if row.kind is LightsCommand else row for row in rows
     )
     link = Link(moving_lights)
-    frame_id = dbc.frame_id(LightsCommand)
-    for counter in (0, 1, 0, 1, 0, 1, 0, 1):  # two senders on one id
-        payload = dbc.encode_command(LightsCommand(False, False, True, False, counter))[1]
-        link.sender.send(CanFrame(frame_id, payload))
-    link.poll()
+    _two_senders_on_the_lights_id(link)
     assert link.reader.untrusted
 
 
