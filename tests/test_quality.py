@@ -3,11 +3,14 @@
 from __future__ import annotations
 
 import re
+import shutil
 import subprocess
 import sys
 from pathlib import Path
 
 import pytest
+
+from tests.layers import LAYERS, SOURCE, imports, unit_of, upward
 
 ROOT = Path(__file__).resolve().parent.parent
 
@@ -81,3 +84,20 @@ def test_ci_runs_the_kernel_tier_as_the_readme_says_after_the_test_command() -> 
     listed = re.search(r"apt-get install[^\n]*\n(.*?)>/dev/null", ci, re.DOTALL)
     assert listed is not None
     assert packages <= set(listed[1].split()), packages - set(listed[1].split())
+
+
+def test_every_import_runs_down_the_stated_layers() -> None:
+    """Issue 35: each unit imports only from the layers below it (`tests/layers.py`)."""
+    assert {unit_of(path) for path in SOURCE.rglob("*.py")} == set().union(*LAYERS)
+    wrong = upward(imports())
+    assert not wrong, "imports that run back up or sideways:\n" + "\n".join(map(str, wrong))
+
+
+def test_the_layering_check_names_an_import_that_runs_back_up(tmp_path: Path) -> None:
+    copy = tmp_path / "bywire"
+    shutil.copytree(SOURCE, copy, ignore=shutil.ignore_patterns("__pycache__"))
+    model = copy / "config" / "model.py"
+    model.write_text(model.read_text() + "\nfrom bywire.runtime.app import Runtime\n")
+    (wrong,) = upward(imports(copy))
+    assert (wrong.importer, wrong.imported) == ("config", "runtime")
+    assert str(wrong).endswith("config imports runtime")
