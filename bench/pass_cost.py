@@ -31,7 +31,7 @@ from bywire.config import default_sim_config, load_config
 from bywire.control.controller import ControlOutputs
 from bywire.runtime.app import Runtime
 from bywire.runtime.realtime import apply_collector, apply_process
-from bywire.runtime.schedule import TaskFn
+from bywire.task_table import TaskFn
 
 SLOW_S = 0.0005
 SHOWN = 12

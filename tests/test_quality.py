@@ -10,6 +10,8 @@ from pathlib import Path
 
 import pytest
 
+from tests.layers import LAYERS, SOURCE, imports, unit_of, upward
+
 ROOT = Path(__file__).resolve().parent.parent
 
 
@@ -122,3 +124,20 @@ def test_the_deploy_tier_without_its_tools_skips_with_one_line_but_fails_under_c
     assert (result.returncode, len(said)) == (status, 1), said
     assert "debootstrap systemd-nspawn" in said[0]
     assert "apt-get install debootstrap systemd-container" in said[0]
+
+
+def test_every_import_runs_down_the_stated_layers() -> None:
+    """Issue 35: each unit imports only from the layers below it (`tests/layers.py`)."""
+    assert {unit_of(path) for path in SOURCE.rglob("*.py")} == set().union(*LAYERS)
+    wrong = upward(imports())
+    assert not wrong, "imports that run back up or sideways:\n" + "\n".join(map(str, wrong))
+
+
+def test_the_layering_check_names_an_import_that_runs_back_up(tmp_path: Path) -> None:
+    copy = tmp_path / "bywire"
+    shutil.copytree(SOURCE, copy, ignore=shutil.ignore_patterns("__pycache__"))
+    model = copy / "config" / "model.py"
+    model.write_text(model.read_text() + "\nfrom bywire.runtime.app import Runtime\n")
+    (wrong,) = upward(imports(copy))
+    assert (wrong.importer, wrong.imported) == ("config", "runtime")
+    assert str(wrong).endswith("config imports runtime")

@@ -14,7 +14,7 @@ from dataclasses import dataclass, fields
 from enum import IntEnum
 from operator import attrgetter
 
-from bywire.control.error_flags import ErrorFlag
+from bywire.error_flags import ErrorFlag
 
 
 class Gear(IntEnum):

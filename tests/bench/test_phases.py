@@ -5,8 +5,8 @@ from __future__ import annotations
 import pytest
 
 from bywire.bench.phases import TaskFigures
-from bywire.runtime.schedule import PeriodicTask, TaskSpec, TaskStats
-from bywire.runtime.tasks import write_steering
+from bywire.runtime.schedule import PeriodicTask, TaskStats
+from bywire.task_table import TaskSpec, write_steering
 
 
 def test_task_figures_carry_p99_p999_and_max_jitter() -> None:

@@ -8,6 +8,8 @@ import can
 import pytest
 
 from bywire.canlog.plot import (
+    DPI,
+    SIZE_IN,
     choose_signals,
     error_flags_seen,
     error_flags_up,
@@ -15,11 +17,10 @@ from bywire.canlog.plot import (
     write_log_plot,
 )
 from bywire.canlog.read import decode_messages, read_can_log, read_messages
-from bywire.control.error_flags import ErrorFlag
+from bywire.error_flags import ErrorFlag
 from bywire.errors import ConfigError
 from bywire.model import ControlMode, ErrorReport, Gear, ModeReport, MovementCommand
 from bywire.protocol import dbc
-from bywire.sim.plot import DPI, SIZE_IN
 from tests.canlog import tesla_drive
 
 PNG_SIGNATURE = b"\x89PNG\r\n\x1a\n"

@@ -144,8 +144,8 @@ def test_the_key_reaches_no_output_or_log(tmp_path: Path, caplog: pytest.LogCapt
 
 def test_the_controller_refuses_to_start_without_its_freshness_file(tmp_path: Path) -> None:
     from bywire.config.security import SecuritySection  # noqa: PLC0415
+    from bywire.config.security_setup import controller_receiver  # noqa: PLC0415
     from bywire.protocol.secoc import SecocKey  # noqa: PLC0415
-    from bywire.security.setup import controller_receiver  # noqa: PLC0415
 
     written = tmp_path / "freshness.json"
     security = SecuritySection(enabled=True, key_file="k", freshness_file=str(written))

@@ -89,7 +89,7 @@ class Recorder:
         caller = sys._getframe(2)
         module = caller.f_globals.get("__name__", "")
         method = caller.f_code.co_name
-        if not module.startswith("bywire.") or module.startswith(CHECKING):
+        if not module.startswith("bywire.") or module in CHECKING:
             return
         if method.startswith("__") and method.endswith("__"):
             return

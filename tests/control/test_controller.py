@@ -21,13 +21,13 @@ from bywire.control.controller import (
     controller_step,
 )
 from bywire.control.drive import SAFE_DRIVE
-from bywire.control.error_flags import ErrorFlag
 from bywire.control.monitors import MonitorConfig
 from bywire.control.rc_mapping import RcRequest
 from bywire.control.steering import SteeringConfig
 from bywire.control.stop import StopPhase
 from bywire.control.supervisor import Cause, SupervisorConfig
 from bywire.control.validity import Stamped
+from bywire.error_flags import ErrorFlag
 from bywire.model import (
     LIGHTS_OFF,
     ControlCommand,

@@ -10,7 +10,6 @@ import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
-from bywire.control.error_flags import ErrorFlag
 from bywire.control.monitors import (
     MonitorConfig,
     MonitorInputs,
@@ -19,6 +18,7 @@ from bywire.control.monitors import (
     stop_required,
 )
 from bywire.control.steering import step_towards
+from bywire.error_flags import ErrorFlag
 
 CONFIG = MonitorConfig()
 HYDRO = ErrorFlag.HYDRO_PRESSURE_FAULT

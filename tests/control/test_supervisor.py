@@ -8,7 +8,6 @@ from dataclasses import replace
 import pytest
 
 from bywire.config.limits import DEBOUNCE_FRAMES
-from bywire.control.error_flags import ErrorFlag
 from bywire.control.supervisor import (
     CAUSE_FLAGS,
     Cause,
@@ -17,6 +16,7 @@ from bywire.control.supervisor import (
     SupervisorState,
     supervisor_step,
 )
+from bywire.error_flags import ErrorFlag
 from bywire.model import ControlMode
 
 STOP, RC, CAN = ControlMode.STOP, ControlMode.RC, ControlMode.CAN

@@ -9,7 +9,7 @@ from typing import Any
 from textual.widgets import DataTable, Static
 
 from bywire.dashboard.app import DashboardApp
-from bywire.runtime.schedule import SCHEDULE
+from bywire.task_table import SCHEDULE
 from tests.dashboard.states import driving_by_rc
 
 SIZE = (80, 24)

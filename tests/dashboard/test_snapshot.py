@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import pytest
 
-from bywire.control.error_flags import ErrorFlag
 from bywire.dashboard.snapshot import from_state
 from bywire.dashboard.view import (
     PANEL_WIDTH,
@@ -17,7 +16,8 @@ from bywire.dashboard.view import (
     mode_panel,
     task_cells,
 )
-from bywire.runtime.schedule import SCHEDULE
+from bywire.error_flags import ErrorFlag
+from bywire.task_table import SCHEDULE
 from tests.dashboard.states import driving_by_rc, rc_lost
 
 TABLE_1 = {spec.name: spec.rate_hz for spec in SCHEDULE}

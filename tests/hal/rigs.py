@@ -21,12 +21,13 @@ from typing import ClassVar
 import can
 import pytest
 
+from bywire.can_frame import CanFrame
 from bywire.config import DacOutput, RobotConfig, output_lines, parse_config
 from bywire.errors import HardwareError
 from bywire.hal.hardware import Hardware
 from bywire.hal.linux import dac_smbus2, gpio_gpiod
 from bywire.hal.opening import LinuxPaths, de_energise, open_hardware
-from bywire.hal.ports import ByteStream, CanFrame, CanPort, I2cDevice
+from bywire.hal.ports import ByteStream, CanPort, I2cDevice
 from bywire.hal.sim.clock import VirtualClock
 from bywire.hal.sim.world import SimWorld
 from bywire.hal.tape.playback import replay_hardware

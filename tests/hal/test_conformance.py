@@ -16,9 +16,9 @@ from pathlib import Path
 
 import pytest
 
+from bywire.can_frame import CanFrame
 from bywire.errors import FrameError, HardwareError
 from bywire.hal.hardware import DigitalOutputs
-from bywire.hal.ports import CanFrame
 from bywire.protocol import dac6574, dbc, ibus
 from tests.hal.rigs import (
     BACKENDS,

@@ -18,7 +18,7 @@ from pathlib import Path
 import can
 import pytest
 
-from bywire.control.error_flags import ErrorFlag
+from bywire.error_flags import ErrorFlag
 from bywire.model import ControlMode
 from tests.kernel import guest
 from tests.kernel.robot import KernelRobot

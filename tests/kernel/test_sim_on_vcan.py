@@ -12,7 +12,7 @@ from pathlib import Path
 
 import pytest
 
-from bywire.control.error_flags import ErrorFlag
+from bywire.error_flags import ErrorFlag
 from bywire.model import ControlMode, ErrorReport, ModeReport
 from bywire.protocol import dbc
 from tests.kernel import guest

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import pytest
 
-from bywire.control.error_flags import ErrorFlag
+from bywire.error_flags import ErrorFlag
 from bywire.model import ControlMode, ErrorReport, Gear, ModeReport, MovementCommand
 from bywire.monitor.model import BusModel, MessageRow
 from bywire.monitor.view import cells, snapshot_table

@@ -5,7 +5,7 @@ from __future__ import annotations
 import can
 import pytest
 
-from bywire.hal.ports import CanFrame
+from bywire.can_frame import CanFrame
 from bywire.hal.sim.can_bus import SimCanBus
 from bywire.hal.sim.clock import VirtualClock
 from bywire.netbus.inprocess import SimPortBus

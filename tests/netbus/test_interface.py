@@ -7,7 +7,7 @@ import uuid
 
 import can
 
-from bywire.hal.ports import CanFrame
+from bywire.can_frame import CanFrame
 from bywire.hal.sim.clock import VirtualClock
 from bywire.hal.sim.world import SimWorld
 from bywire.netbus.interface import NODE, on_interface

@@ -10,7 +10,7 @@ from pathlib import Path
 import pytest
 
 from bywire.cli.dbc import write_c_sources
-from bywire.control.error_flags import ErrorFlag
+from bywire.error_flags import ErrorFlag
 from bywire.model import (
     ControlCommand,
     ErrorReport,

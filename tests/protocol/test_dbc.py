@@ -10,7 +10,7 @@ import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
-from bywire.control.error_flags import DESCRIPTIONS, ErrorFlag
+from bywire.error_flags import DESCRIPTIONS, ErrorFlag
 from bywire.errors import BywireError, FrameError
 from bywire.model import (
     Command,

@@ -8,7 +8,7 @@ from dataclasses import dataclass
 from hypothesis import given
 from hypothesis import strategies as st
 
-from bywire.control.error_flags import ErrorFlag
+from bywire.error_flags import ErrorFlag
 from bywire.model import ControlMode, ErrorReport, Gear, ModeReport, WheelSpeedReport
 from bywire.ros2.bridge import Activity, BridgeState, Inputs, Requests, bridge_step
 from bywire.ros2.setpoint import Setpoint, usable

@@ -3,7 +3,7 @@ stale reports STALE, the link's and the inputs' figures."""
 
 from __future__ import annotations
 
-from bywire.control.error_flags import ErrorFlag
+from bywire.error_flags import ErrorFlag
 from bywire.model import ControlMode, StatusReport
 from bywire.ros2.diagnostics import (
     FLAG_GROUPS,

@@ -6,7 +6,7 @@ from __future__ import annotations
 
 import pytest
 
-from bywire.control.error_flags import ErrorFlag
+from bywire.error_flags import ErrorFlag
 from bywire.model import ControlMode, Gear, MovementCommand
 from bywire.protocol import dbc
 from bywire.protocol.secoc import SecocKey

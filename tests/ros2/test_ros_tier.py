@@ -34,7 +34,7 @@ else:
 
 from mcap.reader import make_reader  # noqa: E402
 
-from bywire.control.error_flags import ErrorFlag  # noqa: E402
+from bywire.error_flags import ErrorFlag  # noqa: E402
 from bywire.model import ControlMode, ErrorReport, MovementCommand  # noqa: E402
 from bywire.protocol import dbc  # noqa: E402
 from bywire.ros2.settings import BridgeSettings  # noqa: E402

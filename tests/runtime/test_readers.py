@@ -7,12 +7,12 @@ from dataclasses import replace
 
 import pytest
 
+from bywire.can_frame import CanFrame
 from bywire.config import TimeoutsSection
 from bywire.control.command_edges import CommandEdges
 from bywire.control.input_stage import Verdict
 from bywire.control.rc_mapping import RcMapping
 from bywire.control.validity import is_fresh
-from bywire.hal.ports import CanFrame
 from bywire.hal.sim.can_bus import SimCanBus
 from bywire.hal.sim.clock import VirtualClock
 from bywire.hal.sim.uart import SimUart

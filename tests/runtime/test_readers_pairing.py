@@ -9,7 +9,7 @@ stamps and offers a poll's frames before expiring what waits.
 
 from __future__ import annotations
 
-from bywire.hal.ports import CanFrame
+from bywire.can_frame import CanFrame
 from bywire.hal.sim.can_bus import SimCanBus
 from bywire.hal.sim.clock import VirtualClock
 from bywire.model import Gear, MovementCommand

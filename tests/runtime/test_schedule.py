@@ -10,17 +10,9 @@ import pytest
 from bywire.config import parse_config
 from bywire.config.consistency import CONTROL_TASKS
 from bywire.errors import ConfigError
-from bywire.runtime.schedule import (
-    JITTER_BIN_S,
-    JITTER_BINS,
-    SCHEDULE,
-    TASK_NAMES,
-    PeriodicTask,
-    TaskSpec,
-    TaskStats,
-)
+from bywire.runtime.schedule import JITTER_BIN_S, JITTER_BINS, PeriodicTask, TaskStats
 from bywire.runtime.settings import RuntimeConfig
-from bywire.runtime.tasks import write_lights
+from bywire.task_table import SCHEDULE, TASK_NAMES, TaskSpec, write_lights
 
 TABLE_1 = {"steering": 100.0, "driving": 100.0, "hydrobrake": 100.0, "can_tx": 50.0, "lights": 20.0}
 

@@ -5,8 +5,8 @@ from __future__ import annotations
 
 import functools
 
-from bywire.control.error_flags import ErrorFlag
-from bywire.hal.ports import CanFrame
+from bywire.can_frame import CanFrame
+from bywire.error_flags import ErrorFlag
 from bywire.hal.sim.can_bus import LoggedFrame
 from bywire.hal.sim.clock import VirtualClock
 from bywire.hal.sim.world import SimWorld

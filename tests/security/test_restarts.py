@@ -16,7 +16,7 @@ import random
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from bywire.hal.ports import CanFrame
+from bywire.can_frame import CanFrame
 from bywire.hal.sim.can_bus import LoggedFrame, SimCanBus
 from bywire.hal.sim.clock import VirtualClock
 from bywire.model import Gear, MovementCommand

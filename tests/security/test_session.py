@@ -6,7 +6,7 @@ from __future__ import annotations
 
 import pytest
 
-from bywire.hal.ports import CanFrame
+from bywire.can_frame import CanFrame
 from bywire.protocol import dbc, secoc
 from bywire.protocol.secoc import MAX_COUNTER, SecocKey
 from bywire.security.freshness import Adoption, FreshnessStore

@@ -9,6 +9,7 @@ from pathlib import Path
 import pytest
 from matplotlib import image
 
+from bywire.canlog.plot import DPI, SIZE_IN
 from bywire.config import default_sim_config
 from bywire.errors import ConfigError
 from bywire.sim import plot
@@ -35,8 +36,8 @@ def test_a_run_becomes_a_png_of_the_configured_size_with_drawn_panels(
     width_px = int.from_bytes(data[16:20], "big")
     height_px = int.from_bytes(data[20:24], "big")
     assert (width_px, height_px) == (
-        round(plot.SIZE_IN[0] * plot.DPI),
-        round(plot.SIZE_IN[1] * plot.DPI),
+        round(SIZE_IN[0] * DPI),
+        round(SIZE_IN[1] * DPI),
     )
     pixels = image.imread(path)[:, :, :3]
     not_white = (pixels.sum(axis=2) < 2.9).mean()

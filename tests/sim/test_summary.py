@@ -11,10 +11,10 @@ from rich.console import Console
 
 from bywire.canlog.write import BusTally
 from bywire.config import default_sim_config
-from bywire.runtime.schedule import SCHEDULE
 from bywire.sim.runner import SimRun
 from bywire.sim.scenario import parse_scenario
 from bywire.sim.summary import LabelledEvent, Summary, build_summary, render
+from bywire.task_table import SCHEDULE
 
 WALL_S = 0.5  # a made-up wall time: the shares and the speed-up must follow from it exactly
 

@@ -10,7 +10,7 @@ from functools import partial
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from bywire.hal.ports import CanFrame
+from bywire.can_frame import CanFrame
 from bywire.model import ControlMode
 from tests.system.harness import Robot
 

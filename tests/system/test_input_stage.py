@@ -15,7 +15,7 @@ from pathlib import Path
 import pytest
 
 from bywire.config import default_sim_config, load_config, parse_config
-from bywire.control.error_flags import ErrorFlag
+from bywire.error_flags import ErrorFlag
 from bywire.errors import ConfigError
 from bywire.model import ControlMode
 from bywire.sim.runner import SimRun

@@ -9,7 +9,7 @@ from pathlib import Path
 import pytest
 
 from bywire.config import default_sim_config
-from bywire.control.error_flags import ErrorFlag
+from bywire.error_flags import ErrorFlag
 from bywire.model import LIGHTS_OFF, ControlMode, Gear, ModeReport, StatusReport
 from bywire.sim.runner import SimRun
 from bywire.sim.scenario import load_scenario

@@ -14,8 +14,8 @@ from collections.abc import Callable
 import pytest
 
 from bywire.config import RobotConfig, default_sim_config, parse_config
-from bywire.control.error_flags import ErrorFlag
 from bywire.control.stop import StopCategory, StopConfig, StopPhase, StopState, stop_step
+from bywire.error_flags import ErrorFlag
 from bywire.model import ControlMode
 from bywire.sim.runner import SimRun
 from bywire.sim.scenario import parse_scenario

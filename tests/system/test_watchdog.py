@@ -12,8 +12,8 @@ from __future__ import annotations
 import threading
 import time
 
-from bywire.control.error_flags import ErrorFlag
 from bywire.control.supervisor import Cause
+from bywire.error_flags import ErrorFlag
 from bywire.hal.sim.clock import VirtualClock
 from bywire.hal.sim.world import SimWorld
 from bywire.model import ControlMode, Gear

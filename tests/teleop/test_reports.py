@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from bywire.control.error_flags import ErrorFlag
+from bywire.error_flags import ErrorFlag
 from bywire.model import (
     ControlMode,
     ErrorReport,

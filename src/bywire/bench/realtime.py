@@ -49,6 +49,7 @@ from bywire.bench.phases import (
 from bywire.bench.sweeps import CanSweep, MovementLog, RcSweep
 from bywire.bench.tail import PhaseTail, ProbedClock, explain_tail, gc_figures
 from bywire.config import RobotConfig
+from bywire.config.security_setup import controller_receiver, sender_signer, simulated_run_key
 from bywire.hal.sim.hlc import COMMAND_PERIOD_S
 from bywire.hal.sim.world import SimWorld
 from bywire.model import ControlMode, Gear
@@ -57,7 +58,6 @@ from bywire.runtime.app import Runtime
 from bywire.runtime.schedule import TaskStats
 from bywire.runtime.settings import RuntimeConfig
 from bywire.security.session import SecocReceiver
-from bywire.security.setup import controller_receiver, sender_signer, simulated_run_key
 
 ARM_AT_S = 0.5
 HANDOVER_S = 0.06  # the switch counts after 3 IBUS frames (23 ms); well inside the settle time

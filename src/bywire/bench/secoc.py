@@ -19,7 +19,7 @@ import time
 from dataclasses import dataclass
 
 from bywire.bench.stats import LatencySummary, summarise
-from bywire.hal.ports import CanFrame
+from bywire.can_frame import CanFrame
 from bywire.hal.sim.can_bus import frame_bits
 from bywire.model import Gear, MovementCommand
 from bywire.protocol import dbc

@@ -8,7 +8,7 @@ A listen-only node on the bus keeps every movement command frame, stamped with i
 
 from __future__ import annotations
 
-from bywire.hal.ports import CanFrame
+from bywire.can_frame import CanFrame
 from bywire.hal.sim.can_bus import SimCanBus
 from bywire.hal.sim.hlc import COMMAND_PERIOD_S
 from bywire.hal.sim.timers import PeriodicTimer

@@ -16,6 +16,7 @@ from collections.abc import Iterator
 from pathlib import Path
 
 from bywire.cli.arguments import number_within, whole_number
+from bywire.config.security_setup import sender_signer
 from bywire.errors import ConfigError
 from bywire.model import ControlCommand, Gear, LightsCommand, MovementCommand
 from bywire.protocol import dbc
@@ -23,7 +24,6 @@ from bywire.protocol.secoc import MAX_TRIP
 from bywire.security.freshness import Adoption
 from bywire.security.keys import read_key_file
 from bywire.security.session import SecocSigner
-from bywire.security.setup import sender_signer
 
 Command = MovementCommand | LightsCommand | ControlCommand
 DEFAULT_FRESHNESS = Path.home() / ".local" / "state" / "bywire" / "frame-freshness.json"

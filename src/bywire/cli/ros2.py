@@ -17,12 +17,12 @@ from typing import TYPE_CHECKING, Any
 
 from bywire.cli.bus_options import add_bus_options, bus_from_args, bus_source
 from bywire.config import default_sim_config, load_config
+from bywire.config.security_setup import sender_signer
 from bywire.errors import HardwareError
 from bywire.protocol import dbc
 from bywire.ros2.settings import Geometry
 from bywire.security.keys import read_key_file
 from bywire.security.session import TRIP_IDS
-from bywire.security.setup import sender_signer
 
 if TYPE_CHECKING:
     from bywire.security.session import SecocSigner

@@ -29,6 +29,7 @@ from types import FrameType
 
 from bywire.cli import background_log
 from bywire.config import RobotConfig, load_config
+from bywire.config.security_setup import configured_key, controller_receiver
 from bywire.errors import BywireError, HardwareError
 from bywire.hal.linux.device_errors import reason
 from bywire.hal.linux.systemd import notify
@@ -38,7 +39,6 @@ from bywire.runtime.app import Runtime
 from bywire.runtime.realtime import RealtimeReport, apply_collector, apply_process
 from bywire.runtime.settings import RuntimeConfig
 from bywire.security.session import SecocReceiver
-from bywire.security.setup import configured_key, controller_receiver
 from bywire.telemetry.can_tap import TappedCanPort
 from bywire.telemetry.feed import (
     FeedOptions,

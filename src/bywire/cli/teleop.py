@@ -11,11 +11,11 @@ from typing import TYPE_CHECKING, Any
 import can
 
 from bywire.cli.bus_options import add_bus_options, bus_from_args
+from bywire.config.security_setup import sender_signer
 from bywire.errors import HardwareError
 from bywire.protocol import dbc
 from bywire.security.keys import read_key_file
 from bywire.security.session import TRIP_IDS, SecocSigner
-from bywire.security.setup import sender_signer
 from bywire.teleop.state import HOLD_S, KEYS
 
 if TYPE_CHECKING:

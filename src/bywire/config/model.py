@@ -21,7 +21,7 @@ from bywire.control.rc_mapping import RcMapping
 from bywire.control.steering import SteeringConfig
 from bywire.control.supervisor import SupervisorConfig
 from bywire.model import COMMAND_TYPES
-from bywire.runtime.schedule import SCHEDULE
+from bywire.task_table import SCHEDULE
 
 Backend = Literal["sim", "linux"]
 BACKENDS: tuple[Backend, ...] = ("sim", "linux")
@@ -163,7 +163,7 @@ class TimeoutsSection:
 @dataclass(frozen=True, slots=True)
 class TasksSection:
     """The rate of each periodic task by its name, `[tasks] <name>_rate_hz`: the schedule
-    table's rows (`bywire.runtime.schedule.SCHEDULE`) give the tasks and their defaults."""
+    table's rows (`bywire.task_table.SCHEDULE`) give the tasks and their defaults."""
 
     rates_hz: tuple[tuple[str, float], ...] = tuple((spec.name, spec.rate_hz) for spec in SCHEDULE)
 

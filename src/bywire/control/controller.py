@@ -14,7 +14,6 @@ from typing import Protocol, TypeVar
 
 from bywire.control.command_edges import NO_EDGES, CommandEdges
 from bywire.control.drive import SAFE_DRIVE, DriveConfig, DriveOutputs, braking_drive, drive_outputs
-from bywire.control.error_flags import ErrorFlag
 from bywire.control.hydrobrake import DEFAULT_THRESHOLD_NORM, hydrobrake_duty
 from bywire.control.interlocks import InterlockConfig, InterlockState, interlock_step
 from bywire.control.lights import BLINK_RATE_HZ, LightOutputs, LightRequest, light_outputs
@@ -40,6 +39,7 @@ from bywire.control.supervisor import (
 )
 from bywire.control.validity import Stamped, fresh, is_fresh
 from bywire.control.values import value
+from bywire.error_flags import ErrorFlag
 from bywire.model import (
     ControlCommand,
     ControlMode,

@@ -21,10 +21,10 @@ from __future__ import annotations
 
 import math
 
-from bywire.control.error_flags import ErrorFlag
 from bywire.control.interlocks import elapsed_since
 from bywire.control.steering import clamp_norm, step_towards
 from bywire.control.values import value
+from bywire.error_flags import ErrorFlag
 
 NO_FLAGS = ErrorFlag(0)
 

@@ -32,9 +32,9 @@ from __future__ import annotations
 import enum
 from dataclasses import replace
 
-from bywire.control.error_flags import ErrorFlag
 from bywire.control.stop import StopCategory
 from bywire.control.values import value
+from bywire.error_flags import ErrorFlag
 from bywire.model import ControlMode
 
 DEFAULT_DEBOUNCE_FRAMES = 3

@@ -9,30 +9,9 @@ something to read or a deadline has come.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
 from typing import Protocol
 
-from bywire.errors import FrameError
-
-MAX_STANDARD_ID = 0x7FF
-MAX_DATA_BYTES = 8
-
-
-@dataclass(frozen=True, slots=True)
-class CanFrame:
-    """One classic CAN data frame with an 11-bit id, stamped with the clock's time on arrival."""
-
-    arbitration_id: int
-    data: bytes
-    timestamp_s: float = 0.0
-
-
-def check_can_frame(frame: CanFrame) -> None:
-    """FrameError for a frame classic CAN cannot carry; every `CanPort.send` checks this first."""
-    if not 0 <= frame.arbitration_id <= MAX_STANDARD_ID:
-        raise FrameError(f"CAN id 0x{frame.arbitration_id:X} is not an 11-bit standard id")
-    if len(frame.data) > MAX_DATA_BYTES:
-        raise FrameError(f"classic CAN carries at most 8 data bytes, got {len(frame.data)}")
+from bywire.can_frame import CanFrame
 
 
 class CanPort(Protocol):

@@ -14,7 +14,7 @@ from dataclasses import dataclass, field
 
 import cantools
 
-from bywire.control.error_flags import flag_names
+from bywire.error_flags import flag_names
 from bywire.errors import FrameError
 from bywire.model import ErrorReport
 from bywire.protocol import dbc

@@ -18,8 +18,8 @@ import queue
 import time
 from collections.abc import Iterator
 
+from bywire.can_frame import CanFrame
 from bywire.errors import FrameError
-from bywire.hal.ports import CanFrame
 from bywire.hal.sim.can_bus import LoggedFrame, SimCanBus
 from bywire.hal.sim.can_port import SimCanPort
 from bywire.hal.sim.timers import PeriodicTimer

@@ -14,7 +14,7 @@ from typing import Any
 
 import can
 
-from bywire.hal.ports import CanFrame
+from bywire.can_frame import CanFrame
 from bywire.hal.sim.can_port import SimCanPort
 
 

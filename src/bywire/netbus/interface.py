@@ -20,8 +20,8 @@ from collections.abc import Iterator
 
 import can
 
+from bywire.can_frame import CanFrame
 from bywire.errors import FrameError
-from bywire.hal.ports import CanFrame
 from bywire.hal.sim.can_bus import LoggedFrame, SimCanBus
 from bywire.hal.sim.timers import PeriodicTimer
 

@@ -9,7 +9,7 @@ to paste into the file. Pure.
 
 from __future__ import annotations
 
-from bywire.control.error_flags import DESCRIPTIONS, ErrorFlag
+from bywire.error_flags import DESCRIPTIONS, ErrorFlag
 
 ERROR_REPORT_ID = 0x201
 ERROR_REPORT_LENGTH = 8  # bytes: room for 64 flags, so appending one never changes the length
@@ -31,7 +31,7 @@ def message_comment() -> str:
     last = 8 * ERROR_REPORT_LENGTH - 1
     return (
         "Error flags: one 1-bit signal per flag, named as the flag and set while it is up "
-        f"(bywire.control.error_flags); bits {first_reserved}-{last} are reserved and sent as 0. "
+        f"(bywire.error_flags); bits {first_reserved}-{last} are reserved and sent as 0. "
         "All 0 means no error."
     )
 

@@ -11,6 +11,7 @@ import dataclasses
 from dataclasses import dataclass
 
 from bywire.config import RobotConfig, parse_config
+from bywire.config.security_setup import controller_receiver, simulated_run_key
 from bywire.hal.sim.clock import VirtualClock
 from bywire.hal.sim.timers import PeriodicTimer
 from bywire.hal.tape.playback import replay_hardware
@@ -21,7 +22,6 @@ from bywire.runtime.app import Runtime
 from bywire.runtime.settings import RuntimeConfig
 from bywire.runtime.watchdog import POLL_S as WATCHDOG_POLL_S
 from bywire.security.session import SecocReceiver
-from bywire.security.setup import controller_receiver, simulated_run_key
 
 
 @dataclass(frozen=True, slots=True)

@@ -30,7 +30,7 @@ from rosbags.typesys.store import Typestore
 
 from bywire.canlog.read import read_log
 from bywire.config import RobotConfig
-from bywire.control.error_flags import flag_names
+from bywire.error_flags import flag_names
 from bywire.errors import ConfigError, FrameError
 from bywire.hal.sim.can_bus import LoggedFrame
 from bywire.model import REPORT_TYPES, Report, StatusReport, SteeringReport, WheelSpeedReport

@@ -14,7 +14,7 @@ from __future__ import annotations
 import enum
 from dataclasses import dataclass
 
-from bywire.control.error_flags import ErrorFlag, flag_names
+from bywire.error_flags import ErrorFlag, flag_names
 from bywire.model import StatusReport
 from bywire.ros2.robot import LATCH_FLAGS, RobotStatus
 

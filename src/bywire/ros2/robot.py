@@ -5,8 +5,8 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from bywire.control.error_flags import ErrorFlag, flag_names
 from bywire.control.supervisor import CAN_CLEARABLE, CAUSE_FLAGS
+from bywire.error_flags import ErrorFlag, flag_names
 from bywire.model import ControlMode, ErrorReport, Gear, ModeReport, WheelSpeedReport
 from bywire.teleop.reports import ReportView
 

@@ -22,6 +22,8 @@ from collections import deque
 from collections.abc import Callable
 from dataclasses import dataclass
 
+from bywire import task_table
+from bywire.can_frame import CanFrame
 from bywire.control.command_edges import NO_EDGES, CommandEdges
 from bywire.control.controller import (
     ControlInputs,
@@ -30,25 +32,24 @@ from bywire.control.controller import (
     changes_decision,
     controller_step,
 )
-from bywire.control.error_flags import ErrorFlag
 from bywire.control.rc_mapping import RcRequest
 from bywire.control.supervisor import Cause
 from bywire.control.validity import Stamped, age_s
+from bywire.error_flags import ErrorFlag
 from bywire.hal.hardware import Hardware
-from bywire.hal.ports import CanFrame
 from bywire.model import Command, ControlCommand, ControlMode, LightsCommand, MovementCommand
 from bywire.protocol import dbc
-from bywire.runtime import tasks
 from bywire.runtime.actuators import Actuators
 from bywire.runtime.readers import CanReader, IbusReader
 from bywire.runtime.recent_fault import RecentFault, active_flags
 from bywire.runtime.reports import Health, build_reports
-from bywire.runtime.schedule import PeriodicTask, TaskFn
+from bywire.runtime.schedule import PeriodicTask
 from bywire.runtime.sensors import SensorReadings, read_sensors
 from bywire.runtime.settings import RuntimeConfig
 from bywire.runtime.timing import Overruns
 from bywire.runtime.watchdog import Watchdog
 from bywire.security.session import SecocReceiver
+from bywire.task_table import TaskFn
 
 CycleObserver = Callable[[float], None]
 MODE_LOG_LENGTH = 256  # mode changes kept for tools and tests; nothing grows with run time
@@ -348,12 +349,14 @@ def _changed_writes(before: ControlOutputs | None, after: ControlOutputs) -> fro
     e-brake then, not at the brake task's own (slower) tick. The periodic tasks refresh
     everything anyway; an unchanged DAC value is not worth an I2C transfer."""
     if before is None:
-        return frozenset({tasks.write_steering, tasks.write_drive, tasks.write_brakes})
+        return frozenset(
+            {task_table.write_steering, task_table.write_drive, task_table.write_brakes}
+        )
     changed = (
-        (tasks.write_steering, after.steering_pulse_s != before.steering_pulse_s),
-        (tasks.write_drive, after.drive != before.drive),
+        (task_table.write_steering, after.steering_pulse_s != before.steering_pulse_s),
+        (task_table.write_drive, after.drive != before.drive),
         (
-            tasks.write_brakes,
+            task_table.write_brakes,
             (after.hydrobrake_duty, after.ebrake_engaged)
             != (before.hydrobrake_duty, before.ebrake_engaged),
         ),

@@ -11,6 +11,7 @@ from collections import Counter
 from collections.abc import Sequence
 from dataclasses import replace
 
+from bywire.can_frame import CanFrame
 from bywire.config import TimeoutsSection
 from bywire.control.command_edges import NO_EDGES, CommandEdges
 from bywire.control.input_stage import (
@@ -28,7 +29,7 @@ from bywire.control.input_stage import (
 )
 from bywire.control.rc_mapping import RcMapping, RcRequest, RcStage, rc_step
 from bywire.control.validity import Stamped
-from bywire.hal.ports import ByteStream, CanFrame, CanPort
+from bywire.hal.ports import ByteStream, CanPort
 from bywire.model import Command, ControlCommand, ControlMode, LightsCommand
 from bywire.protocol import dbc
 from bywire.protocol.ibus import IbusParser

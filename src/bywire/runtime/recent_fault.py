@@ -5,7 +5,7 @@ from __future__ import annotations
 from collections.abc import Iterable
 from dataclasses import dataclass
 
-from bywire.control.error_flags import ErrorFlag
+from bywire.error_flags import ErrorFlag
 
 FAULT_HOLD_S = 0.5  # a flag stays up this long after the last bad frame, so a report catches it
 

@@ -1,4 +1,6 @@
-"""The schedule table (thesis Table 1) and per-task statistics: the Python counterpart of Figure 30.
+"""Each periodic task's place in time and its statistics: the Python counterpart of Figure 30.
+
+The rows themselves (thesis Table 1) are `bywire.task_table.SCHEDULE`.
 
 Periodic tasks keep absolute deadlines: the next deadline is the previous one plus the period,
 never "now plus the period", so the schedule cannot drift. A task that falls a whole period or
@@ -8,52 +10,12 @@ more behind skips the missed deadlines (no burst of catch-up runs) and counts th
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING
 
-from bywire.runtime import tasks
-
-if TYPE_CHECKING:
-    from bywire.control.controller import ControlOutputs
-    from bywire.runtime.app import Runtime
-
-TaskFn = Callable[["Runtime", "ControlOutputs", float], None]
-"""What a row runs: a function of the controller, this pass's decision and its instant."""
+from bywire.task_table import TaskSpec
 
 JITTER_BIN_S = 10e-6
 JITTER_BINS = 2000  # 0…20 ms in 10 µs bins; later starts land in the last bin
-
-
-@dataclass(frozen=True, slots=True)
-class TaskSpec:
-    """One row of the schedule table, as ArduPilot's `SCHED_TASK(fn, rate_hz, max_us)`: what it
-    runs, how often and within what budget. The configuration overrides `rate_hz` by `name`
-    (`[tasks] <name>_rate_hz`)."""
-
-    name: str
-    rate_hz: float
-    budget_s: float
-    run: TaskFn
-
-    @property
-    def period_s(self) -> float:
-        return 1.0 / self.rate_hz
-
-
-# Table 1 of the thesis: the one schedule table. The RC and CAN readers are event-driven and
-# not in it. The rows are in order of importance, which is the order a pass writes in: the brakes
-# (the e-brake line, then the hydraulic duty), the steering (one PWM write: the servo holds what
-# the decision commanded even if a slow write after it trips the watchdog), then the drive (the
-# enable line down first, the slow I2C transfers to the DAC after), the lights and the reports.
-SCHEDULE: tuple[TaskSpec, ...] = (
-    TaskSpec("hydrobrake", 100.0, 0.002, tasks.write_brakes),
-    TaskSpec("steering", 100.0, 0.002, tasks.write_steering),
-    TaskSpec("driving", 100.0, 0.002, tasks.write_drive),
-    TaskSpec("lights", 20.0, 0.005, tasks.write_lights),
-    TaskSpec("can_tx", 50.0, 0.004, tasks.send_reports),
-)
-TASK_NAMES = tuple(spec.name for spec in SCHEDULE)
 
 
 @dataclass(slots=True)

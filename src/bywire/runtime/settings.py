@@ -10,8 +10,8 @@ from bywire.control.stop import STANDSTILL_LIMIT_MPS, StopConfig
 from bywire.model import ControlCommand, LightsCommand, MovementCommand
 from bywire.runtime.actuators import ActuatorConfig
 from bywire.runtime.rx_checks import RxCheck, rx_checks
-from bywire.runtime.schedule import SCHEDULE, TaskSpec
 from bywire.runtime.timing import Budgets
+from bywire.task_table import SCHEDULE, TaskSpec
 
 
 @dataclass(frozen=True, slots=True)

@@ -19,8 +19,8 @@ from collections import deque
 from collections.abc import Iterable
 from typing import NamedTuple
 
+from bywire.can_frame import CanFrame
 from bywire.errors import FrameError
-from bywire.hal.ports import CanFrame
 from bywire.protocol import secoc
 from bywire.protocol.secoc import MAX_COUNTER, TRIP_ID, SecocKey
 from bywire.security.freshness import Adoption, FreshnessStore

@@ -10,6 +10,7 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import TYPE_CHECKING
 
+from bywire.canlog.plot import DPI, SIZE_IN
 from bywire.errors import ConfigError
 from bywire.model import ControlMode
 from bywire.sim.observe import Observation
@@ -19,8 +20,6 @@ if TYPE_CHECKING:
     from matplotlib.axes import Axes
     from matplotlib.figure import Figure
 
-SIZE_IN = (11.0, 12.0)
-DPI = 100
 Line = tuple[str, Callable[[Observation], float]]  # label, value
 
 

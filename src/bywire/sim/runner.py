@@ -15,6 +15,7 @@ from dataclasses import dataclass, field, replace
 from typing import Any
 
 from bywire.config import RobotConfig
+from bywire.config.security_setup import controller_receiver, sender_signer, simulated_run_key
 from bywire.control.supervisor import Cause
 from bywire.errors import ConfigError, HardwareError
 from bywire.hal.hardware import Hardware
@@ -27,7 +28,6 @@ from bywire.runtime.app import Runtime
 from bywire.runtime.settings import RuntimeConfig
 from bywire.runtime.watchdog import POLL_S as WATCHDOG_POLL_S
 from bywire.security.session import SecocReceiver
-from bywire.security.setup import controller_receiver, sender_signer, simulated_run_key
 from bywire.sim.conditions import conditions_hold
 from bywire.sim.faults import BY_NAME
 from bywire.sim.observe import Observation, observe

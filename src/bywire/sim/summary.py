@@ -10,7 +10,7 @@ from rich.markup import escape
 from rich.table import Table
 
 from bywire.canlog.write import BusTally
-from bywire.control.error_flags import flag_names
+from bywire.error_flags import flag_names
 from bywire.runtime.schedule import PeriodicTask
 from bywire.sim.runner import SimRun, Verdict
 from bywire.sim.scenario import FAULTS, Scenario

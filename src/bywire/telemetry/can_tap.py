@@ -8,7 +8,8 @@ lock held beyond the outbox's; the runtime never knows.
 
 from __future__ import annotations
 
-from bywire.hal.ports import CanFrame, CanPort
+from bywire.can_frame import CanFrame
+from bywire.hal.ports import CanPort
 from bywire.telemetry.capture import CanCapture, Capture
 from bywire.telemetry.outbox import Outbox
 

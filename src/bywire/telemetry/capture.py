@@ -16,8 +16,8 @@ from __future__ import annotations
 from collections.abc import Callable
 from typing import TYPE_CHECKING, NamedTuple
 
-from bywire.control.error_flags import flag_names
 from bywire.control.validity import age_s
+from bywire.error_flags import flag_names
 from bywire.telemetry.outbox import Outbox
 from bywire.telemetry.schemas import LIGHTS
 

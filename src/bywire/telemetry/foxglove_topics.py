@@ -34,7 +34,7 @@ from foxglove.messages import (
     Vector3,
 )
 
-from bywire.control.error_flags import ErrorFlag
+from bywire.error_flags import ErrorFlag
 from bywire.protocol.dbc import database
 from bywire.telemetry.capture import CanCapture, Capture, EventCapture, PoseCapture, StateCapture
 

@@ -8,7 +8,7 @@ from __future__ import annotations
 
 from typing import Any
 
-from bywire.control.error_flags import flag_names
+from bywire.error_flags import flag_names
 from bywire.telemetry.capture import (
     Capture,
     EventCapture,

@@ -9,7 +9,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field, replace
 from typing import TypeVar
 
-from bywire.control.error_flags import flag_names
+from bywire.error_flags import flag_names
 from bywire.errors import FrameError
 from bywire.model import (
     ControlMode,

@@ -34,11 +34,11 @@ pwm_core_checks(pytest.MonkeyPatch())
 import can  # noqa: E402
 
 from bywire.cli.main import main  # noqa: E402
+from bywire.config.security_setup import sender_signer  # noqa: E402
 from bywire.model import Gear, ModeReport, MovementCommand  # noqa: E402
 from bywire.protocol import dbc  # noqa: E402
 from bywire.security.keys import read_key_file  # noqa: E402
 from bywire.security.session import TRIP_IDS  # noqa: E402
-from bywire.security.setup import sender_signer  # noqa: E402
 
 PERIOD_S = 0.02
 

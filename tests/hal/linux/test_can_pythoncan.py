@@ -10,11 +10,11 @@ from typing import Any
 import can
 import pytest
 
+from bywire.can_frame import CanFrame
 from bywire.errors import ConfigError, HardwareError
 from bywire.hal.linux.can_open import BusSettings, open_bus
 from bywire.hal.linux.can_pythoncan import CAN_ERR_BUSOFF, BusHealth, PythonCanPort
 from bywire.hal.linux.clock import LinuxClock
-from bywire.hal.ports import CanFrame
 from bywire.protocol import dbc
 
 ATTEMPTS = 2000

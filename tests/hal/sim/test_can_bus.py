@@ -8,8 +8,8 @@ import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
+from bywire.can_frame import CanFrame
 from bywire.errors import FrameError
-from bywire.hal.ports import CanFrame
 from bywire.hal.sim.can_bus import LoggedFrame, SimCanBus, frame_bits
 from bywire.hal.sim.clock import VirtualClock
 

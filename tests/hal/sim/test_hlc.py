@@ -7,8 +7,8 @@ from dataclasses import replace
 
 import pytest
 
+from bywire.can_frame import CanFrame
 from bywire.errors import FrameError
-from bywire.hal.ports import CanFrame
 from bywire.hal.sim.can_bus import SimCanBus
 from bywire.hal.sim.can_port import SimCanPort
 from bywire.hal.sim.clock import VirtualClock

@@ -4,8 +4,8 @@ from __future__ import annotations
 
 import pytest
 
+from bywire.can_frame import CanFrame
 from bywire.errors import HardwareError
-from bywire.hal.ports import CanFrame
 from bywire.hal.sim.clock import VirtualClock
 from bywire.hal.tape.playback import ReplayByteStream, ReplayCanPort, ReplayDac
 

@@ -8,8 +8,8 @@ from pathlib import Path
 
 import pytest
 
+from bywire.can_frame import CanFrame
 from bywire.errors import ConfigError
-from bywire.hal.ports import CanFrame
 from bywire.hal.tape.run_record import Output, RecordHeader, read_record, write_record
 
 HEADER = RecordHeader("tiny", 0.0, 1.0, {"steering": 0.02, "hydrobrake": 0.001}, (), "")

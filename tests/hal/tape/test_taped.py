@@ -3,7 +3,7 @@ DAC writes that hang."""
 
 from __future__ import annotations
 
-from bywire.hal.ports import CanFrame
+from bywire.can_frame import CanFrame
 from bywire.hal.sim.clock import VirtualClock
 from bywire.hal.sim.dac import SimDac6574
 from bywire.hal.sim.gpio_pwm import SimPwmChannel

@@ -19,10 +19,10 @@ from typing import Any
 
 import can
 
+from bywire.can_frame import CanFrame, check_can_frame
 from bywire.errors import HardwareError
 from bywire.hal.linux.can_open import BusSettings, open_bus
 from bywire.hal.linux.device_errors import reason
-from bywire.hal.ports import CanFrame, check_can_frame
 
 log = logging.getLogger(__name__)
 RECEIVE_TIMEOUT_S = 0.1

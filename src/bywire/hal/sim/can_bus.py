@@ -14,9 +14,9 @@ import itertools
 from collections import deque
 from collections.abc import Callable, Iterable
 
+from bywire.can_frame import CanFrame
 from bywire.control.values import value
 from bywire.errors import FrameError
-from bywire.hal.ports import CanFrame
 from bywire.hal.sim.can_port import SimCanPort
 from bywire.hal.sim.flood import CanFlood
 from bywire.hal.sim.timers import SimClock

@@ -11,7 +11,7 @@ from collections import deque
 from collections.abc import Callable, Iterable
 from typing import TYPE_CHECKING
 
-from bywire.hal.ports import CanFrame, check_can_frame
+from bywire.can_frame import CanFrame, check_can_frame
 
 if TYPE_CHECKING:
     from bywire.hal.sim.can_bus import SimCanBus

@@ -7,7 +7,7 @@ load never exceeds what the bus can carry and our higher-priority frames still w
 
 from __future__ import annotations
 
-from bywire.hal.ports import MAX_STANDARD_ID, CanFrame
+from bywire.can_frame import MAX_STANDARD_ID, CanFrame
 from bywire.hal.sim.can_port import SimCanPort
 from bywire.hal.sim.timers import PeriodicTimer, SimClock
 

@@ -13,8 +13,8 @@ import enum
 from collections import deque
 from typing import TypeVar
 
+from bywire.can_frame import CanFrame
 from bywire.errors import FrameError
-from bywire.hal.ports import CanFrame
 from bywire.hal.sim.can_port import SimCanPort
 from bywire.hal.sim.timers import PeriodicTimer, SimClock
 from bywire.model import (

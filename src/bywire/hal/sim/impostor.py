@@ -16,7 +16,7 @@ reader restarted its sequence at the unreadable frame and took the forgery (issu
 
 from __future__ import annotations
 
-from bywire.hal.ports import CanFrame
+from bywire.can_frame import CanFrame
 from bywire.hal.sim.can_port import SimCanPort
 from bywire.hal.sim.hlc import COMMAND_PERIOD_S, SimHigherLevelComputer
 from bywire.hal.sim.timers import PeriodicTimer, SimClock

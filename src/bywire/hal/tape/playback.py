@@ -14,9 +14,10 @@ from collections import deque
 from collections.abc import Sequence
 from typing import Generic, TypeVar
 
+from bywire.can_frame import CanFrame, check_can_frame
 from bywire.errors import HardwareError
 from bywire.hal.hardware import DigitalOutputs, Hardware
-from bywire.hal.ports import CanFrame, I2cDevice, check_can_frame
+from bywire.hal.ports import I2cDevice
 from bywire.hal.sim.clock import VirtualClock
 from bywire.hal.sim.dac import SimDac6574
 from bywire.hal.sim.gpio_pwm import SimDigitalOut, SimPwmChannel

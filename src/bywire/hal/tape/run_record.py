@@ -35,8 +35,8 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import IO, Any
 
+from bywire.can_frame import CanFrame
 from bywire.errors import ConfigError
-from bywire.hal.ports import CanFrame
 from bywire.textfile import check_regular
 
 FORMAT = "bywire-run-record"

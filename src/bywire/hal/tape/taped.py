@@ -11,9 +11,10 @@ from collections.abc import Callable
 from dataclasses import fields
 from typing import Generic, TypeVar
 
+from bywire.can_frame import CanFrame
 from bywire.errors import FrameError, HardwareError
 from bywire.hal.hardware import DigitalOutputs, Hardware
-from bywire.hal.ports import ByteStream, CanFrame, CanPort, Clock, DigitalOut, I2cDevice, PwmChannel
+from bywire.hal.ports import ByteStream, CanPort, Clock, DigitalOut, I2cDevice, PwmChannel
 from bywire.hal.tape.run_record import Event, OutputValue
 from bywire.protocol import dac6574
 

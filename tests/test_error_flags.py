@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from bywire.control.error_flags import RECOVERABLE, ErrorFlag, flag_names
+from bywire.error_flags import RECOVERABLE, ErrorFlag, flag_names
 
 
 def test_figure_23_flags_keep_their_bit_positions() -> None:
