@@ -18,7 +18,8 @@ LAYERS: tuple[frozenset[str], ...] = tuple(
     frozenset(layer.split())
     for layer in (
         "__init__ errors",
-        "atomic_file quit_keys priority accepting textfile loopback error_flags can_frame",
+        "atomic_file quit_keys priority accepting textfile loopback",
+        "error_flags can_frame plot_page",  # values and constants every layer may name
         "model",  # commands, reports and their values
         "control protocol",  # the pure core; the codecs
         "task_table security",  # the schedule's rows; SecOC sessions

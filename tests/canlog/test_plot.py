@@ -8,8 +8,6 @@ import can
 import pytest
 
 from bywire.canlog.plot import (
-    DPI,
-    SIZE_IN,
     choose_signals,
     error_flags_seen,
     error_flags_up,
@@ -20,6 +18,7 @@ from bywire.canlog.read import decode_messages, read_can_log, read_messages
 from bywire.error_flags import ErrorFlag
 from bywire.errors import ConfigError
 from bywire.model import ControlMode, ErrorReport, Gear, ModeReport, MovementCommand
+from bywire.plot_page import DPI, SIZE_IN
 from bywire.protocol import dbc
 from tests.canlog import tesla_drive
 

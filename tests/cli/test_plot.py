@@ -9,8 +9,8 @@ from pathlib import Path
 import pytest
 from matplotlib import image
 
-from bywire.canlog.plot import DPI, SIZE_IN
 from bywire.cli.main import main
+from bywire.plot_page import DPI, SIZE_IN
 from tests.canlog import tesla_drive
 
 PNG_SIGNATURE = b"\x89PNG\r\n\x1a\n"

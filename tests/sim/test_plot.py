@@ -9,9 +9,9 @@ from pathlib import Path
 import pytest
 from matplotlib import image
 
-from bywire.canlog.plot import DPI, SIZE_IN
 from bywire.config import default_sim_config
 from bywire.errors import ConfigError
+from bywire.plot_page import DPI, SIZE_IN
 from bywire.sim import plot
 from bywire.sim.catalog import find_scenario
 from bywire.sim.runner import SimRun

@@ -28,9 +28,8 @@ from bywire.canlog.read import DecodedLog, Signal
 from bywire.error_flags import ErrorFlag
 from bywire.errors import ConfigError
 from bywire.model import ControlMode
+from bywire.plot_page import DPI, SIZE_IN
 
-SIZE_IN = (11.0, 12.0)  # one page for every plot bywire draws (this and `sim.plot`)
-DPI = 100
 LIGHTS = ("brake", "reverse", "turn_left", "turn_right", "hazard", "low_beam", "error_led")
 LANE_HEIGHT = 0.8
 # Signals Albert's view needs: a log with all of them is drawn that way unless --signal is given.

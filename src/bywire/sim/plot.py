@@ -10,9 +10,9 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-from bywire.canlog.plot import DPI, SIZE_IN
 from bywire.errors import ConfigError
 from bywire.model import ControlMode
+from bywire.plot_page import DPI, SIZE_IN
 from bywire.sim.observe import Observation
 from bywire.sim.runner import SimRun
 
