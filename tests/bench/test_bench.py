@@ -506,3 +506,13 @@ def test_a_phase_after_one_that_fell_to_stop_still_measures_every_frame() -> Non
     assert flood.stops == 0
     assert flood.can_latency.unpaired == flood.ibus_latency.unpaired == 0
     assert flood.can_latency.samples == pytest.approx((PHASE_S / 2 - SETTLE_S) / 0.020, abs=1)
+
+
+def test_the_peak_memory_is_the_first_sessions_and_the_phases_follow_each_other() -> None:
+    """The authenticated session runs beside what the first left resident: its peak is no
+    controller's footprint, so the figure stays the first session's."""
+    first = RealtimeResult((), 58_000_000)
+    later = RealtimeResult((), 76_000_000)
+    joined = first.then(later)
+    assert joined.peak_rss_bytes == 58_000_000
+    assert joined.phases == first.phases + later.phases

@@ -105,10 +105,14 @@ class RealtimeResult:
     tail: tuple[PhaseTail, ...] | None = None
 
     def then(self, later: RealtimeResult) -> RealtimeResult:
-        """This session's phases, then a later session's (the authenticated one)."""
+        """This session's phases, then a later session's (the authenticated one).
+
+        The peak memory stays this session's: the later one builds a second world and
+        controller in the same process, beside what the first left resident (`lock_memory`,
+        a frozen collector), so the process' peak after it is no controller's footprint
+        (75.8 MB against 57.9 MB, 2026-11-26)."""
         tail = None if self.tail is None or later.tail is None else self.tail + later.tail
-        rss_bytes = max(self.peak_rss_bytes, later.peak_rss_bytes)
-        return RealtimeResult(self.phases + later.phases, rss_bytes, tail)
+        return RealtimeResult(self.phases + later.phases, self.peak_rss_bytes, tail)
 
 
 class RealtimeSession:
