@@ -14,7 +14,7 @@ from pathlib import Path
 import pytest
 
 from bywire.cli.main import main
-from bywire.config import default_sim_config, parse_config
+from bywire.config import default_sim_config, load_config, parse_config
 from bywire.sim.campaign import VOCABULARY, Campaign, Step, compile_steps
 from bywire.sim.draw import draw_campaign
 from bywire.sim.scenario import parse_scenario, scenario_toml
@@ -124,3 +124,24 @@ def test_campaigns_on_other_legal_numbers_find_nothing_on_a_correct_robot(name: 
         outcome = run_campaign(robot, draw_campaign(0, index), index)
         assert outcome.checks > 0
         assert outcome.findings == [], (index, outcome.findings[:1])
+
+
+ALBERT = Path(__file__).resolve().parents[2] / "config" / "albert.toml"
+
+
+@pytest.mark.parametrize(
+    "index",
+    [
+        # armed by a debounce that completed just before the switch went back to STOP: the
+        # oracle kept an old DAC failure's category 0 and flagged the controlled stop (H1)
+        531,
+        # a re-enable sent while already driving in CAN was judged a handover (H9)
+        1763,
+    ],
+)
+def test_campaigns_that_found_oracle_mistakes_on_albert_find_nothing(index: int) -> None:
+    """`bywire verify --config config/albert.toml --budget 2000` (2026-11-26) flagged these two
+    campaigns of seed 0 on a correct robot; the controller was right both times."""
+    outcome = run_campaign(load_config(ALBERT), draw_campaign(0, index), index)
+    assert outcome.checks > 0
+    assert outcome.findings == [], outcome.findings[:1]

@@ -633,12 +633,15 @@ class HazardOracle:
         return deadline is not None and now < deadline and self.stopped_by <= CAN_ONLY
 
     def re_enable(self, now: float) -> None:
-        if self.switch is ControlMode.CAN:
-            self._taking_over(ControlMode.CAN, now)
         """A CAN re-enable request (a 0→1 change) was sent: it arms if the controller may see
         the switch at CAN (there, or moved on to RC less than a debounce ago: a move counts
         after its frames; the arming is then a handover) and nothing that the switch alone may
-        clear is latched. A move to STOP has its own deadline, which an arming cannot lift."""
+        clear is latched. A move to STOP has its own deadline, which an arming cannot lift.
+        Sent while the robot may already drive in CAN, it arms nothing and nothing takes over:
+        the steering goes on at its ordinary rate (a new set-point 25 ms before was judged
+        at the handover rate)."""
+        if self.switch is ControlMode.CAN and not self.armed_ok:
+            self._taking_over(ControlMode.CAN, now)
         left_can_s = now - self.left_at.get(ControlMode.CAN, -1.0)
         leaving = self.switch is ControlMode.RC and left_can_s < self.timing.settle_s
         if (self.switch is ControlMode.CAN or leaving) and not self._owed(now):
@@ -763,6 +766,9 @@ class HazardOracle:
         settled = now - self.fault_changed_at > 0.3
         if not (blocking and settled):
             self.armed_ok, self.drive_allowed_until = True, None
+            # Re-armed: what a category 0 cause demanded is over, even when a move to STOP
+            # follows at once (an arming the debounce completed just before the switch left).
+            self.power_off_from = None
 
     def _flag(self, invariant: str, now: float, detail: str, **expected: float) -> None:
         wanted = {**SAFE_LEVELS[invariant], **expected}
