@@ -19,7 +19,7 @@ import time
 from dataclasses import dataclass
 
 from bywire.bench.stats import LatencySummary, summarise
-from bywire.hal.ports import CanFrame
+from bywire.hal.ports import LINK_UP, CanFrame, LinkState
 from bywire.hal.sim.can_bus import frame_bits
 from bywire.model import Gear, MovementCommand
 from bywire.protocol import dbc
@@ -44,6 +44,10 @@ class _Inbox:
     def receive(self) -> list[CanFrame]:
         frames, self.frames = self.frames, []
         return frames
+
+    @property
+    def link(self) -> LinkState:
+        return LINK_UP
 
 
 @dataclass(frozen=True, slots=True)
