@@ -3,10 +3,10 @@ the kernel's devices (motors disabled, 0 V, e-brake engaged), the right flag in 
 ErrorReport, and a log line that names the real cause.
 
 The robot and the computer sit on the two ends of a vxcan pair, so a qdisc on one end acts
-between them as on a wire. Flags and messages the runtime does not give yet are asserted in
-tests marked xfail, with the reason: it reads neither the ports' own state
-(`PythonCanPort.health`, `PyserialStream.fault`) nor logs a failed DAC write's cause, which is
-the safety core's to change (runtime/), not this tier's.
+between them as on a wire. The ports' own failures (a CAN link down, an RC line gone) reach the
+ErrorReport through their `link` (CAN_BUS_OFF, IBUS_PORT_FAILED). What the runtime does not give
+yet is asserted in a test marked xfail, with the reason: it does not log a failed DAC write's
+cause, which is the safety core's to change (runtime/), not this tier's.
 """
 
 from __future__ import annotations
@@ -84,12 +84,6 @@ def test_can_link_down_stops_the_robot_and_up_brings_its_reports_back(robot: Ker
     assert outputs_safe(robot)
 
 
-@pytest.mark.xfail(
-    reason="the runtime never reads PythonCanPort.health: a CAN link that is down (or bus-off)"
-    " stops the robot by the command timeout, but CAN_BUS_OFF is never raised (safety core,"
-    " runtime/app.py: a flag source for the port's health)",
-    strict=True,
-)
 def test_can_link_down_raises_can_bus_off(robot: KernelRobot) -> None:
     drive_by_can(robot)
     robot.vcan.set_up(False)
@@ -189,12 +183,6 @@ def test_an_rc_line_that_closes_stops_the_robot_by_rc(robot: KernelRobot) -> Non
     assert _mode(robot) is ControlMode.STOP
 
 
-@pytest.mark.xfail(
-    reason="the runtime never reads PyserialStream.fault: a receiver line that is gone stops the"
-    " robot by the RC timeout, but IBUS_PORT_FAILED is never raised (safety core,"
-    " runtime/app.py: a flag source for the port's fault)",
-    strict=True,
-)
 def test_an_rc_line_that_closes_raises_ibus_port_failed(robot: KernelRobot) -> None:
     robot.transmitter.sending = False
     robot.host.close_rc()

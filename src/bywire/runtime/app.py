@@ -139,6 +139,14 @@ class Runtime:
             (self.tx_faults, ErrorFlag.CAN_TX_FAILED),
             (self.overrun_faults, ErrorFlag.TASK_OVERRUN),
             (self.overruns.recent, ErrorFlag.TASK_OVERRUN),
+            # The ports' own failures: reported while they last, never acted on (the inputs'
+            # timeouts stop the robot when a port delivers nothing).
+            (self.can.link_faults.down, ErrorFlag.CAN_BUS_OFF),
+            (self.can.link_faults.reopen_failed, ErrorFlag.CAN_OPEN_FAILED),
+            (self.can.link_faults.receive_failed, ErrorFlag.CAN_RX_FAILED),
+            (self.ibus.link_faults.down, ErrorFlag.IBUS_PORT_FAILED),
+            (self.ibus.link_faults.reopen_failed, ErrorFlag.IBUS_PORT_FAILED),
+            (self.ibus.link_faults.receive_failed, ErrorFlag.IBUS_PORT_FAILED),
         )
         self._stop_requested = False
 
