@@ -4,9 +4,10 @@ ErrorReport, and a log line that names the real cause.
 
 The robot and the computer sit on the two ends of a vxcan pair, so a qdisc on one end acts
 between them as on a wire. The ports' own failures (a CAN link down, an RC line gone) reach the
-ErrorReport through their `link` (CAN_BUS_OFF, IBUS_PORT_FAILED). What the runtime does not give
-yet is asserted in a test marked xfail, with the reason: it does not log a failed DAC write's
-cause, which is the safety core's to change (runtime/), not this tier's.
+ErrorReport through their `link` (CAN_BUS_OFF, IBUS_PORT_FAILED); a loop that a task's exception
+ends says TASK_CRASHED in its last report. What the runtime does not give yet is asserted in a
+test marked xfail, with the reason: it does not log a failed DAC write's cause, which is the
+safety core's to change (runtime/), not this tier's.
 """
 
 from __future__ import annotations
@@ -167,6 +168,23 @@ def test_a_gpio_chip_that_goes_away_leaves_no_throttle_and_says_why(robot: Kerne
     robot.gpio.close()  # its lines go with it: an expander's pins fall to their pull-downs
     robot.wait_for("0 V on the throttle", lambda: robot.throttle_volts() == 0.0, SAFE_WITHIN_S)
     robot.wait_for("the cause in the log", lambda: "No such device" in robot.log())
+
+
+def test_a_task_that_raises_ends_safe_and_its_last_report_says_task_crashed(
+    robot: KernelRobot,
+) -> None:
+    drive_by_can(robot)
+    robot.gpio.close()  # the next write to a line raises: the loop ends (a task crashed)
+    assert robot.process is not None
+    robot.process.wait(timeout=SAFE_WITHIN_S)
+    assert robot.throttle_volts() == 0.0
+    deadline_s = time.monotonic() + SAFE_WITHIN_S  # the last frames, read by the computer
+    while ErrorFlag.TASK_CRASHED not in flags(robot) and time.monotonic() < deadline_s:
+        time.sleep(0.01)
+    assert ErrorFlag.TASK_CRASHED in flags(robot)
+    assert robot.computer.mode is not None
+    assert robot.computer.mode.control_mode is ControlMode.STOP
+    assert "a task raised" in robot.log()
 
 
 def test_an_rc_line_that_closes_stops_the_robot_by_rc(robot: KernelRobot) -> None:

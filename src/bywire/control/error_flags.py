@@ -18,7 +18,7 @@ class ErrorFlag(enum.IntFlag):
     for SPEED_SENSOR_FAULT, until the next arming: a latched STOP always names its cause.
     """
 
-    TASK_CRASHED = 1 << 0  # was cubemx_error_handler_activated
+    TASK_CRASHED = 1 << 0  # was cubemx_error_handler_activated: in the last report of a crash
     CAN_OPEN_FAILED = 1 << 1  # was can_filter_config_failed / can_start_failed: a re-open
     CAN_BUS_OFF = 1 << 2  # bus-off, interface down or adapter gone: reports back off (§5.2)
     CAN_RX_FAILED = 1 << 3  # was can_rx_get_msg_failed
@@ -48,7 +48,7 @@ class ErrorFlag(enum.IntFlag):
 
 
 DESCRIPTIONS: dict[ErrorFlag, str] = {
-    ErrorFlag.TASK_CRASHED: "A periodic task raised an exception and was stopped.",
+    ErrorFlag.TASK_CRASHED: "A task raised: the loop ended with outputs safe (the last report).",
     ErrorFlag.CAN_OPEN_FAILED: "Re-opening the lost CAN interface failed; up until it is back.",
     ErrorFlag.CAN_BUS_OFF: "The CAN controller is bus-off, or its interface is down or gone.",
     ErrorFlag.CAN_RX_FAILED: "A CAN receive failed, or frames were dropped from a full queue.",

@@ -5,12 +5,15 @@ adapter the test can pull), and the higher-level computer reads its reports on t
 A pulled CAN adapter is a failed receive (CAN_RX_FAILED), a link down (CAN_BUS_OFF) and failed
 re-opens (CAN_OPEN_FAILED): nothing can be reported while it lasts, so the flags are held for
 half a second after it and the computer reads them once the adapter is back. A pulled RC
-adapter is IBUS_PORT_FAILED while it lasts. Waits are generous bounds, never timing figures.
+adapter is IBUS_PORT_FAILED while it lasts. A PWM chip that goes away under the loop makes a
+task raise: the loop ends, its outputs safe, and the last report says TASK_CRASHED. Waits are
+generous bounds, never timing figures.
 """
 
 from __future__ import annotations
 
 import dataclasses
+import shutil
 import threading
 import time
 from collections.abc import Callable, Iterator
@@ -20,6 +23,7 @@ import pytest
 
 from bywire.config import parse_config
 from bywire.control.error_flags import ErrorFlag
+from bywire.errors import HardwareError
 from bywire.hal.linux.can_pythoncan import PythonCanPort
 from bywire.hal.linux.clock import LinuxClock
 from bywire.model import ControlMode, ErrorReport, Gear
@@ -85,6 +89,11 @@ class RunningRobot:
                 return
         raise AssertionError(f"no {what} within {LIMIT_S} s")
 
+    def ended(self) -> bool:
+        """True once the loop has ended (asked to, or by a task raising)."""
+        self._thread.join(timeout=LIMIT_S)
+        return not self._thread.is_alive()
+
     def close(self) -> None:
         self.runtime.request_stop()
         self._thread.join(timeout=LIMIT_S)
@@ -130,3 +139,23 @@ def test_a_pulled_rc_adapter_is_ibus_port_failed_while_it_lasts(robot: RunningRo
     robot.wait_for("IBUS_PORT_FAILED still up", _any(ErrorFlag.IBUS_PORT_FAILED))
     robot.rig.line.plug()
     robot.wait_for("IBUS_PORT_FAILED cleared", _none_of(ErrorFlag.IBUS_PORT_FAILED))
+
+
+def test_a_task_that_raises_ends_the_loop_safe_and_its_last_report_says_task_crashed(
+    robot: RunningRobot,
+) -> None:
+    robot.wait_for("reports without TASK_CRASHED", _none_of(ErrorFlag.TASK_CRASHED))
+    # The hydraulic brake's PWM channel disappears (its chip unbound); arming into RC releases
+    # the brake: that write raises in the loop's task.
+    shutil.rmtree(robot.rig.bench.pwm_chip / "pwm1")
+    robot.rig.line.transmitter.set_mode(ControlMode.RC)
+    assert robot.ended()
+    assert isinstance(robot.raised, HardwareError)
+    assert "PWM hydrobrake" in str(robot.raised)
+    assert robot.runtime.crashed_by is robot.raised
+    assert not robot.rig.level("motors_enable")
+    assert robot.rig.dac_code(0) == robot.rig.dac_code(1) == 0
+    last = robot.reported()
+    assert last
+    assert ErrorFlag.TASK_CRASHED in last[-1]
+    assert not any(ErrorFlag.TASK_CRASHED in flags for flags in last[:-1])
