@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import re
+import shutil
 import subprocess
 import sys
 from pathlib import Path
@@ -81,3 +82,43 @@ def test_ci_runs_the_kernel_tier_as_the_readme_says_after_the_test_command() -> 
     listed = re.search(r"apt-get install[^\n]*\n(.*?)>/dev/null", ci, re.DOTALL)
     assert listed is not None
     assert packages <= set(listed[1].split()), packages - set(listed[1].split())
+
+
+def test_ci_runs_the_deploy_tier_as_the_readme_says_after_the_other_tiers() -> None:
+    readme = (ROOT / "README.md").read_text(encoding="utf-8")
+    tier = readme[readme.index("## The deploy tier") :]
+    blocks = re.findall(r"```sh\n(.*?)```", tier, flags=re.DOTALL)
+    install, run = (line.split("#")[0].strip() for line in blocks[0].splitlines()[:2])
+    ci = (ROOT / ".ci" / "run").read_text(encoding="utf-8")
+    ci_lines = [line.strip() for line in ci.splitlines()]
+    assert run == "sudo tests/deploy/run"  # CI runs as root: without the sudo
+    assert ci_lines[-1] == "tests/deploy/run"  # last: after the suite, the kernel and ROS tiers
+    assert ci_lines.index("tests/kernel/run") < ci_lines.index("bash .ci/ros-tier")
+    packages = set(install.split()[3:])  # sudo apt-get install PACKAGES…
+    listed = re.search(r"apt-get install[^\n]*\n\s*(debootstrap[^\n]*)>/dev/null", ci)
+    assert listed is not None
+    assert packages == set(listed[1].split())
+
+
+@pytest.mark.parametrize(("ci", "status"), [("", 0), ("true", 1)], ids=["user", "ci"])
+def test_the_deploy_tier_without_its_tools_skips_with_one_line_but_fails_under_ci(
+    tmp_path: Path, ci: str, status: int
+) -> None:
+    """A PATH with a shell and coreutils but neither debootstrap nor systemd-nspawn."""
+    bin_dir = tmp_path / "bin"
+    bin_dir.mkdir()
+    for tool in ("bash", "id", "dirname", "env"):
+        found = shutil.which(tool)
+        assert found is not None
+        (bin_dir / tool).symlink_to(found)
+    result = subprocess.run(
+        ["bash", str(ROOT / "tests" / "deploy" / "run")],
+        env={"PATH": str(bin_dir), "CI": ci},
+        capture_output=True,
+        text=True,
+        check=False,
+    )
+    said = (result.stdout + result.stderr).splitlines()
+    assert (result.returncode, len(said)) == (status, 1), said
+    assert "debootstrap systemd-nspawn" in said[0]
+    assert "apt-get install debootstrap systemd-container" in said[0]

@@ -407,7 +407,10 @@ class HazardOracle:
         """The mode switch bounces: of the next `frames` frames every other one reads STOP."""
         self.chatter_until = now + (frames + 1) * self.timing.frame_s  # and the one in flight
         if not self._all_may_be_lost(frames, now):
-            self.stop_event("switch_stop", now)
+            # The last of them reads STOP: an even count starts with a frame at the switch's own
+            # position, so the first STOP goes out a frame later (a 19.6 ms frame showed it).
+            first_stop_s = now + self.timing.frame_s * (frames % 2 == 0)
+            self.stop_event("switch_stop", first_stop_s)
 
     def implausible(self, frames: int, now: float) -> None:
         """The next `frames` frames carry a pulse no stick gives."""
