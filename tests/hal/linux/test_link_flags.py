@@ -26,10 +26,11 @@ from bywire.control.error_flags import ErrorFlag
 from bywire.errors import HardwareError
 from bywire.hal.linux.can_pythoncan import PythonCanPort
 from bywire.hal.linux.clock import LinuxClock
-from bywire.model import ControlMode, ErrorReport, Gear
+from bywire.model import ControlMode, ErrorReport, Gear, ModeReport
 from bywire.protocol import dbc
 from bywire.runtime.app import Runtime
 from bywire.runtime.settings import RuntimeConfig
+from bywire.runtime.timing import Budgets
 from tests.hal.linux.unpluggable import Unpluggable
 from tests.hal.rigs import LinuxRig
 
@@ -54,7 +55,16 @@ class RunningRobot:
         self._port = port
         robot = parse_config(rig.bench.config_text())
         hardware = dataclasses.replace(rig.hardware, can=port)
-        self.runtime = Runtime(hardware, RuntimeConfig.from_robot(robot))
+        config = RuntimeConfig.from_robot(robot)
+        # Not a timing test: a busy machine's late passes must not latch STOP (TIMING_FAULT)
+        # before the faults under test.
+        loose = Budgets(pass_s=0.5, write_s=0.25, dac_transfer_s=0.25)
+        config = dataclasses.replace(
+            config, actuators=dataclasses.replace(config.actuators, budgets=loose)
+        )
+        self.runtime = Runtime(hardware, config)
+        self.mode: ControlMode | None = None
+        """The mode of the latest ModeReport the computer read."""
         self.raised: Exception | None = None
         """What `Runtime.run` raised (as `bywire run` would see it), None if nothing."""
         self._thread = threading.Thread(target=self._run, name="controller")
@@ -71,13 +81,17 @@ class RunningRobot:
 
     def reported(self) -> list[ErrorFlag]:
         """The flags of every ErrorReport the computer read since the last call."""
-        error_report = dbc.frame_id(ErrorReport)
+        error_report, mode_report = dbc.frame_id(ErrorReport), dbc.frame_id(ModeReport)
         flags = []
         for frame_id, data in self.rig.peer_frames():
             if frame_id == error_report:
                 report = dbc.decode_report(frame_id, data)
                 assert isinstance(report, ErrorReport)
                 flags.append(report.flags)
+            elif frame_id == mode_report:
+                mode = dbc.decode_report(frame_id, data)
+                assert isinstance(mode, ModeReport)
+                self.mode = mode.control_mode
         return flags
 
     def wait_for(self, what: str, condition: Callable[[list[ErrorFlag]], bool]) -> None:
@@ -145,10 +159,12 @@ def test_a_task_that_raises_ends_the_loop_safe_and_its_last_report_says_task_cra
     robot: RunningRobot,
 ) -> None:
     robot.wait_for("reports without TASK_CRASHED", _none_of(ErrorFlag.TASK_CRASHED))
-    # The hydraulic brake's PWM channel disappears (its chip unbound); arming into RC releases
-    # the brake: that write raises in the loop's task.
-    shutil.rmtree(robot.rig.bench.pwm_chip / "pwm1")
     robot.rig.line.transmitter.set_mode(ControlMode.RC)
+    robot.wait_for("RC mode", lambda _: robot.mode is ControlMode.RC)
+    # The hydraulic brake's PWM channel disappears (its chip unbound); the switch back to STOP
+    # applies the brake: that write raises in the loop's task.
+    shutil.rmtree(robot.rig.bench.pwm_chip / "pwm1")
+    robot.rig.line.transmitter.set_mode(ControlMode.STOP)
     assert robot.ended()
     assert isinstance(robot.raised, HardwareError)
     assert "PWM hydrobrake" in str(robot.raised)
