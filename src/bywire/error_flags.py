@@ -18,9 +18,9 @@ class ErrorFlag(enum.IntFlag):
     for SPEED_SENSOR_FAULT, until the next arming: a latched STOP always names its cause.
     """
 
-    TASK_CRASHED = 1 << 0  # was cubemx_error_handler_activated
-    CAN_OPEN_FAILED = 1 << 1  # was can_filter_config_failed / can_start_failed
-    CAN_BUS_OFF = 1 << 2  # bus-off or unplugged: reports back off (§5.2)
+    TASK_CRASHED = 1 << 0  # was cubemx_error_handler_activated: in the last report of a crash
+    CAN_OPEN_FAILED = 1 << 1  # was can_filter_config_failed / can_start_failed: a re-open
+    CAN_BUS_OFF = 1 << 2  # bus-off, interface down or adapter gone: reports back off (§5.2)
     CAN_RX_FAILED = 1 << 3  # was can_rx_get_msg_failed
     CAN_TX_FAILED = 1 << 4  # was can_tx_add_msg_failed
     DAC_VALUE_CLAMPED = 1 << 5  # was driving_motors_send_value_overflow
@@ -48,14 +48,14 @@ class ErrorFlag(enum.IntFlag):
 
 
 DESCRIPTIONS: dict[ErrorFlag, str] = {
-    ErrorFlag.TASK_CRASHED: "A periodic task raised an exception and was stopped.",
-    ErrorFlag.CAN_OPEN_FAILED: "The CAN interface could not be opened or configured.",
-    ErrorFlag.CAN_BUS_OFF: "The CAN controller is bus-off or unplugged; reports back off.",
-    ErrorFlag.CAN_RX_FAILED: "Reading a frame from the CAN interface failed.",
+    ErrorFlag.TASK_CRASHED: "A task raised: the loop ended with outputs safe (the last report).",
+    ErrorFlag.CAN_OPEN_FAILED: "Re-opening the lost CAN interface failed; up until it is back.",
+    ErrorFlag.CAN_BUS_OFF: "The CAN controller is bus-off, or its interface is down or gone.",
+    ErrorFlag.CAN_RX_FAILED: "A CAN receive failed, or frames were dropped from a full queue.",
     ErrorFlag.CAN_TX_FAILED: "Sending a report frame failed.",
     ErrorFlag.DAC_VALUE_CLAMPED: "A motor voltage was clamped to the DAC's range.",
     ErrorFlag.DAC_WRITE_FAILED: "An I2C write to a motor DAC failed (NAK or timeout).",
-    ErrorFlag.IBUS_PORT_FAILED: "The RC receiver's serial port failed or could not be reopened.",
+    ErrorFlag.IBUS_PORT_FAILED: "The RC receiver's serial port is gone or could not be reopened.",
     ErrorFlag.RC_TIMEOUT: "No valid IBUS frame from the RC receiver within the RC timeout.",
     ErrorFlag.IBUS_RESYNC: "The IBUS stream lost its frame alignment and was resynchronised.",
     ErrorFlag.IBUS_CHECKSUM: "An IBUS frame failed its checksum.",

@@ -27,11 +27,11 @@ from bywire.errors import HardwareError
 from bywire.hal.hardware import Hardware
 from bywire.hal.linux import dac_smbus2, gpio_gpiod
 from bywire.hal.opening import LinuxPaths, de_energise, open_hardware
-from bywire.hal.ports import ByteStream, CanPort, I2cDevice
+from bywire.hal.ports import LINK_UP, ByteStream, CanPort, I2cDevice, LinkState
 from bywire.hal.sim.clock import VirtualClock
 from bywire.hal.sim.world import SimWorld
 from bywire.hal.tape.playback import replay_hardware
-from bywire.hal.tape.run_record import Event, RecordedRun, RecordHeader
+from bywire.hal.tape.run_record import Event, RecordedRun, RecordHeader, link_of
 from bywire.hal.tape.taped import Tape, taped_hardware
 from bywire.protocol import dac6574
 from tests.hal.linux import bench as fake_bench
@@ -44,6 +44,8 @@ from tests.kernel import guest
 
 SETTLE_S = 0.01
 PWM_NAMES = {"steering": "steering_pwm", "hydrobrake": "hydrobrake_pwm"}
+_CAN_OFF_THE_BUS = "test_a_can_port_off_the_bus_says_so_and_frames_arrive_once_it_is_back"
+_RC_LINE_LOST = "test_a_lost_rc_line_says_so_and_bytes_arrive_once_it_is_back"
 
 
 class SimRig:
@@ -79,6 +81,18 @@ class SimRig:
     def peer_frames(self) -> list[tuple[int, bytes]]:
         return [(frame.arbitration_id, frame.data) for frame in self.peer.receive()]
 
+    def lose_rc_line(self) -> None:
+        self.world.uart.fail()
+
+    def restore_rc_line(self) -> None:
+        self.world.uart.restore()
+
+    def take_can_off_bus(self) -> None:
+        self.world.controller_can.enter_bus_off()
+
+    def put_can_back(self) -> None:
+        self.world.controller_can.recover_bus_off()
+
     def close(self) -> None:
         de_energise(self.hardware, DacOutput())
 
@@ -86,7 +100,12 @@ class SimRig:
 class LinuxRig:
     """The Linux backends through `open_hardware`, on a temporary sysfs, pty, virtual CAN."""
 
-    NOT_APPLICABLE: ClassVar[Mapping[str, str]] = {}
+    NOT_APPLICABLE: ClassVar[Mapping[str, str]] = {
+        _CAN_OFF_THE_BUS: (
+            "python-can's virtual bus has no bus state and cannot be taken down: the unit tests"
+            " of the python-can port pull its adapter instead, and the kernel rigs take vcan down"
+        ),
+    }
 
     def __init__(
         self, root: Path, monkeypatch: pytest.MonkeyPatch, *, smbus: bool, smbus_only: bool = False
@@ -143,6 +162,18 @@ class LinuxRig:
             frames.append((message.arbitration_id, bytes(message.data)))
         return frames
 
+    def lose_rc_line(self) -> None:
+        self.line.unplug()
+
+    def restore_rc_line(self) -> None:
+        self.line.plug()
+
+    def take_can_off_bus(self) -> None:
+        raise AssertionError(self.NOT_APPLICABLE[_CAN_OFF_THE_BUS])
+
+    def put_can_back(self) -> None:
+        raise AssertionError(self.NOT_APPLICABLE[_CAN_OFF_THE_BUS])
+
     def close(self) -> None:
         self._stack.close()
 
@@ -165,12 +196,18 @@ class _Witness:
         self.received: list[CanFrame] = []
         self.sent: list[tuple[CanFrame, bool]] = []
         self.dac_writes: list[tuple[bytes, bool]] = []
+        self.links: dict[str, list[tuple[float, LinkState]]] = {"can": [], "rc_uart": []}
         self.hardware = dataclasses.replace(
             hardware,
             rc_uart=_WitnessUart(hardware.rc_uart, self),
             can=_WitnessCan(hardware.can, self),
             dac=_WitnessDac(hardware.dac, self),
         )
+        self._clock = hardware.clock
+
+    def read_link(self, name: str, link: LinkState) -> LinkState:
+        self.links[name].append((self._clock.now(), link))
+        return link
 
 
 class _WitnessUart:
@@ -186,6 +223,10 @@ class _WitnessUart:
     def arrived_at_s(self) -> float | None:
         return self._inner.arrived_at_s
 
+    @property
+    def link(self) -> LinkState:
+        return self._witness.read_link("rc_uart", self._inner.link)
+
 
 class _WitnessCan:
     def __init__(self, inner: CanPort, witness: _Witness) -> None:
@@ -200,6 +241,10 @@ class _WitnessCan:
         frames = self._inner.receive()
         self._witness.received.extend(frames)
         return frames
+
+    @property
+    def link(self) -> LinkState:
+        return self._witness.read_link("can", self._inner.link)
 
 
 class _WitnessDac:
@@ -290,6 +335,16 @@ class TapedSimRig(SimRig):
             if ok
         )
         assert dac == written, f"tape: DAC {dac}, written: {written}"
+        for name, reads in witness.links.items():
+            noted = [
+                (e["t"], link_of(e)) for e in events if e["kind"] == "link" and e["name"] == name
+            ]
+            changes, last = [], LINK_UP
+            for time_s, link in reads:
+                if link != last:
+                    changes.append((time_s, link))
+                    last = link
+            assert noted == changes, f"tape: {name} links {noted}, read: {changes}"
 
 
 def _outs(events: list[Event]) -> list[tuple[float, str, object]]:
@@ -338,9 +393,12 @@ class PlaybackRig:
         self.clock = VirtualClock()
         self.tape = Tape(self.clock)
         self._fed: list[Hardware] = []
+        self._links: dict[str, Hardware] = {}
         played = replay_hardware(RecordedRun(PLAYBACK_HEADER), self.clock)
         fed = dataclasses.replace(
-            played, rc_uart=_FedUart(self._fed), can=_FedCan(played.can, self._fed)
+            played,
+            rc_uart=_FedUart(self._fed, self._links),
+            can=_FedCan(played.can, self._fed, self._links),
         )
         self.hardware = taped_hardware(fed, self.tape)
         self._sends_seen = 0
@@ -378,13 +436,30 @@ class PlaybackRig:
         new, self._sends_seen = sent[self._sends_seen :], len(sent)
         return [(int(name.removeprefix("can_tx."), 16), bytes.fromhex(data)) for name, data in new]
 
+    def _feed_link(self, name: str, link: LinkState) -> None:
+        """A record of its own in which port `name`'s link changes now (the newest one rules)."""
+        record = RecordedRun(PLAYBACK_HEADER, links={name: [(self.clock.now(), link)]})
+        self._links[name] = replay_hardware(record, self.clock)
+
+    def lose_rc_line(self) -> None:
+        self._feed_link("rc_uart", LinkState(down=True, receive_failures=1))
+
+    def restore_rc_line(self) -> None:
+        self._feed_link("rc_uart", LinkState(receive_failures=1))
+
+    def take_can_off_bus(self) -> None:
+        self._feed_link("can", LinkState(down=True))
+
+    def put_can_back(self) -> None:
+        self._feed_link("can", LINK_UP)
+
     def close(self) -> None:
         de_energise(self.hardware, DacOutput())
 
 
 class _FedUart:
-    def __init__(self, fed: list[Hardware]) -> None:
-        self._fed = fed
+    def __init__(self, fed: list[Hardware], links: dict[str, Hardware]) -> None:
+        self._fed, self._links = fed, links
 
     def read_available(self) -> bytes:
         return b"".join(hardware.rc_uart.read_available() for hardware in self._fed)
@@ -394,16 +469,26 @@ class _FedUart:
         stamps = [hardware.rc_uart.arrived_at_s for hardware in self._fed]
         return max((stamp for stamp in stamps if stamp is not None), default=None)
 
+    @property
+    def link(self) -> LinkState:
+        fed = self._links.get("rc_uart")
+        return LINK_UP if fed is None else fed.rc_uart.link
+
 
 class _FedCan:
-    def __init__(self, played: CanPort, fed: list[Hardware]) -> None:
-        self._played, self._fed = played, fed
+    def __init__(self, played: CanPort, fed: list[Hardware], links: dict[str, Hardware]) -> None:
+        self._played, self._fed, self._links = played, fed, links
 
     def send(self, frame: CanFrame) -> bool:
         return self._played.send(frame)
 
     def receive(self) -> list[CanFrame]:
         return [frame for hardware in self._fed for frame in hardware.can.receive()]
+
+    @property
+    def link(self) -> LinkState:
+        fed = self._links.get("can")
+        return LINK_UP if fed is None else fed.can.link
 
 
 class KernelRig:
@@ -413,7 +498,12 @@ class KernelRig:
     the host, and a vcan interface. Everything is read back from the kernel. Outside the guest
     kernel the rig skips with one line saying how to run it."""
 
-    NOT_APPLICABLE: ClassVar[Mapping[str, str]] = {}
+    NOT_APPLICABLE: ClassVar[Mapping[str, str]] = {
+        _RC_LINE_LOST: (
+            "the host closes a guest's RC line for good (end of file), and every kernel rig shares"
+            " this one: tests/kernel/test_faults.py closes a line of its own under `bywire run`"
+        ),
+    }
     DACS = ("plain-i2c", "smbus-only", "iio")
 
     def __init__(self, dac: str) -> None:
@@ -477,6 +567,23 @@ class KernelRig:
         while (message := self.peer.recv(0.05)) is not None:
             frames.append((message.arbitration_id, bytes(message.data)))
         return frames
+
+    def lose_rc_line(self) -> None:
+        raise AssertionError(self.NOT_APPLICABLE[_RC_LINE_LOST])
+
+    def restore_rc_line(self) -> None:
+        raise AssertionError(self.NOT_APPLICABLE[_RC_LINE_LOST])
+
+    def take_can_off_bus(self) -> None:
+        self.vcan.set_up(False)
+
+    def put_can_back(self) -> None:
+        self.vcan.set_up(True)
+        # The peer's socket holds the interface's going down as an error its next send would
+        # raise (ENETDOWN): the peer is a node of its own, plugged in again.
+        self.peer.shutdown()
+        self.peer = can.Bus(interface="socketcan", channel=self.vcan.name)
+        self._stack.callback(self.peer.shutdown)
 
     def close(self) -> None:
         self._stack.close()

@@ -10,7 +10,7 @@ out by that rig's `NOT_APPLICABLE`, which says why.
 
 from __future__ import annotations
 
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from dataclasses import fields
 from pathlib import Path
 
@@ -19,6 +19,7 @@ import pytest
 from bywire.can_frame import CanFrame
 from bywire.errors import FrameError, HardwareError
 from bywire.hal.hardware import DigitalOutputs
+from bywire.hal.ports import LinkState
 from bywire.protocol import dac6574, dbc, ibus
 from tests.hal.rigs import (
     BACKENDS,
@@ -134,6 +135,44 @@ def test_rc_input_cuts_a_wait_short(rig: Rig) -> None:
     assert clock.now() < deadline_s
 
 
+def _down_then_back(
+    rig: Rig, link: Callable[[], LinkState], lose: Callable[[], None], back: Callable[[], None]
+) -> None:
+    """The port's link is up, says it is down once lost, and up again once back."""
+    assert not link().down
+    lose()
+    assert settle_until(rig, lambda: link().down)
+    back()
+    assert settle_until(rig, lambda: not link().down)
+
+
+def test_a_lost_rc_line_says_so_and_bytes_arrive_once_it_is_back(rig: Rig) -> None:
+    uart = rig.hardware.rc_uart
+    _down_then_back(rig, lambda: uart.link, rig.lose_rc_line, rig.restore_rc_line)
+    sent = ibus.encode_frame([1500] * ibus.CHANNEL_COUNT)
+    rig.feed_rc(sent)
+    received = bytearray()
+    assert settle_until(rig, lambda: _collect(rig, received) >= len(sent))
+    assert bytes(received) == sent
+
+
+def test_a_can_port_off_the_bus_says_so_and_frames_arrive_once_it_is_back(rig: Rig) -> None:
+    port = rig.hardware.can
+    _down_then_back(rig, lambda: port.link, rig.take_can_off_bus, rig.put_can_back)
+    movement_id = dbc.command_ids()[1]
+    rig.peer_send(movement_id, bytes(range(8)))
+    frames: list[CanFrame] = []
+
+    def received() -> bool:
+        frames.extend(port.receive())
+        return bool(frames)
+
+    assert settle_until(rig, received)
+    assert [(frame.arbitration_id, frame.data) for frame in frames] == [
+        (movement_id, bytes(range(8)))
+    ]
+
+
 def test_command_frames_arrive_and_other_ids_are_filtered(rig: Rig) -> None:
     movement_id = dbc.command_ids()[1]
     rig.peer_send(0x7FF, b"\x01")
@@ -211,4 +250,11 @@ def test_the_taped_rig_fails_a_tape_that_lost_what_crossed() -> None:
     assert settle_until(rig, lambda: bool(rig.hardware.rc_uart.read_available()))
     rig.tape.events.clear()  # the tape loses the bytes read
     with pytest.raises(AssertionError, match="RC bytes"):
+        rig.check_tape()
+    rig.witness.rc.clear()
+    rig.take_can_off_bus()
+    assert rig.hardware.can.link.down
+    rig.check_tape()
+    rig.tape.events.clear()  # the tape loses the link's change
+    with pytest.raises(AssertionError, match="can links"):
         rig.check_tape()

@@ -3,10 +3,11 @@ the kernel's devices (motors disabled, 0 V, e-brake engaged), the right flag in 
 ErrorReport, and a log line that names the real cause.
 
 The robot and the computer sit on the two ends of a vxcan pair, so a qdisc on one end acts
-between them as on a wire. Flags and messages the runtime does not give yet are asserted in
-tests marked xfail, with the reason: it reads neither the ports' own state
-(`PythonCanPort.health`, `PyserialStream.fault`) nor logs a failed DAC write's cause, which is
-the safety core's to change (runtime/), not this tier's.
+between them as on a wire. The ports' own failures (a CAN link down, an RC line gone) reach the
+ErrorReport through their `link` (CAN_BUS_OFF, IBUS_PORT_FAILED); a loop that a task's exception
+ends says TASK_CRASHED in its last report. What the runtime does not give yet is asserted in a
+test marked xfail, with the reason: it does not log a failed DAC write's cause, which is the
+safety core's to change (runtime/), not this tier's.
 """
 
 from __future__ import annotations
@@ -84,12 +85,6 @@ def test_can_link_down_stops_the_robot_and_up_brings_its_reports_back(robot: Ker
     assert outputs_safe(robot)
 
 
-@pytest.mark.xfail(
-    reason="the runtime never reads PythonCanPort.health: a CAN link that is down (or bus-off)"
-    " stops the robot by the command timeout, but CAN_BUS_OFF is never raised (safety core,"
-    " runtime/app.py: a flag source for the port's health)",
-    strict=True,
-)
 def test_can_link_down_raises_can_bus_off(robot: KernelRobot) -> None:
     drive_by_can(robot)
     robot.vcan.set_up(False)
@@ -175,6 +170,23 @@ def test_a_gpio_chip_that_goes_away_leaves_no_throttle_and_says_why(robot: Kerne
     robot.wait_for("the cause in the log", lambda: "No such device" in robot.log())
 
 
+def test_a_task_that_raises_ends_safe_and_its_last_report_says_task_crashed(
+    robot: KernelRobot,
+) -> None:
+    drive_by_can(robot)
+    robot.gpio.close()  # the next write to a line raises: the loop ends (a task crashed)
+    assert robot.process is not None
+    robot.process.wait(timeout=SAFE_WITHIN_S)
+    assert robot.throttle_volts() == 0.0
+    deadline_s = time.monotonic() + SAFE_WITHIN_S  # the last frames, read by the computer
+    while ErrorFlag.TASK_CRASHED not in flags(robot) and time.monotonic() < deadline_s:
+        time.sleep(0.01)
+    assert ErrorFlag.TASK_CRASHED in flags(robot)
+    assert robot.computer.mode is not None
+    assert robot.computer.mode.control_mode is ControlMode.STOP
+    assert "a task raised" in robot.log()
+
+
 def test_an_rc_line_that_closes_stops_the_robot_by_rc(robot: KernelRobot) -> None:
     robot.transmitter.apply({"mode": "stop", "gear": "forward", "throttle": 0.0})
     time.sleep(0.5)
@@ -189,12 +201,6 @@ def test_an_rc_line_that_closes_stops_the_robot_by_rc(robot: KernelRobot) -> Non
     assert _mode(robot) is ControlMode.STOP
 
 
-@pytest.mark.xfail(
-    reason="the runtime never reads PyserialStream.fault: a receiver line that is gone stops the"
-    " robot by the RC timeout, but IBUS_PORT_FAILED is never raised (safety core,"
-    " runtime/app.py: a flag source for the port's fault)",
-    strict=True,
-)
 def test_an_rc_line_that_closes_raises_ibus_port_failed(robot: KernelRobot) -> None:
     robot.transmitter.sending = False
     robot.host.close_rc()

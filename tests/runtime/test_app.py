@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import gc
 import itertools
+from collections.abc import Callable
 from dataclasses import replace
 
 import pytest
@@ -12,12 +13,14 @@ import pytest
 from bywire.config import default_sim_config, parse_config
 from bywire.control import controller
 from bywire.control.controller import ControlConfig, ControlInputs, ControlOutputs, ControlState
+from bywire.error_flags import ErrorFlag
 from bywire.hal.sim.clock import VirtualClock
 from bywire.hal.sim.world import SimWorld
-from bywire.model import ControlMode, Gear, SteeringReport
+from bywire.model import ControlMode, ErrorReport, Gear, SteeringReport
 from bywire.runtime import app
 from bywire.runtime.app import MODE_LOG_LENGTH, Runtime
 from bywire.runtime.readers import COUNTER_MISS_LIMIT
+from bywire.runtime.recent_fault import FAULT_HOLD_S
 from bywire.runtime.settings import RuntimeConfig
 from tests.system.harness import Robot
 
@@ -200,3 +203,101 @@ def test_the_loop_freezes_start_ups_objects_only_if_the_robot_file_says_so(freez
         assert (gc.get_freeze_count() > 0) is freeze
     finally:
         gc.unfreeze()
+
+
+# --- the ports' own failures: reported while they last, never acted on --------------------------
+
+
+class Flags:
+    """The loop's decided flags and the computer's latest ErrorReport, after every pass."""
+
+    def __init__(self, robot: Robot) -> None:
+        self.decided: list[tuple[float, ErrorFlag]] = []
+        self.reported: list[tuple[float, ErrorFlag]] = []
+        self._robot = robot
+        robot.runtime.on_cycle.append(self._observe)
+
+    def _observe(self, now: float) -> None:
+        outputs, report = self._robot.runtime.outputs, self._robot.world.hlc.latest(ErrorReport)
+        if outputs is not None:
+            self.decided.append((now, ErrorFlag(outputs.error_flags)))
+        if isinstance(report, ErrorReport):
+            self.reported.append((now, report.flags))
+
+    def up(self, flag: ErrorFlag, first_s: float, last_s: float) -> bool:
+        """The flag in every decision from `first_s` to `last_s`."""
+        between = [flags for now, flags in self.decided if first_s <= now <= last_s]
+        return bool(between) and all(flag in flags for flags in between)
+
+    def times(self, flag: ErrorFlag) -> list[float]:
+        return [now for now, flags in self.decided if flag in flags]
+
+
+def _rc_driving(fault: Callable[[Robot], None] | None = None) -> tuple[Robot, Flags]:
+    """Armed into RC, 0.5 throttle from 0.3 s, for 3 s; `fault` schedules a fault on it."""
+    robot = Robot.build()
+    robot.arm_rc()
+    robot.at(0.3, lambda: robot.world.rc.set_pedal(0.5))
+    if fault is not None:
+        fault(robot)
+    flags = Flags(robot)
+    robot.run(3.0)
+    return robot, flags
+
+
+def _bus_off(robot: Robot) -> None:
+    port = robot.world.controller_can
+    robot.at(1.0, port.enter_bus_off)
+    robot.at(2.0, port.recover_bus_off)
+
+
+def _rc_port_gone(robot: Robot) -> None:
+    robot.at(1.0, robot.world.uart.fail)
+    robot.at(2.0, robot.world.uart.restore)
+
+
+def _drive_histories(robot: Robot) -> dict[str, object]:
+    """Every output that moves the robot, as it changed."""
+    world = robot.world
+    lines = ("motors_enable", "motors_forward", "motors_reverse", "ebrake_release")
+    return {
+        **{name: world.gpio[name].history for name in lines},
+        "dac": world.dac.history,
+        "steering": world.pwm.steering.history,
+        "hydrobrake": world.pwm.hydrobrake.history,
+    }
+
+
+def test_a_can_controller_bus_off_raises_can_bus_off_while_it_lasts_and_decides_nothing() -> None:
+    plain, plain_flags = _rc_driving()
+    robot, flags = _rc_driving(_bus_off)
+    assert plain_flags.times(ErrorFlag.CAN_BUS_OFF) == []
+    assert flags.up(ErrorFlag.CAN_BUS_OFF, 1.0 + 0.011, 2.0 + FAULT_HOLD_S - 0.01)
+    assert max(flags.times(ErrorFlag.CAN_BUS_OFF)) <= 2.0 + FAULT_HOLD_S
+    # The error LED says so on the robot; the computer learns it once the bus is back.
+    assert robot.level("error_led", 1.5)
+    assert not plain.level("error_led", 1.5)
+    assert not robot.level("error_led", 2.9)
+    assert any(ErrorFlag.CAN_BUS_OFF in seen for now, seen in flags.reported if now > 2.0)
+    # A report, not a decision: RC drives on exactly as without the fault.
+    assert _drive_histories(robot) == _drive_histories(plain)
+    assert robot.runtime.outputs is not None
+    assert robot.runtime.outputs.mode is ControlMode.RC
+
+
+def test_an_rc_port_that_is_gone_raises_ibus_port_failed_and_the_rc_timeout_stops_the_robot() -> (
+    None
+):
+    robot, flags = _rc_driving(_rc_port_gone)
+    assert flags.times(ErrorFlag.IBUS_PORT_FAILED)[0] == pytest.approx(1.0, abs=0.011)
+    assert flags.up(ErrorFlag.IBUS_PORT_FAILED, 1.011, 2.0 + FAULT_HOLD_S - 0.01)
+    assert max(flags.times(ErrorFlag.IBUS_PORT_FAILED)) <= 2.0 + FAULT_HOLD_S
+    # The RC timeout, not the flag, stops the robot: as a receiver that falls silent does.
+    rc_timeout_s = RuntimeConfig().control.rc_timeout_s
+    assert robot.level("motors_enable", 1.0)
+    assert robot.safe_at(1.0 + rc_timeout_s + 0.02)
+    assert not robot.safe_at(1.0 + rc_timeout_s - 0.01)
+    # The link is back, the STOP it caused stays latched and named (RC_TIMEOUT) until re-armed.
+    assert flags.up(ErrorFlag.RC_TIMEOUT, 2.6, 3.0)
+    assert robot.runtime.outputs is not None
+    assert robot.runtime.outputs.mode is ControlMode.STOP

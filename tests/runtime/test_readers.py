@@ -1,5 +1,6 @@
 """Input readers on simulated ports: checked commands, counters judged over a window, edges taken
-between consecutive accepted frames, and every bad frame counted once at the poll time."""
+between consecutive accepted frames, every bad frame counted once at the poll time, and the
+ports' own failures (their `LinkState`) as faults that last as long as they do."""
 
 from __future__ import annotations
 
@@ -13,6 +14,7 @@ from bywire.control.command_edges import CommandEdges
 from bywire.control.input_stage import Verdict
 from bywire.control.rc_mapping import RcMapping
 from bywire.control.validity import is_fresh
+from bywire.hal.ports import LINK_UP, LinkState
 from bywire.hal.sim.can_bus import SimCanBus
 from bywire.hal.sim.clock import VirtualClock
 from bywire.hal.sim.uart import SimUart
@@ -23,6 +25,7 @@ from bywire.runtime.readers import (
     COUNTER_WINDOW,
     CanReader,
     IbusReader,
+    LinkFaults,
     arrival,
 )
 from bywire.runtime.recent_fault import FAULT_HOLD_S, RecentFault
@@ -507,3 +510,112 @@ def test_only_ids_with_a_receive_check_are_taken() -> None:
     clock.advance(0.01)
     assert reader.poll(clock.now()) == []
     assert reader.ignored_frames == 1
+
+
+# --- the ports' own failures ------------------------------------------------------------------
+
+
+def test_a_link_down_is_a_fault_at_every_poll_it_lasts_and_one_loss_however_long() -> None:
+    faults = LinkFaults()
+    faults.read(LINK_UP, 0.5)
+    assert not faults.down.active(0.5)
+    lost = LinkState(down=True, receive_failures=1)
+    for now in (1.0, 1.5):  # the same value (a simulated port) and an equal one (a Linux port)
+        faults.read(lost, now)
+    faults.read(LinkState(down=True, receive_failures=1), 2.0)
+    assert (faults.down.count, faults.down.last_at) == (1, 2.0)
+    faults.read(LinkState(receive_failures=1), 2.1)  # back: the flag is held, not renewed
+    assert faults.down.active(2.0 + FAULT_HOLD_S)
+    assert not faults.down.active(2.0 + FAULT_HOLD_S + 0.01)
+    # The receive that lost the link is up as long as the loss.
+    assert (faults.receive_failed.count, faults.receive_failed.last_at) == (1, 2.0)
+
+
+def test_failed_reopens_and_receives_are_faults_when_their_counts_grow() -> None:
+    faults = LinkFaults()
+    faults.read(LinkState(reopen_failures=2, receive_failures=1), 1.0)
+    faults.read(LinkState(reopen_failures=2, receive_failures=1), 1.2)
+    assert (faults.reopen_failed.count, faults.reopen_failed.last_at) == (2, 1.0)
+    faults.read(LinkState(reopen_failures=3, receive_failures=1), 1.4)
+    assert (faults.reopen_failed.count, faults.reopen_failed.last_at) == (3, 1.4)
+    assert faults.receive_failed.last_at == 1.0
+    # A failure that came and went between two polls is still seen, by its count.
+    faults.read(LinkState(reopen_failures=3, receive_failures=2), 3.0)
+    assert (faults.receive_failed.count, faults.receive_failed.last_at) == (2, 3.0)
+    assert not faults.down.active(3.0)
+
+
+def test_the_failures_of_a_loss_last_as_long_as_the_loss() -> None:
+    # Nothing can be reported while the link is down: what lost it, or kept it lost, is named
+    # by the first reports after it (a re-open back-off grows to 2 s, far past the hold).
+    faults = LinkFaults()
+    faults.read(LinkState(receive_failures=1), 0.5)  # a frame dropped, long before the loss
+    faults.read(LinkState(down=True, receive_failures=2), 1.0)  # the receive that lost it
+    faults.read(LinkState(down=True, reopen_failures=1, receive_failures=2), 1.2)
+    for tenth in range(13, 41):  # a poll every 0.1 s (the loop's are 10 ms apart)
+        faults.read(LinkState(down=True, reopen_failures=1, receive_failures=2), tenth / 10)
+    faults.read(LinkState(reopen_failures=1, receive_failures=2), 4.1)
+    for failed in (faults.down, faults.reopen_failed, faults.receive_failed):
+        assert failed.last_at == 4.0
+        assert failed.active(4.0 + FAULT_HOLD_S)
+        assert not failed.active(4.0 + FAULT_HOLD_S + 0.01)
+    assert (faults.receive_failed.count, faults.reopen_failed.count) == (2, 1)
+    # A failure that ended before an unrelated loss is not renewed by it.
+    quiet = LinkFaults()
+    quiet.read(LinkState(receive_failures=1), 0.5)
+    quiet.read(LinkState(down=True, receive_failures=1), 2.0)
+    quiet.read(LinkState(down=True, receive_failures=1), 2.5)
+    assert quiet.receive_failed.last_at == 0.5
+
+
+def test_a_can_port_gone_bus_off_is_a_fault_though_no_frame_arrives() -> None:
+    clock = VirtualClock()
+    port = SimCanBus(clock).attach("bywire", True, accept_ids=dbc.received_ids())
+    reader = CanReader(port)
+    reader.poll(clock.now())
+    port.enter_bus_off()
+    for _ in range(3):
+        clock.advance(0.4)
+        assert reader.poll(clock.now()) == []
+        assert reader.link_faults.down.last_at == clock.now()
+    port.recover_bus_off()
+    clock.advance(0.4)
+    reader.poll(clock.now())
+    assert reader.link_faults.down.last_at == pytest.approx(1.2)
+    assert reader.link_faults.down.count == 1
+
+
+def test_frames_dropped_from_a_full_receive_queue_are_failed_receives() -> None:
+    clock = VirtualClock()
+    bus = SimCanBus(clock)
+    sender = bus.attach("hlc", tx_mailboxes=8)
+    reader = CanReader(bus.attach("bywire", True, rx_capacity=2))
+    for counter in range(3):
+        frame_id, payload = dbc.encode_command(
+            MovementCommand(0.0, 0.0, 0.0, Gear.FORWARD, counter)
+        )
+        sender.send(CanFrame(frame_id, payload))
+    clock.advance(0.01)
+    assert [stamped.value.counter for stamped in reader.poll(clock.now())] == [0, 1]
+    assert reader.link_faults.receive_failed.count == 1
+    assert reader.link_faults.receive_failed.active(clock.now())
+    assert not reader.link_faults.down.active(clock.now())
+
+
+def test_an_rc_port_that_is_gone_is_a_fault_though_no_byte_arrives() -> None:
+    clock = VirtualClock()
+    uart = SimUart(clock)
+    reader = IbusReader(uart, RcMapping())
+    uart.transmit(FRAME)
+    clock.advance(0.01)
+    assert reader.poll(clock.now()) is not None
+    uart.fail()
+    uart.transmit(FRAME)
+    clock.advance(0.01)
+    assert reader.poll(clock.now()) is None  # what the line carried meanwhile is lost
+    assert reader.link_faults.down.last_at == clock.now()
+    uart.restore()
+    uart.transmit(FRAME)
+    clock.advance(0.01)
+    assert reader.poll(clock.now()) is not None
+    assert reader.link_faults.down.last_at == pytest.approx(0.02)

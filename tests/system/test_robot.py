@@ -10,7 +10,7 @@ import pytest
 
 from bywire.config import default_sim_config
 from bywire.error_flags import ErrorFlag
-from bywire.model import LIGHTS_OFF, ControlMode, Gear, ModeReport, StatusReport
+from bywire.model import LIGHTS_OFF, ControlMode, ErrorReport, Gear, ModeReport, StatusReport
 from bywire.sim.runner import SimRun
 from bywire.sim.scenario import load_scenario
 from tests.system.harness import Robot
@@ -231,3 +231,46 @@ def test_a_crash_inside_the_loop_still_ends_with_every_output_safe() -> None:
     crashed_at = robot.clock.now()
     assert robot.level("motors_enable", crashed_at - 0.02)  # it was driving
     assert robot.safe_at(crashed_at)
+
+
+def test_a_crash_ends_with_safe_outputs_then_a_last_report_that_names_it() -> None:
+    robot = rc_driving(throttle=0.5)
+    hlc, seen = robot.world.hlc, []
+
+    def crash(now: float) -> None:
+        seen.append(hlc.latest(ErrorReport))
+        if now > 1.5:
+            raise RuntimeError("a task failed")
+
+    robot.runtime.on_cycle.append(crash)
+    with pytest.raises(RuntimeError, match="a task failed") as raised:
+        robot.run(3.0)
+    crashed_at = robot.clock.now()
+    assert robot.safe_at(crashed_at)
+    assert not any(
+        isinstance(report, ErrorReport) and ErrorFlag.TASK_CRASHED in report.flags
+        for report in seen
+    )
+    robot.clock.advance(0.01)  # the bus carries the last frames the controller queued
+    errors, mode = hlc.latest(ErrorReport), hlc.latest(ModeReport)
+    assert isinstance(errors, ErrorReport)
+    assert isinstance(mode, ModeReport)
+    assert ErrorFlag.TASK_CRASHED in errors.flags
+    assert (mode.control_mode, mode.estop_engaged, mode.stop_latched, mode.armed) == (
+        ControlMode.STOP,
+        True,
+        True,
+        False,
+    )
+    assert robot.off_at(crashed_at + 0.01)  # and nothing moved after it
+    assert robot.runtime.crashed_by is raised.value
+
+
+def test_a_loop_that_ends_as_asked_sends_no_crash_report() -> None:
+    robot = rc_driving(throttle=0.5)
+    robot.run(2.0)
+    robot.clock.advance(0.01)
+    assert robot.runtime.crashed_by is None
+    errors = robot.world.hlc.latest(ErrorReport)
+    assert isinstance(errors, ErrorReport)
+    assert ErrorFlag.TASK_CRASHED not in errors.flags

@@ -20,6 +20,7 @@ from dataclasses import dataclass
 
 from bywire.bench.stats import LatencySummary, summarise
 from bywire.can_frame import CanFrame
+from bywire.hal.ports import LINK_UP, LinkState
 from bywire.hal.sim.can_bus import frame_bits
 from bywire.model import Gear, MovementCommand
 from bywire.protocol import dbc
@@ -45,6 +46,10 @@ class _Inbox:
     def receive(self) -> list[CanFrame]:
         frames, self.frames = self.frames, []
         return frames
+
+    @property
+    def link(self) -> LinkState:
+        return LINK_UP
 
 
 @dataclass(frozen=True, slots=True)

@@ -4,14 +4,39 @@ Everything above this module (control, runtime) sees only these protocols. Backe
 `bywire.hal.sim` (in-memory, virtual time) and `bywire.hal.linux` (python-can, pyserial, smbus2,
 sysfs, libgpiod); `bywire.hal.tape` wraps either in taped ports and plays recorded runs back.
 Reads never block: the runtime waits on the `Clock`, which wakes it when an input port has
-something to read or a deadline has come.
+something to read or a deadline has come. The two input ports also say how their own link is
+(`LinkState`): the runtime reports it (CAN_BUS_OFF, CAN_OPEN_FAILED, CAN_RX_FAILED,
+IBUS_PORT_FAILED); the input timeouts, not this, are what stop the robot.
 """
 
 from __future__ import annotations
 
+from dataclasses import dataclass
 from typing import Protocol
 
 from bywire.can_frame import CanFrame
+
+
+@dataclass(frozen=True, slots=True)
+class LinkState:
+    """What an input port knows about its own link, as the runtime reads it on every pass.
+
+    The counts only grow while the port is open, so a reader that compares them with the last
+    ones it saw catches a failure that came and went between two reads.
+    """
+
+    down: bool = False
+    """The port cannot receive now: a CAN controller bus-off, a CAN interface that is down or
+    gone, a serial device that is gone (while the backend tries to open it again)."""
+    reopen_failures: int = 0
+    """Attempts to open the port again, after it was lost, that failed."""
+    receive_failures: int = 0
+    """Receives that failed (the driver returned an error), and frames dropped because the
+    receive queue was full."""
+
+
+LINK_UP = LinkState()
+"""A link with nothing wrong, as every port starts."""
 
 
 class CanPort(Protocol):
@@ -23,6 +48,12 @@ class CanPort(Protocol):
 
     def receive(self) -> list[CanFrame]:
         """Every frame received since the last call, oldest first; never blocks."""
+        ...
+
+    @property
+    def link(self) -> LinkState:
+        """The controller's own state: bus-off or its interface down, failed re-opens and
+        receives; never blocks."""
         ...
 
 
@@ -38,6 +69,11 @@ class ByteStream(Protocol):
         """When the newest byte the last `read_available` returned arrived, on the clock's time
         (None: the backend cannot tell, or nothing was read). Bytes that waited in a buffer
         while the loop was busy are judged by this, not by when the loop read them."""
+        ...
+
+    @property
+    def link(self) -> LinkState:
+        """The line's own state: the device gone, failed re-opens and reads; never blocks."""
         ...
 
 

@@ -11,6 +11,11 @@ the robot runs what the simulator ran. Periodic tasks keep absolute deadlines fr
 table. Every pass has a budget (`bywire.runtime.timing`): one that overruns it is a fault, and
 only a pass that kept time feeds the watchdog. Outputs start safe and end safe, whatever
 happens: the safe writes go on past any output that fails, and each failure is logged.
+
+A task that raises (a bug, a port write that fails) ends the loop, and the process: continuing
+on a state a half-finished pass left is no safe state. The exit path writes the safe outputs,
+then sends one last ModeReport (STOP) and ErrorReport with TASK_CRASHED, so the higher-level
+computer learns why the reports stop; the service manager restarts the process, in STOP.
 """
 
 from __future__ import annotations
@@ -42,7 +47,7 @@ from bywire.protocol import dbc
 from bywire.runtime.actuators import Actuators
 from bywire.runtime.readers import CanReader, IbusReader
 from bywire.runtime.recent_fault import RecentFault, active_flags
-from bywire.runtime.reports import Health, build_reports
+from bywire.runtime.reports import Health, build_reports, crash_reports
 from bywire.runtime.schedule import PeriodicTask
 from bywire.runtime.sensors import SensorReadings, read_sensors
 from bywire.runtime.settings import RuntimeConfig
@@ -141,7 +146,17 @@ class Runtime:
             (self.tx_faults, ErrorFlag.CAN_TX_FAILED),
             (self.overrun_faults, ErrorFlag.TASK_OVERRUN),
             (self.overruns.recent, ErrorFlag.TASK_OVERRUN),
+            # The ports' own failures: reported while they last, never acted on (the inputs'
+            # timeouts stop the robot when a port delivers nothing).
+            (self.can.link_faults.down, ErrorFlag.CAN_BUS_OFF),
+            (self.can.link_faults.reopen_failed, ErrorFlag.CAN_OPEN_FAILED),
+            (self.can.link_faults.receive_failed, ErrorFlag.CAN_RX_FAILED),
+            (self.ibus.link_faults.down, ErrorFlag.IBUS_PORT_FAILED),
+            (self.ibus.link_faults.reopen_failed, ErrorFlag.IBUS_PORT_FAILED),
+            (self.ibus.link_faults.receive_failed, ErrorFlag.IBUS_PORT_FAILED),
         )
+        self.crashed_by: Exception | None = None
+        """What ended the loop when a task raised (TASK_CRASHED), else None."""
         self._stop_requested = False
 
     def request_stop(self) -> None:
@@ -168,9 +183,30 @@ class Runtime:
                 if self.watchdog is not None and on_time:
                     self.watchdog.feed()
                 self.clock.wait_until(self._next_wake(until_s))
+        except Exception as error:
+            self.crashed_by = error
+            raise
         finally:
             self._stop_watchdog()
             self._write_safe("exit", centre_steering=False)
+            if self.crashed_by is not None:
+                self._report_crash(self.crashed_by)
+
+    def _report_crash(self, error: Exception) -> None:
+        """After the safe writes, the last reports (`crash_reports`: STOP and TASK_CRASHED). The
+        port may be what failed: a refusal or an error is logged, no more."""
+        log.error("a task raised, the loop ends with every output safe: %r", error)
+        now = self.clock.now()
+        for report in crash_reports(self.outputs):
+            frame_id, payload = dbc.encode_report(report)
+            try:
+                sent = self.hardware.can.send(CanFrame(frame_id, payload, now))
+            except Exception as failure:  # whatever the port raises: the process is ending
+                log.error("the last report (TASK_CRASHED) could not be sent: %r", failure)
+                return
+            if not sent:
+                log.error("the last report (TASK_CRASHED) was refused by the CAN port")
+                return
 
     def _write_safe(self, when: str, *, centre_steering: bool) -> None:
         """The safe state, every output tried; each one that failed is logged by name."""

@@ -2,7 +2,10 @@
 
 A reader is polled whenever the clock wakes the loop; it drains its port without blocking. Bad
 frames are counted and dropped, never fatal. Each reader keeps a `RecentFault` per kind of bad
-input so that the matching error flag is set while faults keep coming and clears on recovery.
+input so that the matching error flag is set while faults keep coming and clears on recovery,
+and, in `link_faults`, its port's own failures (`LinkState`): the link down, failed re-opens,
+failed receives. Those are reported, never acted on: a port that delivers nothing stops the
+robot through the input's timeout, as a silent sender does.
 """
 
 from __future__ import annotations
@@ -29,7 +32,7 @@ from bywire.control.input_stage import (
 )
 from bywire.control.rc_mapping import RcMapping, RcRequest, RcStage, rc_step
 from bywire.control.validity import Stamped
-from bywire.hal.ports import ByteStream, CanPort
+from bywire.hal.ports import LINK_UP, ByteStream, CanPort, LinkState
 from bywire.model import Command, ControlCommand, ControlMode, LightsCommand
 from bywire.protocol import dbc
 from bywire.protocol.ibus import IbusParser
@@ -37,7 +40,42 @@ from bywire.runtime.recent_fault import RecentFault
 from bywire.runtime.rx_checks import RxCheck, rx_check, rx_checks
 from bywire.security.session import AuthFailure, SecocReceiver
 
-__all__ = ["COUNTER_MISS_LIMIT", "COUNTER_WINDOW", "CanReader", "IbusReader", "arrival"]
+__all__ = [
+    "COUNTER_MISS_LIMIT",
+    "COUNTER_WINDOW",
+    "CanReader",
+    "IbusReader",
+    "LinkFaults",
+    "arrival",
+]
+
+
+class LinkFaults:
+    """A port's `LinkState`, read on every poll, as faults that keep a flag up while they last:
+    `down` at every poll that finds the link down (counted once per loss); `reopen_failed` and
+    `receive_failed` at every poll that finds their counts grown (by how much), and, while the
+    link stays down, at every poll after: a failure that lost the link, or kept it lost, is up
+    as long as the loss, so the report sent once the link is back still names it."""
+
+    def __init__(self) -> None:
+        self.down = RecentFault()
+        self.reopen_failed = RecentFault()
+        self.receive_failed = RecentFault()
+        self.last = LINK_UP
+
+    def read(self, link: LinkState, now: float) -> None:
+        last = self.last
+        if link is not last:  # a port with nothing wrong hands back the same value every time
+            if link.reopen_failures > last.reopen_failures:
+                self.reopen_failed.happened(now, link.reopen_failures - last.reopen_failures)
+            if link.receive_failures > last.receive_failures:
+                self.receive_failed.happened(now, link.receive_failures - last.receive_failures)
+            self.last = link
+        if link.down:
+            self.down.happened(now, 0 if last.down else 1)
+            for failed in (self.reopen_failed, self.receive_failed):
+                if failed.active(now):
+                    failed.happened(now, 0)
 
 
 class IbusReader:
@@ -53,6 +91,7 @@ class IbusReader:
         self.parser = IbusParser()
         self.checksum_faults = RecentFault()
         self.resync_faults = RecentFault()
+        self.link_faults = LinkFaults()
         self.last_channels: tuple[int, ...] | None = None
         self._mapped: tuple[tuple[int, ...], RcStage, RcStage, RcRequest | None] | None = None
 
@@ -60,6 +99,7 @@ class IbusReader:
         """The request of the frames completed since the last poll (`_batch_request`: the newest,
         at STOP if any of them was, its value None if any was implausible), or None if no frame
         completed."""
+        self.link_faults.read(self._stream.link, now)
         data = self._stream.read_available()
         if not data:
             return None
@@ -158,6 +198,7 @@ class CanReader:
         self.rejected: Counter[dbc.RejectReason] = Counter()
         self.verdicts: Counter[Verdict] = Counter()
         self.reject_faults = RecentFault()
+        self.link_faults = LinkFaults()
         self.ignored_frames = 0
         self.control_edges = NO_EDGES
         """The edges of the ControlCommand frames accepted by the latest poll (any of them)."""
@@ -193,6 +234,7 @@ class CanReader:
         accepted: list[Stamped[Command]] = []
         self.control_edges = NO_EDGES
         secoc = self._secoc
+        self.link_faults.read(self._port.link, now)
         for frame in self._port.receive():
             frame_id, data = frame.arbitration_id, frame.data
             arrived_at = arrival(frame, now)

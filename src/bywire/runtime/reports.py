@@ -1,4 +1,5 @@
-"""The 50 Hz reports to the higher-level computer, built from one control step's outputs."""
+"""The 50 Hz reports to the higher-level computer, built from one control step's outputs, and the
+last ones a loop that ended by a task raising sends (TASK_CRASHED)."""
 
 from __future__ import annotations
 
@@ -7,7 +8,9 @@ from dataclasses import dataclass
 from bywire.control.controller import ControlOutputs
 from bywire.error_flags import ErrorFlag
 from bywire.model import (
+    ControlMode,
     ErrorReport,
+    Gear,
     LightsReport,
     ModeReport,
     Report,
@@ -79,4 +82,15 @@ def build_reports(outputs: ControlOutputs, health: Health) -> tuple[Report, ...]
             rc_input_age_ms=_age_ms(health.rc_age_s),
             can_command_age_ms=_age_ms(health.can_age_s),
         ),
+    )
+
+
+def crash_reports(last: ControlOutputs | None) -> tuple[Report, ...]:
+    """What a loop that a task's exception ended says last, once its outputs are safe: STOP with
+    the e-brake engaged, latched and not armed (the restarted process starts in STOP), neutral
+    (both direction lines are low), and the `last` decision's flags with TASK_CRASHED."""
+    flags = ErrorFlag.TASK_CRASHED | (0 if last is None else last.error_flags)
+    return (
+        ModeReport(Gear.NEUTRAL, ControlMode.STOP, True, stop_latched=True, armed=False),
+        ErrorReport(flags=ErrorFlag(flags)),
     )

@@ -9,7 +9,7 @@ lock held beyond the outbox's; the runtime never knows.
 from __future__ import annotations
 
 from bywire.can_frame import CanFrame
-from bywire.hal.ports import CanPort
+from bywire.hal.ports import CanPort, LinkState
 from bywire.telemetry.capture import CanCapture, Capture
 from bywire.telemetry.outbox import Outbox
 
@@ -34,3 +34,7 @@ class TappedCanPort:
         for frame in frames:
             self._put(CanCapture(frame.timestamp_s, frame.arbitration_id, frame.data, ""))
         return frames
+
+    @property
+    def link(self) -> LinkState:
+        return self.port.link

@@ -16,39 +16,9 @@ from bywire.hal.linux.can_open import BusSettings, open_bus
 from bywire.hal.linux.can_pythoncan import CAN_ERR_BUSOFF, BusHealth, PythonCanPort
 from bywire.hal.linux.clock import LinuxClock
 from bywire.protocol import dbc
+from tests.hal.linux.unpluggable import Unpluggable
 
 ATTEMPTS = 2000
-
-
-class Unpluggable:
-    """Opens virtual buses through `open_bus`; while unplugged, every bus call fails."""
-
-    def __init__(self) -> None:
-        self.plugged = True
-        self.opened = 0
-
-    def __call__(self, settings: BusSettings) -> can.BusABC:
-        if not self.plugged:
-            raise HardwareError("CAN: no such device")
-        self.opened += 1
-        bus = open_bus(settings)
-        original_recv, original_send = bus.recv, bus.send
-
-        def recv(timeout: float | None = None) -> can.Message | None:
-            self._check()
-            return original_recv(timeout)
-
-        def send(msg: can.Message, timeout: float | None = None) -> None:
-            self._check()
-            original_send(msg, timeout)
-
-        # mypy refuses any assignment to a method; this one wraps python-can's own bus methods
-        bus.recv, bus.send = recv, send  # type: ignore[method-assign]
-        return bus
-
-    def _check(self) -> None:
-        if not self.plugged:
-            raise can.CanOperationError("No such device", 19)
 
 
 @pytest.fixture
@@ -120,8 +90,12 @@ def test_an_unplugged_adapter_refuses_sends_and_is_reopened(channel: str, hlc: c
         assert not port.send(CanFrame(0x200, b"\x00"))
         assert port.send_refused == 1
         assert "receive failed" in str(port.fault)
+        assert _wait(clock, lambda: port.link.reopen_failures >= 2)
+        assert port.link.down
+        assert port.link.receive_failures == 1
         adapter.plugged = True
         assert _wait(clock, lambda: port.health is BusHealth.ACTIVE)
+        assert not port.link.down
         assert port.send(CanFrame(0x200, b"\x00"))
         hlc.send(can.Message(arbitration_id=0x101, data=bytes(8), is_extended_id=False))
         assert _wait(clock, lambda: bool(port.receive()))
@@ -140,6 +114,7 @@ def test_bus_off_is_flagged_and_cleared_when_frames_flow(channel: str, hlc: can.
         )
         assert _wait(clock, lambda: port.health is BusHealth.BUS_OFF)
         assert "bus-off" in str(port.fault)
+        assert port.link.down
         hlc.send(can.Message(arbitration_id=0x101, data=bytes(8), is_extended_id=False))
         assert _wait(clock, lambda: port.health is BusHealth.ACTIVE)
     finally:

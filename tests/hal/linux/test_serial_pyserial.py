@@ -62,8 +62,11 @@ def test_a_vanished_port_is_flagged_and_reopened_when_it_returns(line: PtyRcLine
         assert _wait(clock, lambda: stream.fault is not None)
         assert "lost" in str(stream.fault)
         assert not stream.connected
+        assert _wait(clock, lambda: stream.link.reopen_failures >= 2)  # still gone
+        assert (stream.link.down, stream.link.receive_failures) == (True, 1)
         line.plug()
         assert _wait(clock, lambda: stream.connected)
+        assert not stream.link.down
         line.write(b"\x20\x40back")
         received = bytearray()
 

@@ -10,6 +10,7 @@ import pytest
 
 from bywire.can_frame import CanFrame
 from bywire.errors import ConfigError
+from bywire.hal.ports import LinkState
 from bywire.hal.tape.run_record import Output, RecordHeader, read_record, write_record
 
 HEADER = RecordHeader("tiny", 0.0, 1.0, {"steering": 0.02, "hydrobrake": 0.001}, (), "")
@@ -25,7 +26,11 @@ def test_the_record_round_trips_every_value_exactly(name: str, tmp_path: Path) -
         {"t": 0.6, "kind": "refused", "name": "dac", "call": 7},
         {"t": 0.7, "kind": "out", "name": "steering_pwm", "value": 0.0015000000000000002},
         {"t": 0.7, "kind": "out", "name": "gpio.low_beam", "value": True},
-    ]
+        {"t": 0.8, "kind": "link", "name": "can", "down": True, "reopen_failures": 2,
+         "receive_failures": 1},
+        {"t": 0.9, "kind": "link", "name": "rc_uart", "down": False, "reopen_failures": 0,
+         "receive_failures": 3},
+    ]  # fmt: skip
     assert write_record(tmp_path / name, HEADER, events) == len(events)
     run = read_record(tmp_path / name)
     assert run.header == HEADER
@@ -33,6 +38,10 @@ def test_the_record_round_trips_every_value_exactly(name: str, tmp_path: Path) -
     assert run.can_rx == [(0.5, [CanFrame(0x101, b"\x00\xff", 0.49)])]
     assert run.sensor_reads == {"wheel_speeds": [(3, (0.1, -0.3))]}
     assert run.refusals == {"dac": {7}}
+    assert run.links == {
+        "can": [(0.8, LinkState(down=True, reopen_failures=2, receive_failures=1))],
+        "rc_uart": [(0.9, LinkState(receive_failures=3))],
+    }
     assert run.outputs == [
         Output(0.7, "steering_pwm", 0.0015000000000000002),
         Output(0.7, "gpio.low_beam", True),
@@ -52,6 +61,22 @@ def test_a_gzip_record_is_compressed(tmp_path: Path) -> None:
         (['{"format": "bywire-run-record", "version": 99}'], "line 1: .*version 99"),
         ([json.dumps(HEADER.as_json()), '{"t": 1, "kind": "teleport"}'], "line 2: .*teleport"),
         ([json.dumps(HEADER.as_json()), "", "not json"], "line 3"),
+        (
+            [
+                json.dumps(HEADER.as_json()),
+                '{"t": 1, "kind": "link", "name": "dac", "down": true,'
+                ' "reopen_failures": 0, "receive_failures": 0}',
+            ],
+            "line 2: .*link name 'dac'",
+        ),
+        (
+            [
+                json.dumps(HEADER.as_json()),
+                '{"t": 1, "kind": "link", "name": "can", "down": 1,'
+                ' "reopen_failures": 0, "receive_failures": 0}',
+            ],
+            "line 2: .*link down 1",
+        ),
         ([], "line 1"),
     ],
 )

@@ -1,16 +1,26 @@
 """Taped ports: outputs noted when they change, CAN frames every time, sensor reads that change,
-DAC writes that hang."""
+DAC writes that hang, input ports' link states that change."""
 
 from __future__ import annotations
 
 from bywire.can_frame import CanFrame
+from bywire.hal.ports import LINK_UP, LinkState
+from bywire.hal.sim.can_bus import SimCanBus
 from bywire.hal.sim.clock import VirtualClock
 from bywire.hal.sim.dac import SimDac6574
 from bywire.hal.sim.gpio_pwm import SimPwmChannel
 from bywire.hal.sim.timers import PeriodicTimer
-from bywire.hal.tape.playback import ReplayCanPort, ReplayDac, ReplayWheelSpeeds
-from bywire.hal.tape.run_record import RecordedRun, RecordHeader
-from bywire.hal.tape.taped import Tape, TapedCanPort, TapedDac, TapedPwm, TapedSensor
+from bywire.hal.sim.uart import SimUart
+from bywire.hal.tape.playback import ReplayByteStream, ReplayCanPort, ReplayDac, ReplayWheelSpeeds
+from bywire.hal.tape.run_record import RecordedRun, RecordHeader, link_of
+from bywire.hal.tape.taped import (
+    Tape,
+    TapedByteStream,
+    TapedCanPort,
+    TapedDac,
+    TapedPwm,
+    TapedSensor,
+)
 from bywire.protocol import dac6574
 
 
@@ -71,3 +81,41 @@ def test_a_dac_write_that_hangs_is_taped_with_when_it_returned_and_hangs_as_long
     replayed.write(frame)
     assert replay_clock.now() == 0.3
     assert len(ticks) == 3  # the timers ran inside the hung write, as they did when recorded
+
+
+def test_a_ports_link_is_noted_when_it_changes_and_replayed_from_then() -> None:
+    clock = VirtualClock()
+    tape = Tape(clock)
+    sim_can, uart = SimCanBus(clock).attach("bywire", True), SimUart(clock)
+    can, rc = TapedCanPort(sim_can, tape), TapedByteStream(uart, tape)
+    seen: list[tuple[float, LinkState, LinkState]] = []
+
+    def read(time_s: float) -> None:
+        clock.advance(time_s - clock.now())
+        seen.append((time_s, can.link, rc.link))
+
+    read(0.1)
+    sim_can.enter_bus_off()
+    read(0.2)
+    read(0.3)
+    uart.fail()
+    sim_can.recover_bus_off()
+    read(0.4)
+    uart.restore()
+    read(0.5)
+    noted = [(e["t"], e["name"], link_of(e)) for e in tape.events if e["kind"] == "link"]
+    assert noted == [
+        (0.2, "can", LinkState(down=True)),
+        (0.4, "can", LINK_UP),
+        (0.4, "rc_uart", LinkState(down=True)),
+        (0.5, "rc_uart", LINK_UP),
+    ]
+    replayed_clock = VirtualClock()
+    links = {name: [(t, link) for t, n, link in noted if n == name] for name in ("can", "rc_uart")}
+    replayed_can = ReplayCanPort(replayed_clock, [], set(), links["can"])
+    replayed_rc = ReplayByteStream(replayed_clock, [], links["rc_uart"])
+    replayed = []
+    for time_s, _, _ in seen:
+        replayed_clock.advance(time_s - replayed_clock.now())
+        replayed.append((time_s, replayed_can.link, replayed_rc.link))
+    assert replayed == seen

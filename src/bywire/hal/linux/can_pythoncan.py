@@ -4,7 +4,8 @@ Frames for our command ids pass the interface's acceptance filters; a thread rec
 a queue, stamps them with the clock and wakes it. `send` never blocks and never raises for the
 bus: a full transmit queue, bus-off or an unplugged adapter make it return False, counted in
 `send_refused`. Bus-off (error frames, `bus.state`) and a lost adapter (receive errors) are
-detected by the thread, which re-opens the bus with a growing back-off until it works again.
+detected by the thread, which re-opens the bus with a growing back-off until it works again;
+`link` tells the runtime (down, failed re-opens, failed receives), which reports it.
 """
 
 from __future__ import annotations
@@ -23,6 +24,7 @@ from bywire.can_frame import CanFrame, check_can_frame
 from bywire.errors import HardwareError
 from bywire.hal.linux.can_open import BusSettings, open_bus
 from bywire.hal.linux.device_errors import reason
+from bywire.hal.ports import LinkState
 
 log = logging.getLogger(__name__)
 RECEIVE_TIMEOUT_S = 0.1
@@ -66,6 +68,7 @@ class PythonCanPort:
         self._bus_off_since_s: float | None = None
         self.frames_sent = self.frames_received = self.send_refused = 0
         self.rx_overflows = self.reopens = self.bus_off_count = 0
+        self.receive_failures = self.reopen_failures = 0
         self._bus: can.BusABC | None = self._factory(settings)
         self._thread = threading.Thread(target=self._run, name=f"can {settings}", daemon=True)
         self._thread.start()
@@ -94,6 +97,16 @@ class PythonCanPort:
             self._rx.clear()
         return frames
 
+    @property
+    def link(self) -> LinkState:
+        """Down while bus-off or being re-opened; receives that raised and frames dropped from
+        the full queue are failed receives."""
+        return LinkState(
+            down=self.health is not BusHealth.ACTIVE,
+            reopen_failures=self.reopen_failures,
+            receive_failures=self.receive_failures + self.rx_overflows,
+        )
+
     def close(self) -> None:
         """Stop the thread and shut the bus down; safe to call again."""
         if self._closing.is_set():
@@ -114,6 +127,7 @@ class PythonCanPort:
             try:
                 message = bus.recv(RECEIVE_TIMEOUT_S)
             except (can.CanError, OSError, ValueError) as error:
+                self.receive_failures += 1
                 self._lost(f"receive failed: {reason(error)}")
                 continue
             if message is None:
@@ -185,6 +199,7 @@ class PythonCanPort:
         try:
             self._bus = self._factory(self.settings)
         except HardwareError as error:
+            self.reopen_failures += 1
             log.debug("CAN re-open failed: %s", error)
             return min(retry_s * 2.0, RETRY_MAX_S)
         self.reopens += 1

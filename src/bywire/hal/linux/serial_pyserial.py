@@ -2,8 +2,9 @@
 
 115200 8N1 (IBUS). The thread blocks in `read(in_waiting or 1)` with a short timeout, so a byte
 is handed over as soon as the driver has it, and `read_available` never blocks. When the port
-vanishes (a USB adapter unplugged, EIO) the fault is logged and kept in `fault`, the RC timeout
-puts the robot in STOP, and the thread re-opens the port when it comes back.
+vanishes (a USB adapter unplugged, EIO) the fault is logged and kept in `fault` (and `link`,
+which the runtime reports as IBUS_PORT_FAILED), the RC timeout puts the robot in STOP, and the
+thread re-opens the port when it comes back.
 """
 
 from __future__ import annotations
@@ -19,6 +20,7 @@ import serial
 
 from bywire.errors import HardwareError
 from bywire.hal.linux.device_errors import device_error, reason
+from bywire.hal.ports import LinkState
 
 log = logging.getLogger(__name__)
 READ_TIMEOUT_S = 0.05  # how long a read waits before the thread checks for close()
@@ -53,7 +55,9 @@ class PyserialStream:
         self.fault: HardwareError | None = None
         """Why the port is gone, None while it works."""
         self.disconnects = 0
+        """Reads that failed: each one lost the port."""
         self.reopens = 0
+        self.reopen_failures = 0
         self.bytes_received = 0
         self._serial: serial.Serial | None = self._open()
         self._thread = threading.Thread(target=self._run, name=f"rc-uart {port}", daemon=True)
@@ -72,6 +76,15 @@ class PyserialStream:
         """When the thread received the newest chunk the last read returned (None without a
         clock)."""
         return self._arrived_at_s
+
+    @property
+    def link(self) -> LinkState:
+        """Down from a failed read until the port is open again."""
+        return LinkState(
+            down=self.fault is not None,
+            reopen_failures=self.reopen_failures,
+            receive_failures=self.disconnects,
+        )
 
     @property
     def connected(self) -> bool:
@@ -140,6 +153,7 @@ class PyserialStream:
         try:
             self._serial = self._open()
         except HardwareError:
+            self.reopen_failures += 1
             return
         self.fault = None
         self.reopens += 1

@@ -17,7 +17,7 @@ from collections.abc import Callable, Iterable
 from bywire.can_frame import CanFrame
 from bywire.control.values import value
 from bywire.errors import FrameError
-from bywire.hal.sim.can_port import SimCanPort
+from bywire.hal.sim.can_port import DEFAULT_RX_CAPACITY, SimCanPort
 from bywire.hal.sim.flood import CanFlood
 from bywire.hal.sim.timers import SimClock
 
@@ -82,11 +82,19 @@ class SimCanBus:
         wake_on_receive: bool = False,
         accept_ids: Iterable[int] | None = None,
         tx_mailboxes: int = 3,
+        rx_capacity: int = DEFAULT_RX_CAPACITY,
     ) -> SimCanPort:
         """A new node on the bus; ``accept_ids`` is its hardware filter (None: every id)."""
         if any(port.name == name for port in self._ports):
             raise ValueError(f"a node named {name!r} is already on the bus")
-        port = SimCanPort(self, name, wake_on_receive, accept_ids, tx_mailboxes=tx_mailboxes)
+        port = SimCanPort(
+            self,
+            name,
+            wake_on_receive,
+            accept_ids,
+            tx_mailboxes=tx_mailboxes,
+            rx_capacity=rx_capacity,
+        )
         self._ports.append(port)
         return port
 

@@ -2,7 +2,8 @@
 
 A ``CanPort``. ``send`` refuses a frame (returns False) when all mailboxes hold frames that have
 not yet gone out, or while the node is bus-off, as bxCAN does; the controller's reporting task
-must cope with that (R-CANTX). Received frames wait in a bounded queue, like a socket buffer.
+must cope with that (R-CANTX). Received frames wait in a bounded queue, like a socket buffer; a
+frame that finds it full is dropped. ``link`` says both: bus-off, and the frames dropped.
 """
 
 from __future__ import annotations
@@ -12,6 +13,7 @@ from collections.abc import Callable, Iterable
 from typing import TYPE_CHECKING
 
 from bywire.can_frame import CanFrame, check_can_frame
+from bywire.hal.ports import LINK_UP, LinkState
 
 if TYPE_CHECKING:
     from bywire.hal.sim.can_bus import SimCanBus
@@ -63,6 +65,13 @@ class SimCanPort:
         frames = list(self._rx)
         self._rx.clear()
         return frames
+
+    @property
+    def link(self) -> LinkState:
+        """Down while bus-off; every frame dropped from the full receive queue a failed receive."""
+        if not self.bus_off and not self.rx_overflows:
+            return LINK_UP
+        return LinkState(down=self.bus_off, receive_failures=self.rx_overflows)
 
     @property
     def pending(self) -> int:

@@ -4,7 +4,8 @@ A ``ByteStream``. Every byte carries the time its stop bit ends; ``read_availabl
 the bytes that have arrived, so a read in the middle of an IBUS frame gets part of it, as on the
 robot. The line sends one byte at a time: a burst written while the line is busy queues behind
 the bytes already on it. At the end of each burst the clock is woken, as the UART's idle-line
-interrupt wakes the controller.
+interrupt wakes the controller. ``fail()`` takes the receiving device away (a USB adapter
+pulled): the bytes on the line are lost and ``link`` says the port is down until ``restore()``.
 """
 
 from __future__ import annotations
@@ -13,6 +14,7 @@ import math
 from collections import deque
 from dataclasses import dataclass
 
+from bywire.hal.ports import LINK_UP, LinkState
 from bywire.hal.sim.timers import SimClock
 from bywire.protocol import ibus
 
@@ -20,6 +22,7 @@ BITS_PER_BYTE_8N1 = 10
 # Floating-point slack, in byte times, when comparing an arrival time with now: a byte due at
 # exactly now has arrived even if the sum that computed its time rounded up.
 _BYTE_SLACK = 1e-9
+_GONE = LinkState(down=True)
 
 
 @dataclass(slots=True)
@@ -49,6 +52,7 @@ class SimUart:
         self.bytes_sent = 0
         self.bytes_read = 0
         self._arrived_at_s: float | None = None
+        self._link = LINK_UP
 
     def transmit(self, data: bytes, start_s: float | None = None) -> float:
         """Put ``data`` on the line from ``start_s`` (default now) or when the line is free.
@@ -70,16 +74,21 @@ class SimUart:
         """Every byte whose arrival time has come and that was not read before."""
         now_s = self._clock.now()
         chunks: list[bytes] = []
+        newest_at_s: float | None = None
         while self._bursts:
             burst = self._bursts[0]
             arrived = _arrived_count(burst, now_s, self.byte_time_s)
             if arrived > burst.read:
                 chunks.append(burst.data[burst.read : arrived])
                 burst.read = arrived
-                self._arrived_at_s = burst.first_arrival_s + (arrived - 1) * self.byte_time_s
+                newest_at_s = burst.first_arrival_s + (arrived - 1) * self.byte_time_s
             if burst.read < len(burst.data):
                 break
             self._bursts.popleft()
+        if self._link.down:
+            return b""  # the device is gone: what the line carried meanwhile is lost
+        if newest_at_s is not None:
+            self._arrived_at_s = newest_at_s
         data = b"".join(chunks)
         self.bytes_read += len(data)
         return data
@@ -88,6 +97,20 @@ class SimUart:
     def arrived_at_s(self) -> float | None:
         """When the newest byte read so far arrived (its stop bit's end); None before any."""
         return self._arrived_at_s
+
+    @property
+    def link(self) -> LinkState:
+        """Down from ``fail()`` to ``restore()``."""
+        return self._link
+
+    def fail(self) -> None:
+        """Fault injection: the receiving device is gone; bytes arriving meanwhile are lost."""
+        self._link = _GONE
+
+    def restore(self) -> None:
+        """The device is back: bytes arriving from now on are read (a frame cut in half by the
+        loss arrives as its tail, which the IBUS parser drops)."""
+        self._link = LINK_UP
 
     @property
     def line_free_at_s(self) -> float:

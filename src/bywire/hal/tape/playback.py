@@ -3,7 +3,8 @@
 No vehicle, transmitter or higher-level computer: the ports hand the controller exactly what it
 received in the recorded run, at the recorded instants: the RC UART's bytes and the CAN frames
 (each arrival wakes the loop, as the port's interrupt did), the sensors' readings in read order,
-the refused sends and DAC writes. What the controller writes is kept by simulated outputs (the
+the refused sends and DAC writes, and each input port's link state from the read that saw it
+change. What the controller writes is kept by simulated outputs (the
 DAC checks every frame); `bywire.replay.runner` tapes them and compares with the record.
 """
 
@@ -17,7 +18,7 @@ from typing import Generic, TypeVar
 from bywire.can_frame import CanFrame, check_can_frame
 from bywire.errors import HardwareError
 from bywire.hal.hardware import DigitalOutputs, Hardware
-from bywire.hal.ports import I2cDevice
+from bywire.hal.ports import LINK_UP, I2cDevice, LinkState
 from bywire.hal.sim.clock import VirtualClock
 from bywire.hal.sim.dac import SimDac6574
 from bywire.hal.sim.gpio_pwm import SimDigitalOut, SimPwmChannel
@@ -40,14 +41,32 @@ class _Arrivals(Generic[T]):
         return taken
 
 
+class _Link:
+    """A port's recorded link state: each change from the instant a read first saw it."""
+
+    def __init__(self, clock: VirtualClock, changes: Sequence[tuple[float, LinkState]]) -> None:
+        self._changes = _Arrivals(clock, changes)
+        self._state = LINK_UP
+
+    def now(self) -> LinkState:
+        due = self._changes.due()
+        if due:
+            self._state = due[-1]
+        return self._state
+
+
 class ReplayByteStream:
     """The RC UART: each recorded read's bytes, at its instant, with its arrival stamp."""
 
     def __init__(
-        self, clock: VirtualClock, chunks: Sequence[tuple[float, bytes, float | None]]
+        self,
+        clock: VirtualClock,
+        chunks: Sequence[tuple[float, bytes, float | None]],
+        links: Sequence[tuple[float, LinkState]] = (),
     ) -> None:
         self._arrivals = _Arrivals(clock, [(t, (data, at)) for t, data, at in chunks])
         self._arrived_at_s: float | None = None
+        self._link = _Link(clock, links)
 
     def read_available(self) -> bytes:
         due = self._arrivals.due()
@@ -61,6 +80,11 @@ class ReplayByteStream:
         stamps were recorded: the reader then takes the read's time, as it did then)."""
         return self._arrived_at_s
 
+    @property
+    def link(self) -> LinkState:
+        """As recorded (a record made before links were recorded: never down)."""
+        return self._link.now()
+
 
 class ReplayCanPort:
     """The CAN port: each recorded receive's frames at its instant; sends refused as recorded."""
@@ -70,10 +94,12 @@ class ReplayCanPort:
         clock: VirtualClock,
         batches: Sequence[tuple[float, list[CanFrame]]],
         refused_calls: set[int],
+        links: Sequence[tuple[float, LinkState]] = (),
     ) -> None:
         self._arrivals = _Arrivals(clock, batches)
         self._refused_calls = refused_calls
         self._sends = 0
+        self._link = _Link(clock, links)
 
     def send(self, frame: CanFrame) -> bool:
         """Accepted unless the record says this call was refused; FrameError, as every CAN port
@@ -84,6 +110,11 @@ class ReplayCanPort:
 
     def receive(self) -> list[CanFrame]:
         return [frame for batch in self._arrivals.due() for frame in batch]
+
+    @property
+    def link(self) -> LinkState:
+        """As recorded (a record made before links were recorded: never down)."""
+        return self._link.now()
 
 
 class ReplayDac:
@@ -159,8 +190,10 @@ def replay_hardware(record: RecordedRun, clock: VirtualClock) -> Hardware:
 
     return Hardware(
         clock=clock,
-        can=ReplayCanPort(clock, record.can_rx, record.refusals.get("can_tx", set())),
-        rc_uart=ReplayByteStream(clock, record.rc_bytes),
+        can=ReplayCanPort(
+            clock, record.can_rx, record.refusals.get("can_tx", set()), record.links.get("can", ())
+        ),
+        rc_uart=ReplayByteStream(clock, record.rc_bytes, record.links.get("rc_uart", ())),
         dac=ReplayDac(
             SimDac6574(clock),
             record.refusals.get("dac", set()),

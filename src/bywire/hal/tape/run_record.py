@@ -19,6 +19,9 @@ floats are written as Python's shortest round-trip repr, so every value reads ba
     refused   name ("can_tx"|"dac"), call     the call-th send or DAC write (from 0) failed
     stall     name ("dac"), call, s           the call-th DAC write hung s seconds in the driver
                                               (t: when it returned)
+    link      name ("can"|"rc_uart"), down,   an input port's own state (`LinkState`), when a
+              reopen_failures,                read of it differs from the read before (a run
+              receive_failures                whose ports never fail has none)
     out       name, value                     an output: steering_pwm, hydrobrake_pwm (pulse s),
                                               gpio.<line> (level), dac.<channel> (I2C frame hex)
                                               when they change; can_tx.0x<id> (payload hex) for
@@ -37,11 +40,13 @@ from typing import IO, Any
 
 from bywire.can_frame import CanFrame
 from bywire.errors import ConfigError
+from bywire.hal.ports import LinkState
 from bywire.textfile import check_regular
 
 FORMAT = "bywire-run-record"
 VERSION = 1
 SENSOR_NAMES = ("wheel_speeds", "hydrobrake_pressure_bar", "steering_encoder_norm")
+LINK_NAMES = ("can", "rc_uart")
 
 SensorValue = tuple[float, float] | float | None
 OutputValue = float | bool | str
@@ -114,6 +119,8 @@ class RecordedRun:
     refusals: dict[str, set[int]] = field(default_factory=dict)
     stalls: dict[str, dict[int, float]] = field(default_factory=dict)
     """Per port, the calls that hung inside the driver and when each returned (clock time)."""
+    links: dict[str, list[tuple[float, LinkState]]] = field(default_factory=dict)
+    """Per input port ("can", "rc_uart"), each change of its `LinkState` and when it was read."""
     outputs: list[Output] = field(default_factory=list)
 
     def add(self, event: Event) -> None:
@@ -133,10 +140,36 @@ class RecordedRun:
             self.refusals.setdefault(str(event["name"]), set()).add(int(event["call"]))
         elif kind == "stall":
             self.stalls.setdefault(str(event["name"]), {})[int(event["call"])] = time_s
+        elif kind == "link":
+            self.links.setdefault(_link_name(event["name"]), []).append((time_s, link_of(event)))
         elif kind == "out":
             self.outputs.append(Output(time_s, str(event["name"]), _output_value(event["value"])))
         else:
             raise ValueError(f"unknown event kind {kind!r}")
+
+
+def link_event(name: str, link: LinkState) -> Event:
+    """A link event's fields (without its time): what `Tape.add("link", ...)` takes."""
+    return {
+        "name": name,
+        "down": link.down,
+        "reopen_failures": link.reopen_failures,
+        "receive_failures": link.receive_failures,
+    }
+
+
+def link_of(event: Event) -> LinkState:
+    """The `LinkState` a link event holds; TypeError or ValueError when it is malformed."""
+    down = event["down"]
+    if not isinstance(down, bool):
+        raise ValueError(f"link down {down!r}")
+    return LinkState(down, int(event["reopen_failures"]), int(event["receive_failures"]))
+
+
+def _link_name(name: object) -> str:
+    if name not in LINK_NAMES:
+        raise ValueError(f"link name {name!r} (one of {', '.join(LINK_NAMES)})")
+    return str(name)
 
 
 def _sensor_value(value: object) -> SensorValue:

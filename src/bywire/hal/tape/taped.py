@@ -14,8 +14,17 @@ from typing import Generic, TypeVar
 from bywire.can_frame import CanFrame
 from bywire.errors import FrameError, HardwareError
 from bywire.hal.hardware import DigitalOutputs, Hardware
-from bywire.hal.ports import ByteStream, CanPort, Clock, DigitalOut, I2cDevice, PwmChannel
-from bywire.hal.tape.run_record import Event, OutputValue
+from bywire.hal.ports import (
+    LINK_UP,
+    ByteStream,
+    CanPort,
+    Clock,
+    DigitalOut,
+    I2cDevice,
+    LinkState,
+    PwmChannel,
+)
+from bywire.hal.tape.run_record import Event, OutputValue, link_event
 from bywire.protocol import dac6574
 
 V = TypeVar("V")
@@ -44,11 +53,26 @@ class Tape:
         self.add("out", name=name, value=value)
 
 
+class _LinkNotes:
+    """Notes a port's `LinkState` each time a read of it differs from the read before."""
+
+    def __init__(self, name: str, tape: Tape) -> None:
+        self._name, self._tape = name, tape
+        self._last = LINK_UP
+
+    def seen(self, link: LinkState) -> LinkState:
+        if link is not self._last and link != self._last:
+            self._last = link
+            self._tape.add("link", **link_event(self._name, link))
+        return link
+
+
 class TapedByteStream:
-    """A ByteStream noting each non-empty read."""
+    """A ByteStream noting each non-empty read, and each change of its link."""
 
     def __init__(self, inner: ByteStream, tape: Tape) -> None:
         self._inner, self._tape = inner, tape
+        self._link = _LinkNotes("rc_uart", tape)
 
     def read_available(self) -> bytes:
         data = self._inner.read_available()
@@ -62,13 +86,19 @@ class TapedByteStream:
     def arrived_at_s(self) -> float | None:
         return self._inner.arrived_at_s
 
+    @property
+    def link(self) -> LinkState:
+        return self._link.seen(self._inner.link)
+
 
 class TapedCanPort:
-    """A CanPort noting each non-empty receive, every frame sent and every refused send."""
+    """A CanPort noting each non-empty receive, every frame sent and every refused send, and
+    each change of its link."""
 
     def __init__(self, inner: CanPort, tape: Tape) -> None:
         self._inner, self._tape = inner, tape
         self._sends = 0
+        self._link = _LinkNotes("can", tape)
 
     def send(self, frame: CanFrame) -> bool:
         call, self._sends = self._sends, self._sends + 1
@@ -84,6 +114,10 @@ class TapedCanPort:
             rows = [[f.arbitration_id, f.data.hex(), f.timestamp_s] for f in frames]
             self._tape.add("can_rx", frames=rows)
         return frames
+
+    @property
+    def link(self) -> LinkState:
+        return self._link.seen(self._inner.link)
 
 
 class TapedDac:
