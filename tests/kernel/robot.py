@@ -221,7 +221,11 @@ class KernelRobot:
         self.config_path = folder / "robot.toml"
         text = guest.robot_config(self.vcan.name, self.dac.bus, rc_tty)
         self.config_path.write_text(text + extra_config)
-        self.config = parse_config(self.config_path.read_text())
+        try:
+            self.config = parse_config(self.config_path.read_text())
+        except BaseException:
+            self._devices.close()  # a refused file leaves no chip behind for the next test
+            raise
         self.lines = {name: str(line.line) for name, line in output_lines(self.config).items()}
         self.transmitter = Transmitter(self.host, self.config)
         self._devices.callback(self.transmitter.close)

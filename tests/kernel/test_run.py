@@ -4,11 +4,11 @@ read back from the kernel and judged by the simulator's own expectations."""
 
 from __future__ import annotations
 
-from collections.abc import Iterator
 from pathlib import Path
 
 import pytest
 
+from bywire.errors import ConfigError
 from bywire.model import ControlMode
 from bywire.sim.catalog import find_scenario
 from tests.kernel.player import play
@@ -22,17 +22,24 @@ from tests.kernel.robot import KernelRobot
 AS_SENSED = "\n[interlocks]\nunknown_speed_dwell_s = 0.5\nunknown_speed_brake_norm = 0.3\n"
 
 
-@pytest.fixture(params=["plain-i2c", "smbus-only"])
-def robot(request: pytest.FixtureRequest, tmp_path: Path) -> Iterator[KernelRobot]:
-    made = KernelRobot(tmp_path, dac=request.param, extra_config=AS_SENSED)
+@pytest.mark.xfail(
+    raises=ConfigError,
+    strict=True,
+    reason="issue 30's deadlines refuse AS_SENSED (a 0.5 s dwell without a speed sensor cannot"
+    " stop from 3 m/s), and the course's timings assume a sensed standstill: this robot needs a"
+    " speed sensor of its own in the tier, or a course timed for the no-sensor rule (issue 31)",
+)
+@pytest.mark.parametrize("dac", ["plain-i2c", "smbus-only"])
+def test_the_test_course_on_the_kernels_devices(dac: str, tmp_path: Path) -> None:
+    robot = KernelRobot(tmp_path, dac=dac, extra_config=AS_SENSED)
     try:
-        made.start()
-        yield made
+        robot.start()
+        _the_course(robot)
     finally:
-        made.close()
+        robot.close()
 
 
-def test_the_test_course_on_the_kernels_devices(robot: KernelRobot) -> None:
+def _the_course(robot: KernelRobot) -> None:
     played = play(robot, find_scenario("test-course"))
     assert not played.failed, "\n".join([*played.failed, "bywire's log:", robot.log()[-3000:]])
     assert played.passed == [
