@@ -71,19 +71,18 @@ def test_ci_runs_the_ros_tier_after_the_readme_test_command_and_it_cannot_skip()
     assert "run `.ci/ros-tier`" in source
 
 
-def test_ci_runs_the_kernel_tier_as_the_readme_says_after_the_test_command() -> None:
+def test_the_kernel_tier_is_out_of_ci_and_both_readme_and_ci_say_so() -> None:
     readme = (ROOT / "README.md").read_text(encoding="utf-8")
     tier = readme[readme.index("## The kernel tier") :]
     blocks = re.findall(r"```sh\n(.*?)```", tier, flags=re.DOTALL)
     install, run = (line.split("#")[0].strip() for line in blocks[0].splitlines()[:2])
     ci_lines = [line.strip() for line in (ROOT / ".ci" / "run").read_text().splitlines()]
     assert run == "tests/kernel/run"
-    assert ci_lines.index(run) > ci_lines.index(_readme_commands()[1])
-    packages = set(install.split()[3:])  # sudo apt-get install PACKAGES…
-    ci = (ROOT / ".ci" / "run").read_text(encoding="utf-8")
-    listed = re.search(r"apt-get install[^\n]*\n(.*?)>/dev/null", ci, re.DOTALL)
-    assert listed is not None
-    assert packages <= set(listed[1].split()), packages - set(listed[1].split())
+    assert install.startswith("sudo apt-get install linux-source-6.1")
+    # Out of CI while its fault tests fail (issue 31): the README and .ci/run both say so.
+    assert run not in ci_lines
+    assert "**Not in CI for now**" in tier
+    assert "tests/kernel/run" in (ROOT / ".ci" / "run").read_text(encoding="utf-8")
 
 
 def test_ci_runs_the_deploy_tier_as_the_readme_says_after_the_other_tiers() -> None:
@@ -94,8 +93,8 @@ def test_ci_runs_the_deploy_tier_as_the_readme_says_after_the_other_tiers() -> N
     ci = (ROOT / ".ci" / "run").read_text(encoding="utf-8")
     ci_lines = [line.strip() for line in ci.splitlines()]
     assert run == "sudo tests/deploy/run"  # CI runs as root: without the sudo
-    assert ci_lines[-1] == "tests/deploy/run"  # last: after the suite, the kernel and ROS tiers
-    assert ci_lines.index("tests/kernel/run") < ci_lines.index("bash .ci/ros-tier")
+    assert ci_lines[-1] == "tests/deploy/run"  # last: after the suite and the ROS tier
+    assert ci_lines.index("bash .ci/ros-tier") < ci_lines.index("tests/deploy/run")
     packages = set(install.split()[3:])  # sudo apt-get install PACKAGES…
     listed = re.search(r"apt-get install[^\n]*\n\s*(debootstrap[^\n]*)>/dev/null", ci)
     assert listed is not None
