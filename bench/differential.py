@@ -46,8 +46,8 @@ from bywire.replay.runner import replay
 from bywire.sim.campaign import Campaign, compile_steps
 from bywire.sim.catalog import packaged_scenarios
 from bywire.sim.draw import draw_campaign
-from bywire.sim.runner import SimRun
-from bywire.telemetry.feed import FeedOptions
+from bywire.sim.runner import SimRun, run_clock
+from bywire.telemetry.feed import FeedOptions, open_sinks
 
 DIGESTS = Path(__file__).with_name("differential.json")
 CAMPAIGN_SEED = 12
@@ -104,11 +104,15 @@ def scenario_history_with_files(robot: RobotConfig, name: str) -> History:
     digest differs from the plain run's)."""
     with tempfile.TemporaryDirectory() as folder, contextlib.ExitStack() as stack:
         files = Path(folder)
-        run = SimRun(robot, packaged_scenarios()[name])
+        scenario = packaged_scenarios()[name]
+        clock = run_clock(scenario)
+        options = FeedOptions(mcap_path=files / "run.mcap")
+        sinks = stack.enter_context(open_sinks(options, clock, virtual_time=True))  # as sim's
+        run = SimRun(robot, scenario, clock=clock)
         record = SimRunRecorder.attach(run, files / "run.jsonl")
         recorder = _Recorder(run)
         run.add_can_monitor(stack.enter_context(CanLog(files / "run.blf", run.started_at)))
-        attach_feed(stack, run, FeedOptions(mcap_path=files / "run.mcap"))
+        attach_feed(stack, run, sinks, options)
         run.run()
         stack.close()
         record.write()
