@@ -1,14 +1,24 @@
-"""The oracle's two sources of figures: when the controller can have noticed something comes
-from the robot file under test (its timeouts, frames and periods); what it must then do, and
-how fast, comes from the requirements and never from the file: a file that configures a gentler
-handover, a shorter controlled stop or a weaker one is judged by the same figures."""
+"""The oracle's figures come from the requirements, never from the robot file under test
+(R-CONFIG-SAFETY): a file that configures a gentler handover, a shorter controlled stop or a
+weaker one is judged by the same figures; a file's timeouts and task periods may tighten the
+deadlines it is held to (its own promise), never loosen them past the requirement's."""
 
 from __future__ import annotations
 
-from bywire.config import parse_config
+import pytest
+
+from bywire.config import default_sim_config, parse_config
 from bywire.config.limits import CONTROLLED_STOP_S, HANDOVER_RATE
+from bywire.model import ControlMode
+from bywire.sim.campaign import Step
 from bywire.sim.oracle import Cause, OracleTiming
-from bywire.sim.oracle.requirements import CONTROLLED_STOP_LIMIT_S, REQUIRED_HANDOVER_RATE
+from bywire.sim.oracle.requirements import (
+    CONTROLLED_STOP_LIMIT_S,
+    REQUIRED,
+    REQUIRED_HANDOVER_RATE,
+    Figure,
+)
+from bywire.sim.verify import run_campaign
 
 BASE = 'backend = "sim"\n'
 OWN_FIGURES = (
@@ -28,8 +38,52 @@ def test_the_requirement_figures_are_the_most_a_robot_file_may_set() -> None:
     assert CONTROLLED_STOP_S.high == CONTROLLED_STOP_LIMIT_S
 
 
-def test_the_deadlines_follow_the_robot_file_s_timeouts() -> None:
-    slow = parse_config(BASE + "[timeouts]\nrc_timeout_s = 0.2\n", "<slow link>")
+LAX = (
+    BASE + "[timeouts]\nrc_timeout_s = 0.3\ncan_command_timeout_s = 0.3\nwatchdog_s = 0.5\n\n"
+    "[timeouts.can_message_timeout_s]\nMovementCommand = 0.3\n"
+)
+"""Timeouts the loader takes (each in its range, none longer than the watchdog) but three
+times the requirements' (R-TIMEOUT 100 ms, R-WATCHDOG 200 ms)."""
+
+
+def test_a_robot_file_with_lax_timeouts_gets_the_requirement_s_deadlines() -> None:
+    lax = OracleTiming.for_robot(parse_config(LAX, "<lax>"))
+    assert lax.rc_timeout_s == REQUIRED[Figure.RC_TIMEOUT_S].most == 0.1
+    assert lax.watchdog_s == REQUIRED[Figure.WATCHDOG_S].most == 0.2
+    for cause in Cause:
+        assert lax.deadline_s(cause) == OracleTiming().deadline_s(cause), cause
+        assert lax.unnoticed_s(cause) == OracleTiming().unnoticed_s(cause), cause
+
+
+def test_a_robot_file_with_slow_tasks_gets_the_requirement_s_period() -> None:
+    slow = BASE + "[tasks]\nsteering_rate_hz = 100\ndriving_rate_hz = 50\nhydrobrake_rate_hz = 25\n"
+    timing = OracleTiming.for_robot(parse_config(slow, "<slow tasks>"))
+    assert timing.control_period_s == REQUIRED[Figure.CONTROL_PERIOD_S].most == 0.02  # not 40 ms
+    assert timing.driving_period_s == pytest.approx(0.02)
+
+
+def test_a_tighter_timeout_tightens_the_deadline_it_is_held_to() -> None:
+    quick = parse_config(BASE + "[timeouts]\nrc_timeout_s = 0.05\n", "<quick link>")
     lost = Cause.RC_LINK_LOST
-    shift_s = OracleTiming.for_robot(slow).deadline_s(lost) - OracleTiming().deadline_s(lost)
-    assert abs(shift_s - 0.1) < 1e-9
+    shift_s = OracleTiming.for_robot(quick).deadline_s(lost) - OracleTiming().deadline_s(lost)
+    assert shift_s == pytest.approx(-0.05)
+
+
+RC_LOST_WHILE_DRIVING = [
+    Step(0.2, "arm", ControlMode.RC),
+    Step(0.15, "rc_throttle", 0.6),
+    Step(1.0, "rc_link", False),
+]
+
+
+def test_a_lax_rc_timeout_does_not_loosen_the_oracle() -> None:
+    # The receiver unplugged while driving: the robot file's 0.3 s timeout keeps the throttle
+    # on for 0.3 s; R-TIMEOUT allows 0.1 s (plus a frame and a period). Judged by the file's
+    # own timeout (the old oracle), this run was clean.
+    assert run_campaign(default_sim_config(), RC_LOST_WHILE_DRIVING).findings == []
+    outcome = run_campaign(parse_config(LAX, "<lax>"), RC_LOST_WHILE_DRIVING)
+    assert outcome.findings, "a lax RC timeout went unflagged"
+    first = outcome.findings[0]
+    lost_s = 0.2 + 0.15 + 1.0
+    assert first.invariant == "H1"
+    assert lost_s + 0.1 < first.time_s < lost_s + 0.3  # past R-TIMEOUT, before the file's

@@ -1,8 +1,13 @@
 """How long the controller may take to act on each cause, and the servo's calibration.
 
-These come from the robot file under test (its timeouts, debounce, frame and task periods), as
-`docs/SAFETY.md` says: they say when the controller can have noticed something, not what it
-must then do. What it must do, and how fast, is the requirements' (`requirements.py`).
+Each deadline is a detection threshold (an input's timeout, the watchdog) plus the frame,
+command period and control periods in which the controller may notice it and act. Those figures
+are bounded by the requirements (`requirements.REQUIRED`, by R- id): a robot file that promises
+less time is held to its promise, one that allows itself more is judged as if it kept the
+requirement (R-CONFIG-SAFETY). What the controller must then do, and how fast, is the
+requirements' alone. Facts of the simulated world are the file's: the RC receiver's frame
+period, the servo's calibration, whether the steering is boosted; and the switch's debounce,
+which only says when an arming may count (the oracle waits for it, leaning to allowing).
 """
 
 from __future__ import annotations
@@ -14,7 +19,7 @@ from bywire.config.model import RobotConfig
 from bywire.control.steering import SteeringConfig
 from bywire.model import MovementCommand
 from bywire.sim.oracle.causes import Cause
-from bywire.sim.oracle.requirements import CAN_PERIOD_S
+from bywire.sim.oracle.requirements import CAN_PERIOD_S, REQUIRED, Figure
 
 
 @dataclass(frozen=True, slots=True)
@@ -40,12 +45,8 @@ class ServoPulses:
 
 @dataclass(frozen=True, slots=True)
 class OracleTiming:
-    """How long the controller may take for each thing, from the robot's own numbers.
-
-    Every allowance is the configured timeout (or debounce) plus the frame, command period and
-    control periods in which the controller may notice it and act: the defaults reproduce the
-    figures `docs/SAFETY.md` gives, and a robot file with other timeouts gets other deadlines.
-    """
+    """How long the controller may take for each thing (the defaults: the figures
+    `docs/SAFETY.md` gives; `for_robot`: a robot file's, bounded by the requirements)."""
 
     frame_s: float = 0.0077  # the RC receiver's frame period
     debounce_frames: int = 3
@@ -63,18 +64,25 @@ class OracleTiming:
 
     @classmethod
     def for_robot(cls, robot: RobotConfig) -> OracleTiming:
+        """The deadlines for `robot`: its figures, each bounded by the requirement's."""
         slowest_hz = min(robot.tasks.rate_hz(name) for name in CONTROL_TASKS)
+        period_s = bounded(Figure.CONTROL_PERIOD_S, 1.0 / slowest_hz)
+        interlocks = robot.interlocks
+        blind_spot_mps = (
+            interlocks.speed_step_tolerance_mps + interlocks.speed_max_change_mps2 * period_s
+        )
         return cls(
             frame_s=robot.sim.rc_frame_period_s,
             debounce_frames=robot.supervisor.debounce_frames,
-            rc_timeout_s=robot.timeouts.rc_timeout_s,
-            can_timeout_s=robot.timeouts.can_timeout_s(MovementCommand.__name__),
-            watchdog_s=robot.timeouts.watchdog_s,
-            control_period_s=1.0 / slowest_hz,
-            driving_period_s=1.0 / robot.tasks.rate_hz("driving"),
-            standstill_mps=robot.interlocks.standstill_speed_mps,
-            unnoticed_death_mps=robot.interlocks.speed_step_tolerance_mps
-            + robot.interlocks.speed_max_change_mps2 / slowest_hz,
+            rc_timeout_s=bounded(Figure.RC_TIMEOUT_S, robot.timeouts.rc_timeout_s),
+            can_timeout_s=bounded(
+                Figure.CAN_TIMEOUT_S, robot.timeouts.can_timeout_s(MovementCommand.__name__)
+            ),
+            watchdog_s=bounded(Figure.WATCHDOG_S, robot.timeouts.watchdog_s),
+            control_period_s=period_s,
+            driving_period_s=bounded(Figure.DRIVING_PERIOD_S, 1.0 / robot.tasks.rate_hz("driving")),
+            standstill_mps=bounded(Figure.STANDSTILL_MPS, interlocks.standstill_speed_mps),
+            unnoticed_death_mps=bounded(Figure.BLIND_SPOT_MPS, blind_spot_mps),
             steering_boosted=robot.steering.servo.boost_gain > 0.0,
             servo=ServoPulses.of(robot.steering.servo),
         )
@@ -127,3 +135,8 @@ class OracleTiming:
             Cause.CAN_IMPOSTOR: 0.080,
             Cause.DAC_FAIL: 3 * self.driving_period_s,
         }.get(cause, 0.0)
+
+
+def bounded(figure: Figure, configured: float) -> float:
+    """`configured`, a robot file's figure, never laxer than the requirement's."""
+    return REQUIRED[figure].bound(configured)
