@@ -161,6 +161,7 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--base", help="the commit with the old oracle (default: found in git)")
     parser.add_argument("--campaigns", type=int, default=25, help="campaigns per setting")
     parser.add_argument("--seed", type=int, default=0)
+    parser.add_argument("--only", default="", help="only the settings whose label has this")
     args = parser.parse_args(argv)
     base = args.base or default_base()
     old = OldJudge.at(base)
@@ -169,6 +170,8 @@ def main(argv: list[str] | None = None) -> int:
     flagged_old = flagged_new = violations_old = 0
     started = time.monotonic()
     for label, robot_of, bug in settings(ROOT / "config" / "albert.toml"):
+        if args.only not in label:
+            continue
         robot = robot_of()
         found = 0
         with _bug(bug):
