@@ -2,7 +2,7 @@
 watching the very same runs.
 
 The old `sim/oracle.py` and its witness (the old `sim/campaign.py`'s `OracleWitness`) are read
-from git at `--base` (by default the parent of the commit that deleted `sim/oracle.py`) and
+from git at `--base` (by default the newest commit that changed `sim/oracle.py` and has it) and
 loaded under other module names. Each campaign (`bywire verify`'s `draw_campaign(seed, index)`)
 is run once, on the simulated robot, with both oracles and both witnesses attached: every pass
 is judged by both, and their violations (invariant, time, detail, expected levels) must be
@@ -67,11 +67,18 @@ def _git(*args: str) -> str:
 
 
 def default_base() -> str:
-    """The last commit that had the old oracle: the parent of the one that deleted it."""
-    deleted = _git("log", "--diff-filter=D", "--format=%H", "-1", "--", OLD_ORACLE).strip()
-    if not deleted:
-        raise SystemExit(f"no commit deleted {OLD_ORACLE}: give --base")
-    return f"{deleted}^"
+    """The last commit with the old oracle: the newest that changed it and still has it (its
+    deleting commit has not; a later change merged from another branch has)."""
+    for commit in _git("log", "--format=%H", "--", OLD_ORACLE).split():
+        exists = subprocess.run(
+            ["git", "cat-file", "-e", f"{commit}:{OLD_ORACLE}"],
+            cwd=ROOT,
+            capture_output=True,
+            check=False,
+        )
+        if exists.returncode == 0:
+            return commit
+    raise SystemExit(f"no commit has {OLD_ORACLE}: give --base")
 
 
 def _load(name: str, source: str) -> types.ModuleType:

@@ -6,6 +6,8 @@ from __future__ import annotations
 import re
 from pathlib import Path
 
+import pytest
+
 ROOT = Path(__file__).resolve().parent.parent
 REQUIREMENTS = ROOT / "docs" / "REQUIREMENTS.md"
 REQUIREMENT_ID = re.compile(r"\bR-[A-Z]+(?:-[A-Z]+)*\b")
@@ -72,14 +74,17 @@ def test_the_readme_cites_the_thesis_and_links_the_requirements() -> None:
 
 
 SAFETY = ROOT / "docs" / "SAFETY.md"
+SECURITY = ROOT / "docs" / "SECURITY.md"
 TEST_REFERENCE = re.compile(r"`(tests/[\w/]+\.py)?(?:::(\w+))?`")
 
 
-def test_every_test_the_hazard_table_names_exists() -> None:
-    """`tests/x.py::test_y`, and `::test_z` after it for the same file, as SAFETY.md writes them."""
+@pytest.mark.parametrize("document", [SAFETY, SECURITY], ids=lambda path: path.name)
+def test_every_test_the_hazard_and_attack_tables_name_exists(document: Path) -> None:
+    """`tests/x.py::test_y`, and `::test_z` after it for the same file, as SAFETY.md and
+    SECURITY.md write them."""
     missing: list[str] = []
     current: Path | None = None
-    for match in TEST_REFERENCE.finditer(SAFETY.read_text(encoding="utf-8")):
+    for match in TEST_REFERENCE.finditer(document.read_text(encoding="utf-8")):
         file, test = match.groups()
         if file:
             current = ROOT / file

@@ -246,6 +246,32 @@ def test_on_virtual_time_the_phases_count_the_100_hz_tasks_and_the_flood_fills_t
     assert virtual_result.peak_rss_bytes > 0
 
 
+def test_the_authenticated_phase_pairs_every_signed_command_under_flood_with_the_pdus_delay() -> (
+    None
+):
+    """Issue 32: the bench's SecOC phase. On virtual time a command takes effect when its
+    cryptographic PDU has crossed the flooded bus, never at the command frame's own instant
+    (which would mean nothing was verified): every command paired, none rejected, no STOP."""
+    session = RealtimeSession(
+        default_sim_config(),
+        BenchSettings(phase_s=PHASE_S, settle_s=SETTLE_S),
+        MeteredVirtualClock(),
+        authenticated=True,
+    )
+    (phase,) = session.run().phases
+    assert phase.name == "secoc_flood"
+    assert phase.bus_load > 0.95
+    assert session.runtime.can.auth_failures == {}
+    can = phase.can_latency
+    assert can.samples == pytest.approx((PHASE_S / 2 - SETTLE_S) / 0.020, abs=1)
+    assert can.unpaired == 0
+    assert can.p50_s is not None
+    assert can.max_s is not None
+    pdu_bits = 130  # an 8-byte frame with its stuff bits, at most, at 500 kbit/s: 0.26 ms
+    assert pdu_bits / 500_000 / 2 < can.p50_s <= can.max_s < 3 * pdu_bits / 500_000
+    assert phase.stops == 0
+
+
 def test_a_controller_that_only_polls_has_the_time_to_its_next_tick_as_latency() -> None:
     session = RealtimeSession(
         default_sim_config(), BenchSettings(phase_s=PHASE_S, settle_s=SETTLE_S), DeafClock()

@@ -11,7 +11,6 @@ import pytest
 from bywire.cli.main import main
 from bywire.model import ControlCommand, Gear, LightsCommand, MovementCommand
 from bywire.protocol import dbc
-from bywire.security.freshness import FreshnessStore
 from bywire.security.keys import new_key_file
 from bywire.security.session import SecocReceiver
 
@@ -71,9 +70,10 @@ def test_with_a_key_each_frame_is_followed_by_a_pdu_the_controller_verifies(
     key = new_key_file(tmp_path / "robot.key")
     freshness = tmp_path / "sender.json"
     argv = ["frame", "control", "--re-enable", "--key", str(tmp_path / "robot.key")]
+    argv += ["--trip", "7"]  # the trip counter the robot announces
     status, out, _ = _bywire(*argv, "--count", "2", "--freshness", str(freshness))
     assert status == 0
-    receiver = SecocReceiver(key, FreshnessStore(key), dbc.command_ids())
+    receiver = SecocReceiver(key, 7, dbc.command_ids())
     lines = out.splitlines()
     assert [line[:4] for line in lines] == ["100#", "110#", "100#", "110#"]
     verified = [receiver.offer(*_parsed(line), 0.0).verified for line in lines]
@@ -96,3 +96,18 @@ def test_a_value_outside_its_range_is_one_line_and_exit_2(argv: list[str]) -> No
     with pytest.raises(SystemExit) as exited:
         _bywire("frame", *argv)
     assert exited.value.code == 2
+
+
+def test_a_key_without_the_robots_trip_or_a_trip_below_this_senders_is_one_line_and_exit_2(
+    tmp_path: Path,
+) -> None:
+    new_key_file(tmp_path / "robot.key")
+    signed = ["frame", "control", "--key", str(tmp_path / "robot.key")]
+    signed += ["--freshness", str(tmp_path / "sender.json")]
+    assert _bywire(*signed, "--trip", "9")[0] == 0  # this sender signs in trip 9 from now on
+    for argv in (signed, [*signed, "--trip", "8"]):
+        status, out, err = _bywire(*argv)
+        assert status == 2
+        assert out == ""  # nothing that cannot verify is printed
+        assert len(err.strip().splitlines()) == 1
+        assert "trip" in err

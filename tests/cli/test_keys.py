@@ -13,6 +13,9 @@ import pytest
 
 from bywire.cli.main import main
 from bywire.config import load_config
+from bywire.errors import ConfigError
+
+NOBODY = 65534
 
 
 def _bywire(*argv: str) -> tuple[int, str, str]:
@@ -139,21 +142,76 @@ def test_the_key_reaches_no_output_or_log(tmp_path: Path, caplog: pytest.LogCapt
     assert repr(load_config(config)).count(secret) == 0
 
 
-def test_a_freshness_file_that_cannot_be_written_stops_the_start(tmp_path: Path) -> None:
+def test_the_controller_refuses_to_start_without_its_freshness_file(tmp_path: Path) -> None:
     from bywire.config.security import SecuritySection  # noqa: PLC0415
-    from bywire.errors import ConfigError  # noqa: PLC0415
     from bywire.protocol.secoc import SecocKey  # noqa: PLC0415
     from bywire.security.setup import controller_receiver  # noqa: PLC0415
 
-    missing = tmp_path / "no-such-dir" / "freshness.json"
-    security = SecuritySection(enabled=True, key_file="k", freshness_file=str(missing))
-    with pytest.raises(ConfigError, match="cannot write freshness file"):
-        controller_receiver(security, SecocKey(bytes(16)))
     written = tmp_path / "freshness.json"
-    receiver = controller_receiver(
-        SecuritySection(enabled=True, key_file="k", freshness_file=str(written)),
-        SecocKey(bytes(16)),
+    security = SecuritySection(enabled=True, key_file="k", freshness_file=str(written))
+    with pytest.raises(ConfigError, match=r"bywire keys reset-freshness --config robot\.toml"):
+        controller_receiver(security, SecocKey(bytes(16)), "robot.toml")
+    assert not written.exists()
+
+
+def test_reset_freshness_makes_the_file_once_and_the_start_moves_its_trip_on(
+    tmp_path: Path,
+) -> None:
+    key = tmp_path / "k.key"
+    assert _bywire("keys", "new", str(key))[0] == 0
+    config = _secured_config(tmp_path, key)
+    status, out, err = _bywire("keys", "reset-freshness", "--config", str(config))
+    assert (status, err) == (0, "")
+    assert "starts above 0" in out
+    assert stat.S_IMODE((tmp_path / "freshness.json").stat().st_mode) == 0o600
+    (tmp_path / "freshness.json").write_text("damaged")
+    status, out, err = _bywire("keys", "reset-freshness", "--config", str(config), "--trip", "9")
+    assert status == 0
+    assert "the old file is kept as" in out
+    kept = [p for p in tmp_path.iterdir() if ".replaced-" in p.name]
+    assert [p.read_text() for p in kept] == ["damaged"]
+
+
+@pytest.mark.skipif(os.geteuid() != 0, reason="needs root to give files to another user")
+def test_reset_freshness_as_root_gives_the_file_to_the_state_folders_owner(
+    tmp_path: Path,
+) -> None:
+    key = tmp_path / "k.key"
+    assert _bywire("keys", "new", str(key))[0] == 0
+    state = tmp_path / "state"
+    state.mkdir()
+    os.chown(state, NOBODY, NOBODY)
+    config = tmp_path / "robot.toml"
+    config.write_text(
+        f'[security]\nenabled = true\nkey_file = "{key}"\n'
+        f'freshness_file = "{state / "freshness.json"}"\n'
     )
-    receiver.close()
-    assert written.exists()
-    assert stat.S_IMODE(written.stat().st_mode) == 0o600
+    assert _bywire("keys", "reset-freshness", "--config", str(config))[0] == 0
+    assert (state / "freshness.json").stat().st_uid == NOBODY
+
+
+@pytest.mark.skipif(os.geteuid() != 0, reason="needs root to make a file another user owns")
+@pytest.mark.parametrize("what", ["key file", "configuration file"])
+def test_a_file_another_user_owns_is_refused(tmp_path: Path, what: str) -> None:
+    key = tmp_path / "k.key"
+    assert _bywire("keys", "new", str(key))[0] == 0
+    config = _secured_config(tmp_path, key)
+    os.chown(key if what == "key file" else config, NOBODY, NOBODY)
+    status, _, err = _bywire("config", "check", str(config))
+    assert status == 2
+    assert f"{what} is owned by nobody, not by the user running bywire (root) or root" in err
+    assert "chown root" in err
+
+
+@pytest.mark.parametrize("mode", [0o777, 0o775, 0o757])
+def test_a_key_in_a_folder_others_may_write_is_refused(tmp_path: Path, mode: int) -> None:
+    folder = tmp_path / "keys"
+    folder.mkdir()
+    key = folder / "k.key"
+    assert _bywire("keys", "new", str(key))[0] == 0
+    folder.chmod(mode)
+    status, _, err = _bywire("config", "check", str(_secured_config(tmp_path, key)))
+    assert status == 2
+    assert f"the key file's folder {folder} has mode {mode:04o}" in err
+    folder.chmod(0o755)
+    assert _bywire("config", "check", str(_secured_config(tmp_path, key)))[0] == 0

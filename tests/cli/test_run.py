@@ -53,7 +53,7 @@ class Robot:
         self.hlc = bench.root / "hlc"
         self.hlc.mkdir(exist_ok=True)
         self.hlc.chmod(0o777)  # the higher-level computer writes here, as whichever user runs
-        config = bench.root / "robot.toml"
+        self.config = config = bench.root / "robot.toml"
         config.write_text(bench.config_text() + "".join(f"\n{line}" for line in config_lines))
         args = ["run", "--config", str(config), "--sysfs-root", str(bench.sysfs)]
         args += ["--dev-root", str(bench.dev), *extra]
@@ -169,8 +169,15 @@ def test_authenticated_commands_drive_and_the_key_stays_out_of_the_log(
         f'key_file = "{key}"',
         f'freshness_file = "{tmp_path / "freshness.json"}"',
     )
-    (bench.root / "hlc").mkdir()
-    shutil.copy(key, bench.root / "hlc" / "hlc.key")  # the computer holds the same key
+    (bench.root / "hlc" / "private").mkdir(parents=True)
+    shutil.copy(key, bench.root / "hlc" / "private" / "hlc.key")  # the computer holds the key
+    freshness = tmp_path / "freshness.json"
+    # The controller refuses to start without its freshness file; the one deliberate act:
+    robot = Robot(bench, line, config_lines=security)
+    assert robot.finish() == 2
+    assert f"{freshness}: no freshness file: refusing to start;" in robot.errors()
+    assert "bywire keys reset-freshness --config" in robot.errors()
+    assert main(["keys", "reset-freshness", "--config", str(robot.config)]) == 0
     robot = Robot(bench, line, config_lines=security)
     try:
         robot.command(steering=-0.6, throttle=0.0, brake=0.0, gear="forward")
@@ -186,7 +193,9 @@ def test_authenticated_commands_drive_and_the_key_stays_out_of_the_log(
     log = robot.errors()
     assert "authentication: on (SecOC profile 3" in log
     assert key.read_text().strip() not in log.lower()
-    assert json.loads((tmp_path / "freshness.json").read_text())["bounds"]["257"] > 0
+    trip = json.loads(freshness.read_text())["trip"]
+    assert f"trip counter {trip}," in log  # moved on and on the disk before the loop ran
+    assert json.loads((bench.root / "hlc" / "freshness.json").read_text())["trip"] == trip
 
 
 @pytest.fixture

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import json
 import os
 import shutil
 import socket
@@ -15,7 +16,9 @@ import pytest
 
 from bywire.cli import teleop
 from bywire.cli.main import main
-from bywire.security.session import SecocSigner
+from bywire.protocol import dbc
+from bywire.security.keys import read_key_file
+from bywire.security.session import SecocReceiver, SecocSigner
 from bywire.teleop.state import KEYS
 
 
@@ -193,9 +196,15 @@ def test_with_a_key_every_command_is_signed_and_freshness_kept(
     assert main([*argv, "--freshness", str(freshness)]) == 0
     [signer] = signers
     assert signer is not None
-    assert signer.authenticator(0x101, bytes(8)).arbitration_id == 0x111
+    assert signer.authenticator(0x101, bytes(8)) is None  # not before the robot's trip counter
+    receiver = SecocReceiver(read_key_file(key), 5, dbc.command_ids())
+    for frame_id, data in receiver.announcement:
+        signer.hear(frame_id, data)
+    authenticator = signer.authenticator(0x101, bytes(8))
+    assert authenticator is not None
+    assert authenticator.arbitration_id == 0x111
     signer.close()
-    assert freshness.exists()
+    assert json.loads(freshness.read_text())["trip"] == 5
 
 
 def test_a_key_others_can_read_is_refused_before_the_bus_opens(

@@ -74,6 +74,11 @@ freshness_file = "{root}/freshness.json"
     )
     path, simulated = root / "robot.toml", root / "simulated.toml"
     path.write_text(text)
+    subprocess.run(
+        [sys.executable, "-m", "bywire", "keys", "reset-freshness", "--config", str(path)],
+        check=True,
+        capture_output=True,
+    )
     simulated.write_text(text.replace('backend = "linux"', 'backend = "sim"', 1))
     return path, simulated, bench.can_channel
 

@@ -117,7 +117,9 @@ def test_missing_file_names_the_path(tmp_path: Path) -> None:
 
 
 def test_unreadable_path_names_the_path(tmp_path: Path) -> None:
-    with pytest.raises(ConfigError, match=f"{re.escape(str(tmp_path))}: cannot read"):
+    with pytest.raises(
+        ConfigError, match=f"{re.escape(str(tmp_path))}: configuration file is a directory"
+    ):
         load_config(tmp_path)
 
 

@@ -150,6 +150,7 @@ def test_bad_value_is_refused_with_key_range_and_file(text: str, key: str, allow
     assert "problems:" not in message  # one bad value, one problem: no knock-on errors
 
 
+ARRAY_KEYS = {"telemetry.allowed_origins"}  # an array is right there: the wrong type is another
 EVERY_KEY = [
     *leaf_keys(as_dict(RobotConfig())),
     "can.clock_hz",
@@ -162,9 +163,10 @@ EVERY_KEY = [
 def test_every_key_refuses_a_value_of_the_wrong_type(key: str) -> None:
     section, _, name = key.rpartition(".")
     header = f"[{section}]\n" if section else ""
-    message = _refusal(f"{header}{name} = []")
-    assert f"{key} = []: expected" in message
-    assert "got an array" in message
+    wrong, got = ("1", "an integer") if key in ARRAY_KEYS else ("[]", "an array")
+    message = _refusal(f"{header}{name} = {wrong}")
+    assert f"{key} = {wrong}: expected" in message
+    assert f"got {got}" in message
     assert "problems:" not in message
 
 
@@ -351,3 +353,14 @@ def test_a_remote_telemetry_address_needs_allow_remote() -> None:
     config = parse_config('[telemetry]\nfoxglove = "0.0.0.0:8765"\nallow_remote = true')
     assert (config.telemetry.foxglove, config.telemetry.allow_remote) == ("0.0.0.0:8765", True)
     assert parse_config('[telemetry]\nfoxglove = "8765"').telemetry.foxglove == "8765"
+
+
+@pytest.mark.parametrize(
+    "value",
+    ['"https://app.foxglove.dev"', '["app.foxglove.dev"]', '["https://x/path"]', "[1]", '["null"]'],
+)
+def test_allowed_origins_are_origins(value: str) -> None:
+    with pytest.raises(ConfigError, match=r"telemetry\.allowed_origins = .*expected an array of"):
+        parse_config(f"[telemetry]\nallowed_origins = {value}\n")
+    section = parse_config('[telemetry]\nallowed_origins = ["https://app.foxglove.dev"]\n')
+    assert section.telemetry.allowed_origins == ("https://app.foxglove.dev",)

@@ -38,15 +38,28 @@ def test_we_read_python_cans_send_commands(frame_id: int, data: bytes, extended:
     assert socketcand.parse_send(commands[0]) == socketcand.SendRequest(frame_id, data, extended)
 
 
-def test_commands_are_split_across_reads_and_garbage_is_dropped() -> None:
-    commands, rest = socketcand.split_commands("junk< open can0 ><rawmode>< send 1")
+def test_commands_are_split_across_reads() -> None:
+    commands, rest = socketcand.split_commands("< open can0 >\r\n<rawmode> < send 1")
     assert commands == ["open can0", "rawmode"]
     assert rest == "< send 1"
     assert socketcand.split_commands(rest + "23 1 ff >")[0] == ["send 123 1 ff"]
 
 
-def test_an_endless_command_is_dropped() -> None:
-    assert socketcand.split_commands("<" + "x" * 1000) == ([], "")
+@pytest.mark.parametrize(
+    "text",
+    ["junk< open can0 >", "POST / HTTP/1.1\r\n", "< open <can0 >", "<" + "x" * 1000],
+    ids=["outside", "http", "nested", "endless"],
+)
+def test_what_is_not_the_protocol_is_refused(text: str) -> None:
+    with pytest.raises(socketcand.ProtocolError):
+        socketcand.split_commands(text)
+
+
+@pytest.mark.parametrize("data", [b"\xff", b"\x00", "é".encode(), b"\x1b[2J"])
+def test_only_printable_ascii_is_text(data: bytes) -> None:
+    with pytest.raises(socketcand.ProtocolError, match="is not ASCII text"):
+        socketcand.ascii_text(b"< open " + data)
+    assert socketcand.ascii_text(b"< open can0 >\t\r\n") == "< open can0 >\t\r\n"
 
 
 @pytest.mark.parametrize(

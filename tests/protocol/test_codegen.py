@@ -122,6 +122,14 @@ def _gcc(*arguments: str | Path, cwd: Path) -> None:
     assert result.returncode == 0, result.stderr
 
 
+def _answers(program: Path, lines: list[str]) -> list[str]:
+    """A compiled test program's output lines for these input lines."""
+    done = subprocess.run(
+        [str(program)], input="\n".join(lines) + "\n", capture_output=True, text=True, check=True
+    )
+    return done.stdout.splitlines()
+
+
 def test_generated_c_compiles_without_warnings(generated: Path) -> None:
     _gcc("-c", "albert.c", "-o", "albert.o", cwd=generated)
     header = (generated / "albert.h").read_text(encoding="utf-8")
@@ -220,13 +228,7 @@ def test_the_c_protection_gives_the_python_side_bytes(generated: Path) -> None:
         f"{frame_id:x} {command.counter} {(payload[:-2] + bytes([payload[-2] & 0xF0, 0])).hex()}"
         for command, (frame_id, payload) in zip(commands, frames, strict=True)
     ]
-    output = subprocess.run(
-        [str(generated / "protect_test")],
-        input="\n".join(lines) + "\n",
-        capture_output=True,
-        text=True,
-        check=True,
-    ).stdout.splitlines()
+    output = _answers(generated / "protect_test", lines)
     assert output[-1] == "4b"  # CRC-8/SAE-J1850's check value
     # OK after the previous counter, BAD_COUNTER on a repeat, BAD_CRC under another id
     assert output[:-1] == [f"{payload.hex()} 0 -3 -2" for _frame_id, payload in frames]
@@ -261,6 +263,27 @@ int main(void) {
             read_hex(text, data, length);
             albert_cmac(&expanded, data, length, out);
             for (int i = 0; i < 16; i++) printf("%02x", out[i]);
+        } else if (strcmp(kind, "trip") == 0) {
+            char pdu_hex[17];
+            uint8_t pdu[8];
+            uint32_t trip = 0xFFFFFFFFu;
+            scanf("%199s %16s", text, pdu_hex);
+            read_hex(text, data, 7);
+            read_hex(pdu_hex, pdu, 8);
+            if (albert_secoc_trip_verify(&expanded, data, pdu, &trip)) {
+                printf("trip %lu", (unsigned long)trip);
+            } else {
+                printf("refused %lx", (unsigned long)trip);
+            }
+        } else if (strcmp(kind, "sign") == 0) {
+            unsigned int frame_id;
+            unsigned long trip, counter;
+            scanf("%x %199s %lx %lx", &frame_id, text, &trip, &counter);
+            size_t length = strlen(text) / 2;
+            read_hex(text, data, length);
+            uint64_t freshness = albert_secoc_freshness((uint32_t)trip, (uint32_t)counter);
+            albert_secoc_authenticate(&expanded, frame_id, data, length, freshness, out);
+            for (int i = 0; i < 8; i++) printf("%02x", out[i]);
         } else {
             unsigned int frame_id;
             unsigned long long freshness;
@@ -306,13 +329,7 @@ def test_the_c_secoc_helper_matches_rfc_4493_and_the_python_side(generated: Path
         freshness = generator.choice([0, 1, 0xFFFF, 0x1_0000, generator.getrandbits(64)])
         cases.append((key, frame_id, payload, freshness))
         lines.append(f"pdu {key.hex()} {frame_id:x} {payload.hex()} {freshness:x}")
-    output = subprocess.run(
-        [str(generated / "secoc_test")],
-        input="\n".join(lines) + "\n",
-        capture_output=True,
-        text=True,
-        check=True,
-    ).stdout.splitlines()
+    output = _answers(generated / "secoc_test", lines)
     assert output[: len(RFC4493_MACS)] == list(RFC4493_MACS.values())
     expected = [
         f"{secoc.auth_id(frame_id):03x} "
@@ -320,3 +337,31 @@ def test_the_c_secoc_helper_matches_rfc_4493_and_the_python_side(generated: Path
         for key, frame_id, payload, freshness in cases
     ]
     assert output[len(RFC4493_MACS) :] == expected
+
+
+def test_the_c_helper_takes_only_a_verified_trip_and_signs_in_it(generated: Path) -> None:
+    """The sender's side in C against the controller's Python side: the announcement verifies
+    in C (and not when damaged or made with another key), and a command the C helper signs with
+    that trip and a message counter is accepted by the controller's receiver."""
+    from bywire.protocol import secoc  # noqa: PLC0415
+    from bywire.security.session import SecocReceiver  # noqa: PLC0415
+
+    (generated / "secoc_test.c").write_text(SECOC_PROGRAM, encoding="utf-8")
+    _gcc("secoc_test.c", "albert_secoc.c", "-o", "secoc_test", cwd=generated)
+    key = bytes(range(16))
+    trip = 0xFFFF_0001
+    receiver = SecocReceiver(secoc.SecocKey(key), trip, dbc.command_ids())
+    (_, payload), (_, pdu) = receiver.announcement
+    other = SecocReceiver(secoc.SecocKey(bytes(16)), trip, dbc.command_ids()).announcement
+    frame_id, command = dbc.encode_command(_commands()[0])
+    lines = [
+        f"trip {key.hex()} {payload.hex()} {pdu.hex()}",
+        f"trip {key.hex()} {payload[:3].hex()}00{payload[4:].hex()} {pdu.hex()}",  # changed
+        f"trip {key.hex()} {other[0][1].hex()} {other[1][1].hex()}",  # another key's
+        f"sign {key.hex()} {frame_id:x} {command.hex()} {trip:x} 1",
+    ]
+    output = _answers(generated / "secoc_test", lines)
+    assert output[:3] == [f"trip {trip}", "refused ffffffff", "refused ffffffff"]
+    receiver.offer(frame_id, command, 0.0)
+    outcome = receiver.offer(secoc.auth_id(frame_id), bytes.fromhex(output[3]), 0.001)
+    assert outcome.verified == (frame_id, command)

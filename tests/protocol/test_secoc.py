@@ -118,3 +118,43 @@ def test_a_key_never_shows_itself() -> None:
 def test_a_short_authenticator_is_a_frame_error() -> None:
     with pytest.raises(FrameError, match="7 bytes"):
         secoc.decode_authenticator(bytes(7))
+
+
+def test_the_trip_counter_announcement_is_the_dbcs_and_decodes_with_cantools() -> None:
+    """TripCounter and its cryptographic PDU as albert.dbc defines them: ids, lengths, signal
+    layout (cantools decodes what the codec encodes) and the message link."""
+    from bywire.protocol import dbc  # noqa: PLC0415
+
+    key = secoc.SecocKey(RFC4493_KEY)
+    (trip_id, payload), (pdu_id, pdu) = secoc.trip_frames(key, 0x1234_5678)
+    database = dbc.database()
+    message, crypto = (
+        database.get_message_by_name("TripCounter"),
+        database.get_message_by_name("TripCounterSecOC"),
+    )
+    assert (message.frame_id, message.length) == (trip_id, len(payload)) == (0x206, 7)
+    assert (crypto.frame_id, crypto.length) == (pdu_id, len(pdu)) == (0x216, 8)
+    assert crypto.dbc is not None
+    assert crypto.dbc.attributes["SecOCAuthenticPdu"].value == 0x206
+    assert message.decode(payload) == {
+        "trip_counter": 0x1234_5678,
+        "key_check": int(key.check_value, 16),
+    }
+    decoded = crypto.decode(pdu)
+    assert isinstance(decoded, dict)
+    assert decoded["freshness_low"] == 0
+    assert secoc.verified_trip(key, payload, pdu) == 0x1234_5678
+    assert secoc.decode_trip(payload).key_check == key.check_value
+
+
+@given(trip=st.integers(0, secoc.MAX_TRIP), counter=st.integers(0, secoc.MAX_COUNTER))
+def test_the_freshness_value_is_the_trip_then_the_message_counter(trip: int, counter: int) -> None:
+    freshness = secoc.freshness_value(trip, counter)
+    assert freshness == trip << 32 | counter < 2**64
+    assert secoc.trip_of(freshness) == trip
+
+
+@pytest.mark.parametrize(("trip", "counter"), [(-1, 0), (2**32, 0), (0, 2**32), (0, -1)])
+def test_a_trip_or_counter_past_32_bits_is_refused(trip: int, counter: int) -> None:
+    with pytest.raises(ValueError, match="outside 32 bits"):
+        secoc.freshness_value(trip, counter)

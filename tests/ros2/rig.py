@@ -22,7 +22,7 @@ from bywire.ros2.settings import BridgeSettings, Geometry
 from bywire.runtime.app import Runtime
 from bywire.runtime.settings import RuntimeConfig
 from bywire.security.freshness import FreshnessStore
-from bywire.security.session import SecocReceiver, SecocSigner
+from bywire.security.session import TRIP_IDS, SecocReceiver, SecocSigner
 from bywire.teleop.frames import SEND_PERIOD_S
 
 NODE = "ros2"
@@ -39,6 +39,9 @@ class Sample:
     latched: bool  # the controller's own latched causes, not what the bridge was told
 
 
+TRIP = 3  # the simulated controller's trip counter, announced with its reports
+
+
 @dataclass
 class Rig:
     clock: VirtualClock
@@ -52,11 +55,10 @@ class Rig:
     def build(cls, settings: BridgeSettings | None = None, key: SecocKey | None = None) -> Rig:
         clock = VirtualClock()
         world = SimWorld.create(clock)
-        receiver = (
-            None if key is None else SecocReceiver(key, FreshnessStore(key), dbc.command_ids())
-        )
+        receiver = None if key is None else SecocReceiver(key, TRIP, dbc.command_ids())
         runtime = Runtime(world.hardware, RuntimeConfig(), secoc=receiver)
-        port = world.bus.attach(NODE, accept_ids=dbc.report_ids(), tx_mailboxes=6)
+        accepted = (*dbc.report_ids(), *(TRIP_IDS if key is not None else ()))
+        port = world.bus.attach(NODE, accept_ids=accepted, tx_mailboxes=6)
         signer = None if key is None else SecocSigner(key, FreshnessStore(key))
         link = CanLink(
             SimPortBus(port),

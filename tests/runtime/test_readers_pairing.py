@@ -18,6 +18,7 @@ from bywire.protocol.secoc import SecocKey
 from bywire.runtime.readers import CanReader
 from bywire.security.freshness import FreshnessStore
 from bywire.security.session import SecocReceiver, SecocSigner
+from bywire.security.trip import IN_MEMORY_TRIP
 
 KEY = SecocKey(bytes(range(16)))
 
@@ -28,14 +29,17 @@ def test_a_pdu_that_arrived_within_the_window_pairs_however_late_the_loop_reads_
     sender = bus.attach("hlc", accept_ids=(), tx_mailboxes=8)
     port = bus.attach("bywire", True, accept_ids=dbc.received_ids())
     signer = SecocSigner(KEY, FreshnessStore(KEY, None, 32))
-    reader = CanReader(
-        port, secoc=SecocReceiver(KEY, FreshnessStore(KEY, None, 32), dbc.command_ids())
-    )
+    receiver = SecocReceiver(KEY, IN_MEMORY_TRIP, dbc.command_ids())
+    for announced_id, announced in receiver.announcement:  # the trip counter the robot sends
+        signer.hear(announced_id, announced)
+    reader = CanReader(port, secoc=receiver)
     frame_id, payload = dbc.encode_command(MovementCommand(0.0, 0.1, 0.0, Gear.FORWARD, 0))
     sender.send(CanFrame(frame_id, payload))
     clock.advance(0.001)
     assert reader.poll(clock.now()) == []  # the command frame waits for its PDU
-    sender.send(signer.authenticator(frame_id, payload))  # on the wire ~1.4 ms after the command
+    authenticator = signer.authenticator(frame_id, payload)
+    assert authenticator is not None
+    sender.send(authenticator)  # on the wire ~1.4 ms after the command
     clock.advance(0.009)  # the loop's next tick, 10 ms after the first poll
     accepted = reader.poll(clock.now())
     assert reader.auth_failures == {}

@@ -16,7 +16,8 @@ from bywire.protocol.secoc import SecocKey
 from bywire.runtime.app import Runtime
 from bywire.runtime.settings import RuntimeConfig
 from bywire.security.freshness import FreshnessStore
-from bywire.security.session import SecocReceiver, SecocSigner
+from bywire.security.session import AuthFailure, SecocReceiver, SecocSigner
+from bywire.security.trip import IN_MEMORY_TRIP
 
 THROTTLE_CHANNEL = 0
 KEY = SecocKey(bytes.fromhex("000102030405060708090a0b0c0d0e0f"))
@@ -30,7 +31,7 @@ class Robot:
         if authenticated:
             self.world.hlc.sign_with(SecocSigner(KEY, FreshnessStore(KEY)))
             self.world.impostor.forge_authenticator = True
-            receiver = SecocReceiver(KEY, FreshnessStore(KEY), dbc.command_ids())
+            receiver = SecocReceiver(KEY, IN_MEMORY_TRIP, dbc.command_ids())
         self.runtime = Runtime(self.world.hardware, RuntimeConfig(), secoc=receiver)
         self.flags = 0
         self.runtime.on_cycle.append(self._flags)
@@ -152,5 +153,5 @@ def test_the_summary_counts_verification_failures_by_reason() -> None:
     sim = SimRun(default_sim_config(), find_scenario("can-impostor-authenticated"))
     sim.run()
     rejected = build_summary(sim, 0.0, None).inputs.can_rejected
-    assert rejected["MAC does not verify: a forgery, a replay, another key, or a sender behind"] > 0
+    assert rejected[AuthFailure.BAD_MAC.value] > 0
     assert sim.secoc is not None

@@ -4,6 +4,7 @@ XML report a CI system reads."""
 from __future__ import annotations
 
 import json
+import os
 import xml.etree.ElementTree as ET
 from pathlib import Path
 
@@ -93,3 +94,36 @@ def test_options_for_one_run_are_refused_with_all(
 ) -> None:
     assert main(["sim", *argv]) == 2
     assert message in capsys.readouterr().err
+
+
+BROKEN: dict[
+    str, str | bytes
+] = {  # each stopped `--all` with a traceback (or never ended) before it was checked at load
+    "b-nan-duration.toml": "duration_s = nan\n",
+    "c-rc-not-a-table.toml": "[[event]]\nat_s = 0.1\nrc = 5\n",
+    "d-inf-during.toml": (
+        '[[event]]\nat_s = 0.1\nlabel = "x"\nrc = { mode = "stop" }\n'
+        '[[expect]]\nafter = "x"\nduring_s = inf\nmode = "stop"\n'
+    ),
+    "e-not-utf8.toml": b"name = '\xff'\n",
+    "f-huge.toml": "duration_s = " + "9" * 5000 + "\n",
+}
+
+
+def test_all_goes_on_past_every_file_that_does_not_load(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    (tmp_path / "a-passes.toml").write_text(ARMED.replace("{mode}", "rc"))
+    for name, content in BROKEN.items():
+        path = tmp_path / name
+        path.write_bytes(content if isinstance(content, bytes) else content.encode())
+    os.mkfifo(tmp_path / "g-fifo.toml")
+    (tmp_path / "h-device.toml").symlink_to("/dev/zero")
+    (tmp_path / "z-passes.toml").write_text(ARMED.replace("{mode}", "rc"))
+    assert main(["sim", "--all", str(tmp_path), "--json"]) == 1
+    verdicts = json.loads(capsys.readouterr().out)
+    assert [row["passed"] for row in verdicts["scenarios"]] == [True, *[False] * 7, True]
+    for row in verdicts["scenarios"][1:-1]:
+        (reason,) = row["reasons"]
+        assert "\n" not in reason, reason
+        assert reason.startswith(row["origin"]), reason

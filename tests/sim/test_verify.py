@@ -109,6 +109,10 @@ OTHER_ROBOTS = {
     "slow frames, long debounce": "[supervisor]\ndebounce_frames = 5\n\n"
     "[interlocks]\ndirection_dwell_s = 0.8\nstandstill_speed_mps = 0.1\n\n"
     "[sim]\nrc_frame_period_s = 0.014\n",
+    # a bouncing switch's first STOP frame is its second when the count is even: with 19.6 ms
+    # frames and 5 ms passes that frame is past a deadline counted from the first
+    "slow frames, fast tasks": "[sim]\nrc_frame_period_s = 0.0196\n\n[tasks]\n"
+    "steering_rate_hz = 200\ndriving_rate_hz = 200\nhydrobrake_rate_hz = 200\n",
 }
 
 

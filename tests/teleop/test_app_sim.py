@@ -18,12 +18,13 @@ from bywire.protocol.secoc import SecocKey
 from bywire.runtime.app import Runtime
 from bywire.runtime.settings import RuntimeConfig
 from bywire.security.freshness import FreshnessStore
-from bywire.security.session import SecocReceiver, SecocSigner
+from bywire.security.session import TRIP_IDS, SecocReceiver, SecocSigner
 from bywire.teleop.app import TeleopApp
 from bywire.teleop.frames import SEND_PERIOD_S
 from bywire.teleop.reports import speed_mps
 
 THROTTLE_CHANNEL = 0
+TRIP = 12
 
 
 @dataclass
@@ -34,17 +35,17 @@ class Rig:
     world: SimWorld
     runtime: Runtime
     app: TeleopApp
+    shown_commands: str = ""
 
     @classmethod
     def build(cls, key: SecocKey | None = None) -> Rig:
         """`key`: authenticated commands, teleop signing, the controller verifying."""
         clock = VirtualClock()
         world = SimWorld.create(clock)
-        receiver = (
-            None if key is None else SecocReceiver(key, FreshnessStore(key), dbc.command_ids())
-        )
+        receiver = None if key is None else SecocReceiver(key, TRIP, dbc.command_ids())
         runtime = Runtime(world.hardware, RuntimeConfig(), secoc=receiver)
-        port = world.bus.attach("teleop", accept_ids=dbc.report_ids(), tx_mailboxes=6)
+        accepted = (*dbc.report_ids(), *(TRIP_IDS if key is not None else ()))
+        port = world.bus.attach("teleop", accept_ids=accepted, tx_mailboxes=6)
         signer = None if key is None else SecocSigner(key, FreshnessStore(key))
         app = TeleopApp(
             SimPortBus(port), now=clock.now, auto_tick=False, notifier=False, signer=signer
@@ -87,6 +88,7 @@ class Rig:
 
 async def _drive(rig: Rig) -> None:
     async with rig.app.run_test() as pilot:
+        rig.shown_commands = ""
         rig.start()
         await rig.run_for(pilot, 0.5)
         assert rig.mode() is ControlMode.CAN
@@ -124,6 +126,7 @@ async def _drive(rig: Rig) -> None:
         await rig.run_for(pilot, 0.3)
         assert rig.mode() is ControlMode.CAN
         assert "mode CAN" in rig.panel("#reports")
+        rig.shown_commands = rig.panel("#commands")
 
 
 def test_key_presses_move_the_simulated_robot_and_the_panel_shows_its_reports() -> None:
@@ -135,3 +138,6 @@ def test_signed_key_presses_move_a_robot_that_verifies_them() -> None:
     asyncio.run(_drive(rig))
     assert rig.runtime.can.auth_failures == {}
     assert rig.app.frames_sent % 2 == 0  # every command with its cryptographic PDU
+    assert rig.app.signer is not None
+    assert rig.app.signer.trip == TRIP  # the one the robot announced with its reports
+    assert f"SecOC: signing in trip {TRIP}" in rig.shown_commands

@@ -10,6 +10,10 @@ Timeline, in seconds after the controller starts (D = one phase)::
              attached, then a "dashboard" phase, the dashboard's child process attached; nominal
              load, each as the nominal phase; see `bywire.bench.looking`)
 
+A session made `authenticated` has one phase instead, "secoc_flood": the flood phase with every
+command signed by the computer and verified by the controller (SecOC), on a world and a
+controller of its own (`bywire bench` runs it after the first session).
+
 The clock is injected: the benchmark runs on a real-time clock, the tests on a virtual one (where
 every latency is exactly zero); both are metered, to tell the simulator's CPU time apart. The
 benchmark's own work is put a few ms after the 10 ms grid of the controller's deadlines, where
@@ -52,6 +56,8 @@ from bywire.protocol import ibus
 from bywire.runtime.app import Runtime
 from bywire.runtime.schedule import TaskStats
 from bywire.runtime.settings import RuntimeConfig
+from bywire.security.session import SecocReceiver
+from bywire.security.setup import controller_receiver, sender_signer, simulated_run_key
 
 ARM_AT_S = 0.5
 HANDOVER_S = 0.06  # the switch counts after 3 IBUS frames (23 ms); well inside the settle time
@@ -59,6 +65,7 @@ STOP_HOLD_S = 0.05  # a phase's arming: the switch held at STOP for 3 frames and
 FIRST_PHASE_AT_S = 1.0
 GRID_OFFSET_S = 0.004
 PROGRESS_PERIOD_S = 1.0
+AUTHENTICATED_PHASE = "secoc_flood"
 TAIL_THRESHOLD_S = 0.0005
 """A latency or a wake-up later than this is the tail `bywire bench --probe` explains."""
 
@@ -97,6 +104,12 @@ class RealtimeResult:
     peak_rss_bytes: int
     tail: tuple[PhaseTail, ...] | None = None
 
+    def then(self, later: RealtimeResult) -> RealtimeResult:
+        """This session's phases, then a later session's (the authenticated one)."""
+        tail = None if self.tail is None or later.tail is None else self.tail + later.tail
+        rss_bytes = max(self.peak_rss_bytes, later.peak_rss_bytes)
+        return RealtimeResult(self.phases + later.phases, rss_bytes, tail)
+
 
 class RealtimeSession:
     """One world, one controller, the sweeps and the phase timers on ``clock``."""
@@ -107,13 +120,19 @@ class RealtimeSession:
         settings: BenchSettings,
         clock: MeteredClock,
         progress: Progress | None = None,
+        *,
+        authenticated: bool = False,
     ) -> None:
+        """`authenticated`: one phase instead, "secoc_flood", with the bus flooded as in the
+        flood phase and every command signed by the computer and verified by the controller
+        (SecOC, as `bywire sim --authenticated`): what authentication costs in latency."""
         self.robot = robot
         self.clock = clock
         self.settings = settings
         self.progress = progress
         self.world = SimWorld.from_robot(clock, robot)
-        self.runtime = Runtime(self.world.hardware, bench_runtime_config(robot))
+        secoc = _authenticate(self.world, robot) if authenticated else None
+        self.runtime = Runtime(self.world.hardware, bench_runtime_config(robot), secoc=secoc)
         self.movement_log = MovementLog(self.world.bus)
         self.can_sweep = CanSweep(self.world)
         self.rc_sweep = RcSweep(self.world)
@@ -130,8 +149,18 @@ class RealtimeSession:
                 settings.settle_s,
             ),
         )
+        if authenticated:
+            self.windows = (
+                PhaseWindow(
+                    AUTHENTICATED_PHASE,
+                    first_s,
+                    first_s + phase_s,
+                    settings.flood_load,
+                    settings.settle_s,
+                ),
+            )
         self.onlookers: Onlookers | None = None
-        if settings.look:
+        if settings.look and not authenticated:
             self.onlookers = Onlookers(self.runtime, self.world)
             self.windows += tuple(
                 PhaseWindow(
@@ -321,6 +350,14 @@ class RealtimeSession:
         span = (window.start_s, window.end_s)  # the whole phase, as the tasks' jitter figures
         tails.append(explain_tail(timeline, "wake", timeline.late_wakes(span), TAIL_THRESHOLD_S))
         return PhaseTail(window.name, tuple(gc_figures(timeline, span)), tuple(tails))
+
+
+def _authenticate(world: SimWorld, robot: RobotConfig) -> SecocReceiver:
+    """The computer signs and the controller verifies, with a key of the bench's own and
+    freshness in memory (as a simulated run without a key file)."""
+    key = simulated_run_key(replace(robot.security, enabled=False), robot.sim.seed)
+    world.hlc.sign_with(sender_signer(key))
+    return controller_receiver(replace(robot.security, freshness_file=None), key)
 
 
 def run_realtime(

@@ -28,9 +28,10 @@ def machine_line(machine: dict[str, object]) -> str:
     )
 
 
-LOOKING = {
+PHASE_NOTES = {
     "feed": ", telemetry feed on, a Foxglove client attached",
     "dashboard": ", telemetry feed on, bywire dashboard attached (child process)",
+    "secoc_flood": ", every command authenticated (SecOC)",
 }
 
 
@@ -39,7 +40,7 @@ def section_title(result: BenchResult, section: str) -> str:
     for phase in result.realtime.phases:
         if phase.name == section:
             load = "nominal load" if phase.flood_load is None else "CAN bus flooded"
-            return f"{load}{LOOKING.get(phase.name, '')}, {phase.duration_s:g} s"
+            return f"{load}{PHASE_NOTES.get(phase.name, '')}, {phase.duration_s:g} s"
     if section == "secoc":
         return "authenticated commands (SecOC), per command"
     return "whole process"

@@ -56,3 +56,23 @@ def number_within(low: float, high: float) -> Callable[[str], float]:
         return value
 
     return parse
+
+
+def add_snapshot_options(parser: argparse.ArgumentParser, once_s: float, prints: str) -> None:
+    """`--once` and `--duration S`: listen a while, print `prints` and exit, instead of the live
+    view (the listening tools' way to run from a script or a test; `snapshot_s` reads them)."""
+    parser.add_argument(
+        "--once", action="store_true", help=f"listen {once_s:g} s, print {prints}, exit"
+    )
+    parser.add_argument(
+        "--duration",
+        type=positive_seconds,
+        metavar="S",
+        help=f"listen S seconds, print {prints}, exit (exit 1 if no frame arrived)",
+    )
+
+
+def snapshot_s(args: argparse.Namespace, once_s: float) -> float | None:
+    """How long to listen before printing (`--duration` wins over `--once`); None: live."""
+    duration_s: float | None = args.duration
+    return duration_s if duration_s is not None else once_s if args.once else None

@@ -42,7 +42,8 @@ def configure(parser: argparse.ArgumentParser) -> None:
     """Add the options of `bywire bench`."""
     parser.epilog = (
         "Runs the controller on the simulated robot in real time: a nominal phase and a phase"
-        " with the CAN bus flooded by other nodes, each first driven over CAN and then by RC;"
+        " with the CAN bus flooded by other nodes, each first driven over CAN and then by RC,"
+        ' and the flood phase again with authenticated commands (SecOC: "secoc_flood");'
         " then the test course in virtual time. Exit status 0 whether or not targets are met."
     )
     parser.add_argument(
@@ -108,7 +109,7 @@ def run(args: argparse.Namespace) -> int:
     applied = RealtimeReport()
     if args.realtime:
         applied = apply_process(robot.realtime, python=sys.executable)
-    phases = 4 if settings.look else 2
+    phases = (4 if settings.look else 2) + 1  # and the authenticated session's phase
     with _progress(console, phases * settings.phase_s) as progress:
         session = RealtimeSession(robot, settings, clock, progress)
         collector = apply_collector(robot.realtime, session.runtime) if args.realtime else None
@@ -122,6 +123,8 @@ def run(args: argparse.Namespace) -> int:
             clock.start()
         try:
             realtime = session.run()
+            secured = RealtimeSession(robot, settings, clock, progress, authenticated=True)
+            realtime = realtime.then(secured.run())
         finally:
             if isinstance(clock, ProbedClock):
                 clock.stop()

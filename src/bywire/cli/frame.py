@@ -3,8 +3,9 @@
 A hand-written frame cannot pass the controller's checks (counter, CRC-8 and, on a robot with
 authenticated commands, the SecOC MAC); this prints valid ones, one `ID#HEXDATA` a line:
 `--count N` consecutive frames (the counter going up by one a frame, as the controller wants),
-each followed by its cryptographic PDU when `--key` is given. Encoded by the same codec the
-controller decodes with (`protocol.dbc`) and signed by the same signer as `bywire teleop`.
+each followed by its cryptographic PDU when `--key` is given, in the trip counter the robot
+announces (`--trip`). Encoded by the same codec the controller decodes with (`protocol.dbc`)
+and signed by the same signer as `bywire teleop`.
 """
 
 from __future__ import annotations
@@ -15,9 +16,13 @@ from collections.abc import Iterator
 from pathlib import Path
 
 from bywire.cli.arguments import number_within, whole_number
+from bywire.errors import ConfigError
 from bywire.model import ControlCommand, Gear, LightsCommand, MovementCommand
 from bywire.protocol import dbc
+from bywire.protocol.secoc import MAX_TRIP
+from bywire.security.freshness import Adoption
 from bywire.security.keys import read_key_file
+from bywire.security.session import SecocSigner
 from bywire.security.setup import sender_signer
 
 Command = MovementCommand | LightsCommand | ControlCommand
@@ -67,6 +72,13 @@ def _common(parser: argparse.ArgumentParser) -> None:
         help="sign each frame (SecOC) for a robot with [security] enabled: its key file",
     )
     parser.add_argument(
+        "--trip",
+        type=_trip,
+        metavar="N",
+        help="with --key: the trip counter the robot announces (TripCounter 0x206's trip_counter:"
+        " `bywire monitor` shows it); frames of any other trip are refused by the robot",
+    )
+    parser.add_argument(
         "--freshness",
         type=Path,
         metavar="FILE",
@@ -79,6 +91,13 @@ def _counter(text: str) -> int:
     value = whole_number(0)(text)
     if value >= dbc.COUNTER_MODULUS:
         raise argparse.ArgumentTypeError(f"must be 0…{dbc.COUNTER_MODULUS - 1}, got {text!r}")
+    return value
+
+
+def _trip(text: str) -> int:
+    value = whole_number(1)(text)
+    if value > MAX_TRIP:
+        raise argparse.ArgumentTypeError(f"must be 1…{MAX_TRIP}, got {text!r}")
     return value
 
 
@@ -108,17 +127,39 @@ def cansend(frame_id: int, data: bytes) -> str:
 
 def run(args: argparse.Namespace) -> int:
     command = command_of(args)
-    signer = None
-    if args.key is not None:
-        args.freshness.parent.mkdir(parents=True, exist_ok=True, mode=0o700)
-        signer = sender_signer(read_key_file(args.key), args.freshness)
+    if (args.key is None) != (args.trip is None):
+        raise ConfigError(
+            "--key and --trip go together: a signed frame carries the robot's trip counter"
+            " (TripCounter 0x206's trip_counter: `bywire monitor` shows it)"
+        )
+    signer = None if args.key is None else _signer(args.key, args.freshness, args.trip)
     try:
         for frame_id, data in frames(command, args.count):
+            pdu = None if signer is None else signer.authenticator(frame_id, data)
+            if signer is not None and pdu is None:
+                raise ConfigError(f"{args.freshness}: cannot reserve a freshness value")
             print(cansend(frame_id, data))
-            if signer is not None:
-                pdu = signer.authenticator(frame_id, data)
+            if pdu is not None:
                 print(cansend(pdu.arbitration_id, pdu.data))
     finally:
         if signer is not None:
             signer.close()
     return 0
+
+
+def _signer(key_file: Path, freshness: Path, trip: int) -> SecocSigner:
+    """A signer in `trip`; ConfigError when this sender already signed in a later trip."""
+    freshness.parent.mkdir(parents=True, exist_ok=True, mode=0o700)
+    signer = sender_signer(read_key_file(key_file), freshness)
+    try:
+        adoption = signer.take_trip(trip)
+    except OSError as error:
+        signer.close()
+        raise ConfigError(f"{freshness}: cannot write: {error.strerror or error}") from None
+    if adoption is Adoption.LOWER:
+        signer.close()
+        raise ConfigError(
+            f"--trip {trip}: this sender signed in trip {signer.store.trip} already"
+            f" ({freshness}); give the trip the robot announces now"
+        )
+    return signer

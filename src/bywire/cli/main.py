@@ -55,6 +55,10 @@ COMMANDS: dict[str, tuple[str, str]] = {
         "bywire.cli.ros2",
         "the higher-level computer's ROS 2 node: cmd_vel in, odom and diagnostics out",
     ),
+    "rc": (
+        "bywire.cli.rc",
+        "RC calibration: live IBUS channels, how the robot reads them, the [rc] values to paste",
+    ),
     "dashboard": (
         "bywire.cli.dashboard",
         "live view of the controller on the simulated robot: mode, outputs, flags, task table",

@@ -11,7 +11,7 @@ import logging
 import time
 from pathlib import Path
 
-from bywire.cli.arguments import positive_seconds
+from bywire.cli.arguments import add_snapshot_options, snapshot_s
 from bywire.cli.bus_options import add_bus_options, bus_from_args, bus_source
 from bywire.cli.console import stdout_console
 from bywire.monitor.feed import CanFeed
@@ -29,15 +29,7 @@ def configure(parser: argparse.ArgumentParser) -> None:
         metavar="FILE.blf|.asc|.log|.trc|.csv|.mf4",
         help="also write every frame (BLF, Vector ASC or candump -L, by suffix)",
     )
-    parser.add_argument(
-        "--once", action="store_true", help=f"listen {SNAPSHOT_S:g} s, print the table, exit"
-    )
-    parser.add_argument(
-        "--duration",
-        type=positive_seconds,
-        metavar="S",
-        help="listen S seconds, print the table, exit (exit 1 if no frame arrived)",
-    )
+    add_snapshot_options(parser, SNAPSHOT_S, "the table")
 
 
 def run(args: argparse.Namespace) -> int:
@@ -46,8 +38,9 @@ def run(args: argparse.Namespace) -> int:
     logging.getLogger("can").setLevel(logging.ERROR)
     feed = CanFeed(bus_from_args(args), args.record, reopen=lambda: bus_from_args(args))
     source = bus_source(args)
-    if args.once or args.duration is not None:
-        return _snapshot(feed, source, args.duration or SNAPSHOT_S)
+    listen_s = snapshot_s(args, SNAPSHOT_S)
+    if listen_s is not None:
+        return _snapshot(feed, source, listen_s)
     from bywire.monitor.app import MonitorApp  # noqa: PLC0415 -- textual: live view only
 
     feed.start()

@@ -21,6 +21,7 @@ from bywire.errors import HardwareError
 from bywire.protocol import dbc
 from bywire.ros2.settings import Geometry
 from bywire.security.keys import read_key_file
+from bywire.security.session import TRIP_IDS
 from bywire.security.setup import sender_signer
 
 if TYPE_CHECKING:
@@ -154,9 +155,10 @@ def _bus_options(args: argparse.Namespace) -> dict[str, Any]:
 def open_link(
     bus_options: dict[str, Any], key: Path | None, freshness: Path
 ) -> tuple[Any, SecocSigner | None]:
-    """In the link's process: the bus (filtered to the robot's reports) and the signer."""
+    """In the link's process: the bus (filtered to the robot's reports, and its trip counter
+    when signing) and the signer."""
     signer = None if key is None else _signer(key, freshness)
-    return _open_bus(argparse.Namespace(**bus_options)), signer
+    return _open_bus(argparse.Namespace(**bus_options), signing=signer is not None), signer
 
 
 def _export(args: argparse.Namespace) -> int:
@@ -172,10 +174,10 @@ def _export(args: argparse.Namespace) -> int:
     return 0
 
 
-def _open_bus(args: argparse.Namespace) -> Any:
+def _open_bus(args: argparse.Namespace, *, signing: bool = False) -> Any:
     filters: list[Any] = [
         {"can_id": frame_id, "can_mask": STANDARD_ID_MASK, "extended": False}
-        for frame_id in dbc.report_ids()
+        for frame_id in (*dbc.report_ids(), *(sorted(TRIP_IDS) if signing else ()))
     ]
     logging.getLogger("can").setLevel(logging.ERROR)
     return bus_from_args(args, can_filters=filters)

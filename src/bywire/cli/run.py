@@ -122,10 +122,9 @@ def _run(args: argparse.Namespace, logs: background_log.BackgroundLog) -> int:
     # The stop signals are ours until the hardware is closed: a second SIGINT or SIGTERM while
     # the safe outputs are written only asks again, it never cuts the shutdown short.
     requests = _StopRequests()
-    secoc = _authentication(robot)
+    secoc = _authentication(robot, args.config)
     # The feed and the view end after the hardware is closed (the stack is left last).
     with (
-        _closing(secoc),
         _stop_on_signals(requests),
         contextlib.ExitStack() as after_hardware,
         _device_errors(),
@@ -190,7 +189,7 @@ def feed_options(robot: RobotConfig, *, mcap: Path | None, dashboard: bool) -> F
         foxglove = parse_listen_address(section.foxglove, allow_remote=section.allow_remote)
     if foxglove is None and dashboard:
         foxglove = Endpoint(DEFAULT_HOST, 0)
-    options = FeedOptions(mcap_path, foxglove, section.rate_hz)
+    options = FeedOptions(mcap_path, foxglove, section.rate_hz, origins=section.allowed_origins)
     return options if options.wanted else None
 
 
@@ -231,40 +230,24 @@ def _start_view(
     view.start()
 
 
-def _authentication(robot: RobotConfig) -> SecocReceiver | None:
-    """The verifier of authenticated commands ([security] enabled), None when off; its key
-    and freshness file are read before any device opens."""
+def _authentication(robot: RobotConfig, config_path: Path) -> SecocReceiver | None:
+    """The verifier of authenticated commands ([security] enabled), None when off; its key is
+    read and its trip counter moved on (on the disk) before any device opens."""
     security = robot.security
     if not security.enabled:
         return None
-    return controller_receiver(security, configured_key(security))
+    return controller_receiver(security, configured_key(security), str(config_path))
 
 
 def _report_authentication(robot: RobotConfig, receiver: SecocReceiver | None) -> None:
     """One line when authentication is on (the key by its check value only)."""
-    security = robot.security
-    if receiver is None:
-        return
-    log.info(
-        "authentication: on (SecOC profile 3, key check value %s, freshness %s)",
-        receiver.key_check_value,
-        security.freshness_file or "in memory",
-    )
-    if security.freshness_file is not None and not receiver.store.found:
-        log.warning(
-            "%s: no freshness for this key yet: starting at 0; if this key was used before,"
-            " its old frames could be replayed: make a new key (docs/SECURITY.md)",
-            security.freshness_file,
+    if receiver is not None:
+        log.info(
+            "authentication: on (SecOC profile 3, key check value %s, trip counter %d, %s)",
+            receiver.key_check_value,
+            receiver.trip,
+            robot.security.freshness_file or "in memory",
         )
-
-
-@contextlib.contextmanager
-def _closing(secoc: SecocReceiver | None) -> Iterator[None]:
-    try:
-        yield
-    finally:
-        if secoc is not None:
-            secoc.close()
 
 
 def _preflight(robot: RobotConfig, paths: LinuxPaths) -> int:

@@ -30,6 +30,7 @@ from bywire.cli.arguments import positive_hertz, positive_seconds
 from bywire.cli.bus_options import add_bus_options, bus_from_args, bus_source
 from bywire.cli.console import stdout_console
 from bywire.config import RobotConfig, default_sim_config, load_config
+from bywire.config.sections import ORIGIN
 from bywire.errors import ConfigError
 from bywire.hal.sim.clock import RealtimeClock
 from bywire.loopback import Endpoint, parse_endpoint
@@ -39,11 +40,11 @@ from bywire.replay.recorder import SimRunRecorder, check_record_path
 from bywire.sim.applicability import not_applicable
 from bywire.sim.catalog import DEFAULT_SCENARIO, find_scenario, packaged_scenarios
 from bywire.sim.plot import check_plot_path, write_plot
-from bywire.sim.runner import SimRun
+from bywire.sim.runner import SimRun, run_clock
 from bywire.sim.suite import Case, collect, junit_xml, run_case
 from bywire.sim.summary import build_summary, render
 from bywire.telemetry.capture import DEFAULT_RATE_HZ, Capture, PoseCapture
-from bywire.telemetry.feed import FeedOptions, check_mcap_path, open_feed
+from bywire.telemetry.feed import FeedOptions, FeedSinks, check_mcap_path, open_sinks
 from bywire.telemetry.outbox import Outbox
 
 PROGRESS_PERIOD_S = 0.1  # simulated seconds between progress updates
@@ -70,6 +71,14 @@ def _endpoint(text: str) -> Endpoint:
         return parse_endpoint(text)
     except ConfigError as error:
         raise argparse.ArgumentTypeError(str(error)) from None
+
+
+def _origin(text: str) -> str:
+    if not ORIGIN.fullmatch(text):
+        raise argparse.ArgumentTypeError(
+            f"{text!r}: not an origin such as https://app.foxglove.dev"
+        )
+    return text
 
 
 def configure(parser: argparse.ArgumentParser) -> None:
@@ -156,6 +165,16 @@ def configure(parser: argparse.ArgumentParser) -> None:
         " port (host 127.0.0.1, ::1 or localhost; port 0: any free port)",
     )
     parser.add_argument(
+        "--foxglove-origin",
+        action="append",
+        default=[],
+        type=_origin,
+        metavar="ORIGIN",
+        help="with --foxglove: a web page origin the server lets in (repeatable), e.g."
+        " https://app.foxglove.dev; by default no web page is (a browser tab of any site could"
+        " read the feed), only clients that send no Origin (the desktop app, bywire dashboard)",
+    )
+    parser.add_argument(
         "--telemetry-rate",
         type=positive_hertz,
         default=DEFAULT_RATE_HZ,
@@ -198,31 +217,44 @@ def run(args: argparse.Namespace) -> int:
         return _run_all(args)
     _check_one_run(args)
     robot = _robot(args)
-    sim = SimRun(
-        robot,
-        find_scenario(args.scenario),
-        realtime=args.realtime,
-        duration_s=args.duration,
-        speed=args.speed,
-    )
-    if args.serve is not None and not isinstance(sim.world.clock, RealtimeClock):
+    scenario = find_scenario(args.scenario)
+    clock = run_clock(scenario, realtime=args.realtime, speed=args.speed)
+    realtime = isinstance(clock, RealtimeClock)
+    if args.serve is not None and not realtime:
         raise ConfigError("--serve needs --realtime: virtual time outruns any client")
-    if args.foxglove is not None and not isinstance(sim.world.clock, RealtimeClock):
+    if args.foxglove is not None and not realtime:
         raise ConfigError("--foxglove needs --realtime: virtual time outruns any client")
+    feed = FeedOptions(
+        args.mcap, args.foxglove, args.telemetry_rate, origins=tuple(args.foxglove_origin)
+    )
     stopped_by: list[int] = []
-    # A signal after the run's end (while the plot is drawn) is noted, never an interruption.
-    with _stop_on_signals(sim, stopped_by), _on_interface(args, sim):
-        status = _one_run(args, sim, stopped_by)
+    with contextlib.ExitStack() as sinks_open:
+        # The feed's writer (on real time a process of its own: ~0.2 s to start, seconds on a
+        # busy machine) is running before the robot's clock starts: the controller's first pass
+        # and the scenario's first events are on time, not late by the writer's start.
+        sinks = None
+        if feed.wanted:
+            sinks = sinks_open.enter_context(open_sinks(feed, clock, virtual_time=not realtime))
+        sim = SimRun(robot, scenario, duration_s=args.duration, clock=clock)
+        # A signal after the run's end (while the plot is drawn) is noted, never an interruption.
+        with _stop_on_signals(sim, stopped_by), _on_interface(args, sim):
+            status = _one_run(args, sim, stopped_by, sinks)
     return INTERRUPTED if stopped_by else status
 
 
-def _one_run(args: argparse.Namespace, sim: SimRun, stopped_by: list[int]) -> int:
+def _one_run(
+    args: argparse.Namespace, sim: SimRun, stopped_by: list[int], sinks: FeedSinks | None
+) -> int:
     """Play `sim`, write its files, print its summary; 1 if an expectation failed."""
-    feed = FeedOptions(args.mcap, args.foxglove, args.telemetry_rate)
     recorder = None if args.record is None else SimRunRecorder.attach(sim, args.record)
     tally = BusTally()
     sim.add_can_monitor(tally)
-    wall_s, frames_logged = _play(
+    feed = (
+        None
+        if sinks is None
+        else (sinks, FeedOptions(args.mcap, args.foxglove, args.telemetry_rate))
+    )
+    wall_s, frames_logged, log_failure = _play(
         sim,
         args.log,
         show_progress=sys.stderr.isatty() and not args.json,
@@ -230,18 +262,26 @@ def _one_run(args: argparse.Namespace, sim: SimRun, stopped_by: list[int]) -> in
         feed=feed,
         rosbag=args.rosbag,
     )
+    # A file that cannot be written whole is one line of its own; the run, the summary and the
+    # other files go on (exit 1: what was asked for is not all there).
+    failures = [] if log_failure is None else [log_failure]
     if recorder is not None:
-        recorder.write()
+        failures += _written(recorder.write)
     summary = build_summary(sim, wall_s, tally)
     aside = not_applicable(sim.scenario, sim.robot)
     if args.plot is not None:
-        write_plot(sim, args.plot)
+        failures += _written(lambda: write_plot(sim, args.plot))
     files = {"plot": _name(args.plot), "can_log": _name(args.log)}
     files.update({} if recorder is None else {"record": str(recorder.path)})
     files.update({} if args.mcap is None else {"mcap": str(args.mcap)})
     files.update({} if args.rosbag is None else {"rosbag": str(args.rosbag)})
     if args.json:
-        document = {**summary.as_json(), "not_applicable": aside, "files": files}
+        document = {
+            **summary.as_json(),
+            "not_applicable": aside,
+            "files": files,
+            "file_errors": failures,
+        }
         print(json.dumps(document, indent=2))
     else:
         console = stdout_console()
@@ -253,8 +293,19 @@ def _one_run(args: argparse.Namespace, sim: SimRun, stopped_by: list[int]) -> in
             console.print(f"Stopped by {name} after {summary.simulated_s:.1f} s", soft_wrap=True)
         if aside is not None:
             console.print(f"[yellow]{sim.scenario.name}: {escape(aside)}[/]", soft_wrap=True)
+    for failure in failures:
+        print(f"bywire sim: error: {failure}", file=sys.stderr, flush=True)
     # A scenario that does not apply to the robot is no verdict on it (as `--all` sets it aside).
-    return 0 if summary.passed or aside is not None else 1
+    return 0 if (summary.passed or aside is not None) and not failures else 1
+
+
+def _written(write: Callable[[], object]) -> list[str]:
+    """Write one of the run's files; its failure as a line, or nothing."""
+    try:
+        write()
+    except ConfigError as error:
+        return [str(error)]
+    return []
 
 
 @contextlib.contextmanager
@@ -356,10 +407,11 @@ def _play(
     *,
     show_progress: bool,
     serve: Endpoint | None = None,
-    feed: FeedOptions | None = None,
+    feed: tuple[FeedSinks, FeedOptions] | None = None,
     rosbag: Path | None = None,
-) -> tuple[float, int]:
-    """Run to the end; (wall seconds, frames logged). The log is closed even if the run fails."""
+) -> tuple[float, int, str | None]:
+    """Run to the end; (wall seconds, frames logged, why the log stopped early if it did). The
+    log is closed even if the run fails."""
     with contextlib.ExitStack() as stack:
         log = None
         if log_path is not None:
@@ -370,13 +422,16 @@ def _play(
             sim.add_can_monitor(stack.enter_context(bag))
         if serve is not None:
             _serve(stack, sim, serve)
-        if feed is not None and feed.wanted:
-            attach_feed(stack, sim, feed)
+        if feed is not None:
+            attach_feed(stack, sim, *feed)
         if show_progress:
             stack.enter_context(_progress(sim))
         started = time.perf_counter()
         sim.run()
-        return time.perf_counter() - started, 0 if log is None else log.frames
+        wall_s = time.perf_counter() - started
+    if log is None:
+        return wall_s, 0, None
+    return wall_s, log.frames, log.failure
 
 
 def _serve(stack: contextlib.ExitStack, sim: SimRun, endpoint: Endpoint) -> None:
@@ -391,22 +446,23 @@ def _serve(stack: contextlib.ExitStack, sim: SimRun, endpoint: Endpoint) -> None
     )
 
 
-def attach_feed(stack: contextlib.ExitStack, sim: SimRun, options: FeedOptions) -> None:
-    """The telemetry feed for the run, with every frame on the bus, as `--mcap` and `--foxglove`
-    attach it (bench/differential.py too); the port goes to stderr."""
-    virtual_time = not isinstance(sim.world.clock, RealtimeClock)
-    feed = stack.enter_context(open_feed(sim.runtime, options, virtual_time=virtual_time))
+def attach_feed(
+    stack: contextlib.ExitStack, sim: SimRun, sinks: FeedSinks, options: FeedOptions
+) -> None:
+    """The telemetry feed's tap for the run, its sinks already open (`open_sinks`), with every
+    frame on the bus and the vehicle's pose, as `--mcap` and `--foxglove` attach it
+    (bench/differential.py too); the port goes to stderr."""
+    tap = sinks.tap(sim.runtime, rate_hz=options.rate_hz).attach()
+    stack.callback(tap.detach)
     sim.add_can_monitor(
-        lambda frame: feed.tap.can_frame(
-            frame.time_s, frame.arbitration_id, frame.data, frame.sender
-        )
+        lambda frame: tap.can_frame(frame.time_s, frame.arbitration_id, frame.data, frame.sender)
     )
-    sim.runtime.on_cycle.append(_pose_sampler(sim, feed.outbox, options.rate_hz))
+    sim.runtime.on_cycle.append(_pose_sampler(sim, sinks.outbox, options.rate_hz))
     if options.foxglove is not None:
         host = options.foxglove.host
         url_host = f"[{host}]" if ":" in host else host
         print(
-            f"serving telemetry to Foxglove on ws://{url_host}:{feed.port}",
+            f"serving telemetry to Foxglove on ws://{url_host}:{sinks.port}",
             file=sys.stderr,
             flush=True,
         )
@@ -444,8 +500,8 @@ def _progress(sim: SimRun) -> Iterator[None]:
     def update(elapsed_s: float) -> None:
         speedup = elapsed_s / max(time.perf_counter() - wall_start_s, 1e-9)
         live = f"×{speedup:.1f}"
-        if sim.record.samples:
-            now = sim.record.samples[-1]
+        now = sim.record.samples.last
+        if now is not None:
             live += f"  {now.mode.name:<4} {now.speed_mps:5.2f} m/s {now.distance_m:6.1f} m"
         progress.update(task, completed=min(elapsed_s, sim.duration_s), live=live)
 
@@ -508,7 +564,10 @@ def _run_all(args: argparse.Namespace) -> int:
         if not args.json:
             _print_case(console, case)
     if args.junit is not None:
-        args.junit.write_text(junit_xml(cases), encoding="utf-8")
+        try:
+            args.junit.write_text(junit_xml(cases), encoding="utf-8")
+        except OSError as error:
+            raise ConfigError(f"cannot write {args.junit}: {error.strerror or error}") from None
     failed = [case.name for case in cases if case.failed]
     set_aside = [case.name for case in cases if case.not_applicable is not None]
     if args.json:

@@ -14,7 +14,7 @@ from bywire.cli.bus_options import add_bus_options, bus_from_args
 from bywire.errors import HardwareError
 from bywire.protocol import dbc
 from bywire.security.keys import read_key_file
-from bywire.security.session import SecocSigner
+from bywire.security.session import TRIP_IDS, SecocSigner
 from bywire.security.setup import sender_signer
 from bywire.teleop.state import HOLD_S, KEYS
 
@@ -106,10 +106,11 @@ def configure(parser: argparse.ArgumentParser) -> None:
 
 
 def open_bus(args: argparse.Namespace) -> can.BusABC:
-    """The bus, filtered to the robot's reports; HardwareError with what to do when it fails."""
+    """The bus, filtered to the robot's reports (and, signing, its trip counter announcement);
+    HardwareError with what to do when it fails."""
+    wanted = (*dbc.report_ids(), *(sorted(TRIP_IDS) if args.key is not None else ()))
     filters: list[Any] = [
-        {"can_id": frame_id, "can_mask": STANDARD_ID_MASK, "extended": False}
-        for frame_id in dbc.report_ids()
+        {"can_id": frame_id, "can_mask": STANDARD_ID_MASK, "extended": False} for frame_id in wanted
     ]
     logging.getLogger("can").setLevel(logging.ERROR)
     return bus_from_args(args, can_filters=filters)

@@ -34,21 +34,14 @@ from bywire.config.security import SecuritySection, security_section
 from bywire.config.vehicle import vehicle_section
 from bywire.errors import ConfigError
 from bywire.security.keys import check_configuration_file, read_key_file
+from bywire.textfile import read_text
 
 DEFAULT_SIM_RESOURCE = ("defaults", "sim.toml")
 
 
 def load_config(path: Path | str) -> RobotConfig:
     """Read and validate one robot's TOML file; ConfigError names the file and what is wrong."""
-    try:
-        text = Path(path).read_text(encoding="utf-8")
-    except FileNotFoundError as error:
-        raise ConfigError(f"{path}: no such configuration file") from error
-    except UnicodeDecodeError as error:
-        raise ConfigError(f"{path}: not UTF-8 text (byte {error.start})") from error
-    except OSError as error:
-        reason = error.strerror or str(error)
-        raise ConfigError(f"{path}: cannot read configuration file: {reason}") from error
+    text = read_text(Path(path), "configuration file")
     config = parse_config(text, str(path))
     if config.security.enabled:
         check_security_files(Path(path), config.security)
@@ -69,6 +62,10 @@ def parse_config(text: str, origin: str = "<string>") -> RobotConfig:
         data = tomllib.loads(text)
     except tomllib.TOMLDecodeError as error:
         raise ConfigError(f"{origin}: invalid TOML: {_located(error, text)}") from error
+    except ValueError as error:  # an integer of more digits than Python converts
+        raise ConfigError(f"{origin}: invalid TOML: {error}") from None
+    except RecursionError:
+        raise ConfigError(f"{origin}: invalid TOML: arrays or tables nested too deep") from None
     problems = Problems(origin)
     config = build_robot(data, problems)
     check_consistency(config, problems)

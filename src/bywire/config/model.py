@@ -231,13 +231,15 @@ class TelemetrySection:
     """The telemetry feed of `bywire run` (`bywire.telemetry`): off unless a sink is named.
 
     `mcap`: a file to record the feed to; `foxglove`: "[HOST:]PORT" to serve it on (Foxglove's
-    WebSocket protocol, no authentication), loopback only unless `allow_remote` says otherwise.
+    WebSocket protocol, no authentication), loopback only unless `allow_remote` says otherwise;
+    a web page in a browser is let in only from `allowed_origins`.
     """
 
     rate_hz: float = 50.0
     mcap: str | None = None
     foxglove: str | None = None
     allow_remote: bool = False
+    allowed_origins: tuple[str, ...] = ()  # web pages let in ("https://app.foxglove.dev")
 
 
 @dataclass(frozen=True, slots=True)

@@ -10,12 +10,14 @@ import difflib
 import itertools
 import json
 import math
+import re
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 
 from bywire.errors import ConfigError
 
 MISSING = object()
+_BARE_KEY = re.compile(r"[A-Za-z0-9_-]+")
 SHOWN_ITEMS = 3
 _TOML_TYPES = (
     (bool, "a boolean"),
@@ -28,22 +30,36 @@ _TOML_TYPES = (
 
 
 def show(value: object) -> str:
-    """A value as TOML would write it, for messages."""
+    """A value as TOML would write it, for messages: always one line."""
     if isinstance(value, bool):
         return "true" if value else "false"
     if isinstance(value, str):
         return json.dumps(value)
     if isinstance(value, Mapping):
-        items = [f"{key} = {show(item)}" for key, item in value.items()]
+        items = [f"{show_key(str(key))} = {show(item)}" for key, item in value.items()]
         items[SHOWN_ITEMS:] = ["..."] if len(items) > SHOWN_ITEMS else []
         return "{ " + ", ".join(items) + " }" if items else "{}"
     return repr(value)
+
+
+def show_key(name: str) -> str:
+    """A key as TOML would write it: bare when it can be, else quoted (never a line break)."""
+    return name if _BARE_KEY.fullmatch(name) else json.dumps(name)
 
 
 def toml_type(value: object) -> str:
     """The TOML name of a value's type, with its article."""
     found = (name for kind, name in _TOML_TYPES if isinstance(value, kind))
     return next(found, "a date or time")
+
+
+def finite(value: int | float) -> float | None:
+    """The number as a float, or None when it is not finite (nan, inf) or too big for a float."""
+    try:
+        number = float(value)
+    except OverflowError:  # an integer beyond 1.8e308
+        return None
+    return number if math.isfinite(number) else None
 
 
 def number_text(value: float) -> str:
@@ -111,7 +127,8 @@ class Table:
         self._known: dict[str, None] = {}
 
     def key(self, name: str) -> str:
-        return f"{self.path}.{name}" if self.path else name
+        shown = show_key(name)
+        return f"{self.path}.{shown}" if self.path else shown
 
     def get(self, name: str) -> object:
         """The raw value, or MISSING; marks `name` as a known key."""
@@ -128,10 +145,11 @@ class Table:
         if isinstance(value, bool) or not isinstance(value, int | float):
             self.refuse(name, value, f"expected a number in {allowed}, got {toml_type(value)}")
             return default
-        if float(value) not in allowed:
+        number = finite(value)
+        if number is None or number not in allowed:
             self.refuse(name, value, f"out of range; allowed {allowed}")
             return default
-        return float(value)
+        return number
 
     def integer(
         self,

@@ -33,6 +33,13 @@ def describe(config: RobotConfig) -> str:
     return "\n".join(lines) + "\n"
 
 
+def table_text(path: str, table: Mapping[str, object]) -> str:
+    """One table of `as_dict`'s under its `[path]` header, written as `describe` writes it."""
+    lines = [f"[{path}]"]
+    _emit(table, f"{path}.", lines)
+    return "\n".join(lines) + "\n"
+
+
 def _table(node: object, chip: str) -> dict[str, object]:
     table: dict[str, object] = {}
     for field in fields(node):  # type: ignore[arg-type]

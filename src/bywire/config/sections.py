@@ -2,6 +2,9 @@
 
 from __future__ import annotations
 
+import re
+from dataclasses import replace
+
 from bywire.config.limits import (
     BITRATES_BPS,
     BOOST_GAIN,
@@ -73,6 +76,8 @@ from bywire.control.steering import SteeringConfig
 from bywire.control.supervisor import SupervisorConfig
 from bywire.errors import ConfigError
 from bywire.loopback import parse_listen_address
+
+ORIGIN = re.compile(r"https?://[A-Za-z0-9.-]+(:[0-9]{1,5})?|file://")
 
 
 def can_section(table: Table) -> CanSection:
@@ -363,10 +368,11 @@ def telemetry_section(table: Table) -> TelemetrySection:
         mcap=_optional_text(table, "mcap"),
         foxglove=_optional_text(table, "foxglove"),
         allow_remote=allow_remote,
+        allowed_origins=_origins(table, "allowed_origins"),
     )
     if section.mcap is not None and not section.mcap.lower().endswith(".mcap"):
         table.refuse("mcap", section.mcap, "an MCAP file's name ends in .mcap")
-        section = TelemetrySection(section.rate_hz, None, section.foxglove, allow_remote)
+        section = replace(section, mcap=None)
     if section.foxglove is not None:
         try:
             parse_listen_address(section.foxglove, allow_remote=allow_remote)
@@ -378,9 +384,24 @@ def telemetry_section(table: Table) -> TelemetrySection:
                     f" {table.key('allow_remote')} = true: the feed has no authentication"
                 )
             table.refuse("foxglove", section.foxglove, reason)
-            section = TelemetrySection(section.rate_hz, section.mcap, None, allow_remote)
+            section = replace(section, foxglove=None)
     table.close()
     return section
+
+
+def _origins(table: Table, name: str) -> tuple[str, ...]:
+    """Web origins ("https://app.foxglove.dev"): scheme, host and an optional port."""
+    value = table.get(name)
+    if value is MISSING:
+        return ()
+    allowed = 'an array of origins such as ["https://app.foxglove.dev"]'
+    if not isinstance(value, list):
+        table.refuse(name, value, f"expected {allowed}, got {toml_type(value)}")
+        return ()
+    if not all(isinstance(item, str) and ORIGIN.fullmatch(item) for item in value):
+        table.refuse(name, value, f"expected {allowed} (scheme://host[:port], no path)")
+        return ()
+    return tuple(value)
 
 
 def _optional_text(table: Table, name: str) -> str | None:

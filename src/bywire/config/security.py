@@ -10,10 +10,8 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from bywire.config.reader import MISSING, Interval, Table, toml_type
-from bywire.security.freshness import DEFAULT_BLOCK
 from bywire.security.session import DEFAULT_WINDOW_S
 
-FRESHNESS_BLOCK = range(2, 4097)  # well inside the 16 low bits the receiver rebuilds from
 PAIRING_WINDOW_S = Interval(0.0005, 0.020, "s")
 
 
@@ -23,8 +21,7 @@ class SecuritySection:
 
     enabled: bool = False
     key_file: str | None = None  # 128-bit key, hex, mode 0600 (`bywire keys new FILE`)
-    freshness_file: str | None = None  # the controller's freshness bounds; None: in memory
-    freshness_block: int = DEFAULT_BLOCK  # values reserved ahead on disk per write
+    freshness_file: str | None = None  # the controller's trip counter; None: in memory
     pairing_window_s: float = DEFAULT_WINDOW_S  # command frame to its cryptographic PDU
 
 
@@ -34,7 +31,6 @@ def security_section(table: Table, backend: str) -> SecuritySection:
         enabled=table.flag("enabled", default.enabled),
         key_file=_path(table, "key_file"),
         freshness_file=_path(table, "freshness_file"),
-        freshness_block=table.integer("freshness_block", default.freshness_block, FRESHNESS_BLOCK),
         pairing_window_s=table.number(
             "pairing_window_s", default.pairing_window_s, PAIRING_WINDOW_S
         ),
@@ -45,8 +41,8 @@ def security_section(table: Table, backend: str) -> SecuritySection:
         table.refuse(
             "enabled",
             True,
-            "on the robot, authentication needs freshness_file (a restart must"
-            " not forget which freshness values were used)",
+            "on the robot, authentication needs freshness_file (the trip counter a"
+            " restart moves on, so that no frame made before it is accepted after it)",
         )
     table.close()
     return section

@@ -5,6 +5,14 @@ commands, which go to ``inbox`` tagged with the client's number) and, once in ra
 that drains the client's bounded outbox. ``publish`` may be called from any thread (the
 simulator's): it only enqueues, so a slow or stalled client never holds up the bus; when a
 client's outbox is full its frames are dropped and counted.
+
+Loopback is not a wall: any web page in a browser on this machine can open a connection to it
+(an HTTP POST whose body reads as socketcand commands). So the server takes nothing but the
+protocol: from the first byte a client sends, anything that is not printable ASCII inside
+``< >`` (an HTTP request line, a byte above 0x7F) gets one ``< error … >`` line and the
+connection closed, before any command of it is acted on. At most `MAX_CONNECTIONS` clients are
+served at once (two threads each), and one that has not reached raw mode within
+`HANDSHAKE_S` is closed: idle connections cannot pile up threads. Counted in `refused`.
 """
 
 from __future__ import annotations
@@ -18,6 +26,7 @@ import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
 
+from bywire.accepting import Slots, accepted
 from bywire.errors import ConfigError, FrameError
 from bywire.loopback import Endpoint
 from bywire.netbus import socketcand
@@ -29,6 +38,8 @@ ACCEPT_POLL_S = 0.1  # how often the accepting thread looks at the stop flag
 # python-can's client reads each handshake reply with a single recv(): frames must not share
 # the TCP segment of the final "< ok >", so they start flowing a moment after it.
 HANDSHAKE_SETTLE_S = 0.05
+MAX_CONNECTIONS = 16  # clients at once: python-can, cantools, bywire monitor, a few more
+HANDSHAKE_S = 5.0  # from connecting to raw mode: python-can takes a few ms
 _STOP = None
 
 
@@ -48,7 +59,14 @@ class SocketcandServer:
     ``publish(…, origin=n)`` sends a frame to every client in raw mode except client ``n``.
     """
 
-    def __init__(self, endpoint: Endpoint, channel: str = CHANNEL) -> None:
+    def __init__(
+        self,
+        endpoint: Endpoint,
+        channel: str = CHANNEL,
+        *,
+        max_connections: int = MAX_CONNECTIONS,
+        handshake_s: float = HANDSHAKE_S,
+    ) -> None:
         family = socket.AF_INET6 if ":" in endpoint.host else socket.AF_INET
         try:
             self._listener = socket.create_server((endpoint.host, endpoint.port), family=family)
@@ -58,6 +76,10 @@ class SocketcandServer:
         self.channel = channel
         self.inbox: queue.SimpleQueue[tuple[int, socketcand.SendRequest]] = queue.SimpleQueue()
         self.dropped_frames = 0
+        self.refused = 0
+        """Connections closed for not speaking the protocol, over the limit, or too slow."""
+        self._slots = Slots(max_connections)
+        self._handshake_s = handshake_s
         self._clients: list[_Client] = []
         self._lock = threading.Lock()
         self._stopping = threading.Event()
@@ -100,7 +122,9 @@ class SocketcandServer:
             clients = list(self._clients)
         for client in clients:
             client.outbox.put(_STOP)
-        for thread in self._threads:
+        with self._lock:
+            threads = list(self._threads)
+        for thread in threads:
             thread.join(timeout=2 * SOCKET_TIMEOUT_S + 1.0)
         self._listener.close()
 
@@ -114,31 +138,47 @@ class SocketcandServer:
 
     def _spawn(self, target: Callable[..., None], name: str, *args: object) -> None:
         thread = threading.Thread(target=target, args=args, name=name, daemon=True)
-        self._threads.append(thread)
+        with self._lock:  # the ended ones go: a long run serves many short connections
+            self._threads = [*(t for t in self._threads if t.is_alive()), thread]
         thread.start()
 
     def _accept_loop(self) -> None:
-        while not self._stopping.is_set():
-            try:
-                sock, _ = self._listener.accept()
-            except TimeoutError:
-                continue
-            except OSError:
-                return
+        for sock in accepted(self._listener, self._stopping):
             sock.settimeout(SOCKET_TIMEOUT_S)
             sock.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
+            if not self._slots.take():
+                self._refuse(sock, f"too many connections ({self._slots.limit} at most)")
+                continue
             client = _Client(next(self._numbers), sock)
             self._spawn(self._serve, f"socketcand-client-{client.number}", client)
+
+    def _refuse(self, sock: socket.socket, reason: str) -> None:
+        """One error line and the connection closed; never waits on the client."""
+        self.refused += 1
+        with contextlib.suppress(OSError):
+            sock.setblocking(False)
+            sock.send(socketcand.error(reason).encode("ascii"))
+        _close(sock)
 
     def _serve(self, client: _Client) -> None:
         """The client's reader: handshake, then its send commands, until it or the server ends."""
         try:
             client.sock.sendall(socketcand.HELLO.encode("ascii"))
             self._read_commands(client)
+        except socketcand.ProtocolError as error:
+            self.refused += 1
+            line = socketcand.error(str(error))
+            if client.writing:
+                client.outbox.put(line)  # the writer sends it, then closes at the stop mark
+            else:
+                with contextlib.suppress(OSError):
+                    client.sock.setblocking(False)
+                    client.sock.send(line.encode("ascii"))
         except OSError:
             pass
         finally:
             self._forget(client)
+            self._slots.give()
             if client.writing:
                 client.outbox.put(_STOP)
             else:
@@ -146,14 +186,18 @@ class SocketcandServer:
 
     def _read_commands(self, client: _Client) -> None:
         buffer, state = "", "opening"
+        deadline_s = time.monotonic() + self._handshake_s
         while not self._stopping.is_set():
+            if state != "raw" and time.monotonic() > deadline_s:
+                raise socketcand.ProtocolError(f"no raw mode within {self._handshake_s:g} s")
             try:
                 chunk = client.sock.recv(4096)
             except TimeoutError:
                 continue
             if not chunk:
                 return
-            commands, buffer = socketcand.split_commands(buffer + chunk.decode("ascii", "replace"))
+            text = socketcand.ascii_text(chunk)
+            commands, buffer = socketcand.split_commands(buffer + text)
             for command in commands:
                 state = self._handle(client, state, command)
 

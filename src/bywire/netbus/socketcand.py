@@ -11,8 +11,10 @@ A session, as python-can's ``socketcand`` interface and cantools speak it::
     < frame 201 1712.000500 0011223344556677 >      every frame on the bus (id hex, time s.us)
                              <--   < send 101 8 1 2 3 4 5 6 7 8 >   a frame for the bus (hex)
 
-Ids of three hex digits are standard (11-bit), eight digits extended. Anything else gets
-``< error … >``. Reference: github.com/linux-can/socketcand, doc/protocol.md.
+Ids of three hex digits are standard (11-bit), eight digits extended. A command the session
+cannot take gets ``< error … >``; bytes that are not the protocol at all (not ASCII, text outside
+the brackets, an endless command) are a `ProtocolError`, and the server closes the connection.
+Reference: github.com/linux-can/socketcand, doc/protocol.md.
 """
 
 from __future__ import annotations
@@ -47,21 +49,48 @@ def frame_line(arbitration_id: int, timestamp_s: float, data: bytes, extended: b
     return f"< frame {frame_id} {seconds}.{micros:06d} {data.hex().upper()} >"
 
 
+class ProtocolError(FrameError):
+    """What a client sent is not the socketcand protocol: the connection is closed."""
+
+
+PRINTABLE = frozenset(range(0x20, 0x7F)) | frozenset(b"\t\n\r")
+
+
+def ascii_text(data: bytes) -> str:
+    """The bytes as text; ProtocolError for a byte that is not printable ASCII or white space
+    (the protocol has no other)."""
+    bad = next((byte for byte in data if byte not in PRINTABLE), None)
+    if bad is not None:
+        raise ProtocolError(f"byte 0x{bad:02X} is not ASCII text: not the socketcand protocol")
+    return data.decode("ascii")
+
+
 def split_commands(buffer: str) -> tuple[list[str], str]:
     """Complete ``< … >`` commands in ``buffer`` (stripped of the brackets) and the rest.
 
-    Text outside brackets is dropped, and so is an unfinished command longer than any valid one.
+    ProtocolError for anything else: text outside the brackets other than white space (an HTTP
+    request line, say: a web page's POST must not get its body read as commands), a ``<`` inside
+    a command, or an unfinished command longer than any valid one.
     """
     commands: list[str] = []
     while True:
         start = buffer.find("<")
+        outside = buffer if start < 0 else buffer[:start]
+        if outside.strip():
+            raise ProtocolError(
+                f"{outside.strip().splitlines()[0][:40]!r} outside < >: not the socketcand protocol"
+            )
         if start < 0:
             return commands, ""
         end = buffer.find(">", start)
+        inner = buffer[start + 1 : end if end >= 0 else len(buffer)]
+        if "<" in inner:
+            raise ProtocolError("'<' inside a command: not the socketcand protocol")
         if end < 0:
-            rest = buffer[start:]
-            return commands, rest if len(rest) <= MAX_COMMAND_CHARS else ""
-        commands.append(buffer[start + 1 : end].strip())
+            if len(inner) >= MAX_COMMAND_CHARS:
+                raise ProtocolError(f"a command longer than {MAX_COMMAND_CHARS} characters")
+            return commands, buffer[start:]
+        commands.append(inner.strip())
         buffer = buffer[end + 1 :]
 
 

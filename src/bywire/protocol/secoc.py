@@ -19,6 +19,21 @@ Profile 3 ("JASPAR"): 48-bit truncated MAC, 16 low bits of the 64-bit freshness 
 receiver rebuilds the full value as the smallest one above the last it accepted with those low
 bits, so it can only move forward. Pure: no I/O, no clock, no state.
 
+The freshness value is AUTOSAR's trip-counter form, with the receiver as freshness master::
+
+    64-bit freshness value = trip counter (32 bits) || message counter (32 bits)
+
+The controller increments its trip counter at every start (persisted before it accepts anything)
+and announces it, authenticated, in `TripCounter` (0x206) and its cryptographic PDU (0x216)::
+
+    TripCounter, 7 bytes              TripCounterSecOC, 8 bytes (freshness low 16 bits: 0)
+    byte 0..3   trip counter (Intel)  MAC over data id 0x206 || the 7 bytes
+    byte 4..6   key check value         || freshness (trip counter << 32)
+
+A sender signs with the announced trip counter and its own message counter for that trip (from 1,
+per data id); the controller accepts only its current trip: a frame made before this start,
+replayed or pre-played, can never verify.
+
 `cryptography` is imported when a key is made, not with this module: its native core maps 11 MB,
 which a robot without `[security]` should not load (nor lock, with `[realtime] lock_memory`).
 """
@@ -42,6 +57,12 @@ FRESHNESS_BYTES = 8  # the full value, as it enters the MAC
 AUTH_ID_OFFSET = 0x10  # cryptographic PDU id = authentic PDU id + this
 AUTH_PDU_BYTES = 2 + MAC_BYTES
 DATA_ID_BYTES = 2
+COUNTER_BITS = 32  # the message counter: the low half of the freshness value
+MAX_TRIP = (1 << 32) - 1
+MAX_COUNTER = (1 << COUNTER_BITS) - 1
+TRIP_ID = 0x206  # the controller's TripCounter announcement; its cryptographic PDU at +0x10
+TRIP_PAYLOAD_BYTES = 7
+KEY_CHECK_DIGITS = 6
 _DATA_ID = struct.Struct(">H")
 _FRESHNESS = struct.Struct(">Q")
 
@@ -131,3 +152,53 @@ def verified_freshness(
     freshness = rebuilt_freshness(last_accepted, authenticator.freshness_low)
     expected = truncated_mac(key, data_id, payload, freshness)
     return freshness if hmac.compare_digest(expected, authenticator.mac) else None
+
+
+# --- the trip counter: the freshness value's high half, owned by the controller ---------------
+
+
+def freshness_value(trip: int, counter: int) -> int:
+    """The 64-bit freshness value of message `counter` (1 and up) in trip `trip`."""
+    if not (0 <= trip <= MAX_TRIP and 0 <= counter <= MAX_COUNTER):
+        raise ValueError(f"trip {trip} or counter {counter} outside 32 bits")
+    return trip << COUNTER_BITS | counter
+
+
+def trip_of(freshness: int) -> int:
+    """The trip counter a freshness value belongs to."""
+    return freshness >> COUNTER_BITS
+
+
+class TripAnnouncement(NamedTuple):
+    """The controller's trip counter as announced, with the check value of its key."""
+
+    trip: int
+    key_check: str
+
+
+def trip_frames(key: SecocKey, trip: int) -> tuple[tuple[int, bytes], tuple[int, bytes]]:
+    """The announcement of `trip`: (id, payload) of TripCounter and of its cryptographic PDU."""
+    payload = trip.to_bytes(4, "little") + int(key.check_value, 16).to_bytes(3, "little")
+    pdu = encode_authenticator(key, TRIP_ID, payload, freshness_value(trip, 0))
+    return (TRIP_ID, payload), (auth_id(TRIP_ID), pdu)
+
+
+def decode_trip(payload: bytes) -> TripAnnouncement:
+    """A TripCounter payload; FrameError when its length is not TRIP_PAYLOAD_BYTES."""
+    if len(payload) != TRIP_PAYLOAD_BYTES:
+        raise FrameError(f"TripCounter of {len(payload)} bytes, expected {TRIP_PAYLOAD_BYTES}")
+    key_check = int.from_bytes(payload[4:7], "little")
+    return TripAnnouncement(int.from_bytes(payload[:4], "little"), f"{key_check:06X}")
+
+
+def verified_trip(key: SecocKey, payload: bytes, pdu: bytes) -> int | None:
+    """The trip counter of an announcement whose MAC verifies with this key, else None."""
+    try:
+        announced = decode_trip(payload)
+        authenticator = decode_authenticator(pdu)
+    except FrameError:
+        return None
+    freshness = freshness_value(announced.trip, 0)
+    expected = truncated_mac(key, TRIP_ID, payload, freshness)
+    genuine = authenticator.freshness_low == 0 and hmac.compare_digest(expected, authenticator.mac)
+    return announced.trip if genuine else None

@@ -1,9 +1,12 @@
 """C source of the SecOC signing helper: AES-128, CMAC (RFC 4493) and the cryptographic PDU.
 
 `bywire dbc codegen` writes it beside cantools' code and the CRC helper, so firmware that sends
-authenticated commands does not write its own: `<name>_secoc_authenticate` fills the 8-byte
-cryptographic PDU of a command frame exactly as `bywire.protocol.secoc.encode_authenticator`
-does (tested byte for byte, and against RFC 4493's vectors). The AES is a small, portable,
+authenticated commands does not write its own: `<name>_secoc_trip_verify` checks the
+controller's trip counter announcement as `bywire.protocol.secoc.verified_trip` does,
+`<name>_secoc_freshness` builds the freshness value from that trip and the sender's message
+counter, and `<name>_secoc_authenticate` fills the 8-byte cryptographic PDU of a command frame
+exactly as `bywire.protocol.secoc.encode_authenticator` does (tested byte for byte, and against
+RFC 4493's vectors). The AES is a small, portable,
 table-driven encryption-only implementation (no decryption is needed for CMAC); it is not
 hardened against timing or power analysis. A microcontroller with an AES peripheral (STM32
 CRYP/AES, or a mbedTLS/PSA driver) defines `<NAME>_SECOC_EXTERNAL_AES` and provides
@@ -12,7 +15,14 @@ CRYP/AES, or a mbedTLS/PSA driver) defines `<NAME>_SECOC_EXTERNAL_AES` and provi
 
 from __future__ import annotations
 
-from bywire.protocol.secoc import AUTH_ID_OFFSET, AUTH_PDU_BYTES, MAC_BYTES
+from bywire.protocol.secoc import (
+    AUTH_ID_OFFSET,
+    AUTH_PDU_BYTES,
+    COUNTER_BITS,
+    MAC_BYTES,
+    TRIP_ID,
+    TRIP_PAYLOAD_BYTES,
+)
 
 
 def _sbox() -> list[int]:
@@ -49,9 +59,15 @@ def header(name: str) -> str:
  *   bytes 0-1  the 16 low bits of the 64-bit freshness value, little-endian
  *   bytes 2-7  the first 6 bytes of AES-128-CMAC(key, id (2 bytes big-endian) || payload
  *              (every byte, CRC included) || freshness (8 bytes big-endian))
- * The freshness value goes up by at least 1 per frame of that id and must survive restarts:
- * persist it ahead in blocks (docs/SECURITY.md). Define {upper}_SECOC_EXTERNAL_AES to
- * provide {name}_aes128_encrypt yourself (hardware AES).
+ * The freshness value is the controller's trip counter << {COUNTER_BITS} | a message counter:
+ * - the trip counter comes from the controller's announcement, TripCounter (0x{TRIP_ID:03X}, 7
+ *   bytes) followed by its cryptographic PDU (0x{TRIP_ID + AUTH_ID_OFFSET:03X}): take it only
+ *   when {name}_secoc_trip_verify says it verifies, never one below the last you took, and
+ *   send nothing before you have one;
+ * - the message counter starts at 1 for each command id in each new trip and goes up by at
+ *   least 1 per frame; within a trip it must survive the sender's restarts: persist it ahead
+ *   in blocks (docs/SECURITY.md).
+ * Define {upper}_SECOC_EXTERNAL_AES to provide {name}_aes128_encrypt yourself (hardware AES).
  */
 #ifndef {upper}_SECOC_H
 #define {upper}_SECOC_H
@@ -80,6 +96,18 @@ void {name}_cmac(const struct {name}_secoc_key_t *key_p, const uint8_t *data_p, 
 
 /* The cryptographic PDU's id for a command id. */
 uint32_t {name}_secoc_auth_id(uint32_t frame_id);
+
+#define {upper}_SECOC_TRIP_ID (0x{TRIP_ID:03X}u)
+#define {upper}_SECOC_TRIP_LENGTH ({TRIP_PAYLOAD_BYTES}u)
+
+/* The 64-bit freshness value of message counter `counter` in trip `trip`. */
+uint64_t {name}_secoc_freshness(uint32_t trip, uint32_t counter);
+
+/* 1 and the trip counter in *trip_p when the announcement (the 7-byte TripCounter payload and
+ * the 8-byte PDU that followed it) verifies with this key; 0 otherwise (*trip_p unchanged). */
+int {name}_secoc_trip_verify(const struct {name}_secoc_key_t *key_p,
+                             const uint8_t payload[{TRIP_PAYLOAD_BYTES}],
+                             const uint8_t pdu[{AUTH_PDU_BYTES}], uint32_t *trip_p);
 
 /* Fill the 8-byte cryptographic PDU of a command frame (payload of at most 8 bytes). */
 void {name}_secoc_authenticate(const struct {name}_secoc_key_t *key_p, uint32_t frame_id,
@@ -246,5 +274,31 @@ void {name}_secoc_authenticate(const struct {name}_secoc_key_t *key_p, uint32_t 
     pdu[0] = (uint8_t)(freshness & 0xffu);
     pdu[1] = (uint8_t)((freshness >> 8) & 0xffu);
     memcpy(&pdu[2], mac, {upper}_SECOC_MAC_LENGTH);
+}}
+
+uint64_t {name}_secoc_freshness(uint32_t trip, uint32_t counter)
+{{
+    return ((uint64_t)trip << {COUNTER_BITS}) | (uint64_t)counter;
+}}
+
+int {name}_secoc_trip_verify(const struct {name}_secoc_key_t *key_p,
+                             const uint8_t payload[{TRIP_PAYLOAD_BYTES}],
+                             const uint8_t pdu[{AUTH_PDU_BYTES}], uint32_t *trip_p)
+{{
+    uint8_t expected[{AUTH_PDU_BYTES}];
+    uint8_t difference = 0u;
+    uint32_t trip = (uint32_t)payload[0] | ((uint32_t)payload[1] << 8) |
+                    ((uint32_t)payload[2] << 16) | ((uint32_t)payload[3] << 24);
+
+    {name}_secoc_authenticate(key_p, {upper}_SECOC_TRIP_ID, payload, {upper}_SECOC_TRIP_LENGTH,
+                              {name}_secoc_freshness(trip, 0u), expected);
+    for (size_t i = 0u; i < {AUTH_PDU_BYTES}u; i++) {{ /* constant time */
+        difference = (uint8_t)(difference | (expected[i] ^ pdu[i]));
+    }}
+    if (difference != 0u) {{
+        return 0;
+    }}
+    *trip_p = trip;
+    return 1;
 }}
 """

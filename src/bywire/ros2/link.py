@@ -34,7 +34,7 @@ from bywire.ros2.robot import RobotStatus, robot_status
 from bywire.ros2.setpoint import Refusal, Setpoint, admit
 from bywire.ros2.settings import BridgeSettings, Geometry
 from bywire.runtime.realtime import SCHED_FIX
-from bywire.security.session import SecocSigner
+from bywire.security.session import TRIP_IDS, SecocSigner
 from bywire.teleop.frames import SEND_PERIOD_S, Counters, frames
 from bywire.teleop.reports import ReportView, fold
 from bywire.teleop.state import TeleopState
@@ -258,6 +258,10 @@ class CanLink:
         while (message := self._next_message()) is not None:
             if message.is_error_frame or message.is_extended_id:
                 continue
+            if self._signer is not None and message.arbitration_id in TRIP_IDS:
+                with contextlib.suppress(OSError):  # a new trip not written: not taken, retried
+                    self._signer.hear(message.arbitration_id, bytes(message.data))
+                continue
             self._health = replace(self._health, frames_received=self._health.frames_received + 1)
             bad_before = self._view.bad_frames
             self._view = fold(self._view, message.arbitration_id, bytes(message.data), now_s)
@@ -277,10 +281,15 @@ class CanLink:
         return self.bus.recv(timeout=0.0)
 
     def _send(self, state: TeleopState) -> None:
+        signer = self._signer
+        if signer is not None and not signer.ready:
+            return  # nothing can be signed before the robot's trip counter is heard
         period_frames, self._counters = frames(state, self._counters)
         for frame_id, data in period_frames:
-            if self._send_frame(frame_id, data) and self._signer is not None:
-                authenticator = self._signer.authenticator(frame_id, data)
+            authenticator = None if signer is None else signer.authenticator(frame_id, data)
+            if signer is not None and authenticator is None:
+                continue  # unsigned commands are never sent
+            if self._send_frame(frame_id, data) and authenticator is not None:
                 self._send_frame(authenticator.arbitration_id, authenticator.data)
 
     def _send_frame(self, frame_id: int, data: bytes) -> bool:

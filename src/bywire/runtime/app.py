@@ -98,6 +98,7 @@ class Runtime:
             config.control.supervisor.debounce_frames,
         )
         self.can = CanReader(hardware.can, config.rx_checks, secoc=secoc)
+        self._announcement = () if secoc is None else secoc.announcement
         self.overruns = Overruns(config.actuators.budgets)
         self.actuators = Actuators(hardware, config.actuators, self.overruns)
         self.started_at = self.clock.now()
@@ -335,6 +336,10 @@ class Runtime:
                 self.tx_faults.happened(now)
                 return
             self.reports_sent += 1
+        for frame_id, payload in self._announcement:  # SecOC: the trip counter senders sign in
+            if not self.hardware.can.send(CanFrame(frame_id, payload, now)):
+                self.tx_faults.happened(now)
+                return
 
 
 def _changed_writes(before: ControlOutputs | None, after: ControlOutputs) -> frozenset[TaskFn]:

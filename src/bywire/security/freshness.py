@@ -1,80 +1,103 @@
-"""Freshness values that survive restarts: reserved ahead on disk in blocks, never reused.
+"""A sender's freshness: the controller's trip counter it signs with, and its message counters in
+that trip, reserved ahead on disk in blocks so that a restarted sender never reuses one.
 
-Per data id (CAN id) the store keeps a *bound*: no value above it was ever sent (sender) or
-accepted (receiver). A value is used only once the bound on disk covers it (write-ahead): when
-a value reaches the durable bound's last half block, a background thread writes the bound one
-block further (temporary file, fsync, rename: a crash leaves the old file or the new one); only
-if that write has not landed when the value passes the bound is it written in line. After a
-restart the bound on disk is where the sender resumes (one above it) and the receiver's floor
-(it accepts only above it): a crash loses at most a block of unused values, never reuses one.
+The freshness value is trip counter << 32 | message counter (`bywire.protocol.secoc`). The trip
+is the controller's, taken from its authenticated announcement (`adopt`); in a new trip every
+message counter starts again at 1. A lower trip than the one in the file is refused: either an
+old announcement replayed, or a controller whose freshness file was rolled back.
 
-The file also names the key it belongs to by its check value: a new key starts every id at 0
-(frames made with the old key fail their MAC anyway). A missing file starts at 0 too; the
-caller says so (losing the file with an old key opens a replay window: make a new key, see
-docs/SECURITY.md).
+Per data id (CAN id) the store keeps a *bound*: no counter above it was ever sent in this trip. A
+value is used only once the bound on disk covers it (write-ahead): when a value reaches the
+durable bound's last half block, a background thread writes the bound one block further; only if
+that write has not landed when the value passes the bound is it written in line (`OSError` then:
+the value must not be used). After a restart in the same trip the sender resumes one above its
+bound. The file is this sender's only: its loss costs liveness (the controller, which accepted
+higher counters in this trip, rejects the lower ones until its next start), never safety.
 """
 
 from __future__ import annotations
 
 import contextlib
-import json
-import os
-import tempfile
+import enum
 import threading
 from pathlib import Path
 
 from bywire.errors import ConfigError
 from bywire.priority import leave_realtime
-from bywire.protocol.secoc import SecocKey
+from bywire.protocol.secoc import MAX_COUNTER, MAX_TRIP, SecocKey
+from bywire.security.state_file import Problem, StateFileError, read_state, whole, write_state
 
 DEFAULT_BLOCK = 32
-FILE_MODE = 0o600
+KIND = "bywire sender freshness 1"
+WHAT = "sender's freshness file"
+MAX_DATA_ID = 0x7FF
+
+
+class Adoption(enum.Enum):
+    """What an announced trip counter means to this sender."""
+
+    SAME = "the trip this sender signs in: its counters go on"
+    NEW = "a new trip: every counter starts again at 1"
+    LOWER = "below the trip this sender used: refused (a replayed announcement, or a rollback)"
 
 
 class FreshnessStore:
-    """The per-id bounds of one end (sender or receiver); in memory when `path` is None."""
+    """A sender's trip and per-id bounds; in memory when `path` is None.
+
+    ConfigError at construction for a file that is damaged, another key's or out of range (a
+    missing one is a first start)."""
 
     def __init__(self, key: SecocKey, path: Path | None = None, block: int = DEFAULT_BLOCK) -> None:
         if block < 2:
             raise ValueError(f"freshness block {block}: at least 2")
         self.path = path
         self.block = block
-        self._key_check = key.check_value
-        self.found = False
-        """A file for this key was there at start (False: every id starts at 0)."""
-        self._durable = self._load(path) if path is not None else {}
-        self.start_bounds = dict(self._durable)
-        self._wanted = dict(self._durable)
+        self._key = key
+        self.trip, durable = self._load(path) if path is not None else (0, {})
+        """The trip counter the bounds belong to (0: none yet)."""
+        self._durable = durable
+        self.start_bounds = dict(durable)
+        self._wanted = dict(durable)
         self._lock = threading.Lock()
         self._write_lock = threading.Lock()
         self._pending = threading.Event()
         self._closed = False
         self._writer: threading.Thread | None = None
 
+    def adopt(self, trip: int) -> Adoption:
+        """Take the controller's announced trip counter (verified by the caller). A new trip is
+        on the disk before this returns (OSError otherwise, and it is not taken)."""
+        if trip < self.trip:
+            return Adoption.LOWER
+        if trip == self.trip:
+            return Adoption.SAME
+        with self._write_lock:
+            if self.path is not None:
+                write_state(self.path, self._key, KIND, _fields(trip, {}))
+            with self._lock:
+                self.trip, self._durable, self._wanted, self.start_bounds = trip, {}, {}, {}
+        return Adoption.NEW
+
     def bound(self, data_id: int) -> int:
-        """The bound loaded at start: every value up to it may have been used before."""
+        """The bound at the start of this trip (or of this process): every counter up to it may
+        have been used before."""
         return self.start_bounds.get(data_id, 0)
 
     def reserve(self, data_id: int, value: int) -> None:
-        """Make sure `value` is covered on disk before it is sent or accepted; OSError when
-        the file cannot be written (the value must then not be used)."""
+        """Make sure counter `value` is covered on disk before it is sent; OSError when the file
+        cannot be written (the value must then not be used)."""
         if self.path is None:
             return
         durable = self._durable.get(data_id, 0)
         if value > durable:  # the background write fell behind, or the first use: in line
             with self._lock:
-                self._wanted[data_id] = max(self._wanted.get(data_id, 0), value + self.block)
+                wanted = min(max(self._wanted.get(data_id, 0), value + self.block), MAX_COUNTER)
+                self._wanted[data_id] = wanted
             self._flush()
         elif durable - value < self.block // 2 and self._wanted.get(data_id, 0) <= durable:
             with self._lock:
-                self._wanted[data_id] = durable + self.block
+                self._wanted[data_id] = min(durable + self.block, MAX_COUNTER)
             self._wake_writer()
-
-    def save(self) -> None:
-        """Write the bounds as they are (at start-up: the file exists and can be written)."""
-        with self._write_lock:
-            if self.path is not None:
-                _write_atomically(self.path, self._key_check, dict(self._durable))
 
     def halt(self) -> None:
         """Stop writing at once, pending writes lost, as a killed process does (restart tests)."""
@@ -89,38 +112,39 @@ class FreshnessStore:
         self._pending.set()
         if self._writer is not None:
             self._writer.join()
-        self._flush()
+        with contextlib.suppress(OSError):  # nothing is lost: what was used is on disk
+            self._flush()
 
     # --- the file -----------------------------------------------------------------------------
 
-    def _load(self, path: Path) -> dict[int, int]:
+    def _load(self, path: Path) -> tuple[int, dict[int, int]]:
         try:
-            text = path.read_text(encoding="utf-8")
-        except FileNotFoundError:
-            return {}
-        except OSError as error:
-            raise ConfigError(f"{path}: cannot read freshness file: {error}") from None
-        try:
-            document = json.loads(text)
-            bounds = {int(k): int(v) for k, v in document["bounds"].items()}
-            key_check = str(document["key_check"])
-        except (ValueError, KeyError, TypeError, AttributeError):
+            fields = read_state(path, self._key, KIND, WHAT)
+        except StateFileError as error:
+            if error.problem is Problem.MISSING:
+                return 0, {}
             raise ConfigError(
-                f"{path}: not a bywire freshness file (docs/SECURITY.md: resynchronising)"
+                f"{error}: move it away to start this sender afresh (the robot then accepts"
+                " it after its next restart)"
             ) from None
-        if key_check != self._key_check:
-            return {}  # a new key: its values start afresh
-        self.found = True
-        return bounds
+        trip = whole(fields.get("trip"), 0, MAX_TRIP)
+        counters = fields.get("counters")
+        bounds = _bounds(counters) if isinstance(counters, dict) else None
+        if set(fields) != {"trip", "counters"} or trip is None or bounds is None:
+            raise ConfigError(
+                f"{path}: {WHAT} has a field out of range (trip 0..{MAX_TRIP}, counters"
+                f" 0..{MAX_COUNTER} by CAN id 0..{MAX_DATA_ID}): move it away to start afresh"
+            )
+        return trip, bounds
 
     def _flush(self) -> None:
         with self._write_lock:
             path = self.path
             with self._lock:
-                snapshot = dict(self._wanted)
+                snapshot, trip = dict(self._wanted), self.trip
             if path is None or snapshot == self._durable:
                 return
-            _write_atomically(path, self._key_check, snapshot)
+            write_state(path, self._key, KIND, _fields(trip, snapshot))
             self._durable = snapshot
 
     def _wake_writer(self) -> None:
@@ -130,7 +154,7 @@ class FreshnessStore:
         self._pending.set()
 
     def _write_loop(self) -> None:
-        leave_realtime()  # persisting counters never competes with the loop at its priority
+        leave_realtime()  # persisting counters never competes with the sending at its priority
         while not self._closed:
             self._pending.wait()
             self._pending.clear()
@@ -138,18 +162,16 @@ class FreshnessStore:
                 self._flush()
 
 
-def _write_atomically(path: Path, key_check: str, bounds: dict[int, int]) -> None:
-    document = {"key_check": key_check, "bounds": {str(k): v for k, v in sorted(bounds.items())}}
-    descriptor, temporary = tempfile.mkstemp(prefix=path.name + ".", dir=path.parent)
-    os.fchmod(descriptor, FILE_MODE)
-    with os.fdopen(descriptor, "w", encoding="utf-8") as file:
-        file.write(json.dumps(document) + "\n")
-        file.flush()
-        os.fsync(file.fileno())
-    os.replace(temporary, path)
-    with contextlib.suppress(OSError):  # make the rename itself durable where the OS allows
-        directory = os.open(path.parent, os.O_RDONLY)
-        try:
-            os.fsync(directory)
-        finally:
-            os.close(directory)
+def _fields(trip: int, bounds: dict[int, int]) -> dict[str, object]:
+    return {"trip": trip, "counters": {str(k): v for k, v in sorted(bounds.items())}}
+
+
+def _bounds(counters: dict[str, object]) -> dict[int, int] | None:
+    bounds: dict[int, int] = {}
+    for name, value in counters.items():
+        data_id = whole(int(name), 0, MAX_DATA_ID) if name.isdecimal() and len(name) < 5 else None
+        bound = whole(value, 0, MAX_COUNTER)
+        if data_id is None or bound is None:
+            return None
+        bounds[data_id] = bound
+    return bounds

@@ -8,12 +8,12 @@ import secrets
 from pathlib import Path
 
 from bywire.config.security import SecuritySection
-from bywire.errors import ConfigError
 from bywire.protocol import dbc
 from bywire.protocol.secoc import KEY_BYTES, SecocKey
 from bywire.security.freshness import FreshnessStore
 from bywire.security.keys import read_key_file
 from bywire.security.session import SecocReceiver, SecocSigner
+from bywire.security.trip import IN_MEMORY_TRIP, RECOVERY, start_trip
 
 
 def configured_key(security: SecuritySection) -> SecocKey:
@@ -32,21 +32,23 @@ def simulated_run_key(security: SecuritySection, seed: int) -> SecocKey:
     return SecocKey(random.Random(f"secoc-key-{seed}").randbytes(KEY_BYTES))
 
 
-def controller_receiver(security: SecuritySection, key: SecocKey) -> SecocReceiver:
-    """The CAN reader's verifier, its freshness persisted when the configuration names a file.
-
-    The file is written once here, unchanged, before the loop runs: a state directory that
-    cannot be written is an error at start-up, not at the first command.
-    """
-    path = None if security.freshness_file is None else Path(security.freshness_file)
-    store = FreshnessStore(key, path, security.freshness_block)
-    try:
-        store.save()
-    except OSError as error:
-        raise ConfigError(f"{path}: cannot write freshness file: {error.strerror}") from None
-    return SecocReceiver(key, store, dbc.command_ids(), security.pairing_window_s)
+def controller_receiver(
+    security: SecuritySection, key: SecocKey, config_path: str | None = None
+) -> SecocReceiver:
+    """The CAN reader's verifier in this start's trip: with a freshness file, the trip counter
+    moved on and on the disk before this returns (FreshnessError, one line naming the
+    recovery, when the file is missing, damaged, another key's, or cannot be written); without
+    one (a simulated run), always the same trip in memory. `config_path`: the robot file, named
+    in the recovery command."""
+    trip = IN_MEMORY_TRIP
+    if security.freshness_file is not None:
+        recovery = RECOVERY.replace("ROBOT.toml", config_path or "ROBOT.toml")
+        trip = start_trip(Path(security.freshness_file), key, recovery=recovery)
+    return SecocReceiver(key, trip, dbc.command_ids(), security.pairing_window_s)
 
 
 def sender_signer(key: SecocKey, path: Path | None = None, block: int = 32) -> SecocSigner:
-    """A sender's signer; its freshness persisted in `path` (None: in memory)."""
+    """A sender's signer; its freshness persisted in `path` (None: in memory). Feed it every
+    frame from the controller (`SecocSigner.hear`): it signs once it has the trip counter.
+    ConfigError for a damaged file or one of another key."""
     return SecocSigner(key, FreshnessStore(key, path, block))

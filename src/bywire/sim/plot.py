@@ -82,7 +82,7 @@ def _mode_panel(axes: Axes, times_s: list[float], samples: list[Observation]) ->
 
 
 def _panels(figure: Figure, run: SimRun) -> list[Axes]:
-    samples = run.record.samples
+    samples = list(run.record.samples)
     times_s = [s.time_s - run.started_at for s in samples]
     command, drive, brake_steer, motion, mode = figure.subplots(5, 1, sharex=True)
     _lines(

@@ -32,6 +32,7 @@ from bywire.sim.conditions import conditions_hold
 from bywire.sim.faults import BY_NAME
 from bywire.sim.observe import Observation, observe
 from bywire.sim.scenario import Event, Expectation, Scenario
+from bywire.sim.trace import Trace
 
 RECORD_PERIOD_S = 0.010  # the plot's resolution; expectations see every pass of the loop
 SAFE_SEARCH_S = 2.0  # how long after a fault the run looks for safe outputs
@@ -74,13 +75,32 @@ class FaultTiming:
 class RunRecord:
     """Everything a run leaves for the summary, the plot and the checks."""
 
-    samples: list[Observation] = field(default_factory=list)
+    samples: Trace[Observation] = field(default_factory=Trace)
+    """What the plot draws: one observation every RECORD_PERIOD_S, thinned on a long run."""
     verdicts: list[Verdict] = field(default_factory=list)
     fault_timings: list[FaultTiming] = field(default_factory=list)
     top_speed_mps: float = 0.0
     ended_by: str | None = None  # the output failure that ended the controller, if one did
     error_flags_seen: int = 0  # once the robot had been armed (or had left power-up)
     power_up_flags: int = 0  # while still in the power-up state, before the first arming
+
+
+def run_clock(
+    scenario: Scenario, *, realtime: bool = False, speed: float | None = None
+) -> VirtualClock:
+    """A run's clock: virtual (as fast as it goes) unless `realtime`, the scenario or `speed`
+    asks for the wall clock; at `speed` N (SITL's `--speed`) N simulated seconds a wall second.
+    ConfigError for a speed a real-time scenario (one that stalls the loop in real time)
+    cannot keep."""
+    scaled = speed is not None and speed != 1.0
+    if scaled and scenario.realtime:
+        raise ConfigError(
+            f"--speed {speed:g}: scenario {scenario.name!r} stalls the loop in real time,"
+            " which a faster clock cannot (drop --speed)"
+        )
+    if scaled:
+        return ScaledRealtimeClock(speed=speed or 1.0)
+    return RealtimeClock() if realtime or scenario.realtime or speed is not None else VirtualClock()
 
 
 class SimRun:
@@ -93,24 +113,22 @@ class SimRun:
         *,
         realtime: bool = False,
         duration_s: float | None = None,
+        clock: VirtualClock | None = None,
         speed: float | None = None,
     ) -> None:
-        """`speed`: paced by the wall clock at that many times real time (`--speed N`)."""
+        """`clock`: one made beforehand with `run_clock` (real time when the run is), so that
+        what must be running before the controller's first pass (the telemetry writer) can start
+        on it first; by default `run_clock(scenario, realtime=..., speed=...)`. `speed`: paced by
+        the wall clock at that many times real time (`--speed N`)."""
         self.robot = robot
         self.scenario = scenario
         self.duration_s = scenario.duration_s if duration_s is None else duration_s
-        realtime = realtime or scenario.realtime or speed is not None
-        scaled = speed is not None and speed != 1.0
-        if scaled and scenario.realtime:
-            raise ConfigError(
-                f"--speed {speed:g}: scenario {scenario.name!r} stalls the loop in real time,"
-                " which a faster clock cannot (drop --speed)"
-            )
-        clock: VirtualClock
-        if scaled:
-            clock = ScaledRealtimeClock(speed=speed or 1.0)
-        else:
-            clock = RealtimeClock() if realtime else VirtualClock()
+        if clock is None:
+            clock = run_clock(scenario, realtime=realtime, speed=speed)
+        elif (realtime or scenario.realtime) and not isinstance(clock, RealtimeClock):
+            raise ValueError(f"{scenario.name} runs on real time; the clock given is virtual")
+        realtime = isinstance(clock, RealtimeClock)
+        scaled = isinstance(clock, ScaledRealtimeClock) and clock.speed != 1.0
         self.world: SimWorld = SimWorld.from_robot(clock, robot)
         # The watchdog's own thread measures the wall clock: only where the run is paced 1:1 by
         # it; elsewhere a timer checks it on the run's clock.

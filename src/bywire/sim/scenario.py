@@ -41,10 +41,18 @@ from typing import Any
 
 import tomli_w
 
+from bywire.config.reader import show, show_key, toml_type
 from bywire.errors import ConfigError
 from bywire.sim.conditions import CONDITIONS as CONDITION_TABLE
 from bywire.sim.faults import FAULTS as FAULT_TABLE
-from bywire.sim.scenario_values import ACTION_VALUES, FAULT_VALUES, Check
+from bywire.sim.scenario_values import (
+    ACTION_VALUES,
+    FAULT_VALUES,
+    SECONDS,
+    SECONDS_TEXT,
+    Check,
+)
+from bywire.textfile import read_text
 
 ACTIONS = {action: set(keys) for action, keys in ACTION_VALUES.items()}
 """Every action and its keys, from the table that also checks their values."""
@@ -59,6 +67,7 @@ SENSORS = {
 """The optional sensors a scenario may need (`needs_sensors`), as a sentence names them."""
 EVENT_KEYS = {"at_s", "label", "fault", "count", "load", "stall_s", "line", "keyed", *ACTIONS}
 EXPECT_KEYS = {"after", "within_s", "during_s", "at_s", "label", *CONDITIONS}
+DEFAULT_DURATION_S = 30.0
 
 
 @dataclass(frozen=True, slots=True)
@@ -125,20 +134,42 @@ def _refuse(
 
 
 def _key(where: str, key: str) -> str:
-    return f"{where}.{key}" if where else key
+    shown = show_key(str(key))
+    return f"{where}.{shown}" if where else shown
 
 
 def _check_keys(table: dict[str, Any], allowed: set[str], origin: str, where: str) -> None:
     for key in table:
         if key not in allowed:
-            raise _refuse(origin, _key(where, key), "unknown key", allowed)
+            raise _refuse(origin, _key(where, key), "unknown key", allowed, str(key))
+
+
+def _table(value: Any, origin: str, where: str, what: str) -> dict[str, Any]:
+    if not isinstance(value, dict):
+        raise _refuse(origin, where, f"must be {what}, got {toml_type(value)} {show(value)}")
+    return value
+
+
+def _tables(document: dict[str, Any], key: str, origin: str) -> list[dict[str, Any]]:
+    """`[[key]]`: an array of tables (none when absent)."""
+    value = document.get(key, [])
+    if not isinstance(value, list) or not all(isinstance(item, dict) for item in value):
+        raise _refuse(origin, key, f"must be an array of tables ([[{key}]]), got {show(value)}")
+    return value
 
 
 def _time(table: dict[str, Any], key: str, origin: str, where: str) -> float:
     value = table.get(key)
-    if isinstance(value, bool) or not isinstance(value, int | float) or value < 0:
-        raise _refuse(origin, _key(where, key), f"must be a time in seconds ≥ 0, got {value!r}")
-    return float(value)
+    if isinstance(value, int | float) and SECONDS(value) is None:
+        return float(value)
+    raise _refuse(origin, _key(where, key), f"got {value!r}; allowed: {SECONDS_TEXT}")
+
+
+def _text(table: dict[str, Any], key: str, origin: str, where: str) -> str | None:
+    value = table.get(key)
+    if value is not None and not (isinstance(value, str) and value.strip()):
+        raise _refuse(origin, _key(where, key), f"must be a non-empty string, got {show(value)}")
+    return value
 
 
 def _event(table: dict[str, Any], origin: str, where: str) -> Event:
@@ -149,9 +180,9 @@ def _event(table: dict[str, Any], origin: str, where: str) -> Event:
     kind = kinds[0]
     if kind == "fault":
         fault = table["fault"]
-        if fault not in FAULTS:
+        if not isinstance(fault, str) or fault not in FAULTS:
             raise _refuse(
-                origin, f"{where}.fault", f"unknown fault {fault!r}", set(FAULTS), str(fault)
+                origin, f"{where}.fault", f"unknown fault {show(fault)}", set(FAULTS), str(fault)
             )
         values = {
             "fault": fault,
@@ -163,10 +194,11 @@ def _event(table: dict[str, Any], origin: str, where: str) -> Event:
         }
         _check_values(values, FAULT_VALUES, origin, where)
     else:
-        values = dict(table[kind])
+        values = dict(_table(table[kind], origin, f"{where}.{kind}", "a table { key = value }"))
         _check_keys(values, ACTIONS[kind], origin, f"{where}.{kind}")
         _check_values(values, ACTION_VALUES[kind], origin, f"{where}.{kind}")
-    return Event(_time(table, "at_s", origin, where), kind, values, table.get("label"))
+    label = _text(table, "label", origin, where)
+    return Event(_time(table, "at_s", origin, where), kind, values, label)
 
 
 def _check_values(table: dict[str, Any], checks: dict[str, Check], origin: str, where: str) -> None:
@@ -182,13 +214,13 @@ def _expectation(table: dict[str, Any], origin: str, where: str, labels: set[str
     if not conditions:
         raise _refuse(origin, where, "needs at least one condition", set(CONDITIONS))
     _check_values(conditions, CONDITION_VALUES, origin, where)
+    label = _text(table, "label", origin, where)
     after = table.get("after")
     if after is not None:
-        if after not in labels:
+        if not isinstance(after, str) or after not in labels:
             raise _refuse(
-                origin, f"{where}.after", f"no event is labelled {after!r}", labels, after
+                origin, f"{where}.after", f"no event is labelled {show(after)}", labels, str(after)
             )
-        label = table.get("label")
         if ("within_s" in table) == ("during_s" in table):
             raise _refuse(origin, where, "with `after`, give exactly one of within_s, during_s")
         if "during_s" in table:
@@ -197,15 +229,17 @@ def _expectation(table: dict[str, Any], origin: str, where: str, labels: set[str
         within_s = _time(table, "within_s", origin, where)
         return Expectation(conditions, after=after, within_s=within_s, label=label)
     at_s = _time(table, "at_s", origin, where)
-    return Expectation(conditions, at_s=at_s, label=table.get("label"))
+    return Expectation(conditions, at_s=at_s, label=label)
 
 
 def parse_scenario(text: str, origin: str) -> Scenario:
     """A scenario from TOML text; ConfigError naming the key and what is allowed otherwise."""
     try:
         document = tomllib.loads(text)
-    except tomllib.TOMLDecodeError as error:
+    except ValueError as error:  # TOMLDecodeError, or an integer of too many digits
         raise ConfigError(f"{origin}: not valid TOML: {error}") from error
+    except RecursionError:
+        raise ConfigError(f"{origin}: not valid TOML: nested too deep") from None
     top_keys = {
         "name",
         "description",
@@ -219,18 +253,21 @@ def parse_scenario(text: str, origin: str) -> Scenario:
     _check_keys(document, top_keys, origin, "")
     events = [
         _event(table, origin, f"event[{index}]")
-        for index, table in enumerate(document.get("event", []))
+        for index, table in enumerate(_tables(document, "event", origin))
     ]
     labels = {event.label for event in events if event.label}
     expectations = [
         _expectation(table, origin, f"expect[{index}]", labels)
-        for index, table in enumerate(document.get("expect", []))
+        for index, table in enumerate(_tables(document, "expect", origin))
     ]
-    duration_s = _time(document, "duration_s", origin, "") if "duration_s" in document else 30.0
+    duration_s = _duration(document, origin)
     _within_duration(events, expectations, duration_s, origin)
+    description = document.get("description", "")
+    if not isinstance(description, str):
+        raise _refuse(origin, "description", f"must be a string, got {show(description)}")
     return Scenario(
-        name=str(document.get("name", Path(origin).stem)),
-        description=str(document.get("description", "")),
+        name=_text(document, "name", origin, "") or Path(origin).stem,
+        description=description,
         duration_s=duration_s,
         events=tuple(sorted(events, key=lambda event: event.at_s)),
         expectations=tuple(expectations),
@@ -245,17 +282,26 @@ def _needs_sensors(document: dict[str, Any], origin: str) -> tuple[str, ...]:
     if not isinstance(names, list):
         raise _refuse(origin, "needs_sensors", f"must be a list of sensor names, got {names!r}")
     for name in names:
-        if name not in SENSORS:
+        if not isinstance(name, str) or name not in SENSORS:
             raise _refuse(
                 origin, "needs_sensors", f"unknown sensor {name!r}", set(SENSORS), str(name)
             )
     return tuple(names)
 
 
+def _duration(document: dict[str, Any], origin: str) -> float:
+    if "duration_s" not in document:
+        return DEFAULT_DURATION_S
+    duration_s = _time(document, "duration_s", origin, "")
+    if duration_s <= 0:
+        raise _refuse(origin, "duration_s", f"got {show(duration_s)}; allowed: {SECONDS_TEXT} > 0")
+    return duration_s
+
+
 def _authenticated(document: dict[str, Any], origin: str) -> bool:
     authenticated = document.get("authenticated", False)
     if not isinstance(authenticated, bool):
-        raise _refuse(origin, "authenticated", f"must be true or false, got {authenticated!r}")
+        raise _refuse(origin, "authenticated", f"must be true or false, got {show(authenticated)}")
     return authenticated
 
 
@@ -282,7 +328,7 @@ def _within_duration(
 def _realtime(document: dict[str, Any], events: list[Event], origin: str) -> bool:
     realtime = document.get("realtime", False)
     if not isinstance(realtime, bool):
-        raise _refuse(origin, "realtime", f"must be true or false, got {realtime!r}")
+        raise _refuse(origin, "realtime", f"must be true or false, got {show(realtime)}")
     if not realtime and any(event.values.get("fault") == "loop_stall" for event in events):
         raise _refuse(origin, "realtime", "a loop_stall needs realtime = true")
     return realtime
@@ -334,9 +380,6 @@ _FAULT_VALUE_KEYS = ("fault", "count", "load", "stall_s", "line", "keyed")
 
 
 def load_scenario(path: Path) -> Scenario:
-    """Read and parse a scenario file; ConfigError naming the path if it cannot be read."""
-    try:
-        text = path.read_text(encoding="utf-8")
-    except OSError as error:
-        raise ConfigError(f"cannot read scenario {path}: {error.strerror}") from error
-    return parse_scenario(text, str(path))
+    """Read and parse a scenario file; ConfigError (one line) naming the path if it cannot be
+    read: missing, not a regular file (a FIFO, a device), too large, or not UTF-8."""
+    return parse_scenario(read_text(path, "scenario file"), str(path))

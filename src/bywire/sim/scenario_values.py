@@ -6,6 +6,7 @@ from __future__ import annotations
 from collections.abc import Callable
 from typing import Any
 
+from bywire.config.reader import finite
 from bywire.model import LIGHT_REQUESTS
 
 Check = Callable[[Any], str | None]
@@ -16,13 +17,15 @@ GEARS = ("forward", "neutral", "reverse")
 
 
 def number(low: float, high: float, unit: str = "") -> Check:
-    """A number (not a bool) in low..high."""
+    """A finite number (not a bool) in low..high (nan, inf and an integer too big for a float
+    are outside every range)."""
     allowed = f"a number in {low:g}..{high:g}{' ' + unit if unit else ''}"
 
     def check(value: Any) -> str | None:
         if isinstance(value, bool) or not isinstance(value, int | float):
             return allowed
-        return None if low <= value <= high else allowed
+        number = finite(value)
+        return None if number is not None and low <= number <= high else allowed
 
     return check
 
@@ -53,6 +56,9 @@ def flag(value: Any) -> str | None:
     return None if isinstance(value, bool) else "true or false"
 
 
+MAX_SECONDS = 86_400.0  # a day of simulated time: a scenario is minutes; verify's are 10 s
+SECONDS = number(0.0, MAX_SECONDS, "s")
+SECONDS_TEXT = f"a time in 0..{MAX_SECONDS:g} s"
 NORM = number(-1.0, 1.0)
 UNIT = number(0.0, 1.0)
 

@@ -119,14 +119,14 @@ def build_summary(run: SimRun, wall_s: float, bus: BusTally | None = None) -> Su
     """The summary of `run` after `run.run()` returned; `wall_s` is how long it took."""
     start_s = run.started_at
     simulated_s = min(run.world.clock.now() - start_s, run.duration_s)
-    samples = run.record.samples
+    last = run.record.samples.last
     return Summary(
         scenario=run.scenario.name,
         description=run.scenario.description,
         simulated_s=simulated_s,
         wall_s=wall_s,
         speedup=simulated_s / wall_s if wall_s > 0 else 0.0,
-        distance_m=samples[-1].distance_m if samples else 0.0,
+        distance_m=0.0 if last is None else last.distance_m,
         top_speed_mps=run.record.top_speed_mps,
         mode_changes=tuple(ModeChange(at - start_s, m.name) for at, m in run.runtime.mode_log),
         events=_labelled_events(run),

@@ -36,6 +36,8 @@ class FeedOptions:
     foxglove: Endpoint | ListenAddress | None = None
     rate_hz: float = DEFAULT_RATE_HZ
     capacity: int = DEFAULT_CAPACITY
+    origins: tuple[str, ...] = ()
+    """Web page origins the Foxglove server lets in (none: only clients that are no page)."""
 
     @property
     def wanted(self) -> bool:
@@ -110,7 +112,11 @@ def open_sinks(
         # Spawned outside the loop's real-time priority: the child and its threads inherit it.
         process = outside_realtime(
             lambda: WriterProcess(
-                queue, mcap_path=options.mcap_path, foxglove=options.foxglove, log_offset_s=offset_s
+                queue,
+                mcap_path=options.mcap_path,
+                foxglove=options.foxglove,
+                log_offset_s=offset_s,
+                origins=options.origins,
             )
         )
         try:
@@ -135,7 +141,7 @@ def _start(writer: TelemetryWriter, options: FeedOptions) -> int | None:
     """Open the sinks and start the writer's thread; the server's port, if it serves."""
     if options.mcap_path is not None:
         writer.record(options.mcap_path)
-    port = None if options.foxglove is None else writer.serve(options.foxglove)
+    port = None if options.foxglove is None else writer.serve(options.foxglove, options.origins)
     writer.start()
     return port
 

@@ -128,24 +128,29 @@ class FoxgloveTopics:
             for topic, schema in can_message_schemas(self._database).items()
         }
 
-    def write(self, capture: Capture, log_time_ns: int) -> None:
+    def write(self, capture: Capture, log_time_ns: int) -> int:
+        """Log what `capture` adds to these topics; how many messages that was (0 or 1)."""
         if isinstance(capture, StateCapture):
             self._flags.log(_json(flags_message(capture)), log_time=log_time_ns)
         elif isinstance(capture, EventCapture):
             self._log.log(log_message(capture), log_time=log_time_ns)
         elif isinstance(capture, CanCapture):
-            self._decoded(capture, log_time_ns)
+            return self._decoded(capture, log_time_ns)
         elif isinstance(capture, PoseCapture):
             self._pose_of(capture, log_time_ns)
+        else:
+            return 0
+        return 1
 
-    def _decoded(self, capture: CanCapture, log_time_ns: int) -> None:
+    def _decoded(self, capture: CanCapture, log_time_ns: int) -> int:
         try:
             message = self._database.get_message_by_frame_id(capture.arbitration_id)
             signals = message.decode_simple(capture.data, decode_choices=False, scaling=True)
         except (KeyError, ValueError, cantools.database.errors.DecodeError):
-            return  # not in the DBC, or a frame it cannot read: /bywire/can has it
+            return 0  # not in the DBC, or a frame it cannot read: /bywire/can has it
         body = {"time_s": capture.time_s, "sender": capture.sender, **signals}
         self._can[CAN_MESSAGES_PREFIX + message.name].log(_json(body), log_time=log_time_ns)
+        return 1
 
     def _pose_of(self, capture: PoseCapture, log_time_ns: int) -> None:
         stamp = _stamp(capture.time_s)

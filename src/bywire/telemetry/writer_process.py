@@ -73,6 +73,7 @@ class WriterProcess:
         foxglove: Endpoint | ListenAddress | None,
         log_offset_s: float,
         start_timeout_s: float = START_TIMEOUT_S,
+        origins: tuple[str, ...] = (),
     ) -> None:
         self._outbox = outbox
         offset_ns = round(log_offset_s * 1e9)
@@ -81,6 +82,7 @@ class WriterProcess:
             command += ["--mcap", str(mcap_path)]
         if foxglove is not None:
             command += ["--host", foxglove.host, "--port", str(foxglove.port)]
+            command += [f"--origin={origin}" for origin in origins]
         self._process = subprocess.Popen(
             command, stdin=subprocess.PIPE, stdout=subprocess.PIPE, start_new_session=True
         )
@@ -225,6 +227,7 @@ def _parser() -> argparse.ArgumentParser:
     parser.add_argument("--mcap", type=Path)
     parser.add_argument("--host")
     parser.add_argument("--port", type=int)
+    parser.add_argument("--origin", action="append", default=[])
     return parser
 
 
@@ -244,7 +247,7 @@ def main(argv: list[str] | None = None) -> int:
         if args.mcap is not None:
             writer.record(args.mcap)
         if args.host is not None:
-            port = writer.serve(ListenAddress(args.host, args.port))
+            port = writer.serve(ListenAddress(args.host, args.port), tuple(args.origin))
     except ConfigError as error:
         writer.close(0.0)
         print(json.dumps({"error": str(error)}), flush=True)

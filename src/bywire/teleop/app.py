@@ -30,9 +30,9 @@ from textual.binding import BindingType
 from textual.widgets import Static
 
 from bywire.quit_keys import QUIT_BINDINGS
-from bywire.security.session import SecocSigner
+from bywire.security.session import TRIP_IDS, SecocSigner
 from bywire.teleop.frames import SEND_PERIOD_S, Counters, frames
-from bywire.teleop.reports import ReportView, command_lines, fold, report_lines
+from bywire.teleop.reports import ReportView, command_lines, fold, report_lines, signing_line
 from bywire.teleop.sender import PeriodicSender, SendGaps
 from bywire.teleop.state import KEYS, TeleopState, advance, help_line, press
 
@@ -82,6 +82,7 @@ class TeleopApp(App[None]):
         self.view = ReportView()
         self.frames_sent = 0
         self.send_errors = 0
+        self.freshness_problem: str | None = None
         self._now = now
         self._auto_tick = auto_tick
         self._reader: can.BufferedReader | None = can.BufferedReader() if notifier else None
@@ -139,10 +140,16 @@ class TeleopApp(App[None]):
             self.gaps.sent(now_s)
 
     def _send(self, state: TeleopState) -> None:
+        signer = self.signer
+        if signer is not None and not signer.ready:
+            return  # nothing can be signed before the robot's trip counter is heard
         period_frames, self.counters = frames(state, self.counters)
         for frame_id, data in period_frames:
-            if self._send_frame(frame_id, data) and self.signer is not None:
-                authenticator = self.signer.authenticator(frame_id, data)
+            authenticator = None if signer is None else signer.authenticator(frame_id, data)
+            if signer is not None and authenticator is None:
+                self.send_errors += 1  # unsigned commands are never sent
+                continue
+            if self._send_frame(frame_id, data) and authenticator is not None:
                 self._send_frame(authenticator.arbitration_id, authenticator.data)
 
     def _send_frame(self, frame_id: int, data: bytes) -> bool:
@@ -159,7 +166,19 @@ class TeleopApp(App[None]):
         while (message := self._next_message()) is not None:
             if not message.is_error_frame and not message.is_extended_id:
                 data = bytes(message.data)
-                self.view = fold(self.view, message.arbitration_id, data, now_s)
+                if self.signer is not None and message.arbitration_id in TRIP_IDS:
+                    self._hear(message.arbitration_id, data)
+                else:
+                    self.view = fold(self.view, message.arbitration_id, data, now_s)
+
+    def _hear(self, frame_id: int, data: bytes) -> None:
+        assert self.signer is not None
+        try:
+            self.signer.hear(frame_id, data)
+        except OSError as error:
+            self.freshness_problem = f"cannot write the freshness file: {error.strerror}"
+        else:
+            self.freshness_problem = None
 
     def _next_message(self) -> can.Message | None:
         if self._reader is not None:
@@ -170,8 +189,10 @@ class TeleopApp(App[None]):
         with self._lock:
             state, view = self.state, self.view
             sent = f"frames sent {self.frames_sent}  send errors {self.send_errors}"
+            signer = self.signer
+            signing = [] if signer is None else [signing_line(signer, self.freshness_problem)]
         pad = [] if self.gamepad is None else [self.gamepad.status()]
-        commands = Text("\n".join([*command_lines(state), sent, *pad]) + "\n")
+        commands = Text("\n".join([*command_lines(state), sent, *signing, *pad]) + "\n")
         commands.append(self.gaps.line(), style="bold red" if self.gaps.late else "")
         self.query_one("#commands", Static).update(commands)
         self.query_one("#reports", Static).update(Text("\n".join(report_lines(view, now_s))))

@@ -22,6 +22,7 @@ from bywire.model import (
     WheelSpeedReport,
 )
 from bywire.protocol import dbc
+from bywire.security.session import SecocSigner
 from bywire.teleop.state import TeleopState
 
 NEVER = "—"
@@ -173,3 +174,24 @@ def command_lines(state: TeleopState) -> list[str]:
         f"  brake {state.brake_norm:.2f}  gear {state.gear.name}",
         f"sending lights {lights}  control {control}",
     ]
+
+
+def signing_line(signer: SecocSigner, problem: str | None = None) -> str:
+    """What the signer of authenticated commands is doing, in one line."""
+    if problem is not None:
+        return f"SecOC: not signing: {problem}"
+    if signer.refused_trip is not None:
+        return (
+            f"SecOC: not signing: the robot announced trip {signer.refused_trip}, below trip"
+            f" {signer.store.trip} this sender used: a replayed announcement, or the robot's"
+            f" freshness file was rolled back (on the robot: bywire keys reset-freshness --trip"
+            f" {signer.store.trip})"
+        )
+    if signer.trip is None and signer.announced_key_check is not None:
+        return (
+            f"SecOC: not signing: the robot's key check value is {signer.announced_key_check},"
+            " this key's is another: give the robot's key (--key)"
+        )
+    if signer.trip is None:
+        return "SecOC: waiting for the robot's trip counter (authentication must be on there)"
+    return f"SecOC: signing in trip {signer.trip}"

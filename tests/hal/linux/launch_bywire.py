@@ -8,8 +8,10 @@ Usage: python launch_bywire.py HLC_DIR CAN_CHANNEL -- BYWIRE_ARGS...
 - CAN: python-can's virtual bus exists only inside one process, so the higher-level computer
   runs here, on a second virtual bus: every 20 ms it sends the MovementCommand that the test
   wrote to HLC_DIR/movement.json (nothing while there is none) and counts the reports it
-  receives into HLC_DIR/reports.json. With a key file HLC_DIR/hlc.key it signs each command
-  (SecOC cryptographic PDU), its freshness kept in HLC_DIR/freshness.json.
+  receives into HLC_DIR/reports.json. With a key file HLC_DIR/private/hlc.key (in a folder only
+  its owner may write, as bywire requires of a key's folder) it signs each command
+  (SecOC cryptographic PDU) in the trip the controller announces, its freshness kept in
+  HLC_DIR/freshness.json.
 """
 
 from __future__ import annotations
@@ -35,6 +37,7 @@ from bywire.cli.main import main  # noqa: E402
 from bywire.model import Gear, ModeReport, MovementCommand  # noqa: E402
 from bywire.protocol import dbc  # noqa: E402
 from bywire.security.keys import read_key_file  # noqa: E402
+from bywire.security.session import TRIP_IDS  # noqa: E402
 from bywire.security.setup import sender_signer  # noqa: E402
 
 PERIOD_S = 0.02
@@ -43,7 +46,7 @@ PERIOD_S = 0.02
 def higher_level_computer(folder: Path, channel: str, stop: threading.Event) -> None:
     bus = can.Bus(interface="virtual", channel=channel)
     counter, counts, mode, armed = 0, 0, None, None
-    key = folder / "hlc.key"
+    key = folder / "private" / "hlc.key"
     signer = sender_signer(read_key_file(key), folder / "freshness.json") if key.exists() else None
     try:
         while not stop.wait(PERIOD_S):
@@ -55,16 +58,22 @@ def higher_level_computer(folder: Path, channel: str, stop: threading.Event) -> 
                     Gear[fields["gear"].upper()], counter,
                 )  # fmt: skip
                 frame_id, payload = dbc.encode_command(movement)
-                bus.send(can.Message(arbitration_id=frame_id, data=payload, is_extended_id=False))
-                if signer is not None:
-                    auth = signer.authenticator(frame_id, payload)
-                    bus.send(
-                        can.Message(
-                            arbitration_id=auth.arbitration_id, data=auth.data, is_extended_id=False
+                auth = None if signer is None else signer.authenticator(frame_id, payload)
+                if signer is None or auth is not None:  # unsigned: wait for the trip counter
+                    frames = [(frame_id, payload)]
+                    frames += [] if auth is None else [(auth.arbitration_id, auth.data)]
+                    for arbitration_id, data in frames:
+                        bus.send(
+                            can.Message(
+                                arbitration_id=arbitration_id, data=data, is_extended_id=False
+                            )
                         )
-                    )
-                counter = (counter + 1) % dbc.COUNTER_MODULUS
+                    counter = (counter + 1) % dbc.COUNTER_MODULUS
             while (message := bus.recv(0)) is not None:
+                if message.arbitration_id in TRIP_IDS:
+                    if signer is not None:
+                        signer.hear(message.arbitration_id, bytes(message.data))
+                    continue
                 counts += 1
                 report = dbc.decode_report(message.arbitration_id, bytes(message.data))
                 if isinstance(report, ModeReport):

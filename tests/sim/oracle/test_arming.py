@@ -135,3 +135,20 @@ def test_leaving_stop_clears_what_the_switch_acknowledged() -> None:
     p.ledger.owed[Cause.RC_LINK_LOST] = 0.1
     p.arming.set_switch(RC, 0.5)
     assert p.ledger.owed == {}
+
+
+def test_a_bouncing_switch_s_stop_is_due_from_its_first_stop_frame() -> None:
+    # Of `frames` bouncing frames the last reads STOP: an even count starts with one at the
+    # switch's own position, so its first STOP frame goes out a frame later (merge31: a drawn
+    # robot with 19.6 ms frames and 200 Hz tasks stopped on that frame's next pass).
+    def deadline_after(frames: int) -> float | None:
+        p = _left_stop_for(RC)
+        p.arming.resolve(1.0)
+        p.arming.chatter(frames, 2.0)
+        return p.ledger.deadline_s
+
+    odd, even = deadline_after(7), deadline_after(8)
+    assert odd == 2.0 + TIMING.deadline_s(Cause.SWITCH_STOP)
+    assert even is not None
+    assert odd is not None
+    assert abs(even - (odd + TIMING.frame_s)) < 1e-12

@@ -28,7 +28,7 @@ from bywire.model import (
     Report,
 )
 from bywire.protocol import dbc, dbc_values
-from bywire.security.session import SecocSigner
+from bywire.security.session import TRIP_IDS, SecocSigner
 
 COMMAND_PERIOD_S = 0.02
 ARRIVAL_HISTORY = 1000  # report arrival times kept per report type
@@ -84,12 +84,16 @@ class SimHigherLevelComputer:
         self._report_ids = frozenset(dbc.report_ids())
         self.signer: SecocSigner | None = None
         self.doubles_pending = 0  # frames to send twice, same counter and payload
+        self.unsigned_periods = 0  # periods skipped while signing, before a trip counter came
         port.set_listener(self._on_frame)
 
     def sign_with(self, signer: SecocSigner) -> None:
-        """Authenticated commands: each frame is followed by its SecOC cryptographic PDU."""
+        """Authenticated commands: each frame is followed by its SecOC cryptographic PDU, signed
+        in the trip the controller announces (no command goes out before it is heard)."""
         self.signer = signer
         self._port.set_tx_mailboxes(2 * len(COMMAND_TYPES))
+        if self._port.accept_ids is not None:  # its filter lets the trip counter through too
+            self._port.set_filter(self._port.accept_ids | TRIP_IDS)
 
     # --- commands --------------------------------------------------------------------------------
 
@@ -147,6 +151,9 @@ class SimHigherLevelComputer:
         return self._counters[message]
 
     def _send_commands(self, _tick_s: float) -> None:
+        if self.signer is not None and not self.signer.ready:
+            self.unsigned_periods += 1  # no trip counter heard yet: nothing it could sign
+            return
         for command in (self.control, self.movement, self.lights):
             self._send(command)
 
@@ -159,20 +166,38 @@ class SimHigherLevelComputer:
         command = dataclasses.replace(template, counter=counter)
         frame_id, payload = dbc.encode_command(command)
         payload = _damaged(command, payload, corruption)
+        # Signs what it sends, damage included (E2E judges that), before sending: a command it
+        # cannot sign is not sent at all.
+        authenticator = (
+            None if self.signer is None else self.signer.authenticator(frame_id, payload)
+        )
+        if self.signer is not None and authenticator is None:
+            self.send_refused += 1
+            return
         if not self._port.send(CanFrame(frame_id, payload)):
             self.send_refused += 1
             return
         self.frames_sent += 1
-        if self.signer is not None:  # signs what it sent, damage included: E2E judges that
-            self._port.send(self.signer.authenticator(frame_id, payload))
+        if authenticator is not None:
+            self._port.send(authenticator)
         if self.doubles_pending > 0 and kind is MovementCommand:  # the driver's bug, or redundancy
             self.doubles_pending -= 1
-            if self._port.send(CanFrame(frame_id, payload)):
-                self.frames_sent += 1
-                if self.signer is not None:
-                    self._port.send(self.signer.authenticator(frame_id, payload))
+            self._send_again(frame_id, payload)
         if corruption is not Corruption.REPEATED_COUNTER:
             self._counters[kind] = (counter + 1) % dbc.COUNTER_MODULUS
+
+    def _send_again(self, frame_id: int, payload: bytes) -> None:
+        """The same frame once more, same counter and payload (signed afresh when signing: a
+        sender's freshness value is never used twice)."""
+        authenticator = (
+            None if self.signer is None else self.signer.authenticator(frame_id, payload)
+        )
+        if self.signer is not None and authenticator is None:
+            return
+        if self._port.send(CanFrame(frame_id, payload)):
+            self.frames_sent += 1
+            if authenticator is not None:
+                self._port.send(authenticator)
 
     # --- reports ---------------------------------------------------------------------------------
 
@@ -191,6 +216,9 @@ class SimHigherLevelComputer:
         return list(self._arrivals.get(kind, ()))
 
     def _on_frame(self, frame: CanFrame) -> None:
+        if self.signer is not None and frame.arbitration_id in TRIP_IDS:
+            self.signer.hear(frame.arbitration_id, frame.data)
+            return
         if frame.arbitration_id not in self._report_ids:
             return
         try:

@@ -85,8 +85,11 @@ class SimImpostor:
         if self._port.send(CanFrame(frame_id, payload)):
             self.frames_sent += 1
             signer = self._real.signer
-            if self.keyed and signer is not None:
-                self._port.send(signer.authenticator(frame_id, payload))
+            authenticator = None
+            if self.keyed and signer is not None:  # in the trip the computer heard, if it has
+                authenticator = signer.authenticator(frame_id, payload)
+            if authenticator is not None:
+                self._port.send(authenticator)
             elif self.forge_authenticator:
                 guess = (self.frames_sent * 0x9E3779B97F4A7C15).to_bytes(16, "little")[:8]
                 self._port.send(CanFrame(secoc.auth_id(frame_id), guess))

@@ -27,6 +27,7 @@ floats are written as Python's shortest round-trip repr, so every value reads ba
 
 from __future__ import annotations
 
+import contextlib
 import gzip
 import json
 from collections.abc import Iterable, Iterator
@@ -36,6 +37,7 @@ from typing import IO, Any
 
 from bywire.errors import ConfigError
 from bywire.hal.ports import CanFrame
+from bywire.textfile import check_regular
 
 FORMAT = "bywire-run-record"
 VERSION = 1
@@ -173,7 +175,8 @@ def _open(path: Path, *, writing: bool) -> IO[str]:
 
 
 def write_record(path: Path, header: RecordHeader, events: Iterable[Event]) -> int:
-    """Write a record; returns the number of events. ConfigError when the file cannot be written."""
+    """Write a record; returns the number of events. ConfigError when the file cannot be
+    written (a full disk: the file is cut back to its last whole line, which a reader takes)."""
     count = 0
     try:
         with _open(path, writing=True) as stream:
@@ -182,12 +185,25 @@ def write_record(path: Path, header: RecordHeader, events: Iterable[Event]) -> i
                 stream.write(json.dumps(event, separators=(",", ":")) + "\n")
                 count += 1
     except OSError as error:
-        raise ConfigError(f"cannot write {path}: {error.strerror or error}") from error
+        if path.suffix != ".gz":
+            with contextlib.suppress(OSError):
+                _cut_to_last_line(path)
+        raise ConfigError(
+            f"cannot write {path}: {error.strerror or error}: the record keeps the whole lines"
+            " written before the failure"
+        ) from None
     return count
+
+
+def _cut_to_last_line(path: Path) -> None:
+    with path.open("r+b") as file:
+        data = file.read()
+        file.truncate(data.rfind(b"\n") + 1)
 
 
 def read_record(path: Path) -> RecordedRun:
     """Read a record; ConfigError naming the file and line for anything unreadable."""
+    check_regular(path, "run record")  # /dev/zero or a FIFO would be read for ever
     try:
         with _open(path, writing=False) as stream:
             return _parse(path, enumerate(stream, start=1))

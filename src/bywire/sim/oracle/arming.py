@@ -132,7 +132,10 @@ class ArmingTracker:
         """The mode switch bounces: of the next `frames` frames every other one reads STOP."""
         self.chatter_until = now + (frames + 1) * self.timing.frame_s  # and the one in flight
         if not self.delays.all_may_be_lost(frames, now):
-            self.ledger.request(Cause.SWITCH_STOP, now)
+            # The last of them reads STOP: an even count starts with a frame at the switch's own
+            # position, so the first STOP goes out a frame later (a 19.6 ms frame showed it).
+            first_stop_s = now + self.timing.frame_s * (frames % 2 == 0)
+            self.ledger.request(Cause.SWITCH_STOP, first_stop_s)
 
     def link(self, lost: bool, now: float) -> None:
         """A link lost before the debounce's frames showed the switch's last move hides the
