@@ -69,7 +69,7 @@ def _git(*args: str) -> str:
 def default_base() -> str:
     """The last commit with the old oracle: the newest that changed it and still has it (its
     deleting commit has not; a later change merged from another branch has)."""
-    for commit in _git("log", "--format=%H", "--", OLD_ORACLE).split():
+    for commit in _git("log", "--full-history", "--format=%H", "--", OLD_ORACLE).split():
         exists = subprocess.run(
             ["git", "cat-file", "-e", f"{commit}:{OLD_ORACLE}"],
             cwd=ROOT,
