@@ -1,5 +1,6 @@
 """Robot files a team might write, drawn by hypothesis: every number moved within what the loader
-allows and a real robot could use (`test_other_numbers.py`, `bench/verify_drawn.py`)."""
+allows and a real robot could use
+(`test_other_numbers.py`, `bench/verify_drawn.py`)."""
 
 from __future__ import annotations
 
@@ -19,9 +20,11 @@ def robot_files(draw: st.DrawFn) -> str:
     """A robot file a team might write: every number moved within what the loader allows and a
     real robot could use."""
     rates = [draw(st.sampled_from([25, 50, 100, 200])) for _ in range(3)]
-    rc_ms, can_ms = draw(st.integers(30, 300)), draw(st.integers(45, 300))
+    # Timeouts across the loader's ranges (INPUT_TIMEOUT_S, WATCHDOG_S): R-TIMEOUT's 100 ms and
+    # R-WATCHDOG's 200 ms are defaults; a file is held to its own (tests/sim/oracle/test_timing.py)
+    rc_ms, can_ms = draw(st.integers(30, 1000)), draw(st.integers(45, 1000))
     # the watchdog must outlast two periods of every task (the loader's rule) and the inputs
-    watchdog_ms = draw(st.integers(max(rc_ms, can_ms, 2000 // min(rates) + 1), 500))
+    watchdog_ms = draw(st.integers(max(rc_ms, can_ms, 2000 // min(rates) + 1), 5000))
     sections = {
         "timeouts": {
             "rc_timeout_s": f"{rc_ms / 1000:.3f}",

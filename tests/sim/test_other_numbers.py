@@ -1,6 +1,6 @@
-"""`bywire verify` on other teams' numbers: any robot file within the loader's ranges and free of
-the unsafe combinations `bywire verify` reports first, a few campaigns each, finds nothing on
-the correct robot.
+"""`bywire verify` on other teams' numbers: any robot file within the loader's ranges and
+free of the unsafe combinations `bywire verify` reports
+first, a few campaigns each, finds nothing on the correct robot.
 
 A hand-picked list of other robots (`test_verify.py::OTHER_ROBOTS`) holds the configurations that
 once broke something; this draws new ones. Drawing them (`bywire verify` on 46 drawn files,

@@ -27,7 +27,8 @@ from dataclasses import replace
 from typing import cast
 
 from bywire.model import ControlMode, Gear
-from bywire.sim.campaign import IMPOSTOR_PERIOD_S, OPERATOR, TAIL_S, VOCABULARY, Step
+from bywire.sim.campaign import OPERATOR, TAIL_S, VOCABULARY, Step
+from bywire.sim.fault_rules import IMPOSTOR_PERIOD_S
 
 RC, CAN, STOP = ControlMode.RC, ControlMode.CAN, ControlMode.STOP
 CAMPAIGN_S = 10.0

@@ -20,11 +20,13 @@ from bywire.model import ControlMode
 from bywire.protocol import dac6574
 from bywire.sim.campaign import Campaign, CampaignResult, Step
 from bywire.sim.draw import draw_campaign
-from bywire.sim.oracle import HazardOracle, OracleTiming
+from bywire.sim.oracle import Cause, HazardOracle, Invariant, OracleTiming
+from bywire.sim.oracle.outputs import Outputs
 from bywire.sim.scenario import parse_scenario
 from bywire.sim.verify import run_campaign
 
 RC, CAN = ControlMode.RC, ControlMode.CAN
+H1, H2, H4, H6 = Invariant.H1, Invariant.H2, Invariant.H4, Invariant.H6
 
 ARMED_IN_CAN = """
     { at_s = 0.0, rc = { gear = "forward" } },
@@ -42,11 +44,22 @@ def _violations(events: str, duration_s: float) -> list[str]:
     return [f"{v.invariant} at {v.time_s:.4f}: {v.detail}" for v in result.oracle.violations]
 
 
-def _oracle(robot: RobotConfig | None = None) -> HazardOracle:
+def _oracle(robot: RobotConfig | None = None, *, boosted: bool = False) -> HazardOracle:
     robot = robot or default_sim_config()
     world = SimWorld.from_robot(VirtualClock(), robot)
     dac, timing = robot.drive.dac, OracleTiming.for_robot(robot)
+    timing = replace(timing, steering_boosted=True) if boosted else timing
     return HazardOracle(world, dac.throttle_channel, dac.regen_channel, timing=timing)
+
+
+def _only(oracle: HazardOracle, invariant: Invariant, now: float, **shown: object) -> None:
+    """Judge the hardware as the world shows it at `now`, but with the levels `shown`, and keep
+    what `invariant` alone found (one invariant's check in isolation)."""
+    seen = Outputs.read(oracle.world, oracle.throttle_channel, oracle.regen_channel)
+    before = len(oracle.violations)
+    oracle.judge(replace(seen, **shown), now)  # type: ignore[arg-type]
+    found = oracle.violations[before:]
+    oracle.violations[before:] = [v for v in found if v.invariant is invariant]
 
 
 # --- H2: the switch's move travels in IBUS frames that corruption may delay ---------------------
@@ -68,10 +81,14 @@ def test_h2_still_flags_rc_never_at_zero_once_the_corrupted_frames_are_over() ->
     oracle.set_throttle(RC, 0.2, 1.0)
     oracle.set_switch(RC, 1.5)
     oracle.blind(RC, 1.51, 1.6)
-    settled_s = 1.6 + oracle.timing.settle_s
-    oracle._h2(settled_s - 0.001, 1.0)
+    _h2_flags_from(oracle, 1.6 + oracle.timing.settle_s)
+
+
+def _h2_flags_from(oracle: HazardOracle, settled_s: float) -> None:
+    """Driving on a source never seen at zero is allowed until `settled_s`, H2 after it."""
+    _only(oracle, H2, settled_s - 0.001, enable=True, throttle_volts=1.0)
     assert oracle.violations == []
-    oracle._h2(settled_s + 0.001, 1.0)
+    _only(oracle, H2, settled_s + 0.001, enable=True, throttle_volts=1.0)
     assert [v.invariant for v in oracle.violations] == ["H2"]
 
 
@@ -92,27 +109,27 @@ def test_a_handover_to_rc_before_a_second_sender_is_noticed_lets_rc_drive() -> N
 def _armed_in_can(oracle: HazardOracle) -> None:
     oracle.set_switch(CAN, 0.0)
     oracle.re_enable(0.0)
-    assert oracle.armed_ok
+    assert oracle.ledger.armed
 
 
 def test_h1_still_flags_rc_driving_after_a_can_stop_the_controller_must_have_taken() -> None:
     oracle = _oracle()
     _armed_in_can(oracle)
-    oracle.fault("can_impostor", True, 1.0)
-    deadline_s = oracle.drive_allowed_until
+    oracle.fault(Cause.CAN_IMPOSTOR, True, 1.0)
+    deadline_s = oracle.ledger.deadline_s
     assert deadline_s is not None
     oracle.set_switch(RC, deadline_s + 0.001)  # too late: the controller had stopped by then
-    oracle._h1(deadline_s + 0.1, True, True, 0.0)
+    _only(oracle, H1, deadline_s + 0.1, enable=True, released=True, throttle_volts=0.0)
     assert [v.invariant for v in oracle.violations] == ["H1"]
 
 
 def test_h1_still_flags_a_handover_that_an_rc_bound_stop_forbids() -> None:
     oracle = _oracle()
     _armed_in_can(oracle)
-    oracle.fault("can_impostor", True, 1.0)
-    oracle.fault("dac_fail", True, 1.01)  # stops every source, not only CAN
+    oracle.fault(Cause.CAN_IMPOSTOR, True, 1.0)
+    oracle.fault(Cause.DAC_FAIL, True, 1.01)  # stops every source, not only CAN
     oracle.set_switch(RC, 1.02)
-    oracle._h1(1.5, True, True, 0.0)
+    _only(oracle, H1, 1.5, enable=True, released=True, throttle_volts=0.0)
     assert [v.invariant for v in oracle.violations] == ["H1"]
 
 
@@ -139,8 +156,8 @@ def _driving_after_a_stop(back_s: float) -> list[str]:
     oracle.blind(RC, 1.0, 1.077)
     oracle.set_switch(ControlMode.STOP, 1.03)
     oracle.set_switch(CAN, back_s)
-    oracle._resolve_arming(1.5)  # the debounce is over: back at CAN with the throttle pushed
-    oracle._h1(1.5, True, True, 1.0)
+    oracle.arming.resolve(1.5)  # the debounce is over: back at CAN with the throttle pushed
+    _only(oracle, H1, 1.5, enable=True, released=True, throttle_volts=1.0)
     return [v.invariant for v in oracle.violations]
 
 
@@ -180,7 +197,7 @@ def test_h2_still_flags_a_handover_to_rc_after_can_had_settled() -> None:
     oracle.set_switch(CAN, 1.121)
     oracle.set_throttle(RC, 0.2, 1.5)
     oracle.set_switch(RC, 1.5)  # CAN held long past the debounce: a real handover
-    oracle._h2(1.5 + oracle.timing.settle_s + 0.001, 1.0)
+    _only(oracle, H2, 1.5 + oracle.timing.settle_s + 0.001, enable=True, throttle_volts=1.0)
     assert [v.invariant for v in oracle.violations] == ["H2"]
 
 
@@ -207,27 +224,23 @@ def _moved_to_can_at_speed() -> HazardOracle:
 
 def test_h2_judges_a_move_the_lost_link_hid_once_the_link_is_back() -> None:
     oracle = _moved_to_can_at_speed()
-    oracle.fault("rc_link_lost", True, 1.01)
-    oracle._h2(1.3, 1.0)
-    oracle.fault("rc_link_lost", False, 1.5)
-    settled_s = 1.5 + oracle.timing.settle_s
-    oracle._h2(settled_s - 0.001, 1.0)
-    assert oracle.violations == []
-    oracle._h2(settled_s + 0.001, 1.0)
-    assert [v.invariant for v in oracle.violations] == ["H2"]
+    oracle.fault(Cause.RC_LINK_LOST, True, 1.01)
+    _only(oracle, H2, 1.3, enable=True, throttle_volts=1.0)
+    oracle.fault(Cause.RC_LINK_LOST, False, 1.5)
+    _h2_flags_from(oracle, 1.5 + oracle.timing.settle_s)
 
 
 def test_h2_judges_a_move_the_frames_showed_before_the_link_was_lost() -> None:
     oracle = _moved_to_can_at_speed()
-    oracle.fault("rc_link_lost", True, 1.0 + oracle.timing.settle_s + 0.001)
-    oracle._h2(1.0 + oracle.timing.settle_s + 0.002, 1.0)
+    oracle.fault(Cause.RC_LINK_LOST, True, 1.0 + oracle.timing.settle_s + 0.001)
+    _only(oracle, H2, 1.0 + oracle.timing.settle_s + 0.002, enable=True, throttle_volts=1.0)
     assert [v.invariant for v in oracle.violations] == ["H2"]
 
 
 # --- H1: a CAN re-enable re-arms only what CAN may clear (S8) -----------------------------------
 
 
-def _stopped_by(kind: str, began_s: float, ended_s: float) -> HazardOracle:
+def _stopped_by(kind: Cause, began_s: float, ended_s: float) -> HazardOracle:
     """Armed in CAN, then `kind` from `began_s` to `ended_s`, the switch left at CAN."""
     oracle = _oracle()
     _armed_in_can(oracle)
@@ -238,39 +251,39 @@ def _stopped_by(kind: str, began_s: float, ended_s: float) -> HazardOracle:
 
 def _drives_after_re_enable(oracle: HazardOracle, at_s: float) -> list[str]:
     oracle.re_enable(at_s)
-    oracle._h1(at_s + 0.2, True, True, 0.0)
+    _only(oracle, H1, at_s + 0.2, enable=True, released=True, throttle_volts=0.0)
     return [v.invariant for v in oracle.violations]
 
 
 def test_a_re_enable_after_a_lost_rc_link_is_no_arming_act() -> None:
-    oracle = _stopped_by("rc_link_lost", 1.0, 1.5)  # RC_LOST latched: only the switch clears it
+    oracle = _stopped_by(Cause.RC_LINK_LOST, 1.0, 1.5)  # RC_LOST latched: only the switch clears it
     assert _drives_after_re_enable(oracle, 2.0) == ["H1"]
 
 
 def test_a_re_enable_after_a_lost_can_link_arms() -> None:
-    oracle = _stopped_by("can_lost", 1.0, 1.5)  # CAN_LOST: what a re-enable is for
+    oracle = _stopped_by(Cause.CAN_LOST, 1.0, 1.5)  # CAN_LOST: what a re-enable is for
     assert _drives_after_re_enable(oracle, 2.0) == []
 
 
 def test_an_rc_link_lost_shorter_than_its_deadline_may_never_have_latched() -> None:
-    deadline_s = _oracle().timing.deadline_s("rc_link_lost")
-    oracle = _stopped_by("rc_link_lost", 1.0, 1.0 + deadline_s - 0.001)
+    deadline_s = _oracle().timing.deadline_s(Cause.RC_LINK_LOST)
+    oracle = _stopped_by(Cause.RC_LINK_LOST, 1.0, 1.0 + deadline_s - 0.001)
     assert _drives_after_re_enable(oracle, 2.0) == []
 
 
 def test_failing_dac_writes_still_in_force_refuse_a_re_enable_once_surely_latched() -> None:
     oracle = _oracle()
     _armed_in_can(oracle)
-    oracle.fault("dac_fail", True, 1.0)
-    assert oracle._owed(1.1) == set()  # not yet for sure: a re-enable may still arm
-    assert oracle._owed(1.3) == {"dac_fail"}
+    oracle.fault(Cause.DAC_FAIL, True, 1.0)
+    assert oracle.ledger.owed_now(1.1) == set()  # not yet for sure: a re-enable may still arm
+    assert oracle.ledger.owed_now(1.3) == {Cause.DAC_FAIL}
 
 
 def test_after_a_visit_to_stop_a_re_enable_arms_again() -> None:
-    oracle = _stopped_by("rc_link_lost", 1.0, 1.5)
+    oracle = _stopped_by(Cause.RC_LINK_LOST, 1.0, 1.5)
     oracle.set_switch(ControlMode.STOP, 1.6)
     oracle.set_switch(CAN, 1.7)  # the switch's own arming may be refused (throttle): then…
-    oracle.armed_ok = False
+    oracle.ledger.armed = False
     assert _drives_after_re_enable(oracle, 2.0) == []  # …the computer's re-enable arms
 
 
@@ -278,41 +291,43 @@ def test_a_watchdog_trip_is_owed_to_the_switch_unless_it_came_at_stop() -> None:
     oracle = _oracle()
     _armed_in_can(oracle)
     oracle.stall(1.0, 1.25)
-    assert oracle._owed(1.2) == set()
-    assert oracle._owed(1.3) == {"watchdog"}
+    assert oracle.ledger.owed_now(1.2) == set()
+    assert oracle.ledger.owed_now(1.3) == {Cause.WATCHDOG}
     at_stop = _oracle()
     at_stop.set_switch(ControlMode.STOP, 0.5)
     at_stop.stall(1.0, 1.25)
-    assert at_stop._owed(1.3) == set()
+    assert at_stop.ledger.owed_now(1.3) == set()
 
 
 def test_implausible_frames_that_corruption_may_have_hidden_refuse_no_re_enable() -> None:
     seen = _oracle()
     _armed_in_can(seen)
-    seen.stop_event("rc_implausible", 1.0)
-    assert seen._owed(1.1) == {"rc_implausible"}
+    seen.stop_event(Cause.RC_IMPLAUSIBLE, 1.0)
+    assert seen.ledger.owed_now(1.1) == {Cause.RC_IMPLAUSIBLE}
     hidden = _oracle()
     _armed_in_can(hidden)
-    hidden.stop_event("rc_implausible", 1.0)
+    hidden.stop_event(Cause.RC_IMPLAUSIBLE, 1.0)
     hidden.blind(RC, 1.005, 1.05)  # the frames were still to be sent
-    assert hidden._owed(1.1) == set()
+    assert hidden.ledger.owed_now(1.1) == set()
 
 
 def test_failsafe_frames_sent_while_the_link_was_lost_are_not_held_against_a_re_enable() -> None:
     oracle = _oracle()
     _armed_in_can(oracle)
-    oracle.fault("rc_link_lost", True, 1.0)
-    oracle.fault("rc_failsafe", True, 1.01)
-    assert "rc_failsafe" not in oracle._owed(1.5)
-    assert "rc_link_lost" in oracle._owed(1.5)
+    oracle.fault(Cause.RC_LINK_LOST, True, 1.0)
+    oracle.fault(Cause.RC_FAILSAFE, True, 1.01)
+    assert Cause.RC_FAILSAFE not in oracle.ledger.owed_now(1.5)
+    assert Cause.RC_LINK_LOST in oracle.ledger.owed_now(1.5)
 
 
 # --- H5: STOP brakes with the hydraulic brake and holds the steering ---------------------------
 
 
-def _in_stop(steering_pulse_s: float = 0.0015, duty: float = 1.0) -> HazardOracle:
+def _in_stop(
+    steering_pulse_s: float = 0.0015, duty: float = 1.0, *, boosted: bool = False
+) -> HazardOracle:
     """At power-up (the drive must be cut), the brake and the steering as given."""
-    oracle = _oracle()
+    oracle = _oracle(boosted=boosted)
     pwm = oracle.world.pwm
     pwm.hydrobrake.set_pulse(duty * pwm.hydrobrake.period_s)
     pwm.steering.set_pulse(steering_pulse_s)
@@ -341,10 +356,10 @@ def test_h5_holds_the_steering_from_when_the_drive_must_be_cut_not_from_the_stop
     # Armed, the steering turns; a remote stop: until its deadline the controller may still
     # steer, then the pulse must stay where it was at the deadline.
     oracle = _in_stop()
-    oracle._arm_now(1.0, CAN)
+    oracle.arming.arm_now(1.0, CAN)
     oracle.world.pwm.steering.set_pulse(0.0017)
     oracle.observe(1.5)
-    oracle.stop_event("remote_stop", 2.0)
+    oracle.stop_event(Cause.REMOTE_STOP, 2.0)
     oracle.world.pwm.steering.set_pulse(0.0018)
     oracle.observe(2.01)  # before the deadline: the controller may not have acted yet
     oracle.observe(2.5)
@@ -377,21 +392,21 @@ def test_a_stop_that_comes_while_a_write_hangs_is_judged_after_the_loop_runs_aga
     oracle = _oracle()
     _armed_in_can(oracle)
     oracle.hang(1.0, 1.06)
-    oracle.stop_event("remote_stop", 1.01)
+    oracle.stop_event(Cause.REMOTE_STOP, 1.01)
     after_s = 1.06 + 2 * oracle.timing.control_period_s
-    assert 1.01 + oracle.timing.deadline_s("remote_stop") < after_s
-    oracle._h1(after_s - 0.001, True, True, 0.0)
+    assert 1.01 + oracle.timing.deadline_s(Cause.REMOTE_STOP) < after_s
+    _only(oracle, H1, after_s - 0.001, enable=True, released=True, throttle_volts=0.0)
     assert oracle.violations == []
-    oracle._h1(after_s + 0.001, True, True, 0.0)
+    _only(oracle, H1, after_s + 0.001, enable=True, released=True, throttle_volts=0.0)
     assert [v.invariant for v in oracle.violations] == ["H1"]
 
 
 def test_a_stop_whose_deadline_had_passed_before_the_hang_is_not_extended() -> None:
     oracle = _oracle()
     _armed_in_can(oracle)
-    oracle.stop_event("remote_stop", 1.0)
+    oracle.stop_event(Cause.REMOTE_STOP, 1.0)
     oracle.hang(1.2, 1.25)
-    oracle._h1(1.21, True, True, 0.0)
+    _only(oracle, H1, 1.21, enable=True, released=True, throttle_volts=0.0)
     assert [v.invariant for v in oracle.violations] == ["H1"]
 
 
@@ -408,7 +423,7 @@ def _driving_with(oracle: HazardOracle, throttle_code: int, duty: float) -> None
 
 def _h6_after(oracle: HazardOracle, *times_s: float) -> list[str]:
     for now in times_s:
-        oracle._h6(now, True, oracle.world.dac.volts(oracle.throttle_channel))
+        _only(oracle, H6, now, enable=True)
     return [v.invariant for v in oracle.violations]
 
 
@@ -423,7 +438,7 @@ def test_h6_flags_throttle_with_the_brake_for_longer_than_a_control_period() -> 
 def test_h6_leaves_a_dac_whose_writes_fail_to_the_enable_line() -> None:
     oracle = _oracle()
     _driving_with(oracle, 128, 1.0)
-    oracle.fault("dac_fail", True, 0.5)
+    oracle.fault(Cause.DAC_FAIL, True, 0.5)
     assert _h6_after(oracle, 1.0, 1.1, 1.2) == []
     assert _h6_after(oracle, 1.0, 1.1, 1.2) == []
 
@@ -452,8 +467,7 @@ def test_with_a_boosted_steering_the_pulse_may_settle_in_stop_but_the_brake_is_j
     outcome = run_campaign(boosted, steps)
     assert outcome.checks > 0
     assert outcome.findings == []
-    oracle = _in_stop(steering_pulse_s=0.0017, duty=0.5)
-    oracle.timing = replace(oracle.timing, steering_boosted=True)
+    oracle = _in_stop(steering_pulse_s=0.0017, duty=0.5, boosted=True)
     oracle.observe(0.01)
     oracle.world.pwm.steering.set_pulse(0.0016)
     oracle.observe(0.02)
@@ -479,7 +493,7 @@ def test_a_brake_task_faster_than_the_driving_task_may_brake_a_pass_before_the_d
 def test_a_hang_long_after_the_switch_settled_does_not_pause_h2() -> None:
     oracle = _moved_to_can_at_speed()  # CAN never seen at zero since the move at 1.0
     oracle.hang(2.0, 2.06)
-    oracle._h2(2.05, 1.0)
+    _only(oracle, H2, 2.05, enable=True, throttle_volts=1.0)
     assert [v.invariant for v in oracle.violations] == ["H2"]
 
 
@@ -492,7 +506,8 @@ def test_with_slower_control_tasks_failing_dac_writes_get_a_longer_deadline() ->
     )
     slower = replace(robot, tasks=replace(robot.tasks, rates_hz=rates))
     timing = OracleTiming.for_robot(slower)
-    assert timing.deadline_s("dac_fail") == pytest.approx(2 * OracleTiming().deadline_s("dac_fail"))
+    at_100_hz_s = OracleTiming().deadline_s(Cause.DAC_FAIL)
+    assert timing.deadline_s(Cause.DAC_FAIL) == pytest.approx(2 * at_100_hz_s)
     # verify --config (50 Hz) seed 0, campaign 1, shrunk: H1 at the old 60 ms deadline.
     outcome = run_campaign(slower, [Step(3.1, "arm", RC), Step(3.1, "dac", "alternate")])
     assert outcome.checks > 0
@@ -630,10 +645,10 @@ def test_a_dac_failure_long_enough_to_latch_its_pattern_is_still_judged(
 ) -> None:
     oracle = _oracle(parse_config(SLOW_DRIVING, "<test>"))  # driving period 20 ms
     oracle.set_switch(RC, 0.5)
-    oracle._resolve_arming(0.7)
+    oracle.arming.resolve(0.7)
     oracle.dac_failing(1.0, every_other=every_other)
-    oracle.fault("dac_fail", False, 1.07)  # 3.5 periods: latched if every write failed
-    oracle._h1(1.2, True, True, 0.0)
+    oracle.fault(Cause.DAC_FAIL, False, 1.07)  # 3.5 periods: latched if every write failed
+    _only(oracle, H1, 1.2, enable=True, released=True, throttle_volts=0.0)
     assert [violation.invariant for violation in oracle.violations] == flagged
 
 
@@ -643,14 +658,14 @@ def test_without_a_bouncing_switch_a_stop_too_short_for_the_debounce_still_refus
         of 3 needs), then RC, with the robot driving on."""
         oracle = _oracle()
         oracle.set_switch(RC, 0.5)
-        oracle._resolve_arming(0.7)
-        assert oracle.armed_ok
+        oracle.arming.resolve(0.7)
+        assert oracle.ledger.armed
         if bouncing:
             oracle.chatter(8, 0.95)
         oracle.set_switch(ControlMode.STOP, 1.0)
         oracle.set_switch(RC, 1.013)
-        oracle._resolve_arming(1.5)
-        oracle._h1(1.5, True, True, 0.0)
+        oracle.arming.resolve(1.5)
+        _only(oracle, H1, 1.5, enable=True, released=True, throttle_volts=0.0)
         return [violation.invariant for violation in oracle.violations]
 
     assert driving_after_a_short_stop(bouncing=False) == ["H1"]
@@ -660,13 +675,13 @@ def test_without_a_bouncing_switch_a_stop_too_short_for_the_debounce_still_refus
 def test_implausible_frames_that_outlast_the_corruption_still_demand_a_stop() -> None:
     oracle = _oracle()
     oracle.set_switch(RC, 0.5)
-    oracle._resolve_arming(0.7)
+    oracle.arming.resolve(0.7)
     oracle.blind(RC, 1.0, 1.02)
     oracle.implausible(1, 1.005)  # its frame goes out by 1.0127: it may be lost
-    assert oracle.armed_ok
+    assert oracle.ledger.armed
     oracle.implausible(3, 1.01)  # the last of its frames goes out after the corruption
-    assert not oracle.armed_ok
-    oracle._h1(1.2, True, True, 0.0)
+    assert not oracle.ledger.armed
+    _only(oracle, H1, 1.2, enable=True, released=True, throttle_volts=0.0)
     assert [violation.invariant for violation in oracle.violations] == ["H1"]
 
 
@@ -674,15 +689,15 @@ def test_implausible_frames_that_outlast_the_corruption_still_demand_a_stop() ->
 def test_an_implausible_stop_stands_unless_the_corruption_may_have_taken_it(then: str) -> None:
     oracle = _oracle()  # frames every 7.7 ms
     oracle.set_switch(RC, 0.5)
-    oracle._resolve_arming(0.7)
+    oracle.arming.resolve(0.7)
     oracle.implausible(1, 1.0)
     if then == "a stop meanwhile":
-        oracle.fault("dac_fail", True, 1.002)
+        oracle.fault(Cause.DAC_FAIL, True, 1.002)
         oracle.blind(RC, 1.003, 1.03)  # would have taken the frame, but the DAC stops it too
     else:
         oracle.blind(RC, 1.02, 1.05)  # the frame went out by 1.0077
-    assert not oracle.armed_ok
-    oracle._h1(1.2, True, True, 0.0)
+    assert not oracle.ledger.armed
+    _only(oracle, H1, 1.2, enable=True, released=True, throttle_volts=0.0)
     assert [violation.invariant for violation in oracle.violations] == ["H1"]
 
 
@@ -690,11 +705,11 @@ def test_an_implausible_stop_stands_unless_the_corruption_may_have_taken_it(then
 def test_a_re_enable_after_the_switch_left_can_for_good_arms_nothing(moved_to: ControlMode) -> None:
     oracle = _oracle()
     oracle.set_switch(CAN, 0.5)  # held at STOP since power-up: arms into CAN…
-    oracle._resolve_arming(0.7)
-    oracle.stop_event("remote_stop", 1.0)  # …then stopped
+    oracle.arming.resolve(0.7)
+    oracle.stop_event(Cause.REMOTE_STOP, 1.0)  # …then stopped
     oracle.set_switch(moved_to, 1.5)
     oracle.re_enable(1.502 if moved_to is ControlMode.STOP else 1.8)  # STOP: at once; RC: settled
-    oracle._h1(2.0, True, True, 0.0)
+    _only(oracle, H1, 2.0, enable=True, released=True, throttle_volts=0.0)
     assert [violation.invariant for violation in oracle.violations] == ["H1"]
 
 
@@ -708,37 +723,37 @@ def _second_sender(lasting_s: float, motors_enabled: bool = True) -> HazardOracl
     _armed_in_can(oracle)
     oracle.world.gpio["motors_enable"].set(motors_enabled)
     oracle.world.gpio["ebrake_release"].set(motors_enabled)
-    oracle.fault("can_impostor", True, 1.0)
-    oracle.fault("can_impostor", False, 1.0 + lasting_s)
+    oracle.fault(Cause.CAN_IMPOSTOR, True, 1.0)
+    oracle.fault(Cause.CAN_IMPOSTOR, False, 1.0 + lasting_s)
     return oracle
 
 
 def test_a_second_sender_that_surely_latched_refuses_a_re_enable_after_it_is_over() -> None:
-    deadline_s = _oracle().timing.deadline_s("can_impostor")
+    deadline_s = _oracle().timing.deadline_s(Cause.CAN_IMPOSTOR)
     assert _drives_after_re_enable(_second_sender(deadline_s + 0.1), 2.0) == ["H1"]
 
 
 def test_a_second_sender_too_short_to_latch_for_sure_leaves_a_re_enable_alone() -> None:
-    deadline_s = _oracle().timing.deadline_s("can_impostor")
+    deadline_s = _oracle().timing.deadline_s(Cause.CAN_IMPOSTOR)
     assert _drives_after_re_enable(_second_sender(deadline_s - 0.05), 2.0) == []
 
 
 def test_a_second_sender_met_in_a_controlled_stop_may_never_have_latched() -> None:
     # verify seed 29, campaign 72: the robot braking with its drive powered (category 1, the
     # enable line high, the e-brake engaged) is in STOP, not CAN mode: nothing latched.
-    deadline_s = _oracle().timing.deadline_s("can_impostor")
+    deadline_s = _oracle().timing.deadline_s(Cause.CAN_IMPOSTOR)
     oracle = _oracle()
     _armed_in_can(oracle)
     oracle.world.gpio["motors_enable"].set(True)
-    oracle.fault("can_impostor", True, 1.0)
-    oracle.fault("can_impostor", False, 1.0 + deadline_s + 0.1)
+    oracle.fault(Cause.CAN_IMPOSTOR, True, 1.0)
+    oracle.fault(Cause.CAN_IMPOSTOR, False, 1.0 + deadline_s + 0.1)
     assert _drives_after_re_enable(oracle, 2.0) == []
 
 
 def test_a_second_sender_met_with_the_motors_off_may_never_have_latched() -> None:
     # verify seed 0, campaign 204: a 5 ms glimpse of STOP left the robot standing while the
     # oracle allowed it to drive; CAN_UNTRUSTED latches only in CAN mode.
-    deadline_s = _oracle().timing.deadline_s("can_impostor")
+    deadline_s = _oracle().timing.deadline_s(Cause.CAN_IMPOSTOR)
     oracle = _second_sender(deadline_s + 0.1, motors_enabled=False)
     assert _drives_after_re_enable(oracle, 2.0) == []
 
@@ -748,10 +763,10 @@ def test_a_second_sender_after_another_stop_may_never_have_latched() -> None:
     # CAN_UNTRUSTED latches only in CAN mode.
     oracle = _oracle()
     _armed_in_can(oracle)
-    oracle.fault("remote_stop", True, 1.0)
-    oracle.fault("can_impostor", True, 1.01)
-    oracle.fault("can_impostor", False, 1.5)
-    oracle.fault("remote_stop", False, 1.6)
+    oracle.fault(Cause.REMOTE_STOP, True, 1.0)
+    oracle.fault(Cause.CAN_IMPOSTOR, True, 1.01)
+    oracle.fault(Cause.CAN_IMPOSTOR, False, 1.5)
+    oracle.fault(Cause.REMOTE_STOP, False, 1.6)
     assert _drives_after_re_enable(oracle, 2.0) == []
 
 
@@ -763,10 +778,10 @@ def _reversing_at(speed_mps: float, died_at_mps: float, brake_failed: bool = Fal
     world = oracle.world
     world.vehicle.state = replace(world.vehicle.state, speed_mps=died_at_mps)
     oracle.sensor_dies()
-    oracle.brake_failed = brake_failed
+    oracle.hydrobrake_fails(brake_failed)
     world.vehicle.state = replace(world.vehicle.state, speed_mps=speed_mps)
     world.gpio["motors_reverse"].set(True)
-    oracle._h4(1.0, True, 1.0)
+    _only(oracle, H4, 1.0, enable=True, throttle_volts=1.0)
     return [v.invariant for v in oracle.violations]
 
 
@@ -805,26 +820,26 @@ def test_a_glimpse_of_stop_no_frame_showed_does_not_bring_on_a_stop_already_pend
 def test_a_pending_stop_keeps_its_deadline_across_an_unseen_glimpse_but_not_a_seen_stop() -> None:
     oracle = _oracle()
     _armed_in_can(oracle)
-    oracle.fault("can_lost", True, 1.0)
-    can_deadline_s = oracle.drive_allowed_until
+    oracle.fault(Cause.CAN_LOST, True, 1.0)
+    can_deadline_s = oracle.ledger.deadline_s
     assert can_deadline_s is not None
     oracle.set_switch(ControlMode.STOP, 1.05)
     oracle.set_switch(CAN, 1.055)  # shorter than a frame: perhaps never seen
-    assert oracle.drive_allowed_until == can_deadline_s
+    assert oracle.ledger.deadline_s == can_deadline_s
     oracle.set_switch(ControlMode.STOP, 1.06)
     oracle.set_switch(CAN, 1.09)  # 30 ms at STOP: the frames showed it
-    assert oracle.drive_allowed_until == 1.06 + oracle.timing.deadline_s("switch_stop")
+    assert oracle.ledger.deadline_s == 1.06 + oracle.timing.deadline_s(Cause.SWITCH_STOP)
 
 
 def test_a_robot_without_a_wheel_sensor_is_judged_as_one_whose_sensor_died_at_power_up() -> None:
     """No speed to trust from the start, and none that a fault could take away or give back:
     H4 holds at the standstill threshold (the no-sensor rule must stop the robot first)."""
     oracle = _oracle(replace(default_sim_config(), backend="linux"))
-    assert oracle.sensor_dead
-    assert oracle.died_at_mps == 0.0
+    assert oracle.plant.sensor_dead
+    assert oracle.plant.died_at_mps == 0.0
     oracle.sensor_restored()
-    assert oracle.sensor_dead
-    assert _oracle().sensor_dead is False
+    assert oracle.plant.sensor_dead
+    assert _oracle().plant.sensor_dead is False
 
 
 def test_campaigns_on_a_robot_without_sensors_drive_on_the_no_sensor_rules_and_hold() -> None:

@@ -1,0 +1,35 @@
+"""What demands STOP, as the oracle is told it: one enum, and the groups the rules need."""
+
+from __future__ import annotations
+
+from enum import Enum
+
+
+class Cause(Enum):
+    """Something done to the robot that demands STOP (an act, or a fault while in force)."""
+
+    SWITCH_STOP = "switch_stop"  # the mode switch moved to STOP (or bounced through it)
+    RC_FAILSAFE = "rc_failsafe"  # the receiver sends its failsafe values
+    RC_IMPLAUSIBLE = "rc_implausible"  # intact frames carry a pulse no stick gives
+    RC_LINK_LOST = "rc_link_lost"  # no frame arrives
+    REMOTE_STOP = "remote_stop"  # the computer asks for a stop
+    CAN_LOST = "can_lost"  # the computer is silent
+    CAN_UNPLUGGED = "can_unplugged"  # the CAN cable is pulled
+    CAN_IMPOSTOR = "can_impostor"  # a second sender on the computer's id
+    DAC_FAIL = "dac_fail"  # DAC writes are NAKed
+    DAC_SLOW = "dac_slow"  # every DAC transfer crawls, slower than any budget
+    WATCHDOG = "watchdog"  # the loop stalled past the watchdog's limit
+
+
+RC_BORNE = frozenset({Cause.SWITCH_STOP, Cause.RC_IMPLAUSIBLE, Cause.RC_FAILSAFE})
+"""Causes the IBUS frames carry: corrupted frames may delay them."""
+CAN_SILENT = frozenset({Cause.CAN_LOST, Cause.CAN_UNPLUGGED})
+"""Faults in which nothing the computer sends arrives."""
+CAN_ONLY = frozenset({*CAN_SILENT, Cause.CAN_IMPOSTOR, Cause.REMOTE_STOP})
+"""Causes that stop CAN mode and refuse arming into CAN, never RC."""
+SWITCH_ONLY = frozenset({Cause.RC_LINK_LOST, Cause.RC_FAILSAFE, Cause.DAC_FAIL, Cause.DAC_SLOW})
+"""Faults whose latched cause only the operator's switch clears, never a CAN re-enable (S8);
+implausible frames and the watchdog's trip are such too, and so is a second sender once it has
+surely latched (`StopLedger.latched_from`)."""
+POWER_OFF = frozenset({Cause.DAC_FAIL, Cause.DAC_SLOW, Cause.WATCHDOG})
+"""Causes that make the drive suspect: category 0, the enable line low."""

@@ -1,0 +1,38 @@
+"""What the simulated hardware shows, read once after a pass of the loop: the only thing the
+checks look at besides what was done to the robot."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+from bywire.hal.sim.world import SimWorld
+
+
+@dataclass(frozen=True, slots=True)
+class Outputs:
+    """The output levels and the vehicle's true speed at one instant."""
+
+    enable: bool  # the motors' enable line
+    released: bool  # the e-brake release line (high: the spring brake is released)
+    throttle_volts: float
+    regen_volts: float
+    hydrobrake_duty: float
+    steering_pulse_s: float
+    speed_mps: float  # signed: forward above zero
+    forward: bool  # the direction lines
+    reverse: bool
+
+    @classmethod
+    def read(cls, world: SimWorld, throttle_channel: int, regen_channel: int) -> Outputs:
+        gpio, pwm = world.gpio, world.pwm
+        return cls(
+            enable=gpio["motors_enable"].level,
+            released=gpio["ebrake_release"].level,
+            throttle_volts=world.dac.volts(throttle_channel),
+            regen_volts=world.dac.volts(regen_channel),
+            hydrobrake_duty=pwm.hydrobrake.duty,
+            steering_pulse_s=pwm.steering.pulse_s,
+            speed_mps=world.vehicle.state.speed_mps,
+            forward=gpio["motors_forward"].level,
+            reverse=gpio["motors_reverse"].level,
+        )

@@ -1,0 +1,109 @@
+"""The oracle's own figures: what the requirements (`/work/shared/REQUIREMENTS.md`,
+`docs/SAFETY.md`) demand, each named by its requirement's id, never what the robot file under
+test configures (R-CONFIG-SAFETY: `verify` judges against the deadlines, not the file).
+
+Two kinds:
+
+- `REQUIRED`, the bounds on the figures from which the oracle's deadlines are built (an input's
+  timeout, the watchdog, how long a decision or a DAC write may wait, the standstill threshold,
+  the speed check's blind spot). A robot file may promise less (a shorter timeout: it is held to
+  its promise, as §8 says, "within the configured timeout"), never more: `Required.bound`. A
+  file with slow tasks or a loose speed check is judged as if it kept the requirement, so
+  `bywire verify` objects where it breaks it. The input timeouts and the watchdog are the
+  file's to set (R-TIMEOUT and R-WATCHDOG give defaults, 100 and 200 ms): the deadline is "within
+  its timeout plus one control period", the period the requirement's; a figure past the limits
+  the loader states for them (`bywire.config.limits`) is judged at the limit.
+- the constants below, what a stop, a brake and a handover must do, whatever the file says (a
+  file's own bounds are held within these at load, `bywire.config.deadlines`).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from dataclasses import dataclass
+from enum import Enum
+from types import MappingProxyType
+
+from bywire.config.deadlines import BLIND_SPOT_MPS, DAC_FAILURE_DEADLINE_S, MAX_CONTROL_PERIOD_S
+from bywire.config.limits import INPUT_TIMEOUT_S, WATCHDOG_S
+from bywire.control.dac_health import DAC_FAILURE_LIMIT
+from bywire.control.stop import MAX_CONTROLLED_STOP_S, MIN_CONTROLLED_STOP_S, STANDSTILL_LIMIT_MPS
+
+
+class Figure(Enum):
+    """A figure the oracle's deadlines are built from, which a robot file also sets."""
+
+    RC_TIMEOUT_S = "RC frames' age limit"
+    CAN_TIMEOUT_S = "the computer's movement commands' age limit in CAN mode"
+    WATCHDOG_S = "the loop stall that forces the safe state"
+    CONTROL_PERIOD_S = "how long a decision may wait for its tick, whatever the task rates"
+    DRIVING_PERIOD_S = "how long apart the DAC is written (failing writes are counted per write)"
+    STANDSTILL_MPS = "below this speed the robot counts as standing still"
+    BLIND_SPOT_MPS = "the fastest a wheel sensor may die unnoticed"
+
+
+@dataclass(frozen=True, slots=True)
+class Required:
+    """One requirement's figure: its id in REQUIREMENTS.md and the most it allows."""
+
+    requirement: str
+    most: float
+
+    def bound(self, configured: float) -> float:
+        """What the oracle judges with: the file's figure, never laxer than the requirement."""
+        return min(configured, self.most)
+
+
+REQUIRED: Mapping[Figure, Required] = MappingProxyType(
+    {
+        # "RC frames (default 100 ms), CAN commands while in CAN mode (default 100 ms)": the
+        # file's own, up to the limit the loader states
+        Figure.RC_TIMEOUT_S: Required("R-TIMEOUT", INPUT_TIMEOUT_S.high),
+        Figure.CAN_TIMEOUT_S: Required("R-TIMEOUT", INPUT_TIMEOUT_S.high),
+        # "if the control loop stalls (default 200 ms)": likewise
+        Figure.WATCHDOG_S: Required("R-WATCHDOG", WATCHDOG_S.high),
+        # "input loss -> safe within timeout + one period, whatever the task rates"
+        Figure.CONTROL_PERIOD_S: Required("R-CONFIG-SAFETY", MAX_CONTROL_PERIOD_S),
+        # "persisting failure disables the motors": the failure limit's writes within 60 ms
+        Figure.DRIVING_PERIOD_S: Required(
+            "R-DAC-FAULT", DAC_FAILURE_DEADLINE_S / DAC_FAILURE_LIMIT
+        ),
+        # "direction changes only near standstill"
+        Figure.STANDSTILL_MPS: Required("R-INTERLOCK", STANDSTILL_LIMIT_MPS),
+        # "a bounded plausibility blind spot"
+        Figure.BLIND_SPOT_MPS: Required("R-CONFIG-SAFETY", BLIND_SPOT_MPS),
+    }
+)
+"""Every figure a robot file sets that the oracle's deadlines are built from, with its bound."""
+
+CONTROLLED_STOP_LIMIT_S = MAX_CONTROLLED_STOP_S
+"""R-STOP-CATEGORY: the longest a controlled stop may keep the drive powered (a robot file's
+`[stop] controlled_max_s` is held within it at load)."""
+REGEN_WINDOW_S = MIN_CONTROLLED_STOP_S
+"""R-STOP-CATEGORY: how long a controlled stop surely keeps its regenerative brake (unless
+standing still)."""
+STANDSTILL_GRACE_S = 0.05
+"""R-STOP-CATEGORY: standing still this long, with a wheel sensor that tells the truth, ends a
+controlled stop."""
+REQUIRED_DECEL_MPS2 = 1.0
+"""R-EBRAKE: the least deceleration of a stop while any brake works (the simulated robot's
+weakest brake, regeneration alone with rolling drag, gives 1.65 m/s²)."""
+BRAKE_REACT_S = 0.05
+"""R-EBRAKE: how long a brake may take to bite once applied."""
+REQUIRED_HANDOVER_RATE = 2.0
+"""R-SWITCH: how fast a handover may move the steering below 1 m/s (the most a robot file may
+set)."""
+SLOW_TRANSFER_S = 0.020
+"""R-TIMING: a DAC transfer slower than this is no ordinary one (the robot file's budget is at
+most this): STOP, category 0. Transfers of 2 ms are ordinary and must never stop the robot."""
+CAN_PERIOD_S = 0.020
+"""R-DBC: the computer's movement commands (their DBC period), and a second sender's frames,
+one a period."""
+CAN_STALE_S = CAN_PERIOD_S + 0.005
+"""A CAN value may still be what the controller sees a period (and wire time) after it changed."""
+DAC_LATCH_WRITES = 20
+"""R-DAC-FAULT: a DAC failing for this many of the driving task's periods has certainly latched
+DAC_FAULT: every other write failing trips the leaky count after eight writes; the rest is
+margin."""
+FULL_DUTY = 1.0
+"""R-HYDRO: the hydraulic brake's duty in STOP."""
