@@ -12,6 +12,7 @@ from hypothesis import strategies as st
 
 from bywire.error_flags import DESCRIPTIONS, ErrorFlag
 from bywire.errors import BywireError, FrameError
+from bywire.hal.sim.hlc import COMMAND_PERIOD_S
 from bywire.model import (
     Command,
     ControlCommand,
@@ -30,6 +31,9 @@ from bywire.model import (
 from bywire.protocol import dbc, flag_signals
 from bywire.protocol.crc8 import crc8
 from bywire.protocol.dbc import CommandRejected, RejectReason
+from bywire.sim.fault_rules import IMPOSTOR_PERIOD_S
+from bywire.sim.oracle.requirements import CAN_PERIOD_S
+from bywire.teleop.frames import SEND_PERIOD_S
 
 MOVEMENT_ID = 0x101
 
@@ -386,3 +390,9 @@ def test_checks_run_in_order_id_length_crc_counter_range() -> None:
         is RejectReason.CHECKSUM
     )
     assert _rejection(frame, bad_range_and_counter, previous=9).reason is RejectReason.COUNTER
+
+
+def test_the_commands_period_is_the_dbc_s_and_every_sender_keeps_it() -> None:
+    periods = {dbc.period_s(frame) for frame in dbc.command_ids()}
+    assert periods == {dbc.command_period_s()} == {0.020}  # albert.dbc: GenMsgCycleTime 20
+    assert COMMAND_PERIOD_S == SEND_PERIOD_S == IMPOSTOR_PERIOD_S == CAN_PERIOD_S == 0.020

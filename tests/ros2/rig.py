@@ -13,7 +13,6 @@ from bywire.hal.sim.clock import VirtualClock
 from bywire.hal.sim.timers import PeriodicTimer
 from bywire.hal.sim.world import SimWorld
 from bywire.model import ControlMode, Gear, MovementCommand
-from bywire.netbus.inprocess import SimPortBus
 from bywire.protocol import dbc
 from bywire.protocol.secoc import SecocKey
 from bywire.ros2.link import CanLink
@@ -24,6 +23,7 @@ from bywire.runtime.settings import RuntimeConfig
 from bywire.security.freshness import FreshnessStore
 from bywire.security.session import TRIP_IDS, SecocReceiver, SecocSigner
 from bywire.teleop.frames import SEND_PERIOD_S
+from tests.netbus.sim_port_bus import SimPortBus
 
 NODE = "ros2"
 ARMED_AT_S = 0.3  # the transmitter's switch: STOP at 0.1 s, CAN at 0.2 s, debounced by then

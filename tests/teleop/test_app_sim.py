@@ -12,7 +12,6 @@ from bywire.hal.sim.clock import VirtualClock
 from bywire.hal.sim.timers import PeriodicTimer
 from bywire.hal.sim.world import SimWorld
 from bywire.model import ControlMode, Gear
-from bywire.netbus.inprocess import SimPortBus
 from bywire.protocol import dbc
 from bywire.protocol.secoc import SecocKey
 from bywire.runtime.app import Runtime
@@ -22,6 +21,7 @@ from bywire.security.session import TRIP_IDS, SecocReceiver, SecocSigner
 from bywire.teleop.app import TeleopApp
 from bywire.teleop.frames import SEND_PERIOD_S
 from bywire.teleop.reports import speed_mps
+from tests.netbus.sim_port_bus import SimPortBus
 
 THROTTLE_CHANNEL = 0
 TRIP = 12

@@ -362,13 +362,3 @@ def _authenticate(world: SimWorld, robot: RobotConfig) -> SecocReceiver:
     key = simulated_run_key(replace(robot.security, enabled=False), robot.sim.seed)
     world.hlc.sign_with(sender_signer(key))
     return controller_receiver(replace(robot.security, freshness_file=None), key)
-
-
-def run_realtime(
-    robot: RobotConfig,
-    settings: BenchSettings,
-    clock: MeteredClock,
-    progress: Progress | None = None,
-) -> RealtimeResult:
-    """Run the whole session on ``clock`` and return its figures."""
-    return RealtimeSession(robot, settings, clock, progress).run()

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from bywire.config.reader import Interval
 from bywire.control.stop import MAX_CONTROLLED_STOP_S, MIN_CONTROLLED_STOP_S
-from bywire.protocol import bittiming
+from bywire.protocol import bittiming, ibus
 
 POSITIVE_NORM_PER_S = Interval(0.0, 100.0, "norm/s", low_open=True)
 HANDOVER_RATE = Interval(0.05, 2.0, "norm/s")
@@ -13,7 +13,7 @@ BOOST_GAIN = Interval(0.0, 2.0)
 SERVO_PWM_HZ = Interval(50.0, 50.0, "Hz")
 BRAKE_PWM_HZ = Interval(50.0, 20_000.0, "Hz")
 PWM_CHANNELS = range(32)
-RC_CHANNELS = range(14)
+RC_CHANNELS = range(ibus.CHANNEL_COUNT)  # the channels an IBUS frame carries
 RC_RAW = range(800, 2201)
 SWITCH_BAND_RAW = range(20, 401)  # µs either side of a switch position's nominal pulse
 SWITCH_HYSTERESIS_RAW = range(0, 101)

@@ -159,8 +159,3 @@ def _reason(error: Exception) -> str:
     if isinstance(error, OSError) and error.strerror:
         return error.strerror.lower()
     return str(error) or type(error).__name__
-
-
-def feed_url(host: str, port: int) -> str:
-    """ws://HOST:PORT, with an IPv6 host in brackets."""
-    return f"ws://[{host}]:{port}" if ":" in host else f"ws://{host}:{port}"

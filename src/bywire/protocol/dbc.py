@@ -143,6 +143,15 @@ def command_ids() -> tuple[int, ...]:
     return tuple(sorted(frame_id(kind) for kind in COMMAND_TYPES))
 
 
+def command_period_s() -> float:
+    """The commands' one period (their ``GenMsgCycleTime``): the higher-level computer sends every
+    command each period, and every tool that sends or fakes them keeps it."""
+    periods = {period_s(frame) for frame in command_ids()}
+    if len(periods) != 1:
+        raise DbcError(f"the commands' GenMsgCycleTime differ ({sorted(periods)} s): give them one")
+    return periods.pop()
+
+
 def received_ids() -> tuple[int, ...]:
     """Every id the controller listens to: the commands and their SecOC cryptographic PDUs
     (every message the higher-level computer sends), highest priority first."""

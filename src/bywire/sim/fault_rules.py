@@ -13,6 +13,7 @@ from collections.abc import Callable, Mapping
 from typing import TYPE_CHECKING, Any
 
 from bywire.model import ControlMode
+from bywire.protocol import dbc
 from bywire.sim.oracle.causes import Cause
 
 if TYPE_CHECKING:
@@ -21,7 +22,7 @@ if TYPE_CHECKING:
 FaultValues = Mapping[str, Any]
 Expect = Callable[["OracleWitness", FaultValues, float], None]
 
-IMPOSTOR_PERIOD_S = 0.020
+IMPOSTOR_PERIOD_S = dbc.command_period_s()  # a second sender keeps the commands' period
 """A second sender, like the computer, sends one frame per command period."""
 
 

@@ -13,7 +13,7 @@ from bywire.model import ControlCommand, LightsCommand, MovementCommand
 from bywire.protocol import dbc
 from bywire.teleop.state import TeleopState
 
-SEND_PERIOD_S = 0.020  # the DBC's GenMsgCycleTime for every command
+SEND_PERIOD_S = dbc.command_period_s()
 
 Frame = tuple[int, bytes]
 

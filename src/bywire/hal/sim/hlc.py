@@ -30,7 +30,7 @@ from bywire.model import (
 from bywire.protocol import dbc, dbc_values
 from bywire.security.session import TRIP_IDS, SecocSigner
 
-COMMAND_PERIOD_S = 0.02
+COMMAND_PERIOD_S = dbc.command_period_s()
 ARRIVAL_HISTORY = 1000  # report arrival times kept per report type
 
 

@@ -28,6 +28,7 @@ from bywire.config.deadlines import BLIND_SPOT_MPS, DAC_FAILURE_DEADLINE_S, MAX_
 from bywire.config.limits import INPUT_TIMEOUT_S, WATCHDOG_S
 from bywire.control.dac_health import DAC_FAILURE_LIMIT
 from bywire.control.stop import MAX_CONTROLLED_STOP_S, MIN_CONTROLLED_STOP_S, STANDSTILL_LIMIT_MPS
+from bywire.protocol import dbc
 
 
 class Figure(Enum):
@@ -96,9 +97,9 @@ set)."""
 SLOW_TRANSFER_S = 0.020
 """R-TIMING: a DAC transfer slower than this is no ordinary one (the robot file's budget is at
 most this): STOP, category 0. Transfers of 2 ms are ordinary and must never stop the robot."""
-CAN_PERIOD_S = 0.020
-"""R-DBC: the computer's movement commands (their DBC period), and a second sender's frames,
-one a period."""
+CAN_PERIOD_S = dbc.command_period_s()
+"""R-DBC: the computer's commands' period as the protocol gives it (the DBC, never the robot
+file), and a second sender's frames, one a period."""
 CAN_STALE_S = CAN_PERIOD_S + 0.005
 """A CAN value may still be what the controller sees a period (and wire time) after it changed."""
 DAC_LATCH_WRITES = 20

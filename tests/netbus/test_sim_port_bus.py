@@ -8,7 +8,7 @@ import pytest
 from bywire.can_frame import CanFrame
 from bywire.hal.sim.can_bus import SimCanBus
 from bywire.hal.sim.clock import VirtualClock
-from bywire.netbus.inprocess import SimPortBus
+from tests.netbus.sim_port_bus import SimPortBus
 
 
 def make() -> tuple[VirtualClock, SimCanBus, SimPortBus]:
