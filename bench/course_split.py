@@ -35,11 +35,11 @@ from bywire.bench.virtual import measure_speedup
 from bywire.config import RobotConfig, default_sim_config, load_config
 from bywire.hal.sim.clock import VirtualClock
 from bywire.runtime.app import Runtime
-from bywire.sim.campaign import TransitionLog
-from bywire.sim.draw import draw_campaign
-from bywire.sim.oracle import HazardOracle
 from bywire.sim.runner import SimRun
-from bywire.sim.verify import run_campaign
+from bywire.sim.verify.campaign import TransitionLog
+from bywire.sim.verify.draw import draw_campaign
+from bywire.sim.verify.engine import run_campaign
+from bywire.sim.verify.oracle import HazardOracle
 
 Workload = Callable[[], float]  # runs, returns the simulated seconds
 

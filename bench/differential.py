@@ -43,10 +43,10 @@ from bywire.hal.sim.can_bus import LoggedFrame
 from bywire.hal.tape.run_record import read_record
 from bywire.replay.recorder import SimRunRecorder
 from bywire.replay.runner import replay
-from bywire.sim.campaign import Campaign, compile_steps
 from bywire.sim.catalog import packaged_scenarios
-from bywire.sim.draw import draw_campaign
 from bywire.sim.runner import SimRun, run_clock
+from bywire.sim.verify.campaign import Campaign, compile_steps
+from bywire.sim.verify.draw import draw_campaign
 from bywire.telemetry.feed import FeedOptions, open_sinks
 
 DIGESTS = Path(__file__).with_name("differential.json")

@@ -1,4 +1,4 @@
-"""Same verdicts: the rebuilt oracle (`bywire.sim.oracle`) against the old one-class oracle,
+"""Same verdicts: the rebuilt oracle (`bywire.sim.verify.oracle`) against the old one-class oracle,
 watching the very same runs.
 
 The old `sim/oracle.py` and its witness (the old `sim/campaign.py`'s `OracleWitness`) are read
@@ -30,17 +30,17 @@ from pathlib import Path
 from typing import Any, cast
 
 import pytest
-from tests.sim.test_verify import OTHER_ROBOTS
+from tests.sim.verify.test_verify import OTHER_ROBOTS
 from tests.system.old_bugs import OLD_BUGS
 
 from bywire.config import RobotConfig, default_sim_config, load_config, parse_config
 from bywire.hal.sim.clock import VirtualClock
-from bywire.sim.actions import compile_steps
-from bywire.sim.campaign import _quiet_runtime
-from bywire.sim.draw import draw_campaign
-from bywire.sim.oracle import HazardOracle, OracleTiming
 from bywire.sim.runner import SimRun
-from bywire.sim.witness import OracleWitness
+from bywire.sim.verify.actions import compile_steps
+from bywire.sim.verify.campaign import _quiet_runtime
+from bywire.sim.verify.draw import draw_campaign
+from bywire.sim.verify.oracle import HazardOracle, OracleTiming
+from bywire.sim.verify.witness import OracleWitness
 
 ROOT = Path(__file__).resolve().parent.parent
 OLD_ORACLE = "src/bywire/sim/oracle.py"
@@ -101,7 +101,7 @@ class OldJudge:
     def at(cls, base: str) -> OldJudge:
         oracle = _load("old_bywire_oracle", _git("show", f"{base}:{OLD_ORACLE}"))
         campaign_source = _git("show", f"{base}:{OLD_CAMPAIGN}").replace(
-            "from bywire.sim.oracle import", "from old_bywire_oracle import"
+            "from bywire.sim.verify.oracle import", "from old_bywire_oracle import"
         )
         return cls(oracle, _load("old_bywire_campaign", campaign_source))
 

@@ -2,8 +2,8 @@
 
 Issue 30 asks for `bywire verify --budget 2000` clean on albert and on a hypothesis-drawn set of
 legal robot files. This draws `--robots` files with the strategy the tests use
-(`tests/sim/robot_files.py`: every number moved within what the loader allows and a real robot
-could use), keeps those the loader takes (a file it refuses names the key or the deadline it
+(`tests/sim/verify/robot_files.py`: every number moved within what the loader allows and a real
+robot could use), keeps those the loader takes (a file it refuses names the key or the deadline it
 breaks: `tests/config` holds that), writes each to `--out`, and runs `bywire verify --config FILE
 --budget N --seed S --json` on it, one after the other, each on every core. The budget is shared:
 `--budget 2000 --robots 20` gives each file 100 campaigns. Exit 1 if any run found a violation;
@@ -26,7 +26,7 @@ sys.path.insert(0, str(ROOT))  # the strategy lives with the tests
 
 from hypothesis import HealthCheck, Phase, given, settings  # noqa: E402
 from hypothesis import seed as hypothesis_seed  # noqa: E402
-from tests.sim.robot_files import robot_files  # noqa: E402
+from tests.sim.verify.robot_files import robot_files  # noqa: E402
 
 from bywire.config import parse_config  # noqa: E402
 from bywire.errors import ConfigError  # noqa: E402

@@ -11,7 +11,7 @@ import pytest
 
 from bywire.cli.main import main
 from bywire.control.supervisor_check import MONITOR_CAUSES, TRANSITIONS, transitions_naming
-from bywire.sim.oracle import INVARIANTS
+from bywire.sim.verify.oracle import INVARIANTS
 from tests.system.old_bugs import OLD_BUGS
 
 
@@ -39,7 +39,7 @@ def test_the_default_budget_on_the_default_robot_is_clean(
     assert isinstance(transitions, dict)
     assert transitions["of"] == len(TRANSITIONS)
     # Every row of the transition table, the clearing ones included: those need a fault to end
-    # and the right source to re-arm, which the campaigns' episodes provide (sim/draw.py).
+    # and the right source to re-arm, which the campaigns' episodes provide (sim/verify/draw.py).
     assert transitions["exercised"] == len(TRANSITIONS)
     assert transitions["never"] == []
     assert transitions["cannot_happen"] == []  # the simulated robot has every sensor

@@ -41,9 +41,9 @@ def _recorded_loader(load: Any) -> Any:
 def simulate(config_path: str, scenarios: list[str]) -> Any:
     from bywire.config import load_config  # noqa: PLC0415
     from bywire.sim.catalog import find_scenario  # noqa: PLC0415
-    from bywire.sim.draw import draw_campaign  # noqa: PLC0415
     from bywire.sim.runner import SimRun  # noqa: PLC0415
-    from bywire.sim.verify import run_campaign  # noqa: PLC0415
+    from bywire.sim.verify.draw import draw_campaign  # noqa: PLC0415
+    from bywire.sim.verify.engine import run_campaign  # noqa: PLC0415
 
     config = _recorded_loader(load_config)(config_path)
     for name in scenarios:

@@ -31,8 +31,8 @@ from bywire.model import (
 from bywire.protocol import dbc, flag_signals
 from bywire.protocol.crc8 import crc8
 from bywire.protocol.dbc import CommandRejected, RejectReason
-from bywire.sim.fault_rules import IMPOSTOR_PERIOD_S
-from bywire.sim.oracle.requirements import CAN_PERIOD_S
+from bywire.sim.verify.fault_rules import IMPOSTOR_PERIOD_S
+from bywire.sim.verify.oracle.requirements import CAN_PERIOD_S
 from bywire.teleop.frames import SEND_PERIOD_S
 
 MOVEMENT_ID = 0x101

@@ -9,7 +9,7 @@ from bywire.hal.sim.clock import VirtualClock
 from bywire.hal.sim.world import SimWorld
 from bywire.model import ControlMode
 from bywire.runtime.sensors import SensorReadings, read_sensors
-from bywire.sim.campaign import Campaign, Step
+from bywire.sim.verify.campaign import Campaign, Step
 
 
 def test_an_absent_sensor_gives_the_decision_nothing_to_check() -> None:

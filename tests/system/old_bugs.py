@@ -4,7 +4,7 @@ checks must find every one.
 Each function takes pytest's `monkeypatch` and re-introduces one safety bug. Those of issue 10
 are named by that issue's row (`row_…`), the others by the hazard table's row or the part of
 STOP they break (`hazard_…`, `stop_…`, docs/SAFETY.md); `bywire verify`'s tests
-(`tests/sim/test_verify.py`, `tests/cli/test_verify.py`) put each back and find it.
+(`tests/sim/verify/test_verify.py`, `tests/cli/test_verify.py`) put each back and find it.
 """
 
 from __future__ import annotations

@@ -2,7 +2,7 @@
 included), RC loss, failsafe and implausible frames, CAN commands with gaps, repeats and a
 second sender, remote stops and re-enables, DAC NAK patterns, stalls inside a DAC write and a
 dead wheel-speed sensor, on the whole controller and the simulated robot. The oracle
-(`bywire.sim.oracle`) checks the hardware's levels after every pass of the loop; hypothesis
+(`bywire.sim.verify.oracle`) checks the hardware's levels after every pass of the loop; hypothesis
 shrinks a failure to a minimal sequence.
 
 Budget: SEQUENCE_EXAMPLES campaigns (about 40 s); for a long search set BYWIRE_SEQUENCES, e.g.
@@ -18,7 +18,7 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from bywire.model import ControlMode
-from bywire.sim.campaign import VOCABULARY, Campaign, Step
+from bywire.sim.verify.campaign import VOCABULARY, Campaign, Step
 
 SEQUENCE_EXAMPLES = int(os.environ.get("BYWIRE_SEQUENCES", "150"))
 RC, CAN = ControlMode.RC, ControlMode.CAN

@@ -8,9 +8,9 @@ from dataclasses import dataclass
 
 from bywire.config import RobotConfig
 from bywire.sim.catalog import DEFAULT_SCENARIO, packaged_scenario
-from bywire.sim.draw import CAMPAIGN_S
 from bywire.sim.runner import SimRun
-from bywire.sim.verify import CampaignJob, campaign_outcomes
+from bywire.sim.verify.draw import CAMPAIGN_S
+from bywire.sim.verify.engine import CampaignJob, campaign_outcomes
 
 
 @dataclass(frozen=True, slots=True)

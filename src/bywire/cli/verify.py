@@ -34,16 +34,16 @@ from bywire.cli.arguments import positive_seconds, whole_number
 from bywire.config import RobotConfig, default_sim_config, load_config
 from bywire.control.supervisor_check import MONITOR_CAUSES, TRANSITIONS, transitions_naming
 from bywire.hal.hardware import sensors_fitted
-from bywire.sim.draw import CAMPAIGN_S
-from bywire.sim.oracle import INVARIANTS
 from bywire.sim.scenario import scenario_toml
-from bywire.sim.verify import (
+from bywire.sim.verify.draw import CAMPAIGN_S
+from bywire.sim.verify.engine import (
     CampaignJob,
     Outcome,
     Reproduction,
     campaign_outcomes,
     shrink_failure,
 )
+from bywire.sim.verify.oracle import INVARIANTS
 
 DEFAULT_BUDGET = 200
 DEFAULT_OUT = Path("verify-failures")

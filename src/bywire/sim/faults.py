@@ -20,7 +20,7 @@ from typing import TYPE_CHECKING
 
 from bywire.hal.sim.hlc import Corruption
 from bywire.model import Command, ControlCommand, LightsCommand, MovementCommand
-from bywire.sim.fault_rules import (
+from bywire.sim.verify.fault_rules import (
     Expect,
     FaultValues,
     begins,
@@ -42,7 +42,7 @@ from bywire.sim.fault_rules import (
     switch_chatter,
     wheel_sensor,
 )
-from bywire.sim.oracle.causes import Cause
+from bywire.sim.verify.oracle.causes import Cause
 
 if TYPE_CHECKING:
     from bywire.sim.runner import SimRun

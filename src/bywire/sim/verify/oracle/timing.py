@@ -1,0 +1,142 @@
+"""How long the controller may take to act on each cause, and the servo's calibration.
+
+Each deadline is a detection threshold (an input's timeout, the watchdog) plus the frame,
+command period and control periods in which the controller may notice it and act. Those figures
+are bounded by the requirements (`requirements.REQUIRED`, by R- id): a robot file that promises
+less time is held to its promise, one that allows itself more is judged as if it kept the
+requirement (R-CONFIG-SAFETY). What the controller must then do, and how fast, is the
+requirements' alone. Facts of the simulated world are the file's: the RC receiver's frame
+period, the servo's calibration, whether the steering is boosted; and the switch's debounce,
+which only says when an arming may count (the oracle waits for it, leaning to allowing).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+from bywire.config.consistency import CONTROL_TASKS
+from bywire.config.model import RobotConfig
+from bywire.control.steering import SteeringConfig
+from bywire.model import MovementCommand
+from bywire.sim.verify.oracle.causes import Cause
+from bywire.sim.verify.oracle.requirements import CAN_PERIOD_S, REQUIRED, Figure
+
+
+@dataclass(frozen=True, slots=True)
+class ServoPulses:
+    """The servo's calibration (a physical fact of the robot, not a deadline): a steering
+    norm's pulse, and the pulses from centre to either end."""
+
+    center_s: float = 0.0015
+    half_span_s: float = 0.0005
+    reverse: bool = False
+
+    @classmethod
+    def of(cls, servo: SteeringConfig) -> ServoPulses:
+        half_s = min(
+            servo.max_pulse_s - servo.center_pulse_s, servo.center_pulse_s - servo.min_pulse_s
+        )
+        return cls(servo.center_pulse_s, half_s, servo.reverse)
+
+    def pulse_s(self, steering_norm: float) -> float:
+        norm = -steering_norm if self.reverse else steering_norm
+        return self.center_s + norm * self.half_span_s
+
+
+@dataclass(frozen=True, slots=True)
+class OracleTiming:
+    """How long the controller may take for each thing (the defaults: the figures
+    `docs/SAFETY.md` gives; `for_robot`: a robot file's, bounded by the requirements)."""
+
+    frame_s: float = 0.0077  # the RC receiver's frame period
+    debounce_frames: int = 3
+    rc_timeout_s: float = 0.100
+    can_timeout_s: float = 0.100
+    watchdog_s: float = 0.200
+    control_period_s: float = 0.010
+    driving_period_s: float = 0.010  # the task that writes the DAC
+    standstill_mps: float = 0.05
+    # The fastest a wheel sensor can die unnoticed: its drop to 0 m/s is then within the speed
+    # check's step tolerance plus what braking explains in a pass (docs/SAFETY.md row 27).
+    unnoticed_death_mps: float = 0.45
+    steering_boosted: bool = False  # the pulse settles onto a held set-point (boost_gain > 0)
+    servo: ServoPulses = field(default_factory=ServoPulses)
+
+    @classmethod
+    def for_robot(cls, robot: RobotConfig) -> OracleTiming:
+        """The deadlines for `robot`: its figures, each bounded by the requirement's."""
+        slowest_hz = min(robot.tasks.rate_hz(name) for name in CONTROL_TASKS)
+        period_s = bounded(Figure.CONTROL_PERIOD_S, 1.0 / slowest_hz)
+        interlocks = robot.interlocks
+        blind_spot_mps = (
+            interlocks.speed_step_tolerance_mps + interlocks.speed_max_change_mps2 * period_s
+        )
+        return cls(
+            frame_s=robot.sim.rc_frame_period_s,
+            debounce_frames=robot.supervisor.debounce_frames,
+            rc_timeout_s=bounded(Figure.RC_TIMEOUT_S, robot.timeouts.rc_timeout_s),
+            can_timeout_s=bounded(
+                Figure.CAN_TIMEOUT_S, robot.timeouts.can_timeout_s(MovementCommand.__name__)
+            ),
+            watchdog_s=bounded(Figure.WATCHDOG_S, robot.timeouts.watchdog_s),
+            control_period_s=period_s,
+            driving_period_s=bounded(Figure.DRIVING_PERIOD_S, 1.0 / robot.tasks.rate_hz("driving")),
+            standstill_mps=bounded(Figure.STANDSTILL_MPS, interlocks.standstill_speed_mps),
+            unnoticed_death_mps=bounded(Figure.BLIND_SPOT_MPS, blind_spot_mps),
+            steering_boosted=robot.steering.servo.boost_gain > 0.0,
+            servo=ServoPulses.of(robot.steering.servo),
+        )
+
+    @property
+    def settle_s(self) -> float:
+        """A switch position counts after the debounce's frames; then one control period (and
+        slack for the frame's wire time)."""
+        return self.debounce_frames * self.frame_s + self.control_period_s + 0.012
+
+    @property
+    def stop_hold_s(self) -> float:
+        """The least hold at STOP in which the debounce's frames can show it."""
+        return (self.debounce_frames - 1) * self.frame_s
+
+    @property
+    def unseen_s(self) -> float:
+        """A position held less than a frame (and its wire time) may be missed."""
+        return self.frame_s + 0.004
+
+    def deadline_s(self, cause: Cause) -> float:
+        """How long after `cause` the outputs may still drive: detection, then a frame or
+        command period, then the control periods that act on it."""
+        frame, period = self.frame_s, self.control_period_s
+        return {
+            Cause.SWITCH_STOP: frame + 2 * period + 0.0023,
+            Cause.RC_FAILSAFE: frame + 2 * period + 0.0023,
+            Cause.RC_IMPLAUSIBLE: frame + 2 * period + 0.0023,
+            Cause.RC_LINK_LOST: self.rc_timeout_s + frame + period + 0.0073,
+            Cause.REMOTE_STOP: CAN_PERIOD_S + 2 * period + 0.005,
+            Cause.CAN_LOST: self.can_timeout_s + 2 * CAN_PERIOD_S + period,
+            Cause.CAN_UNPLUGGED: self.can_timeout_s + 2 * CAN_PERIOD_S + period,
+            Cause.CAN_IMPOSTOR: 0.200,  # its frames are judged over a window of 16 counters
+            # Three failed writes (the leaky count), a period to act, and two of margin.
+            Cause.DAC_FAIL: 6 * self.driving_period_s,
+            # The next transfer (within a driving period) crawls; enable low as it returns.
+            Cause.DAC_SLOW: self.driving_period_s + 2 * period + 0.005,
+            Cause.WATCHDOG: self.watchdog_s + 3 * period,
+        }[cause]
+
+    def unnoticed_s(self, cause: Cause) -> float:
+        """How long a fault must last before the controller can have noticed it at all: one
+        that ends sooner may have passed unseen (a link back before its timeout)."""
+        return {
+            Cause.RC_LINK_LOST: self.rc_timeout_s + 0.010,
+            Cause.RC_FAILSAFE: 0.010,
+            Cause.REMOTE_STOP: 0.025,
+            Cause.CAN_LOST: self.can_timeout_s + 0.025,
+            Cause.CAN_UNPLUGGED: self.can_timeout_s + 0.025,
+            Cause.CAN_IMPOSTOR: 0.080,
+            Cause.DAC_FAIL: 3 * self.driving_period_s,
+        }.get(cause, 0.0)
+
+
+def bounded(figure: Figure, configured: float) -> float:
+    """`configured`, a robot file's figure, never laxer than the requirement's."""
+    return REQUIRED[figure].bound(configured)

@@ -1,0 +1,128 @@
+"""The campaign's witness: tells the oracle what each event applied to the simulated robot means
+for the outputs: where the switch went, what each source asks for, which faults began or ended
+(each fault by its own row's rule, `faults.Fault.expect`)."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any
+
+from bywire.hal.sim.clock import VirtualClock
+from bywire.model import ControlMode
+from bywire.runtime.watchdog import POLL_S as WATCHDOG_POLL_S
+from bywire.sim.faults import BY_NAME
+from bywire.sim.scenario import Event
+from bywire.sim.verify.fault_rules import IMPOSTOR_PERIOD_S
+from bywire.sim.verify.oracle import Cause, HazardOracle
+from bywire.sim.verify.oracle.causes import CAN_ONLY, CAN_SILENT
+from bywire.sim.verify.oracle.requirements import SLOW_TRANSFER_S
+
+RC, CAN, STOP = ControlMode.RC, ControlMode.CAN, ControlMode.STOP
+
+
+@dataclass(slots=True)
+class OracleWitness:
+    """Tells the oracle what an event applied to the world means for the outputs."""
+
+    oracle: HazardOracle
+    clock: VirtualClock
+    authenticated: bool = False  # commands signed: a second sender without the key is harmless
+    remote_stop: bool = False
+    re_enable: bool = False
+
+    def __call__(self, event: Event, now: float) -> None:
+        values = event.values
+        match event.kind:
+            case "rc":
+                self._rc(values, now)
+            case "hlc":
+                self._hlc(values, now)
+            case "hlc_control":
+                self._hlc_control(values, now)
+            case "hlc_lights":
+                return  # the lights demand nothing of the drive
+            case "fault":
+                BY_NAME[str(values["fault"])].expect(self, values, now)
+            case _:
+                raise ValueError(f"an event the oracle does not know: {event.kind!r}")
+
+    def _rc(self, values: dict[str, Any], now: float) -> None:
+        oracle = self.oracle
+        if "throttle" in values:
+            oracle.set_throttle(RC, max(float(values["throttle"]), 0.0), now)
+        if "steering" in values:
+            oracle.set_steering(RC, float(values["steering"]), now)
+        if "mode_raw" in values:  # between positions (the campaigns' only use): no position
+            oracle.set_switch(STOP, now)
+        if "mode" in values:
+            mode = ControlMode[str(values["mode"]).upper()]
+            oracle.set_switch(mode, now)
+            if mode is CAN and oracle.faults.any_of(CAN_ONLY):
+                oracle.stop_event(Cause.CAN_LOST, now)
+
+    def _hlc(self, values: dict[str, Any], now: float) -> None:
+        if "throttle" in values:
+            self.oracle.set_throttle(CAN, float(values["throttle"]), now)
+        if "steering" in values:
+            self.oracle.set_steering(CAN, float(values["steering"]), now)
+
+    def _hlc_control(self, values: dict[str, Any], now: float) -> None:
+        oracle = self.oracle
+        remote_stop, re_enable = bool(values["remote_stop"]), bool(values["re_enable"])
+        if remote_stop != self.remote_stop:
+            self.remote_stop = remote_stop
+            if not remote_stop or not oracle.faults.any_of(CAN_SILENT):
+                oracle.fault(Cause.REMOTE_STOP, remote_stop, now)  # arriving: every mode
+        if re_enable and not self.re_enable:
+            oracle.re_enable(now)
+        self.re_enable = re_enable
+
+    # --- what the fault rules ask of it (`fault_rules.py`) ---------------------------------------
+
+    def can_fault(self, cause: Cause, active: bool, now: float) -> None:
+        """A CAN-bound fault begins or ends: beginning away from CAN, it refuses an arming into
+        CAN and RC drives on."""
+        if self.oracle.switch is CAN or not active:
+            self.oracle.fault(cause, active, now)
+        else:
+            self.oracle.fault_elsewhere(cause, now)
+
+    def can_back(self, cause: Cause, now: float) -> None:
+        self.can_fault(cause, False, now)
+        if self.remote_stop and not self.oracle.faults.any_of(CAN_SILENT):
+            self.oracle.fault(Cause.REMOTE_STOP, True, now)  # a request made while silent arrives
+
+    def second_sender(self, frames: int, keyed: bool, now: float) -> None:
+        if self.authenticated and not keyed:
+            return  # its frames never verify, and cost the computer's no trust: no effect
+        self.can_fault(Cause.CAN_IMPOSTOR, True, now)
+        # Over when its last frame is sent: the controller may trust the id again soon after
+        # (a window of good frames), and the oracle must never think a fault lasts longer.
+        end_s = now + frames * IMPOSTOR_PERIOD_S
+        self.clock.call_at(end_s, lambda: self.can_fault(Cause.CAN_IMPOSTOR, False, end_s))
+
+    def dac_restored(self, now: float) -> None:
+        self.oracle.fault(Cause.DAC_FAIL, False, now)
+        self.oracle.fault(Cause.DAC_SLOW, False, now)
+        self.oracle.slow_writes(0.0)
+
+    def slow_dac(self, transfer_s: float, now: float) -> None:
+        """Every DAC transfer crawls: each pass that writes the DAC is that much longer, and one
+        slower than any robot file's budget is a fault (category 0)."""
+        oracle = self.oracle
+        oracle.slow_writes(2 * transfer_s)  # two transfers a pass, at most
+        if transfer_s > SLOW_TRANSFER_S:
+            oracle.hang(now, now + oracle.timing.driving_period_s + transfer_s)
+            oracle.fault(Cause.DAC_SLOW, True, now)
+        else:  # ordinary transfers again: a crawl before is over (its latch is the switch's)
+            oracle.fault(Cause.DAC_SLOW, False, now)
+
+    def stall(self, stall_s: float, now: float) -> None:
+        """The next DAC write (within one control period) hangs for `stall_s`: past the
+        watchdog's limit, its poll trips."""
+        timing = self.oracle.timing
+        if stall_s > timing.watchdog_s:
+            trips_s = now + timing.control_period_s + timing.watchdog_s + 2 * WATCHDOG_POLL_S
+            self.oracle.stall(now, trips_s)
+        else:
+            self.oracle.hang(now, now + timing.control_period_s + stall_s)

@@ -1,0 +1,91 @@
+"""The oracle's figures come from the requirements, never from the robot file under test
+(R-CONFIG-SAFETY): a file that configures a gentler handover, a shorter controlled stop or a
+weaker one is judged by the same figures; a file's timeouts and task periods may tighten the
+deadlines it is held to (its own promise), never loosen them past the requirement's."""
+
+from __future__ import annotations
+
+from dataclasses import replace
+
+import pytest
+
+from bywire.config import default_sim_config, parse_config
+from bywire.config.limits import CONTROLLED_STOP_S, HANDOVER_RATE, INPUT_TIMEOUT_S, WATCHDOG_S
+from bywire.model import ControlMode
+from bywire.sim.verify.campaign import Step
+from bywire.sim.verify.engine import run_campaign
+from bywire.sim.verify.oracle import Cause, OracleTiming
+from bywire.sim.verify.oracle.requirements import (
+    CONTROLLED_STOP_LIMIT_S,
+    REQUIRED,
+    REQUIRED_HANDOVER_RATE,
+    Figure,
+)
+
+BASE = 'backend = "sim"\n'
+OWN_FIGURES = (
+    BASE + "[steering]\nhandover_rate_norm_per_s = 0.05\n\n"
+    "[stop]\ncontrolled_max_s = 2.0\ncontrolled_min_decel_mps2 = 5.0\n"
+)
+
+
+def test_a_robot_file_s_own_stop_and_handover_figures_do_not_reach_the_oracle() -> None:
+    ordinary = OracleTiming.for_robot(parse_config(BASE, "<ordinary>"))
+    own = OracleTiming.for_robot(parse_config(OWN_FIGURES, "<own figures>"))
+    assert own == ordinary
+
+
+def test_the_requirement_figures_are_the_most_a_robot_file_may_set() -> None:
+    assert HANDOVER_RATE.high == REQUIRED_HANDOVER_RATE
+    assert CONTROLLED_STOP_S.high == CONTROLLED_STOP_LIMIT_S
+
+
+LAX = (
+    BASE + "[timeouts]\nrc_timeout_s = 0.3\ncan_command_timeout_s = 0.3\nwatchdog_s = 0.5\n\n"
+    "[timeouts.can_message_timeout_s]\nMovementCommand = 0.3\n"
+)
+"""Timeouts the loader takes (each in its range, none longer than the watchdog), three times
+the requirements' defaults (R-TIMEOUT 100 ms, R-WATCHDOG 200 ms)."""
+
+
+def test_a_robot_file_is_held_to_its_own_timeouts_within_the_loader_s_limits() -> None:
+    lax = OracleTiming.for_robot(parse_config(LAX, "<lax>"))
+    assert (lax.rc_timeout_s, lax.can_timeout_s, lax.watchdog_s) == (0.3, 0.3, 0.5)
+    lost = Cause.RC_LINK_LOST
+    assert lax.deadline_s(lost) - OracleTiming().deadline_s(lost) == pytest.approx(0.2)
+
+
+def test_a_timeout_past_the_loader_s_limits_is_judged_at_the_limit() -> None:
+    # A RobotConfig built in code skips the loader: the oracle still holds it to the limits.
+    robot = default_sim_config()
+    timeouts = replace(robot.timeouts, rc_timeout_s=3.0, watchdog_s=30.0)
+    timing = OracleTiming.for_robot(replace(robot, timeouts=timeouts))
+    assert timing.rc_timeout_s == REQUIRED[Figure.RC_TIMEOUT_S].most == INPUT_TIMEOUT_S.high
+    assert timing.watchdog_s == REQUIRED[Figure.WATCHDOG_S].most == WATCHDOG_S.high
+
+
+def test_a_robot_file_with_slow_tasks_gets_the_requirement_s_period() -> None:
+    slow = BASE + "[tasks]\nsteering_rate_hz = 100\ndriving_rate_hz = 50\nhydrobrake_rate_hz = 25\n"
+    timing = OracleTiming.for_robot(parse_config(slow, "<slow tasks>"))
+    assert timing.control_period_s == REQUIRED[Figure.CONTROL_PERIOD_S].most == 0.02  # not 40 ms
+    assert timing.driving_period_s == pytest.approx(0.02)
+
+
+def test_a_tighter_timeout_tightens_the_deadline_it_is_held_to() -> None:
+    quick = parse_config(BASE + "[timeouts]\nrc_timeout_s = 0.05\n", "<quick link>")
+    lost = Cause.RC_LINK_LOST
+    shift_s = OracleTiming.for_robot(quick).deadline_s(lost) - OracleTiming().deadline_s(lost)
+    assert shift_s == pytest.approx(-0.05)
+
+
+RC_LOST_WHILE_DRIVING = [
+    Step(0.2, "arm", ControlMode.RC),
+    Step(0.15, "rc_throttle", 0.6),
+    Step(1.0, "rc_link", False),
+]
+
+
+def test_a_lax_rc_timeout_is_judged_by_its_own_promise() -> None:
+    # The receiver unplugged while driving: the file's 0.3 s timeout keeps the throttle on for
+    # 0.3 s, as it promised (the requirement gives 100 ms as a default, not a bound).
+    assert run_campaign(parse_config(LAX, "<lax>"), RC_LOST_WHILE_DRIVING).findings == []
