@@ -127,7 +127,7 @@ def test_campaigns_on_other_legal_numbers_find_nothing_on_a_correct_robot(name: 
         assert outcome.findings == [], (index, outcome.findings[:1])
 
 
-ALBERT = Path(__file__).resolve().parents[2] / "config" / "albert.toml"
+ALBERT = Path(__file__).resolve().parents[3] / "config" / "albert.toml"
 
 
 @pytest.mark.parametrize(
