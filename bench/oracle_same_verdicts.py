@@ -118,9 +118,7 @@ def judge_both(
     run = SimRun(robot, scenario)
     clock = cast(VirtualClock, run.world.clock)
     dac = robot.drive.dac
-    new_oracle = HazardOracle(
-        run.world, dac.throttle_channel, dac.regen_channel, OracleTiming.for_robot(robot)
-    )
+    new_oracle = HazardOracle(run.world, OracleTiming.for_robot(robot))
     old_oracle = old.oracle.HazardOracle(
         run.world,
         dac.throttle_channel,

@@ -51,9 +51,7 @@ class Observation:
         return self.mode is ControlMode.STOP and self.drive_safe and self.ebrake_engaged
 
 
-def observe(
-    world: SimWorld, outputs: ControlOutputs, throttle_channel: int, regen_channel: int
-) -> Observation:
+def observe(world: SimWorld, outputs: ControlOutputs) -> Observation:
     """Read the world now; `outputs` is the controller's latest decision."""
     gpio = world.gpio
     state = world.vehicle.state
@@ -67,8 +65,8 @@ def observe(
         brake_cmd_norm=outputs.movement.brake_norm,
         steering_pulse_s=world.pwm.steering.pulse_s,
         steering_changed_at_s=_changed_at_s(world.pwm.steering.history),
-        throttle_volts=world.dac.volts(throttle_channel),
-        regen_volts=world.dac.volts(regen_channel),
+        throttle_volts=world.throttle_volts,
+        regen_volts=world.regen_volts,
         hydrobrake_duty=world.pwm.hydrobrake.duty,
         motors_enabled=gpio["motors_enable"].level,
         ebrake_engaged=not gpio["ebrake_release"].level,

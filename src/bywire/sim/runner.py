@@ -319,8 +319,7 @@ class SimRun:
         outputs = self.runtime.outputs
         if outputs is None:
             return None
-        dac = self.robot.drive.dac
-        return observe(self.world, outputs, dac.throttle_channel, dac.regen_channel)
+        return observe(self.world, outputs)
 
     def _observe(self, now: float) -> None:
         """After each pass of the loop: flags always; a full observation when one is due."""

@@ -81,6 +81,9 @@ def test_the_vehicle_moves_only_when_the_controller_drives_the_outputs() -> None
     world.hardware.dac.write(dac6574.encode_write(3, 512))
     clock.advance(1.0)
     assert world.vehicle.state.speed_mps > 0.2
+    # the world reports the volts where the robot wires the throttle, not on channel 0
+    assert world.throttle_volts == world.dac.volts(3) > 0.0 == world.dac.volts(0)
+    assert world.regen_volts == world.dac.volts(2)
     outputs.all_low()
     clock.advance(2.0)
     assert world.vehicle.state.speed_mps == 0.0

@@ -33,11 +33,19 @@ class VehicleWiring:
     throttle_channel: int = 0
     regen_channel: int = 1
 
+    def throttle_volts(self) -> float:
+        """The volts on the motor controllers' throttle input (the DAC channel wired to it)."""
+        return self.dac.volts(self.throttle_channel)
+
+    def regen_volts(self) -> float:
+        """The volts on the motor controllers' regenerative brake input."""
+        return self.dac.volts(self.regen_channel)
+
     def sample(self, faults: ActuatorFaults) -> ActuatorInputs:
         """The actuator inputs at this instant, as broken actuators pass them on."""
         return ActuatorInputs(
-            throttle_volts=self.dac.volts(self.throttle_channel),
-            regen_volts=self.dac.volts(self.regen_channel),
+            throttle_volts=self.throttle_volts(),
+            regen_volts=self.regen_volts(),
             motors_enable=self.motors_enable.level,
             motors_forward=self.motors_forward.level,
             motors_reverse=self.motors_reverse.level,

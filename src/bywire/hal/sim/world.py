@@ -79,6 +79,16 @@ class SimWorld:
     steering_encoder: SimSteeringEncoder
     impostor: SimImpostor
 
+    @property
+    def throttle_volts(self) -> float:
+        """The DAC volts on the motor controllers' throttle input, wherever the robot wires it."""
+        return self.vehicle.wiring.throttle_volts()
+
+    @property
+    def regen_volts(self) -> float:
+        """The DAC volts on the motor controllers' regenerative brake input."""
+        return self.vehicle.wiring.regen_volts()
+
     @classmethod
     def create(
         cls,

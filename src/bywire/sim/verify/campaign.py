@@ -75,8 +75,7 @@ class Campaign:
             prepare(run)
         clock = cast(VirtualClock, run.world.clock)
         timing = OracleTiming.for_robot(self.robot)
-        dac = self.robot.drive.dac
-        oracle = HazardOracle(run.world, dac.throttle_channel, dac.regen_channel, timing=timing)
+        oracle = HazardOracle(run.world, timing=timing)
         run.on_event.append(OracleWitness(oracle, clock, scenario.authenticated))
         run.on_exit.append(oracle.exited)
         log = TransitionLog(run)

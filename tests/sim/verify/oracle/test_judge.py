@@ -47,15 +47,15 @@ def _violations(events: str, duration_s: float) -> list[str]:
 def _oracle(robot: RobotConfig | None = None, *, boosted: bool = False) -> HazardOracle:
     robot = robot or default_sim_config()
     world = SimWorld.from_robot(VirtualClock(), robot)
-    dac, timing = robot.drive.dac, OracleTiming.for_robot(robot)
+    timing = OracleTiming.for_robot(robot)
     timing = replace(timing, steering_boosted=True) if boosted else timing
-    return HazardOracle(world, dac.throttle_channel, dac.regen_channel, timing=timing)
+    return HazardOracle(world, timing=timing)
 
 
 def _only(oracle: HazardOracle, invariant: Invariant, now: float, **shown: object) -> None:
     """Judge the hardware as the world shows it at `now`, but with the levels `shown`, and keep
     what `invariant` alone found (one invariant's check in isolation)."""
-    seen = Outputs.read(oracle.world, oracle.throttle_channel, oracle.regen_channel)
+    seen = Outputs.read(oracle.world)
     before = len(oracle.violations)
     oracle.judge(replace(seen, **shown), now)  # type: ignore[arg-type]
     found = oracle.violations[before:]
@@ -415,7 +415,9 @@ def test_a_stop_whose_deadline_had_passed_before_the_hang_is_not_extended() -> N
 
 def _driving_with(oracle: HazardOracle, throttle_code: int, duty: float) -> None:
     world = oracle.world
-    world.dac.write(dac6574.encode_write(oracle.throttle_channel, throttle_code))
+    world.dac.write(
+        dac6574.encode_write(oracle.world.vehicle.wiring.throttle_channel, throttle_code)
+    )
     world.pwm.hydrobrake.set_pulse(duty * world.pwm.hydrobrake.period_s)
     world.gpio["motors_enable"].set(True)
     world.gpio["ebrake_release"].set(True)

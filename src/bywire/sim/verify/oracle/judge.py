@@ -67,8 +67,6 @@ class HazardOracle:
         "ledger",
         "memory",
         "plant",
-        "regen_channel",
-        "throttle_channel",
         "timing",
         "violations",
         "world",
@@ -77,12 +75,9 @@ class HazardOracle:
     def __init__(
         self,
         world: SimWorld,
-        throttle_channel: int = 0,
-        regen_channel: int = 1,
         timing: OracleTiming | None = None,
     ) -> None:
         self.world = world
-        self.throttle_channel, self.regen_channel = throttle_channel, regen_channel
         self.timing = timing = timing if timing is not None else OracleTiming()
         self.violations: list[Violation] = []
         self.checks = 0
@@ -232,7 +227,7 @@ class HazardOracle:
         """Check every invariant on the hardware as it is at `now`."""
         self.checks += 1
         self.arming.resolve(now)
-        self.judge(Outputs.read(self.world, self.throttle_channel, self.regen_channel), now)
+        self.judge(Outputs.read(self.world), now)
 
     def judge(self, out: Outputs, now: float) -> None:
         """Check H1..H7 and H9 on `out`, what the hardware shows at `now` (a debounce that has
@@ -285,7 +280,7 @@ class HazardOracle:
 
     def exited(self, now: float) -> None:
         """The controller ended on a failed output: H8, every other output safe."""
-        out = Outputs.read(self.world, self.throttle_channel, self.regen_channel)
+        out = Outputs.read(self.world)
         violation = check_h8(out, self.plant.dead_lines, self.faults.dac_unsure(now), now)
         if violation is not None:
             self.violations.append(violation)

@@ -23,13 +23,13 @@ class Outputs:
     reverse: bool
 
     @classmethod
-    def read(cls, world: SimWorld, throttle_channel: int, regen_channel: int) -> Outputs:
+    def read(cls, world: SimWorld) -> Outputs:
         gpio, pwm = world.gpio, world.pwm
         return cls(
             enable=gpio["motors_enable"].level,
             released=gpio["ebrake_release"].level,
-            throttle_volts=world.dac.volts(throttle_channel),
-            regen_volts=world.dac.volts(regen_channel),
+            throttle_volts=world.throttle_volts,
+            regen_volts=world.regen_volts,
             hydrobrake_duty=pwm.hydrobrake.duty,
             steering_pulse_s=pwm.steering.pulse_s,
             speed_mps=world.vehicle.state.speed_mps,
