@@ -101,7 +101,7 @@ class OldJudge:
     def at(cls, base: str) -> OldJudge:
         oracle = _load("old_bywire_oracle", _git("show", f"{base}:{OLD_ORACLE}"))
         campaign_source = _git("show", f"{base}:{OLD_CAMPAIGN}").replace(
-            "from bywire.sim.verify.oracle import", "from old_bywire_oracle import"
+            "from bywire.sim.oracle import", "from old_bywire_oracle import"
         )
         return cls(oracle, _load("old_bywire_campaign", campaign_source))
 
