@@ -26,7 +26,7 @@ from pathlib import Path
 
 from bywire.bench.clocks import MeteredRealtimeClock
 from bywire.bench.figures import phase_figures
-from bywire.bench.realtime import BenchSettings, RealtimeSession
+from bywire.bench.realtime_session import BenchSettings, RealtimeSession
 from bywire.config import default_sim_config, load_config
 from bywire.runtime.realtime import apply_collector, apply_process
 

@@ -25,7 +25,7 @@ from collections import defaultdict
 from pathlib import Path
 
 from bywire.bench.clocks import MeteredRealtimeClock
-from bywire.bench.realtime import BenchSettings, RealtimeSession
+from bywire.bench.realtime_session import BenchSettings, RealtimeSession
 from bywire.bench.stats import summarise
 from bywire.config import default_sim_config, load_config
 from bywire.control.controller import ControlOutputs

@@ -29,7 +29,7 @@ from bywire.bench.latency import (
 )
 from bywire.bench.machine import cpu_model, machine_info
 from bywire.bench.phases import in_span
-from bywire.bench.realtime import BenchSettings, RealtimeResult, RealtimeSession
+from bywire.bench.realtime_session import BenchSettings, RealtimeResult, RealtimeSession
 from bywire.bench.stats import percentile, summarise
 from bywire.bench.sweeps import SWEEP_LEVELS, sawtooth_norm
 from bywire.bench.table import format_value, render, summary_line

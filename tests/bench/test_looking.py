@@ -9,7 +9,7 @@ import pytest
 
 from bywire.bench.clocks import MeteredRealtimeClock
 from bywire.bench.figures import BenchResult
-from bywire.bench.realtime import BenchSettings, RealtimeSession
+from bywire.bench.realtime_session import BenchSettings, RealtimeSession
 from bywire.bench.table import section_title
 from bywire.bench.virtual import measure_speedup
 from bywire.config import default_sim_config

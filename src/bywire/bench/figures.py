@@ -6,7 +6,7 @@ from dataclasses import asdict, dataclass
 from typing import Any
 
 from bywire.bench.phases import PhaseResult
-from bywire.bench.realtime import RealtimeResult
+from bywire.bench.realtime_session import RealtimeResult
 from bywire.bench.secoc import SecocCost
 from bywire.bench.stats import LatencySummary, tail_note
 from bywire.bench.virtual import SpeedupResult, VerifyRateResult

@@ -17,8 +17,8 @@ from rich.progress import BarColumn, Progress, TextColumn
 from bywire.bench.clocks import MeteredRealtimeClock
 from bywire.bench.figures import BenchResult, as_json
 from bywire.bench.machine import machine_info
-from bywire.bench.realtime import BenchSettings, RealtimeSession
-from bywire.bench.realtime import Progress as ProgressCallback
+from bywire.bench.realtime_session import BenchSettings, RealtimeSession
+from bywire.bench.realtime_session import Progress as ProgressCallback
 from bywire.bench.secoc import measure_secoc_cost
 from bywire.bench.table import render, render_tail, summary_line
 from bywire.bench.tail import ProbedClock

@@ -5,7 +5,7 @@ from __future__ import annotations
 from rich.table import Table
 from rich.text import Text
 
-from bywire.monitor.model import MessageRow
+from bywire.monitor.bus_state import MessageRow
 
 COLUMNS = ("id", "name", "count", "rate Hz", "age s", "data", "errors", "signals")
 ERROR_STYLE = "bold red"

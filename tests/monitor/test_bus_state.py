@@ -6,7 +6,7 @@ import pytest
 
 from bywire.error_flags import ErrorFlag
 from bywire.model import ControlMode, ErrorReport, Gear, ModeReport, MovementCommand
-from bywire.monitor.model import BusModel, MessageRow
+from bywire.monitor.bus_state import BusModel, MessageRow
 from bywire.monitor.view import cells, snapshot_table
 from bywire.protocol import dbc
 
