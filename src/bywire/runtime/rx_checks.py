@@ -14,11 +14,13 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 
 from bywire.config import TimeoutsSection
+from bywire.config.consistency import CAN_TIMEOUT_PERIODS
 from bywire.model import COMMAND_TYPES, MOVES_NOTHING, Command
 from bywire.protocol import dbc
 
-MIN_PERIODS_PER_TIMEOUT = 2
-"""A message's timeout spans at least two of its periods: one lost frame never stops the robot."""
+MIN_PERIODS_PER_TIMEOUT = CAN_TIMEOUT_PERIODS
+"""A message's timeout spans at least two of its periods: one lost frame never stops the robot
+(the loader's rule, `config.consistency`, which refuses a file that breaks it)."""
 
 
 @dataclass(frozen=True, slots=True)
