@@ -293,6 +293,19 @@ def test_a_can_timeout_shorter_than_two_dbc_periods_is_refused(can_s: float) -> 
     assert "allowed >= 0.04 s" in message
 
 
+@pytest.mark.parametrize("rate_hz", [1, 20, 49.9])
+def test_reports_slower_than_their_dbc_period_are_refused(rate_hz: float) -> None:
+    message = _refusal(f"[tasks]\ncan_tx_rate_hz = {rate_hz}")
+    assert "tasks.can_tx_rate_hz" in message
+    assert "GenMsgCycleTime" in message
+    assert "allowed >= 50 Hz" in message
+
+
+@pytest.mark.parametrize("rate_hz", [50, 100])
+def test_reports_at_or_above_their_dbc_rate_are_taken(rate_hz: int) -> None:
+    assert parse_config(f"[tasks]\ncan_tx_rate_hz = {rate_hz}").tasks.rate_hz("can_tx") == rate_hz
+
+
 def test_a_message_named_gets_its_own_timeout_and_the_others_the_default() -> None:
     text = (
         "[timeouts]\ncan_command_timeout_s = 0.08\n"

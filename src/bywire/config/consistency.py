@@ -31,6 +31,7 @@ def check_consistency(config: RobotConfig, problems: Problems) -> None:
         _watchdog,
         _can_timeouts,
         _deadlines,
+        _report_rate,  # after the deadlines: a breach there names every task's rate
     )
     for check in checks:
         check(config, problems)
@@ -156,6 +157,25 @@ def _watchdog(config: RobotConfig, problems: Problems) -> None:
             f"timeouts.watchdog_s = {show(config.timeouts.watchdog_s)}: shorter than"
             f" {WATCHDOG_PERIODS} periods of tasks.{slowest}_rate_hz = {show(slowest_hz)};"
             f" allowed >= {number_text(minimum_s)} s",
+        )
+
+
+def _report_rate(config: RobotConfig, problems: Problems) -> None:
+    """The reports go out at least as often as their DBC period (GenMsgCycleTime) says: the
+    higher-level computer judges their age by it, as the controller judges the commands'."""
+    from bywire.protocol import dbc  # noqa: PLC0415 (cantools only when a file is checked)
+
+    key = "tasks.can_tx_rate_hz"
+    if problems.affects(key):
+        return
+    period_s = min(dbc.period_s(frame) for frame in dbc.report_ids())
+    rate_hz = config.tasks.rate_hz("can_tx")
+    if 1.0 / rate_hz > period_s * (1.0 + 1e-9):
+        problems.add(
+            key,
+            f"{key} = {show(rate_hz)}: the reports would go out less often than their period in"
+            f" the DBC ({number_text(period_s)} s, GenMsgCycleTime), so the higher-level computer"
+            f" would take them for late; allowed >= {number_text(1.0 / period_s)} Hz",
         )
 
 

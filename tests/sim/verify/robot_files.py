@@ -39,7 +39,7 @@ def robot_files(draw: st.DrawFn) -> str:
             "steering_rate_hz": str(rates[0]),
             "driving_rate_hz": str(rates[1]),
             "hydrobrake_rate_hz": str(rates[2]),
-            "can_tx_rate_hz": draw(st.sampled_from(["20", "50", "100"])),
+            "can_tx_rate_hz": draw(st.sampled_from(["50", "100"])),
         },
         "sim": {"rc_frame_period_s": draw(st.integers(70, 200).map(lambda t: f"{t / 10000:.4f}"))},
         "supervisor": {"debounce_frames": str(draw(st.integers(2, 6)))},
