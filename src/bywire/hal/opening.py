@@ -213,7 +213,10 @@ def _open_dac(dac: DacOutput, paths: LinuxPaths, stack: contextlib.ExitStack) ->
     """The backend the robot file names (`[drive.dac] backend`), by its row's opener."""
     row = dac_backend(dac.backend)
     opener: DacOpener = importlib.import_module(row.module).open_dac
-    return opener(dac, paths, stack)
+    try:
+        return opener(dac, paths, stack)
+    except HardwareError as error:
+        raise HardwareError(f"{error} (DAC backend {row.name!r} needs {row.needs})") from error
 
 
 class DacOpener(Protocol):
