@@ -79,6 +79,51 @@ DESCRIPTIONS: dict[ErrorFlag, str] = {
 """What each flag means, one sentence: the comment of its signal in albert.dbc."""
 
 
+class Subsystem(enum.Enum):
+    """The part of the robot a flag speaks of: one ROS 2 diagnostics status each (`bywire.ros2`)."""
+
+    RC_LINK = "RC link"
+    CAN_COMMANDS = "CAN commands"
+    CAN_CONTROLLER = "CAN controller"
+    DRIVE_MOTORS = "drive motors"
+    BRAKES = "brakes"
+    STEERING = "steering"
+    SPEED_SENSOR = "speed sensor"
+    CONTROLLER = "controller"
+
+
+SUBSYSTEMS: dict[ErrorFlag, Subsystem] = {
+    ErrorFlag.TASK_CRASHED: Subsystem.CONTROLLER,
+    ErrorFlag.CAN_OPEN_FAILED: Subsystem.CAN_CONTROLLER,
+    ErrorFlag.CAN_BUS_OFF: Subsystem.CAN_CONTROLLER,
+    ErrorFlag.CAN_RX_FAILED: Subsystem.CAN_CONTROLLER,
+    ErrorFlag.CAN_TX_FAILED: Subsystem.CAN_CONTROLLER,
+    ErrorFlag.DAC_VALUE_CLAMPED: Subsystem.DRIVE_MOTORS,
+    ErrorFlag.DAC_WRITE_FAILED: Subsystem.DRIVE_MOTORS,
+    ErrorFlag.IBUS_PORT_FAILED: Subsystem.RC_LINK,
+    ErrorFlag.RC_TIMEOUT: Subsystem.RC_LINK,
+    ErrorFlag.IBUS_RESYNC: Subsystem.RC_LINK,
+    ErrorFlag.IBUS_CHECKSUM: Subsystem.RC_LINK,
+    ErrorFlag.CAN_COMMAND_TIMEOUT: Subsystem.CAN_COMMANDS,
+    ErrorFlag.CAN_COMMAND_REJECTED: Subsystem.CAN_COMMANDS,
+    ErrorFlag.RC_FAILSAFE: Subsystem.RC_LINK,
+    ErrorFlag.TASK_OVERRUN: Subsystem.CONTROLLER,
+    ErrorFlag.WATCHDOG_TRIPPED: Subsystem.CONTROLLER,
+    ErrorFlag.DAC_FAULT_STOP: Subsystem.DRIVE_MOTORS,
+    ErrorFlag.HYDRO_PRESSURE_FAULT: Subsystem.BRAKES,
+    ErrorFlag.STEERING_ENCODER_FAULT: Subsystem.STEERING,
+    ErrorFlag.REMOTE_STOP: Subsystem.CAN_COMMANDS,
+    ErrorFlag.CAN_UNTRUSTED: Subsystem.CAN_COMMANDS,
+    ErrorFlag.SPEED_SENSOR_FAULT: Subsystem.SPEED_SENSOR,
+    ErrorFlag.NOT_ARMED: Subsystem.CONTROLLER,
+    ErrorFlag.CAN_AUTH_FAILED: Subsystem.CAN_COMMANDS,
+    ErrorFlag.TIMING_FAULT: Subsystem.CONTROLLER,
+    ErrorFlag.LIGHTS_UNTRUSTED: Subsystem.CAN_COMMANDS,
+    ErrorFlag.STOP_ESCALATED: Subsystem.BRAKES,
+}
+"""The subsystem of each flag."""
+
+
 RECOVERABLE = (
     ErrorFlag.CAN_BUS_OFF
     | ErrorFlag.CAN_TX_FAILED

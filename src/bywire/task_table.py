@@ -1,8 +1,13 @@
 """The schedule table (thesis Table 1): every periodic task, one row each, with what it runs.
 
 A row is ArduPilot's `SCHED_TASK(fn, rate_hz, max_us)`: a name (the configuration overrides its
-rate by `[tasks] <name>_rate_hz`), a rate, a budget and the function a pass calls. A new periodic
-task is a function here and a row below. The functions write through `TaskTarget`, what a task
+rate by `[tasks] <name>_rate_hz`, and the row's rate is that key's default), a rate, a budget and
+the function a pass calls; and what the rest of the controller derives from it: whether the
+watchdog covers it (its rate bounds `timeouts.watchdog_s`), when a changed decision writes it at
+once rather than at its next tick, and, for a task that drives GPIO lines only, those lines: the
+task writes them through the write gate under its own name, and the watchdog's trip and the safe
+state (`bywire.runtime.actuators`) drive them low. A new periodic task is a function here and a
+row below. The functions write through `TaskTarget`, what a task
 needs of the running controller (`bywire.runtime.app.Runtime` is one), so this table sits below
 both the configuration, which reads its names and rates, and the runtime, which runs it; the
 runtime's own bookkeeping of deadlines and statistics is `bywire.runtime.schedule`.
@@ -10,7 +15,7 @@ runtime's own bookkeeping of deadlines and statistics is `bywire.runtime.schedul
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from typing import Protocol
 
@@ -29,6 +34,9 @@ class TaskActuators(Protocol):
     def write_brakes(self, hydrobrake_duty: float, ebrake_engaged: bool) -> None: ...
 
     def write_lights(self, lights: LightOutputs) -> None: ...
+
+    def write_lines(self, task: str, levels: Mapping[str, bool]) -> None:
+        """A line task's levels (`TaskSpec.lines`), through the gate under the task's name."""
 
 
 class TaskTarget(Protocol):
@@ -64,14 +72,39 @@ def send_reports(target: TaskTarget, outputs: ControlOutputs, now: float) -> Non
     target.send_reports(outputs, now)
 
 
+def _steering_changed(before: ControlOutputs, after: ControlOutputs) -> bool:
+    return after.steering_pulse_s != before.steering_pulse_s
+
+
+def _drive_changed(before: ControlOutputs, after: ControlOutputs) -> bool:
+    return after.drive != before.drive
+
+
+def _brakes_changed(before: ControlOutputs, after: ControlOutputs) -> bool:
+    return (after.hydrobrake_duty, after.ebrake_engaged) != (
+        before.hydrobrake_duty,
+        before.ebrake_engaged,
+    )
+
+
+Changed = Callable[[ControlOutputs, ControlOutputs], bool]
+"""Whether the decision `after` changed what a task writes since `before`."""
+
+
 @dataclass(frozen=True, slots=True)
 class TaskSpec:
-    """One row of the schedule table: what it runs, how often and within what budget."""
+    """One row of the schedule table: what it runs, how often and within what budget, and what
+    the controller derives from it (see the module's text)."""
 
     name: str
-    rate_hz: float
+    rate_hz: float  # the default of `[tasks] <name>_rate_hz`
     budget_s: float
     run: TaskFn
+    supervised: bool = False  # the watchdog covers it: its rate bounds `timeouts.watchdog_s`
+    changed: Changed | None = None  # written at once when this says the decision changed it
+    lines: tuple[
+        str, ...
+    ] = ()  # a line task's GPIO outputs (`DigitalOutputs` fields), low when safe
 
     @property
     def period_s(self) -> float:
@@ -84,10 +117,13 @@ class TaskSpec:
 # the decision commanded even if a slow write after it trips the watchdog), then the drive (the
 # enable line down first, the slow I2C transfers to the DAC after), the lights and the reports.
 SCHEDULE: tuple[TaskSpec, ...] = (
-    TaskSpec("hydrobrake", 100.0, 0.002, write_brakes),
-    TaskSpec("steering", 100.0, 0.002, write_steering),
-    TaskSpec("driving", 100.0, 0.002, write_drive),
+    TaskSpec("hydrobrake", 100.0, 0.002, write_brakes, True, _brakes_changed),
+    TaskSpec("steering", 100.0, 0.002, write_steering, True, _steering_changed),
+    TaskSpec("driving", 100.0, 0.002, write_drive, True, _drive_changed),
     TaskSpec("lights", 20.0, 0.005, write_lights),
     TaskSpec("can_tx", 50.0, 0.004, send_reports),
 )
 TASK_NAMES = tuple(spec.name for spec in SCHEDULE)
+SUPERVISED_TASKS = tuple(spec.name for spec in SCHEDULE if spec.supervised)
+"""The actuator tasks the watchdog covers: the slowest one's rate bounds `timeouts.watchdog_s`."""
+LINE_TASKS = tuple(spec for spec in SCHEDULE if spec.lines)

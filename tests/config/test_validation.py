@@ -82,6 +82,7 @@ BAD_VALUES = [
     ("[drive.dac]\ni2c_bus = 256", "drive.dac.i2c_bus", "0..255"),
     ("[drive.dac]\naddress = 0x4B", "drive.dac.address = 0x4B", "0x4C..0x4F"),
     ("[drive.dac]\naddress = 0x50", "drive.dac.address = 0x50", "0x4C..0x4F"),
+    ('[drive.dac]\nbackend = "iio"', "drive.dac.backend", '"auto"'),
     ("[drive.dac]\nvref_volts = 0", "drive.dac.vref_volts", "> 0 and <= 5.5 V"),
     ("[drive.dac]\nthrottle_channel = 4", "drive.dac.throttle_channel", "0..3"),
     ("[drive.dac]\nregen_channel = 0", "drive.dac.regen_channel", "give each its own"),

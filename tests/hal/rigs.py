@@ -15,6 +15,7 @@ from __future__ import annotations
 import contextlib
 import dataclasses
 from collections.abc import Callable, Iterable, Mapping
+from dataclasses import dataclass
 from pathlib import Path
 from typing import ClassVar
 
@@ -107,18 +108,20 @@ class LinuxRig:
         ),
     }
 
-    def __init__(
-        self, root: Path, monkeypatch: pytest.MonkeyPatch, *, smbus: bool, smbus_only: bool = False
-    ) -> None:
+    def __init__(self, root: Path, monkeypatch: pytest.MonkeyPatch, dac: DacRig) -> None:
         monkeypatch.setattr(gpio_gpiod, "gpiod", fake_gpiod)
         pwm_core_checks(monkeypatch)
         self.smbus: list[RecordingSMBus] = []
-        self._smbus_only = smbus_only
-        if smbus:
+        self._dac = dac
+        if dac.smbus:
             monkeypatch.setattr(dac_smbus2, "KernelI2cBus", self._recording_bus)
-        self.bench: Bench = make_bench(root, iio=not smbus)
+        self.bench: Bench = make_bench(root, iio=not dac.smbus)
         self.line = PtyRcLine(self.bench.rc_link)
-        config = parse_config(self.bench.config_text())
+        text = self.bench.config_text().replace(
+            "[drive.dac]\n", f'[drive.dac]\nbackend = "{dac.backend}"\n', 1
+        )
+        config = parse_config(text)
+        assert config.drive.dac.backend == dac.backend, "the bench's robot file has no [drive.dac]"
         self._stack = contextlib.ExitStack()
         self._stack.callback(self.line.close)
         paths = LinuxPaths(self.bench.sysfs, self.bench.dev)
@@ -127,7 +130,7 @@ class LinuxRig:
         self._stack.callback(self.peer.shutdown)
 
     def _recording_bus(self, path: str) -> RecordingSMBus:
-        bus = RecordingSMBus(path, smbus_only=self._smbus_only)
+        bus = RecordingSMBus(path, smbus_only=self._dac.smbus_only)
         self.smbus.append(bus)
         return bus
 
@@ -142,6 +145,8 @@ class LinuxRig:
         return duty_ns / 1e9
 
     def dac_code(self, channel: int) -> int:
+        if self._dac.read_back is not None:
+            return self._dac.read_back(self.hardware.dac, channel)
         if not self.smbus:
             return self.bench.dac_code(channel)
         codes = dict.fromkeys(dac6574.CHANNELS, 0)
@@ -592,12 +597,27 @@ class KernelRig:
 _KERNEL_DEVICES: list[contextlib.ExitStack] = []
 
 
+@dataclass(frozen=True, slots=True)
+class DacRig:
+    """A Linux rig for one `DAC_BACKENDS` row: the bench it runs on, and how it reads back."""
+
+    backend: str  # the row's name, written into the bench's `[drive.dac] backend`
+    smbus: bool = False  # a bench without the IIO driver, the i2c-dev writes recorded
+    smbus_only: bool = False  # ... by an adapter that does SMBus transfers only
+    read_back: Callable[[I2cDevice, int], int] | None = None  # else from the bench
+
+
+DAC_RIGS: dict[str, DacRig] = {
+    "linux-iio": DacRig("auto"),
+    "linux-smbus2": DacRig("auto", smbus=True),
+    "linux-smbus-only": DacRig("auto", smbus=True, smbus_only=True),
+}
+"""Every DAC backend's conformance rigs (each row of `DAC_BACKENDS` has one at least)."""
+
 Rig = SimRig | LinuxRig | PlaybackRig | KernelRig
 RIGS: dict[str, type[Rig]] = {
     "sim": SimRig,
-    "linux-iio": LinuxRig,
-    "linux-smbus2": LinuxRig,
-    "linux-smbus-only": LinuxRig,
+    **dict.fromkeys(DAC_RIGS, LinuxRig),
     "sim-taped": TapedSimRig,
     "playback": PlaybackRig,
     **{f"kernel-{dac}": KernelRig for dac in KernelRig.DACS},
@@ -614,9 +634,7 @@ def make_rig(backend: str, root: Path, monkeypatch: pytest.MonkeyPatch) -> Rig:
         return PlaybackRig()
     if backend.startswith("kernel-"):
         return KernelRig(backend.removeprefix("kernel-"))
-    smbus_only = backend == "linux-smbus-only"
-    smbus = smbus_only or backend == "linux-smbus2"
-    return LinuxRig(root, monkeypatch, smbus=smbus, smbus_only=smbus_only)
+    return LinuxRig(root, monkeypatch, DAC_RIGS[backend])
 
 
 def not_applicable(backend: str) -> Mapping[str, str]:

@@ -12,6 +12,7 @@ from bywire.control.lights import LIGHT_LINES, LightOutputs
 from bywire.hal.sim.clock import VirtualClock
 from bywire.hal.sim.world import SimWorld
 from bywire.runtime.actuators import ActuatorConfig, Actuators
+from bywire.task_table import TaskSpec
 
 DRIVING = DriveOutputs(2.0, 0.0, enable=True, forward=True, reverse=False)
 FASTER = DriveOutputs(3.0, 0.0, enable=True, forward=True, reverse=False)
@@ -251,3 +252,32 @@ def test_a_watchdog_trip_writes_each_light_lines_own_safe_level_and_holds_the_ot
         light.line: True if light.tripped is None else light.tripped for _, light in LIGHT_LINES
     }
     assert world.gpio["error_led"].level
+
+
+# --- line tasks (a schedule row's `lines`) ----------------------------------------------------
+
+BEEPER = TaskSpec("beeper", 10.0, 0.002, lambda *_: None, lines=("low_beam", "reverse_light"))
+
+
+def test_a_line_task_writes_its_lines_through_the_gate_and_a_trip_drives_them_low() -> None:
+    world, actuators = rig(ActuatorConfig(line_tasks=(BEEPER,)))
+    actuators.write_lines("beeper", {"low_beam": True, "reverse_light": True})
+    assert world.gpio["low_beam"].level
+    actuators.watchdog_trip()
+    assert not world.gpio["low_beam"].level
+    assert not world.gpio["reverse_light"].level
+    actuators.write_lines("beeper", {"low_beam": True})
+    assert not world.gpio["low_beam"].level  # refused by the gate until acknowledged
+    actuators.gate.reset()
+    actuators.write_lines("beeper", {"low_beam": True})
+    assert world.gpio["low_beam"].level
+
+
+@pytest.mark.parametrize("line_tasks", [(), (BEEPER,)])
+def test_the_safe_state_writes_a_line_tasks_lines_low_too(line_tasks: tuple[TaskSpec]) -> None:
+    """The lights write these lines low as well: the row's own writes are the second try."""
+    world, actuators = rig(ActuatorConfig(line_tasks=line_tasks))
+    world.gpio["reverse_light"].fail()
+    failures = actuators.write_safe(0.0, centre_steering=False)
+    tries = [failure for failure in failures if failure.startswith("reverse_light:")]
+    assert len(tries) == 1 + len(line_tasks)

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 from dataclasses import fields, replace
 
+from bywire.config.dac_backends import DAC_BACKEND_NAMES
 from bywire.config.limits import (
     BLINK_HZ,
     BRAKE_PWM_HZ,
@@ -65,6 +66,7 @@ def dac(table: Table) -> DacOutput:
             "throttle_channel", default.throttle_channel, dac6574.CHANNELS
         ),
         regen_channel=table.integer("regen_channel", default.regen_channel, dac6574.CHANNELS),
+        backend=table.text("backend", default.backend, DAC_BACKEND_NAMES),
     )
     table.close()
     return output

@@ -10,8 +10,9 @@ from bywire.config.model import OUTPUT_LINE_KEYS, CanSection, RobotConfig, outpu
 from bywire.config.reader import Problems, number_text, show
 from bywire.errors import ConfigError
 from bywire.protocol import bittiming
+from bywire.task_table import SUPERVISED_TASKS
 
-CONTROL_TASKS = ("steering", "driving", "hydrobrake")  # the actuator tasks the watchdog covers
+CONTROL_TASKS = SUPERVISED_TASKS  # the actuator tasks the watchdog covers (the rows say which)
 RC_AXES = ("steering", "throttle_brake")
 RC_SWITCHES = ("mode_switch", "gear_switch", "low_beam_switch", "hazard_switch")
 RC_FUNCTIONS = (*RC_AXES, *RC_SWITCHES)

@@ -91,6 +91,7 @@ class DacOutput:
     vref_volts: float = 5.0
     throttle_channel: int = 0
     regen_channel: int = 1
+    backend: str = "auto"  # a name of `bywire.config.dac_backends.DAC_BACKENDS`
 
 
 @dataclass(frozen=True, slots=True)

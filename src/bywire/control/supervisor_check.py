@@ -29,23 +29,19 @@ from bywire.model import ControlMode
 
 STOP = ControlMode.STOP
 RC_GONE = frozenset({Cause.RC_LOST, Cause.RC_IMPLAUSIBLE})
-SAME_RULES = frozenset(
-    {Cause.DAC_FAULT, Cause.HYDRO_PRESSURE, Cause.STEERING_ENCODER, Cause.TIMING}
-)
-"""Causes the supervisor treats alike (latch in any mode, cleared at STOP once gone): the
-default search lets DAC_FAULT stand for all four; `same_rules` proves they are alike."""
+SAME_RULES = ALWAYS_LATCHING - RC_GONE - ACKNOWLEDGED_BY_ARMING
+"""Causes the supervisor treats alike (latch in any mode, cleared at STOP once gone): every cause
+of the table but those whose rules differ (the RC link's, the CAN-bound ones, those arming
+acknowledges, power-up). The default search lets DAC_FAULT stand for all of them; `same_rules`
+proves they are alike, so a new cause of this kind is a row of `Cause` and nothing here."""
 
-TRANSITIONS: tuple[str, ...] = (
+_OWN_RULES_TRANSITIONS = (
     "CAN->RC: handover",
     "CAN->STOP: CAN_LOST latched",
     "CAN->STOP: CAN_UNTRUSTED latched",
-    "CAN->STOP: DAC_FAULT latched",
-    "CAN->STOP: HYDRO_PRESSURE latched",
     "CAN->STOP: RC_IMPLAUSIBLE latched",
     "CAN->STOP: RC_LOST latched",
     "CAN->STOP: REMOTE_STOP latched",
-    "CAN->STOP: STEERING_ENCODER latched",
-    "CAN->STOP: TIMING latched",
     "CAN->STOP: WATCHDOG latched",
     "CAN->STOP: the switch at STOP",
     "CAN: throttle opened at zero",
@@ -53,13 +49,9 @@ TRANSITIONS: tuple[str, ...] = (
     "RC->CAN: handover",
     "RC->STOP: CAN_LOST latched",
     "RC->STOP: CAN_UNTRUSTED latched",
-    "RC->STOP: DAC_FAULT latched",
-    "RC->STOP: HYDRO_PRESSURE latched",
     "RC->STOP: RC_IMPLAUSIBLE latched",
     "RC->STOP: RC_LOST latched",
     "RC->STOP: REMOTE_STOP latched",
-    "RC->STOP: STEERING_ENCODER latched",
-    "RC->STOP: TIMING latched",
     "RC->STOP: WATCHDOG latched",
     "RC->STOP: the switch at STOP",
     "RC: throttle opened at zero",
@@ -71,10 +63,6 @@ TRANSITIONS: tuple[str, ...] = (
     "STOP: CAN_LOST latched",
     "STOP: CAN_UNTRUSTED cleared at STOP",
     "STOP: CAN_UNTRUSTED latched",
-    "STOP: DAC_FAULT cleared at STOP",
-    "STOP: DAC_FAULT latched",
-    "STOP: HYDRO_PRESSURE cleared at STOP",
-    "STOP: HYDRO_PRESSURE latched",
     "STOP: POWER_UP cleared at STOP",
     "STOP: RC_IMPLAUSIBLE cleared at STOP",
     "STOP: RC_IMPLAUSIBLE latched",
@@ -82,14 +70,29 @@ TRANSITIONS: tuple[str, ...] = (
     "STOP: RC_LOST latched",
     "STOP: REMOTE_STOP cleared at STOP",
     "STOP: REMOTE_STOP latched",
-    "STOP: STEERING_ENCODER cleared at STOP",
-    "STOP: STEERING_ENCODER latched",
-    "STOP: TIMING cleared at STOP",
-    "STOP: TIMING latched",
     "STOP: WATCHDOG cleared at STOP",
     "STOP: WATCHDOG latched",
     "STOP: arming refused, a cause latched",
     "STOP: arming refused, throttle",
+)
+"""The rows of the transition table that name no cause of `SAME_RULES`."""
+
+TRANSITIONS: tuple[str, ...] = tuple(
+    sorted(
+        (
+            *_OWN_RULES_TRANSITIONS,
+            *(
+                label.format(cause.name)
+                for cause in SAME_RULES
+                for label in (
+                    "CAN->STOP: {} latched",
+                    "RC->STOP: {} latched",
+                    "STOP: {} cleared at STOP",
+                    "STOP: {} latched",
+                )
+            ),
+        )
+    )
 )
 """Every row of the transition table (as `transition_labels` names them) that a step from a
 reachable state can take; `tests/control/test_supervisor_exhaustive.py` proves the list is

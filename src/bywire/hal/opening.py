@@ -16,13 +16,15 @@ roots a container or a test can move (`bywire run --sysfs-root/--dev-root`).
 from __future__ import annotations
 
 import contextlib
+import importlib
 import logging
 from collections.abc import Callable, Iterator
 from dataclasses import dataclass, fields
 from pathlib import Path
-from typing import TYPE_CHECKING, TypeVar, cast
+from typing import TYPE_CHECKING, Protocol, TypeVar, cast
 
 from bywire.config import RobotConfig, output_lines
+from bywire.config.dac_backends import dac_backend
 from bywire.config.model import OUTPUT_LINE_KEYS, DacOutput, PwmOutput
 from bywire.errors import HardwareError
 from bywire.hal.hardware import DigitalOutputs, Hardware
@@ -208,15 +210,18 @@ def preflight(config: RobotConfig, paths: LinuxPaths | None = None) -> list[tupl
 
 
 def _open_dac(dac: DacOutput, paths: LinuxPaths, stack: contextlib.ExitStack) -> I2cDevice:
-    """The kernel's IIO driver when it owns the chip, else raw writes through /dev/i2c-N."""
-    from bywire.hal.linux.dac_iio import IioDac, find_iio_dac  # noqa: PLC0415
-    from bywire.hal.linux.dac_smbus2 import Smbus2Dac  # noqa: PLC0415
+    """The backend the robot file names (`[drive.dac] backend`), by its row's opener."""
+    row = dac_backend(dac.backend)
+    opener: DacOpener = importlib.import_module(row.module).open_dac
+    try:
+        return opener(dac, paths, stack)
+    except HardwareError as error:
+        raise HardwareError(f"{error} (DAC backend {row.name!r} needs {row.needs})") from error
 
-    device = find_iio_dac(paths.sysfs_root, dac.i2c_bus, dac.address)
-    opened = IioDac(device) if device is not None else None
-    if opened is None:
-        raw = Smbus2Dac(paths.device(f"i2c-{dac.i2c_bus}"), dac.address)
-        stack.callback(raw.close)
-        return raw
-    stack.callback(opened.close)
-    return opened
+
+class DacOpener(Protocol):
+    """What every `DAC_BACKENDS` row's module offers as `open_dac`."""
+
+    def __call__(
+        self, dac: DacOutput, paths: LinuxPaths, stack: contextlib.ExitStack, /
+    ) -> I2cDevice: ...

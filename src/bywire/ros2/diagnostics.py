@@ -12,9 +12,11 @@ Levels follow diagnostic_msgs: OK, WARN, ERROR, STALE (nothing heard).
 from __future__ import annotations
 
 import enum
+import functools
+import operator
 from dataclasses import dataclass
 
-from bywire.error_flags import ErrorFlag, flag_names
+from bywire.error_flags import SUBSYSTEMS, ErrorFlag, Subsystem, flag_names
 from bywire.model import StatusReport
 from bywire.ros2.robot import LATCH_FLAGS, RobotStatus
 
@@ -43,25 +45,13 @@ class Status:
     values: tuple[tuple[str, str], ...] = ()
 
 
-F = ErrorFlag
 FLAG_GROUPS: dict[str, ErrorFlag] = {
-    "RC link": F.RC_TIMEOUT | F.RC_FAILSAFE | F.IBUS_PORT_FAILED | F.IBUS_RESYNC | F.IBUS_CHECKSUM,
-    "CAN commands": (
-        F.CAN_COMMAND_TIMEOUT
-        | F.CAN_COMMAND_REJECTED
-        | F.CAN_UNTRUSTED
-        | F.CAN_AUTH_FAILED
-        | F.REMOTE_STOP
-        | F.LIGHTS_UNTRUSTED
-    ),
-    "CAN controller": F.CAN_OPEN_FAILED | F.CAN_BUS_OFF | F.CAN_RX_FAILED | F.CAN_TX_FAILED,
-    "drive motors": F.DAC_VALUE_CLAMPED | F.DAC_WRITE_FAILED | F.DAC_FAULT_STOP,
-    "brakes": F.HYDRO_PRESSURE_FAULT | F.STOP_ESCALATED,
-    "steering": F.STEERING_ENCODER_FAULT,
-    "speed sensor": F.SPEED_SENSOR_FAULT,
-    "controller": (
-        F.TASK_CRASHED | F.TASK_OVERRUN | F.WATCHDOG_TRIPPED | F.NOT_ARMED | F.TIMING_FAULT
-    ),
+    subsystem.value: functools.reduce(
+        operator.or_,
+        (flag for flag, owner in SUBSYSTEMS.items() if owner is subsystem),
+        ErrorFlag(0),
+    )
+    for subsystem in Subsystem
 }
 """The error flags by subsystem: one status each."""
 

@@ -13,13 +13,13 @@ While any holds, the motors' enable line is driven low at once and stays low, an
 latches STOP (DAC_FAULT, category 0) until the operator re-arms.
 
 `write_safe` writes every output's safe level in order of importance (enable, e-brake, hydraulic
-brake, DAC, direction, lights) and goes on past any output that fails, reporting each: a dead
-lamp line must not leave the throttle at 4.75 V.
+brake, DAC, direction, lights, then the lines of the schedule's line tasks) and goes on past
+any output that fails, reporting each: a dead lamp line must not leave the throttle at 4.75 V.
 """
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 
 from bywire.control.dac_health import DAC_FAILURE_LIMIT, DacHealth, Transfer, dac_step
@@ -31,6 +31,7 @@ from bywire.protocol import dac6574
 from bywire.runtime.recent_fault import RecentFault
 from bywire.runtime.timing import Budgets, Overruns, overrun_weight
 from bywire.runtime.write_gate import Action, WriteGate
+from bywire.task_table import LINE_TASKS, TaskSpec
 
 
 @dataclass(frozen=True, slots=True)
@@ -44,6 +45,7 @@ class ActuatorConfig:
     safe_hydrobrake_duty: float = 1.0
     safe_steering_pulse_s: float = 0.0015
     budgets: Budgets = field(default_factory=Budgets)
+    line_tasks: tuple[TaskSpec, ...] = LINE_TASKS  # the schedule's rows that drive lines only
 
 
 class Actuators:
@@ -72,6 +74,7 @@ class Actuators:
                 "dac": lambda: self._write_dac_pair(0.0, 0.0, None),
                 "motors_direction": lambda: _each(self._direction_writes(False, False)),
                 "lights": lambda: _each(self._tripped_light_writes()),
+                **{task.name: _lines_low(lines, task.lines) for task in config.line_tasks},
                 "steering": self._hold_steering,  # the commanded position: a swerve otherwise
             },
             now=self._now,
@@ -126,6 +129,11 @@ class Actuators:
     def write_lights(self, lights: LightOutputs) -> None:
         self.gate.write("lights", lambda: self._write_lights(lights))
 
+    def write_lines(self, task: str, levels: Mapping[str, bool]) -> None:
+        """A line task's levels (`TaskSpec.lines`), through the gate under the task's name."""
+        lines = self._hardware.outputs
+        self.gate.write(task, lambda: _each([(n, _setter(lines, n, v)) for n, v in levels.items()]))
+
     def write_safe(self, now: float, *, centre_steering: bool) -> tuple[str, ...]:
         """Every output to its de-energised state, past the gate, in order of importance (enable,
         e-brake, hydraulic brake, DAC, direction, lights), each tried whatever failed before
@@ -150,6 +158,11 @@ class Actuators:
                 for name, write in self._direction_writes(False, False)
             ),
             *(("lights", light.line, _low(lines, light.line)) for _, light in LIGHT_LINES),
+            *(
+                (task.name, line, _low(lines, line))
+                for task in config.line_tasks
+                for line in task.lines
+            ),
         ]
         if centre_steering:
             pulse_s = config.safe_steering_pulse_s
@@ -276,3 +289,7 @@ def _setter(lines: object, line: str, level: bool) -> Action:
 
 def _low(lines: object, line: str) -> Action:
     return _setter(lines, line, False)
+
+
+def _lines_low(lines: object, names: Sequence[str]) -> Action:
+    return lambda: _each([(name, _low(lines, name)) for name in names])

@@ -24,10 +24,9 @@ import gc
 import logging
 import time
 from collections import deque
-from collections.abc import Callable
+from collections.abc import Callable, Iterable
 from dataclasses import dataclass
 
-from bywire import task_table
 from bywire.can_frame import CanFrame
 from bywire.control.command_edges import NO_EDGES, CommandEdges
 from bywire.control.controller import (
@@ -54,7 +53,7 @@ from bywire.runtime.settings import RuntimeConfig
 from bywire.runtime.timing import Overruns
 from bywire.runtime.watchdog import Watchdog
 from bywire.security.session import SecocReceiver
-from bywire.task_table import TaskFn
+from bywire.task_table import TaskFn, TaskSpec
 
 CycleObserver = Callable[[float], None]
 MODE_LOG_LENGTH = 256  # mode changes kept for tools and tests; nothing grows with run time
@@ -250,7 +249,7 @@ class Runtime:
         before = self.outputs
         outputs = self._decide(now)
         decided_s = (time.perf_counter() - started) / max(len(due), 1)
-        changed = _changed_writes(before, outputs)
+        changed = _changed_writes((task.spec for task in self.tasks), before, outputs)
         for task in self.tasks:  # the table's order is the order of importance
             write = task.spec.run
             if not task.due(now):
@@ -379,22 +378,16 @@ class Runtime:
                 return
 
 
-def _changed_writes(before: ControlOutputs | None, after: ControlOutputs) -> frozenset[TaskFn]:
-    """The writes whose outputs the decision changed: written at once, even where their task is
-    not due: a STOP that time alone reveals, decided at a tick of the fastest task, engages the
-    e-brake then, not at the brake task's own (slower) tick. The periodic tasks refresh
-    everything anyway; an unchanged DAC value is not worth an I2C transfer."""
-    if before is None:
-        return frozenset(
-            {task_table.write_steering, task_table.write_drive, task_table.write_brakes}
-        )
-    changed = (
-        (task_table.write_steering, after.steering_pulse_s != before.steering_pulse_s),
-        (task_table.write_drive, after.drive != before.drive),
-        (
-            task_table.write_brakes,
-            (after.hydrobrake_duty, after.ebrake_engaged)
-            != (before.hydrobrake_duty, before.ebrake_engaged),
-        ),
+def _changed_writes(
+    schedule: Iterable[TaskSpec], before: ControlOutputs | None, after: ControlOutputs
+) -> frozenset[TaskFn]:
+    """The writes whose outputs the decision changed (each row's `changed`): written at once,
+    even where their task is not due: a STOP that time alone reveals, decided at a tick of the
+    fastest task, engages the e-brake then, not at the brake task's own (slower) tick. The
+    periodic tasks refresh everything anyway; an unchanged DAC value is not worth an I2C
+    transfer."""
+    return frozenset(
+        spec.run
+        for spec in schedule
+        if spec.changed is not None and (before is None or spec.changed(before, after))
     )
-    return frozenset(write for write, differs in changed if differs)

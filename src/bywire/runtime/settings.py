@@ -54,7 +54,9 @@ class RuntimeConfig:
         )
         timeouts = robot.timeouts
         dac = robot.drive.dac
+        schedule = tuple(replace(spec, rate_hz=robot.tasks.rate_hz(spec.name)) for spec in SCHEDULE)
         actuators = ActuatorConfig(
+            line_tasks=tuple(spec for spec in schedule if spec.lines),
             dac_throttle_channel=dac.throttle_channel,
             dac_regen_channel=dac.regen_channel,
             dac_vref_volts=dac.vref_volts,
@@ -65,7 +67,6 @@ class RuntimeConfig:
                 dac_transfer_s=timeouts.dac_transfer_budget_s,
             ),
         )
-        schedule = tuple(replace(spec, rate_hz=robot.tasks.rate_hz(spec.name)) for spec in SCHEDULE)
         return cls(
             control,
             actuators,

@@ -32,7 +32,7 @@ from bywire.runtime.app import Runtime
 from bywire.runtime.settings import RuntimeConfig
 from bywire.runtime.timing import Budgets
 from tests.hal.linux.unpluggable import Unpluggable
-from tests.hal.rigs import LinuxRig
+from tests.hal.rigs import DAC_RIGS, LinuxRig
 
 LIMIT_S = 10.0
 PORT_FLAGS = ErrorFlag.CAN_BUS_OFF | ErrorFlag.CAN_OPEN_FAILED | ErrorFlag.CAN_RX_FAILED
@@ -116,7 +116,7 @@ class RunningRobot:
 
 @pytest.fixture
 def robot(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> Iterator[RunningRobot]:
-    rig = LinuxRig(tmp_path, monkeypatch, smbus=True)
+    rig = LinuxRig(tmp_path, monkeypatch, DAC_RIGS["linux-smbus2"])
     try:
         running = RunningRobot(rig)
         try:
