@@ -366,6 +366,9 @@ class HostLine:
         fd = os.open(f"/dev/ttyS{self.line}", os.O_RDONLY | os.O_NOCTTY | os.O_NONBLOCK)
         try:
             tty.setraw(fd)
+            # What the tty already holds goes at once; the flush also lifts a throttle that a
+            # full input buffer left on the line while nobody read it.
+            termios.tcflush(fd, termios.TCIFLUSH)
             self.send_rc(marker)
             seen = b""
             deadline_s = time.monotonic() + limit_s
