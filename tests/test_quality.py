@@ -71,18 +71,40 @@ def test_ci_runs_the_ros_tier_after_the_readme_test_command_and_it_cannot_skip()
     assert "run `.ci/ros-tier`" in source
 
 
-def test_the_kernel_tier_is_out_of_ci_and_both_readme_and_ci_say_so() -> None:
+def test_ci_runs_the_kernel_tier_as_the_readme_says_after_the_ros_tier() -> None:
     readme = (ROOT / "README.md").read_text(encoding="utf-8")
-    tier = readme[readme.index("## The kernel tier") :]
+    tier = readme[readme.index("## The kernel tier") : readme.index("## The deploy tier")]
     blocks = re.findall(r"```sh\n(.*?)```", tier, flags=re.DOTALL)
     install, run = (line.split("#")[0].strip() for line in blocks[0].splitlines()[:2])
-    ci_lines = [line.strip() for line in (ROOT / ".ci" / "run").read_text().splitlines()]
-    assert run == "tests/kernel/run"
-    assert install.startswith("sudo apt-get install linux-source-6.1")
-    # Out of CI while its fault tests fail (issue 31): the README and .ci/run both say so.
-    assert run not in ci_lines
-    assert "**Not in CI for now**" in tier
-    assert "tests/kernel/run" in (ROOT / ".ci" / "run").read_text(encoding="utf-8")
+    ci = (ROOT / ".ci" / "run").read_text(encoding="utf-8")
+    ci_lines = [line.strip() for line in ci.splitlines()]
+    assert run == "sudo tests/kernel/run"  # CI runs as root: without the sudo
+    assert "Not in CI" not in readme
+    order = [ci_lines.index(line) for line in ("bash .ci/ros-tier", "tests/kernel/run")]
+    assert order == sorted(order)
+    assert order[-1] < ci_lines.index("tests/deploy/run")
+    readme_packages = install.split()[3:]  # sudo apt-get install PACKAGES…
+    ci_blocks = re.findall(r"apt-get install(.*?)>/dev/null", ci, flags=re.DOTALL)
+    ci_packages = next(block for block in ci_blocks if "linux-source-6.1" in block).split()
+    script = (ROOT / "tests" / "kernel" / "run").read_text(encoding="utf-8")
+    listed = re.search(r"PACKAGES = \((.*?)\)", script, flags=re.DOTALL)
+    assert listed is not None
+    run_packages = "".join(re.findall(r'"([^"]*)"', listed[1])).split()
+    assert set(readme_packages) == {word for word in ci_packages if word[0] not in "-\\"}
+    assert set(readme_packages) == set(run_packages)
+
+
+@pytest.mark.parametrize(("ci", "status"), [("", 0), ("true", 1)], ids=["user", "ci"])
+def test_the_kernel_tier_without_its_packages_skips_with_one_line_but_fails_under_ci(
+    tmp_path: Path, ci: str, status: int
+) -> None:
+    """A PATH with none of the tools the tier builds its kernel and makes its devices with."""
+    said = _said_once(
+        [sys.executable, str(ROOT / "tests" / "kernel" / "run")], tmp_path, ci, status
+    )
+    assert "missing: build-essential bc flex bison" in said[0]
+    assert "apt-get install linux-source-6.1" in said[0]
+    assert "README, 'The kernel tier'" in said[0]
 
 
 def test_ci_runs_the_deploy_tier_as_the_readme_says_after_the_other_tiers() -> None:
@@ -112,17 +134,19 @@ def test_the_deploy_tier_without_its_tools_skips_with_one_line_but_fails_under_c
         found = shutil.which(tool)
         assert found is not None
         (bin_dir / tool).symlink_to(found)
+    said = _said_once(["bash", str(ROOT / "tests" / "deploy" / "run")], bin_dir, ci, status)
+    assert "debootstrap systemd-nspawn" in said[0]
+    assert "apt-get install debootstrap systemd-container" in said[0]
+
+
+def _said_once(command: list[str], path: Path, ci: str, status: int) -> list[str]:
+    """What a tier's script says run with only `path` on PATH: one line, and `status`."""
     result = subprocess.run(
-        ["bash", str(ROOT / "tests" / "deploy" / "run")],
-        env={"PATH": str(bin_dir), "CI": ci},
-        capture_output=True,
-        text=True,
-        check=False,
+        command, env={"PATH": str(path), "CI": ci}, capture_output=True, text=True, check=False
     )
     said = (result.stdout + result.stderr).splitlines()
     assert (result.returncode, len(said)) == (status, 1), said
-    assert "debootstrap systemd-nspawn" in said[0]
-    assert "apt-get install debootstrap systemd-container" in said[0]
+    return said
 
 
 def test_every_import_runs_down_the_stated_layers() -> None:

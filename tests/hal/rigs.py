@@ -543,8 +543,8 @@ class KernelRig:
         if dac == "iio":
             assert isinstance(self.dac, guest.I2cSim)
             self.dac.bind_driver()
-        guest.flush_rc_tty()
         self.host = guest.HostLine()
+        self.host.drain()
         self._devices.callback(self.host.close)
 
     def settle(self) -> None:

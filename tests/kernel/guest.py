@@ -19,6 +19,7 @@ from __future__ import annotations
 
 import contextlib
 import os
+import select
 import subprocess
 import termios
 import time
@@ -37,6 +38,7 @@ SKIP_REASON = (
 RC_TTY = "/dev/ttyS1"
 RC_TTY_TO_CLOSE = "/dev/ttyS3"  # the RC line a test may close for good (the rest keep ttyS1)
 CONTROL_TTY = "/dev/ttyS2"
+DRAIN_LIMIT_S = 10.0
 CONFIGFS_GPIO_SIM = Path("/sys/kernel/config/gpio-sim")
 SYS_I2C = Path("/sys/bus/i2c/devices")
 PWM_SIM_DEVICE = Path("/sys/devices/platform/bywire-pwm-sim.0")
@@ -69,7 +71,15 @@ def robot_config(can_channel: str, i2c_bus: int, rc_tty: str = RC_TTY) -> str:
     system call of a guest process is a round trip through ptrace on the host, and bywire's
     passes, cheap on a board, overran by tens of milliseconds in the guest (about half of the
     100 Hz passes late with the guest 35 % idle), and stalled for 0.5 s at times on a loaded
-    host, so the robot's own numbers judged the guest's speed, not the device paths."""
+    host, so the robot's own numbers judged the guest's speed, not the device paths.
+
+    Since issue 29 every pass, port write and DAC transfer has a time budget, and overrunning
+    it latches STOP (TIMING_FAULT; a slow transfer DAC_FAULT_STOP). The guest could not keep
+    the robot's budgets: the robot never armed, or stopped while driving. So the budgets are
+    the loader's largest (50 / 20 / 20 ms), the three fast tasks run at 50 Hz (the slowest
+    issue 30's deadlines allow, which then ask for the tighter speed-step tolerance) and
+    `bywire run` at SCHED_FIFO as on the robot (config/albert.toml), ahead of the tests'
+    own processes in the guest."""
     return f"""name = "kernel-robot"
 backend = "linux"
 gpio_chip = "{GPIO_LABEL}"
@@ -97,6 +107,20 @@ address = 0x{DAC_ADDRESS:02X}
 rc_timeout_s = 1.0
 can_command_timeout_s = 1.0
 watchdog_s = 3.0
+pass_budget_s = 0.05
+write_budget_s = 0.02
+dac_transfer_budget_s = 0.02
+
+[realtime]
+scheduler = "fifo"
+
+[tasks]
+hydrobrake_rate_hz = 50.0
+steering_rate_hz = 50.0
+driving_rate_hz = 50.0
+
+[interlocks]
+speed_step_tolerance_mps = 0.2
 """
 
 
@@ -300,6 +324,9 @@ class I2cSim:
         rmmod("bywire_i2c_sim")
 
 
+CLOSED_RC_LINES: set[int] = set()  # RC lines the host closed for good in this guest
+
+
 class HostLine:
     """The control line to the host; what it asks for arrives on the RC tty from outside."""
 
@@ -318,6 +345,40 @@ class HostLine:
     def close_rc(self) -> None:
         """The host closes its end of the RC line, for good (end of file on the guest's tty)."""
         self._write(f"close {self.line}\n")
+        CLOSED_RC_LINES.add(self.line)
+
+    @property
+    def rc_open(self) -> bool:
+        """Whether the host still carries this RC line (no test closed it in this guest)."""
+        return self.line not in CLOSED_RC_LINES
+
+    def drain(self, limit_s: float = DRAIN_LIMIT_S) -> None:
+        """Make the RC tty raw (no echo, no line editing, as a receiver's UART is used) and
+        empty: every byte an earlier test had the host put on the line, still on its way or
+        waiting in the host's pipe while no process held the tty open, is read and dropped.
+
+        The host carries this line's requests in order, so once a marker asked for now arrives,
+        nothing asked for before it is left on the way. AssertionError if it does not arrive
+        within `limit_s` (a line the host closed has none to drain)."""
+        if not self.rc_open:
+            return
+        marker = b"\xa5" + uuid.uuid4().bytes  # no IBUS frame starts with 0xA5
+        fd = os.open(f"/dev/ttyS{self.line}", os.O_RDONLY | os.O_NOCTTY | os.O_NONBLOCK)
+        try:
+            tty.setraw(fd)
+            # What the tty already holds goes at once; the flush also lifts a throttle that a
+            # full input buffer left on the line while nobody read it.
+            termios.tcflush(fd, termios.TCIFLUSH)
+            self.send_rc(marker)
+            seen = b""
+            deadline_s = time.monotonic() + limit_s
+            while marker not in seen:
+                assert time.monotonic() < deadline_s, f"RC line {self.line} not drained"
+                ready, _, _ = select.select([fd], [], [], 0.1)
+                if ready:
+                    seen = (seen + os.read(fd, 4096))[-4096:]
+        finally:
+            os.close(fd)
 
     def _write(self, text: str) -> None:
         data = text.encode("ascii")
@@ -326,15 +387,3 @@ class HostLine:
 
     def close(self) -> None:
         os.close(self._fd)
-
-
-def flush_rc_tty(tty_path: str = RC_TTY) -> None:
-    """The RC tty raw (no echo, no line editing, as a receiver's UART is used), and the bytes
-    still waiting on it (from an earlier test) dropped."""
-    time.sleep(0.05)
-    fd = os.open(tty_path, os.O_RDONLY | os.O_NOCTTY | os.O_NONBLOCK)
-    try:
-        tty.setraw(fd)
-        termios.tcflush(fd, termios.TCIFLUSH)
-    finally:
-        os.close(fd)

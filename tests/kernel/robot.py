@@ -45,6 +45,7 @@ from tests.kernel import guest
 COMMAND_PERIOD_S = 0.02
 START_LIMIT_S = 60.0  # bywire's first start in the guest imports everything from hostfs
 WARM_UP_S = 2.0  # a new process in the guest is slow while it first touches its memory
+POLL_PERIOD_S = 0.02  # a reading is ~20 sysfs reads, each a round trip through the host
 
 
 FRAMES_PER_WRITE = 3  # frames handed to the host at once: a third of the guest's work for it
@@ -215,8 +216,8 @@ class KernelRobot:
             guest.I2cStub() if dac == "smbus-only" else guest.I2cSim()
         )
         self._devices.callback(self.dac.close)
-        guest.flush_rc_tty(rc_tty)
         self.host = guest.HostLine(rc_tty)
+        self.host.drain()
         self._devices.callback(self.host.close)
         self.config_path = folder / "robot.toml"
         text = guest.robot_config(self.vcan.name, self.dac.bus, rc_tty)
@@ -243,6 +244,15 @@ class KernelRobot:
             )
         self.wait_for("its first reports", lambda: self.computer.mode is not None, START_LIMIT_S)
         time.sleep(WARM_UP_S)
+        # The transmitter rests at STOP: once the new process's slow first passes are behind it
+        # (a pass that overran, RC frames it read late) the switch acknowledges what they
+        # latched. The robot is ready to arm when it says nothing is latched.
+        if self.host.rc_open:
+            self.wait_for("nothing latched", self._at_rest, START_LIMIT_S)
+
+    def _at_rest(self) -> bool:
+        mode = self.computer.mode
+        return mode is not None and not mode.stop_latched
 
     def wait_for(self, what: str, condition: Any, limit_s: float = 5.0) -> float:
         """Poll `condition` until it holds; the seconds it took. AssertionError naming `what`."""
@@ -251,9 +261,17 @@ class KernelRobot:
             if self.process is not None and self.process.poll() is not None:
                 raise AssertionError(f"bywire exited before {what}: {self.log()}")
             if time.monotonic() - started_s > limit_s:
-                raise AssertionError(f"no {what} within {limit_s} s; bywire: {self.log()[-2000:]}")
-            time.sleep(0.002)
+                raise AssertionError(
+                    f"no {what} within {limit_s} s; {self.reports()}; bywire: {self.log()[-2000:]}"
+                )
+            time.sleep(POLL_PERIOD_S)
         return time.monotonic() - started_s
+
+    def reports(self) -> str:
+        """The robot's last reports as the computer heard them (for a failure's message)."""
+        computer = self.computer
+        flags = None if computer.errors is None else computer.errors.flags
+        return f"last ModeReport {computer.mode}, flags {flags!r}, {computer.reports} reports"
 
     def log(self) -> str:
         return self.log_path.read_text(errors="replace") if self.log_path.exists() else ""

@@ -3,6 +3,8 @@ coming back under the same name, clear errors, idempotent close."""
 
 from __future__ import annotations
 
+import errno
+import termios
 import threading
 from collections.abc import Callable, Iterator
 from pathlib import Path
@@ -76,6 +78,37 @@ def test_a_vanished_port_is_flagged_and_reopened_when_it_returns(line: PtyRcLine
 
         assert _wait(clock, all_received)
         assert (stream.disconnects, stream.reopens) == (1, 1)
+    finally:
+        stream.close()
+
+
+def test_a_tty_that_fails_as_it_is_opened_is_a_failed_reopen_not_a_dead_reader(
+    line: PtyRcLine, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """A tty whose far end had closed opened, then refused pyserial's flush with EIO (a
+    termios.error, no OSError: seen under user-mode Linux, tests/kernel/test_faults.py). The
+    reader thread died of it and never re-opened the port (shown on the old code: no failed
+    re-open counted once the port was back, and a traceback on stderr)."""
+    clock = LinuxClock()
+    stream = PyserialStream(str(line.link), clock.notify_input, reopen_period_s=0.02)
+    refusing = [True]
+    flush = termios.tcflush
+
+    def tcflush(fd: int, queue: int) -> None:
+        if refusing[0]:
+            raise termios.error(errno.EIO, "Input/output error")
+        flush(fd, queue)
+
+    try:
+        monkeypatch.setattr(termios, "tcflush", tcflush)
+        line.unplug()
+        assert _wait(clock, lambda: stream.fault is not None)
+        line.plug()
+        failures = stream.link.reopen_failures
+        assert _wait(clock, lambda: stream.link.reopen_failures >= failures + 2)
+        assert stream.link.down
+        refusing[0] = False
+        assert _wait(clock, lambda: stream.connected)
     finally:
         stream.close()
 

@@ -13,6 +13,7 @@ import contextlib
 import errno
 import logging
 import os
+import termios
 import threading
 from collections.abc import Callable
 
@@ -115,6 +116,8 @@ class PyserialStream:
             )
         except serial.SerialException as error:
             raise _open_error(self.port, error) from error
+        except termios.error as error:  # pyserial lets the tty's own ioctls' errors through
+            raise _open_error(self.port, serial.SerialException(*error.args)) from error
         # Not every tty has ASYNC_LOW_LATENCY (a pty, some USB adapters): then it reads as is.
         with contextlib.suppress(OSError, ValueError, AttributeError):
             port.set_low_latency_mode(True)
