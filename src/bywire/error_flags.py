@@ -39,7 +39,7 @@ class ErrorFlag(enum.IntFlag):
     STEERING_ENCODER_FAULT = 1 << 18
     REMOTE_STOP = 1 << 19  # the higher-level computer asked for STOP
     CAN_UNTRUSTED = 1 << 20  # a command id's counter misses too often: a second sender, a replay
-    SPEED_SENSOR_FAULT = 1 << 21  # wheel speeds changed faster than the robot can: not used
+    SPEED_SENSOR_FAULT = 1 << 21  # wheel speeds changed faster than the robot can
     NOT_ARMED = 1 << 22  # power-up STOP: the mode switch has not yet passed through STOP
     CAN_AUTH_FAILED = 1 << 23  # a command failed SecOC verification ([security] on)
     TIMING_FAULT = 1 << 24  # a pass, a port write or a DAC transfer overran its budget

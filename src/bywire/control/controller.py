@@ -17,7 +17,13 @@ from bywire.control.drive import SAFE_DRIVE, DriveConfig, DriveOutputs, braking_
 from bywire.control.hydrobrake import DEFAULT_THRESHOLD_NORM, hydrobrake_duty
 from bywire.control.interlocks import InterlockConfig, InterlockState, interlock_step
 from bywire.control.lights import BLINK_RATE_HZ, LightOutputs, LightRequest, light_outputs
-from bywire.control.monitors import MonitorConfig, MonitorInputs, MonitorState, monitor_step
+from bywire.control.monitors import (
+    MonitorConfig,
+    MonitorInputs,
+    MonitorState,
+    monitor_step,
+    stopping_flags,
+)
 from bywire.control.mux import Movement, movement_from
 from bywire.control.rc_mapping import RcMapping, RcRequest
 from bywire.control.speed_check import SpeedCheckState, cleared, speed_check_step, trusted_speed
@@ -176,7 +182,7 @@ def _conditions(
     inputs: ControlInputs, sources: _Sources, now: float, config: ControlConfig, monitor: int
 ) -> frozenset[Cause]:
     """Every cause whose condition holds now, whatever the mode."""
-    stopping = int(monitor) & int(config.monitors.stop_flags)  # plain ints: see controller_step
+    stopping = stopping_flags(monitor, config.monitors)
     held = (
         (not is_fresh(inputs.rc, now, config.rc_timeout_s), Cause.RC_LOST),
         (

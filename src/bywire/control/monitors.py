@@ -161,6 +161,11 @@ def monitor_step(
     return state, flags
 
 
+def stopping_flags(flags: int, config: MonitorConfig = DEFAULT_MONITOR_CONFIG) -> int:
+    """Those of `flags` the configuration says demand STOP (plain ints: see controller_step)."""
+    return int(flags) & int(config.stop_flags)
+
+
 def stop_required(flags: int, config: MonitorConfig = DEFAULT_MONITOR_CONFIG) -> bool:
     """Whether any of `flags` is one the configuration says demands STOP."""
-    return bool(flags & config.stop_flags)
+    return bool(stopping_flags(flags, config))

@@ -13,6 +13,7 @@ from collections import deque
 from collections.abc import Callable, Iterable, Iterator
 from dataclasses import dataclass, field
 
+from bywire.control.controller import MONITOR_CAUSES as MONITORED
 from bywire.control.supervisor import (
     ACKNOWLEDGED_BY_ARMING,
     ALWAYS_LATCHING,
@@ -98,7 +99,7 @@ TRANSITIONS: tuple[str, ...] = tuple(
 reachable state can take; `tests/control/test_supervisor_exhaustive.py` proves the list is
 exactly what the search reaches. `bywire verify` reports which of them its campaigns took."""
 
-MONITOR_CAUSES = frozenset({Cause.HYDRO_PRESSURE, Cause.STEERING_ENCODER})
+MONITOR_CAUSES = frozenset(cause for _, cause in MONITORED)  # the controller's one list
 """Causes only a monitor raises, and a monitor judges a measurement: on a robot without the
 sensors (docs/DEPLOY.md) no step can take a row that names them."""
 
