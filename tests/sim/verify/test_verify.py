@@ -15,6 +15,7 @@ import pytest
 
 from bywire.cli.main import main
 from bywire.config import default_sim_config, load_config, parse_config
+from bywire.model import ControlMode
 from bywire.sim.scenario import parse_scenario, scenario_toml
 from bywire.sim.verify.campaign import VOCABULARY, Campaign, Step, compile_steps
 from bywire.sim.verify.draw import draw_campaign
@@ -146,3 +147,25 @@ def test_campaigns_that_found_oracle_mistakes_on_albert_find_nothing(index: int)
     outcome = run_campaign(load_config(ALBERT), draw_campaign(0, index), index)
     assert outcome.checks > 0
     assert outcome.findings == [], outcome.findings[:1]
+
+
+def test_a_dac_failure_too_short_to_latch_demands_no_power_off_during_a_controlled_stop() -> None:
+    """The sequence property (tests/system/test_sequences.py) found it, 2026-11-26: a second
+    sender stops the robot in CAN (a controlled stop: the drive powered, regenerating), then
+    the DAC NAKs for 16 ms, two writes, fewer than the leaky count latches (R-DAC-FAULT: a
+    persisting failure). The controller rightly went on with the controlled stop; the oracle
+    demanded category 0 from the failure's first write and flagged 173 passes (H1)."""
+    steps = [
+        Step(0.2, "arm", ControlMode.RC),
+        Step(0.15, "rc_throttle", 0.0),
+        Step(0.125, "arm", ControlMode.CAN),
+        Step(0.5625, "impostor", 5),
+        Step(0.59375, "dac", "fail"),
+        Step(0.015625, "dac", "restore"),
+    ]
+    outcome = run_campaign(default_sim_config(), steps)
+    assert outcome.checks > 0
+    assert outcome.findings == [], outcome.findings[:1]
+    # a failure that lasts still demands category 0, and the controller gives it
+    lasting = run_campaign(default_sim_config(), steps[:-1])
+    assert lasting.findings == [], lasting.findings[:1]

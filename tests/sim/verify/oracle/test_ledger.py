@@ -144,3 +144,18 @@ def test_a_second_sender_latches_only_when_it_met_the_robot_driving_in_can_alone
     assert p.ledger.latched_from(Cause.CAN_IMPOSTOR) == 1.0 + TIMING.deadline_s(Cause.CAN_IMPOSTOR)
     p.ledger.stopped_by = {Cause.CAN_IMPOSTOR, Cause.REMOTE_STOP}  # another stop first
     assert p.ledger.latched_from(Cause.CAN_IMPOSTOR) is None
+
+
+def test_a_power_off_cause_that_passed_unseen_withdraws_only_its_own_demand() -> None:
+    ledger = parts().ledger
+    ledger.request(Cause.DAC_FAIL, 1.0)
+    ledger.request(Cause.WATCHDOG, 1.01)
+    dac_s = 1.0 + TIMING.deadline_s(Cause.DAC_FAIL)
+    assert ledger.power_off_from == min(dac_s, 1.01 + TIMING.deadline_s(Cause.WATCHDOG))
+    ledger.passed_unseen(Cause.DAC_FAIL)
+    assert ledger.power_off_from == 1.01 + TIMING.deadline_s(Cause.WATCHDOG)  # the other's stays
+    ledger.passed_unseen(Cause.WATCHDOG)
+    assert ledger.power_off_from is None
+    assert not ledger.power_off_demanded(5.0)
+    ledger.request(Cause.DAC_FAIL, 6.0)  # not withdrawn: demanded once its deadline passes
+    assert ledger.power_off_demanded(6.0 + TIMING.deadline_s(Cause.DAC_FAIL))

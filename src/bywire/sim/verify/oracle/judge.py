@@ -150,8 +150,11 @@ class HazardOracle:
             faults.dac_back_at = now
         self.ledger.ended(cause, now)
         began_s, armed_before = faults.began.pop(cause, (now, False))
-        if armed_before and now - began_s < faults.unnoticed_s(cause):
-            self.ledger.arm()  # it may have passed unseen
+        if now - began_s < faults.unnoticed_s(cause):  # it may have passed unseen
+            if armed_before:
+                self.ledger.arm()
+            else:
+                self.ledger.passed_unseen(cause)
 
     def fault_elsewhere(self, cause: Cause, now: float) -> None:
         """A CAN-bound fault begins while the switch is not at CAN: it refuses arming into
@@ -242,6 +245,7 @@ class HazardOracle:
         allowed = ledger.allows(now) or arming.pending is not None
         if allowed and ledger.armed:  # re-armed: what a category 0 cause demanded is over
             ledger.power_off_from = None
+            ledger.power_off_by.clear()
         power_off = ledger.power_off_demanded(now)
         dac_unsure = self.faults.dac_unsure(now)
         boosted = timing.steering_boosted

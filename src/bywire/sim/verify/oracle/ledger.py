@@ -59,6 +59,7 @@ class StopLedger:
     deadline_s: float | None = None  # the outputs may drive until then (None: not at all)
     stopped_by: set[Cause] = field(default_factory=set)  # what set `deadline_s`
     power_off_from: float | None = None  # a cause that makes the drive suspect acts by then
+    power_off_by: dict[Cause, float] = field(default_factory=dict)  # each such cause's deadline
     tripped_at: float | None = None  # the watchdog tripped then, not yet acknowledged at STOP
     owed: dict[Cause, float] = field(default_factory=dict)  # the switch's to clear, from then
     passing: PassingStop | None = None  # the latest implausible frames' stop
@@ -81,8 +82,9 @@ class StopLedger:
         deadline = self.delays.past_hang(now, deadline)
         if cause in RC_BORNE:
             self.rc_borne_at = now
-        if cause in POWER_OFF and (self.power_off_from is None or deadline < self.power_off_from):
-            self.power_off_from = deadline
+        if cause in POWER_OFF:
+            self.power_off_by[cause] = min(deadline, self.power_off_by.get(cause, deadline))
+            self.power_off_from = min(self.power_off_by.values())
         if self.armed:
             self.armed, self.deadline_s, self.stopped_by = False, deadline, {cause}
         elif self.deadline_s is not None:
@@ -94,6 +96,7 @@ class StopLedger:
         is over, even when a move to STOP follows at once (an arming the debounce completed
         just before the switch left)."""
         self.armed, self.deadline_s, self.power_off_from = True, None, None
+        self.power_off_by.clear()
 
     def demand(self) -> Demand:
         return Demand(self.armed, self.deadline_s, frozenset(self.stopped_by))
@@ -186,6 +189,13 @@ class StopLedger:
             return None
         latched_s = began_s + self.timing.deadline_s(Cause.CAN_IMPOSTOR)
         return self.delays.past_hang(began_s, latched_s)
+
+    def passed_unseen(self, cause: Cause) -> None:
+        """The fault `cause` ended before the controller could have noticed it: what it demanded
+        of the drive's power is withdrawn (a DAC failing for two writes latches nothing, and a
+        controlled stop under way may keep the drive powered)."""
+        if self.power_off_by.pop(cause, None) is not None:
+            self.power_off_from = min(self.power_off_by.values(), default=None)
 
     def ended(self, cause: Cause, now: float) -> None:
         """The fault `cause` ended at `now` (before `faults.began` forgets it): what it surely
