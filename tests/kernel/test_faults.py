@@ -5,9 +5,8 @@ ErrorReport, and a log line that names the real cause.
 The robot and the computer sit on the two ends of a vxcan pair, so a qdisc on one end acts
 between them as on a wire. The ports' own failures (a CAN link down, an RC line gone) reach the
 ErrorReport through their `link` (CAN_BUS_OFF, IBUS_PORT_FAILED); a loop that a task's exception
-ends says TASK_CRASHED in its last report. What the runtime does not give yet is asserted in a
-test marked xfail, with the reason: it does not log a failed DAC write's cause, which is the
-safety core's to change (runtime/), not this tier's.
+ends says TASK_CRASHED in its last report; a DAC that stops answering is named in the log with
+the kernel's own words.
 """
 
 from __future__ import annotations
@@ -149,12 +148,6 @@ def test_a_dac_that_stops_answering_stops_the_robot(robot: KernelRobot) -> None:
     robot.dac.set_present(True)
 
 
-@pytest.mark.xfail(
-    reason="the runtime counts a failed DAC write (DAC_WRITE_FAILED, DAC_FAULT_STOP) but drops"
-    " the HardwareError that says why ('no acknowledge (No such device or address)'): nothing"
-    " in the log names the cause (safety core, runtime/actuators.py)",
-    strict=True,
-)
 def test_a_dac_that_stops_answering_is_named_in_the_log(robot: KernelRobot) -> None:
     drive_by_can(robot)
     assert isinstance(robot.dac, guest.I2cSim)

@@ -281,3 +281,22 @@ def test_the_safe_state_writes_a_line_tasks_lines_low_too(line_tasks: tuple[Task
     failures = actuators.write_safe(0.0, centre_steering=False)
     tries = [failure for failure in failures if failure.startswith("reverse_light:")]
     assert len(tries) == 1 + len(line_tasks)
+
+
+def test_a_failed_dac_write_s_cause_is_logged_once_until_the_dac_is_healthy_again(
+    caplog: pytest.LogCaptureFixture,
+) -> None:
+    world, actuators = rig(ActuatorConfig(dac_failure_limit=100))
+    actuators.write_drive(DRIVING, 0.0)
+    world.dac.fail_writes(count=6)
+    for tick in range(1, 4):
+        actuators.write_drive(FASTER if tick % 2 else DRIVING, tick * 0.01)
+    causes = [r.getMessage() for r in caplog.records if "DAC write failed" in r.getMessage()]
+    assert causes == ["DAC write failed: DAC6574: no acknowledge (simulated bus fault)"]
+    for tick in range(4, 400):  # acknowledged until the leaky count has drained
+        actuators.write_drive(FASTER if tick % 2 else DRIVING, tick * 0.01)
+    assert actuators.dac_failure_level == 0.0
+    world.dac.fail_writes(count=1)
+    actuators.write_drive(DRIVING, 5.0)
+    causes = [r.getMessage() for r in caplog.records if "DAC write failed" in r.getMessage()]
+    assert len(causes) == 2  # a new failure after health is news again

@@ -19,6 +19,7 @@ any output that fails, reporting each: a dead lamp line must not leave the throt
 
 from __future__ import annotations
 
+import logging
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 
@@ -32,6 +33,8 @@ from bywire.runtime.recent_fault import RecentFault
 from bywire.runtime.timing import Budgets, Overruns, overrun_weight
 from bywire.runtime.write_gate import Action, WriteGate
 from bywire.task_table import LINE_TASKS, TaskSpec
+
+log = logging.getLogger(__name__)
 
 
 @dataclass(frozen=True, slots=True)
@@ -62,6 +65,7 @@ class Actuators:
         """What the latest `write_safe` could not write, one line each."""
         self._hold_pulse_s: float | None = None  # the commanded steering, without boost
         self._slow_transfer = False  # a DAC transfer of this write overran its budget
+        self._dac_error: str | None = None  # why the DAC's last write failed (None: it did not)
         self.dac_failures = RecentFault()
         self.dac_clamps = RecentFault()
         self.dac_health = DacHealth()
@@ -244,7 +248,8 @@ class Actuators:
         started_s = self._now()
         try:
             self._hardware.dac.write(dac6574.encode_write(channel, conversion.code))
-        except HardwareError:
+        except HardwareError as error:
+            self._dac_failed_because(str(error))
             self._dac_went(channel, wanted, Transfer.FAILED, 1.0, now)
             return False
         ended_s = self._now()
@@ -255,7 +260,16 @@ class Actuators:
             self._slow_transfer = self.dac_failing
             return False
         self._dac_went(channel, wanted, Transfer.ACKNOWLEDGED, 1.0, now)
+        if self.dac_failure_level == 0.0:
+            self._dac_error = None  # healthy again: the next failure is news
         return True
+
+    def _dac_failed_because(self, reason: str) -> None:
+        """Log why a DAC write failed, once until the DAC is healthy again or the reason changes
+        (the flags count the failures; the log says why: an address that stopped answering)."""
+        if reason != self._dac_error:
+            log.warning("DAC write failed: %s", reason)
+            self._dac_error = reason
 
     def _dac_went(
         self, channel: int, wanted: float, transfer: Transfer, weight: float, now: float | None
