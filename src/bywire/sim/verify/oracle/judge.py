@@ -244,7 +244,6 @@ class HazardOracle:
         )
         allowed = ledger.allows(now) or arming.pending is not None
         if allowed and ledger.armed:  # re-armed: what a category 0 cause demanded is over
-            ledger.power_off_from = None
             ledger.power_off_by.clear()
         power_off = ledger.power_off_demanded(now)
         dac_unsure = self.faults.dac_unsure(now)

@@ -58,8 +58,8 @@ class StopLedger:
     armed: bool = False
     deadline_s: float | None = None  # the outputs may drive until then (None: not at all)
     stopped_by: set[Cause] = field(default_factory=set)  # what set `deadline_s`
-    power_off_from: float | None = None  # a cause that makes the drive suspect acts by then
-    power_off_by: dict[Cause, float] = field(default_factory=dict)  # each such cause's deadline
+    power_off_by: dict[Cause, float] = field(default_factory=dict)  # a cause that makes the
+    # drive suspect, and when it has surely been acted on (until the next arming)
     tripped_at: float | None = None  # the watchdog tripped then, not yet acknowledged at STOP
     owed: dict[Cause, float] = field(default_factory=dict)  # the switch's to clear, from then
     passing: PassingStop | None = None  # the latest implausible frames' stop
@@ -84,7 +84,6 @@ class StopLedger:
             self.rc_borne_at = now
         if cause in POWER_OFF:
             self.power_off_by[cause] = min(deadline, self.power_off_by.get(cause, deadline))
-            self.power_off_from = min(self.power_off_by.values())
         if self.armed:
             self.armed, self.deadline_s, self.stopped_by = False, deadline, {cause}
         elif self.deadline_s is not None:
@@ -95,7 +94,7 @@ class StopLedger:
         """A deliberate act: nothing demands STOP any more, and what a category 0 cause demanded
         is over, even when a move to STOP follows at once (an arming the debounce completed
         just before the switch left)."""
-        self.armed, self.deadline_s, self.power_off_from = True, None, None
+        self.armed, self.deadline_s = True, None
         self.power_off_by.clear()
 
     def demand(self) -> Demand:
@@ -118,6 +117,11 @@ class StopLedger:
         """Only CAN-bound causes demand STOP, and the controller may not have acted yet."""
         deadline = self.deadline_s
         return deadline is not None and now < deadline and self.stopped_by <= CAN_ONLY
+
+    @property
+    def power_off_from(self) -> float | None:
+        """From when a cause that makes the drive suspect has surely been acted on."""
+        return min(self.power_off_by.values(), default=None)
 
     def power_off_demanded(self, now: float) -> bool:
         """A cause that makes the drive suspect has surely been acted on (its deadline passed):
@@ -194,8 +198,7 @@ class StopLedger:
         """The fault `cause` ended before the controller could have noticed it: what it demanded
         of the drive's power is withdrawn (a DAC failing for two writes latches nothing, and a
         controlled stop under way may keep the drive powered)."""
-        if self.power_off_by.pop(cause, None) is not None:
-            self.power_off_from = min(self.power_off_by.values(), default=None)
+        self.power_off_by.pop(cause, None)
 
     def ended(self, cause: Cause, now: float) -> None:
         """The fault `cause` ended at `now` (before `faults.began` forgets it): what it surely
