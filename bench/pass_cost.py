@@ -29,7 +29,7 @@ from bywire.bench.realtime_session import BenchSettings, RealtimeSession
 from bywire.bench.stats import summarise
 from bywire.config import default_sim_config, load_config
 from bywire.control.controller import ControlOutputs
-from bywire.runtime.app import Runtime
+from bywire.runtime.loop import Runtime
 from bywire.runtime.realtime import apply_collector, apply_process
 from bywire.task_table import TaskFn
 

@@ -8,7 +8,7 @@ once rather than at its next tick, and, for a task that drives GPIO lines only, 
 task writes them through the write gate under its own name, and the watchdog's trip and the safe
 state (`bywire.runtime.actuators`) drive them low. A new periodic task is a function here and a
 row below. The functions write through `TaskTarget`, what a task
-needs of the running controller (`bywire.runtime.app.Runtime` is one), so this table sits below
+needs of the running controller (`bywire.runtime.loop.Runtime` is one), so this table sits below
 both the configuration, which reads its names and rates, and the runtime, which runs it; the
 runtime's own bookkeeping of deadlines and statistics is `bywire.runtime.schedule`.
 """

@@ -16,7 +16,7 @@ import pytest
 
 from bywire.config import default_sim_config
 from bywire.hal.sim.clock import VirtualClock
-from bywire.runtime.app import Runtime
+from bywire.runtime.loop import Runtime
 from bywire.sim.runner import SimRun
 
 SCRIPT = Path(__file__).resolve().parents[2] / "bench" / "course_split.py"

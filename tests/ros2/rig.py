@@ -18,7 +18,7 @@ from bywire.protocol.secoc import SecocKey
 from bywire.ros2.link import CanLink
 from bywire.ros2.setpoint import Setpoint
 from bywire.ros2.settings import BridgeSettings, Geometry
-from bywire.runtime.app import Runtime
+from bywire.runtime.loop import Runtime
 from bywire.runtime.settings import RuntimeConfig
 from bywire.security.freshness import FreshnessStore
 from bywire.security.session import TRIP_IDS, SecocReceiver, SecocSigner

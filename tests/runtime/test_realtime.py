@@ -24,7 +24,7 @@ import pytest
 from bywire.config import RealtimeSection, default_sim_config
 from bywire.hal.sim.clock import VirtualClock
 from bywire.hal.sim.world import SimWorld
-from bywire.runtime.app import Runtime
+from bywire.runtime.loop import Runtime
 from bywire.runtime.realtime import (
     CAP_IPC_LOCK,
     RealtimeReport,

@@ -8,7 +8,7 @@ from dataclasses import dataclass
 from bywire.hal.sim.clock import VirtualClock
 from bywire.hal.sim.world import SimWorld
 from bywire.model import ControlMode, Gear
-from bywire.runtime.app import Runtime
+from bywire.runtime.loop import Runtime
 from bywire.runtime.settings import RuntimeConfig
 
 THROTTLE_CHANNEL = 0

@@ -19,7 +19,7 @@ from bywire.errors import HardwareError
 from bywire.hal.sim.clock import RealtimeClock
 from bywire.hal.sim.world import SimWorld
 from bywire.model import ControlMode, Gear
-from bywire.runtime.app import Runtime
+from bywire.runtime.loop import Runtime
 from bywire.runtime.settings import RuntimeConfig
 from bywire.sim.runner import SimRun
 from bywire.sim.scenario import parse_scenario

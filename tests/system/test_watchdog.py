@@ -17,7 +17,7 @@ from bywire.error_flags import ErrorFlag
 from bywire.hal.sim.clock import VirtualClock
 from bywire.hal.sim.world import SimWorld
 from bywire.model import ControlMode, Gear
-from bywire.runtime.app import Runtime
+from bywire.runtime.loop import Runtime
 from bywire.runtime.settings import RuntimeConfig
 from bywire.runtime.watchdog import Watchdog
 

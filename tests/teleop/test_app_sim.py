@@ -14,7 +14,7 @@ from bywire.hal.sim.world import SimWorld
 from bywire.model import ControlMode, Gear
 from bywire.protocol import dbc
 from bywire.protocol.secoc import SecocKey
-from bywire.runtime.app import Runtime
+from bywire.runtime.loop import Runtime
 from bywire.runtime.settings import RuntimeConfig
 from bywire.security.freshness import FreshnessStore
 from bywire.security.session import TRIP_IDS, SecocReceiver, SecocSigner

@@ -21,7 +21,7 @@ from bywire.hal.sim.can_bus import LoggedFrame
 from bywire.hal.sim.world import SimWorld
 from bywire.loopback import Endpoint
 from bywire.priority import leave_realtime
-from bywire.runtime.app import Runtime
+from bywire.runtime.loop import Runtime
 from bywire.telemetry.feed import FeedOptions, new_outbox, open_sinks
 
 LOOKING_PHASES = ("feed", "dashboard")

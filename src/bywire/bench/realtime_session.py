@@ -54,7 +54,7 @@ from bywire.hal.sim.hlc import COMMAND_PERIOD_S
 from bywire.hal.sim.world import SimWorld
 from bywire.model import ControlMode, Gear
 from bywire.protocol import ibus
-from bywire.runtime.app import Runtime
+from bywire.runtime.loop import Runtime
 from bywire.runtime.schedule import TaskStats
 from bywire.runtime.settings import RuntimeConfig
 from bywire.security.session import SecocReceiver

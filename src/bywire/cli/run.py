@@ -35,7 +35,7 @@ from bywire.hal.linux.device_errors import reason
 from bywire.hal.linux.systemd import notify
 from bywire.hal.opening import LinuxPaths, open_hardware, preflight
 from bywire.loopback import DEFAULT_HOST, Endpoint, ListenAddress, parse_listen_address
-from bywire.runtime.app import Runtime
+from bywire.runtime.loop import Runtime
 from bywire.runtime.realtime import RealtimeReport, apply_collector, apply_process
 from bywire.runtime.settings import RuntimeConfig
 from bywire.security.session import SecocReceiver

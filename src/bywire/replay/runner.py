@@ -18,7 +18,7 @@ from bywire.hal.tape.playback import replay_hardware
 from bywire.hal.tape.run_record import Output, RecordedRun, outputs_of
 from bywire.hal.tape.taped import Tape, taped_hardware
 from bywire.replay.divergence import Divergence, first_divergence
-from bywire.runtime.app import Runtime
+from bywire.runtime.loop import Runtime
 from bywire.runtime.settings import RuntimeConfig
 from bywire.runtime.watchdog import POLL_S as WATCHDOG_POLL_S
 from bywire.security.session import SecocReceiver

@@ -24,7 +24,7 @@ from bywire.hal.sim.clock import RealtimeClock, ScaledRealtimeClock, VirtualCloc
 from bywire.hal.sim.timers import PeriodicTimer
 from bywire.hal.sim.world import SimWorld
 from bywire.model import LIGHTS_OFF, ControlMode, Gear
-from bywire.runtime.app import Runtime
+from bywire.runtime.loop import Runtime
 from bywire.runtime.settings import RuntimeConfig
 from bywire.runtime.watchdog import POLL_S as WATCHDOG_POLL_S
 from bywire.security.session import SecocReceiver

@@ -26,7 +26,7 @@ if TYPE_CHECKING:  # the writer's process imports this module and needs none of 
     from bywire.control.mux import Movement
     from bywire.control.rc_mapping import RcRequest
     from bywire.model import MovementCommand
-    from bywire.runtime.app import Runtime
+    from bywire.runtime.loop import Runtime
 
 DEFAULT_RATE_HZ = 50.0
 

@@ -17,7 +17,7 @@ from typing import TYPE_CHECKING, Protocol
 from bywire.errors import ConfigError
 from bywire.loopback import Endpoint, ListenAddress
 from bywire.priority import outside_realtime
-from bywire.runtime.app import Runtime
+from bywire.runtime.loop import Runtime
 from bywire.telemetry.capture import DEFAULT_RATE_HZ, Capture, TelemetryTap
 from bywire.telemetry.outbox import DEFAULT_CAPACITY, Outbox
 from bywire.telemetry.writer_process import WriterProcess

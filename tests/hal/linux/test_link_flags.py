@@ -28,7 +28,7 @@ from bywire.hal.linux.can_pythoncan import PythonCanPort
 from bywire.hal.linux.clock import LinuxClock
 from bywire.model import ControlMode, ErrorReport, Gear, ModeReport
 from bywire.protocol import dbc
-from bywire.runtime.app import Runtime
+from bywire.runtime.loop import Runtime
 from bywire.runtime.settings import RuntimeConfig
 from bywire.runtime.timing import Budgets
 from tests.hal.linux.unpluggable import Unpluggable

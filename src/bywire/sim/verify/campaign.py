@@ -89,7 +89,7 @@ class Campaign:
 @contextlib.contextmanager
 def _quiet_runtime() -> Iterator[None]:
     """The runtime's log (safe writes that failed at its exit) silenced for one campaign."""
-    logger = logging.getLogger("bywire.runtime.app")
+    logger = logging.getLogger("bywire.runtime.loop")
     level = logger.level
     logger.setLevel(logging.CRITICAL)
     try:

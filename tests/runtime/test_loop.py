@@ -17,8 +17,8 @@ from bywire.error_flags import ErrorFlag
 from bywire.hal.sim.clock import VirtualClock
 from bywire.hal.sim.world import SimWorld
 from bywire.model import ControlMode, ErrorReport, Gear, SteeringReport
-from bywire.runtime import app
-from bywire.runtime.app import MODE_LOG_LENGTH, Runtime
+from bywire.runtime import loop
+from bywire.runtime.loop import MODE_LOG_LENGTH, Runtime
 from bywire.runtime.readers import COUNTER_MISS_LIMIT
 from bywire.runtime.recent_fault import FAULT_HOLD_S
 from bywire.runtime.settings import RuntimeConfig
@@ -45,7 +45,7 @@ def _decisions(monkeypatch: pytest.MonkeyPatch) -> list[float]:
         decisions.append(now)
         return original(state, inputs, now, config)
 
-    monkeypatch.setattr(app, "controller_step", counted)
+    monkeypatch.setattr(loop, "controller_step", counted)
     return decisions
 
 
