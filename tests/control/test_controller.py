@@ -21,8 +21,8 @@ from bywire.control.controller import (
     controller_step,
 )
 from bywire.control.drive import SAFE_DRIVE
-from bywire.control.monitors import MonitorConfig
 from bywire.control.rc_mapping import RcRequest
+from bywire.control.sensor_checks import MonitorConfig
 from bywire.control.steering import SteeringConfig
 from bywire.control.stop import StopPhase
 from bywire.control.supervisor import Cause, SupervisorConfig

@@ -16,8 +16,8 @@ from bywire.control.drive import DriveConfig
 from bywire.control.hydrobrake import DEFAULT_THRESHOLD_NORM
 from bywire.control.interlocks import InterlockConfig
 from bywire.control.lights import BLINK_RATE_HZ
-from bywire.control.monitors import MonitorConfig
 from bywire.control.rc_mapping import RcMapping
+from bywire.control.sensor_checks import MonitorConfig
 from bywire.control.steering import SteeringConfig
 from bywire.control.supervisor import SupervisorConfig
 from bywire.model import COMMAND_TYPES

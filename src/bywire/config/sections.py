@@ -65,13 +65,13 @@ from bywire.config.model import (
 )
 from bywire.config.reader import MISSING, Interval, Table, toml_type
 from bywire.control.interlocks import InterlockConfig
-from bywire.control.monitors import MonitorConfig
 from bywire.control.rc_mapping import (
     AxisCalibration,
     FailsafeSignature,
     RcMapping,
     SwitchCalibration,
 )
+from bywire.control.sensor_checks import MonitorConfig
 from bywire.control.steering import SteeringConfig
 from bywire.control.supervisor import SupervisorConfig
 from bywire.errors import ConfigError

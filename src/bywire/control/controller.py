@@ -17,15 +17,15 @@ from bywire.control.drive import SAFE_DRIVE, DriveConfig, DriveOutputs, braking_
 from bywire.control.hydrobrake import DEFAULT_THRESHOLD_NORM, hydrobrake_duty
 from bywire.control.interlocks import InterlockConfig, InterlockState, interlock_step
 from bywire.control.lights import BLINK_RATE_HZ, LightOutputs, LightRequest, light_outputs
-from bywire.control.monitors import (
+from bywire.control.mux import Movement, movement_from
+from bywire.control.rc_mapping import RcMapping, RcRequest
+from bywire.control.sensor_checks import (
     MonitorConfig,
     MonitorInputs,
     MonitorState,
     monitor_step,
     stopping_flags,
 )
-from bywire.control.mux import Movement, movement_from
-from bywire.control.rc_mapping import RcMapping, RcRequest
 from bywire.control.speed_check import SpeedCheckState, cleared, speed_check_step, trusted_speed
 from bywire.control.steering import (
     SteeringConfig,

@@ -10,7 +10,7 @@ import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
-from bywire.control.monitors import (
+from bywire.control.sensor_checks import (
     MonitorConfig,
     MonitorInputs,
     MonitorState,
