@@ -10,8 +10,8 @@ from pathlib import Path
 import pytest
 
 from bywire.cli.main import main
-from bywire.control.supervisor_check import MONITOR_CAUSES, TRANSITIONS, transitions_naming
 from bywire.sim.verify.oracle import INVARIANTS
+from bywire.sim.verify.supervisor_check import MONITOR_CAUSES, TRANSITIONS, transitions_naming
 from tests.system.old_bugs import OLD_BUGS
 
 

@@ -1,5 +1,6 @@
-"""The supervisor's rules, one table row at a time; `test_supervisor_exhaustive.py` checks them
-on every reachable state, and `tests/system/test_sequences.py` on the whole simulated robot."""
+"""The supervisor's rules, one table row at a time; `tests/sim/verify/test_supervisor_exhaustive.py`
+checks them on every reachable state, and `tests/system/test_sequences.py` on the whole simulated
+robot."""
 
 from __future__ import annotations
 

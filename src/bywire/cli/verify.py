@@ -32,7 +32,6 @@ from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, T
 
 from bywire.cli.arguments import positive_seconds, whole_number
 from bywire.config import RobotConfig, default_sim_config, load_config
-from bywire.control.supervisor_check import MONITOR_CAUSES, TRANSITIONS, transitions_naming
 from bywire.hal.hardware import sensors_fitted
 from bywire.sim.scenario import scenario_toml
 from bywire.sim.verify.draw import CAMPAIGN_S
@@ -44,6 +43,7 @@ from bywire.sim.verify.engine import (
     shrink_failure,
 )
 from bywire.sim.verify.oracle import INVARIANTS
+from bywire.sim.verify.supervisor_check import MONITOR_CAUSES, TRANSITIONS, transitions_naming
 
 DEFAULT_BUDGET = 200
 DEFAULT_OUT = Path("verify-failures")

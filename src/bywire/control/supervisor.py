@@ -3,7 +3,7 @@
 One small pure state machine with no clock: the controller turns times into levels (an input is
 fresh or stale, a fault holds or not) and passes them in as `SupervisorInputs`; the supervisor
 answers with its next `SupervisorState`. Its transition table and invariants are written in
-`docs/SAFETY.md`; `tests/control/test_supervisor_exhaustive.py` checks them on every reachable
+`docs/SAFETY.md`; `tests/sim/verify/test_supervisor_exhaustive.py` checks them on every reachable
 state. The rules, in the order `supervisor_step` applies them:
 
 1. **Debounce.** The mode switch's position is taken from plausible RC frames. A frame at STOP

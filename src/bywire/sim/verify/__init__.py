@@ -5,5 +5,7 @@ campaign step may do, one table), `draw` (how campaigns are drawn), `step_events
 (steps become a scenario, played with the oracle watching), `witness` (what each event means to
 the oracle), `fault_rules` (each fault's rule for the oracle, carried by the fault registry
 `bywire.sim.faults`), `oracle/` (the judge: a stop ledger, an arming tracker, one check per
-invariant) and `engine` (the campaigns on every core, a failure shrunk to a scenario).
+invariant), `engine` (the campaigns on every core, a failure shrunk to a scenario) and
+`supervisor_check` (the supervisor's invariants checked on every reachable state, and the
+transition table the campaigns' coverage is counted against).
 """

@@ -20,13 +20,13 @@ from typing import cast
 
 from bywire.config import RobotConfig, default_sim_config
 from bywire.control.supervisor import SupervisorState
-from bywire.control.supervisor_check import transition_labels
 from bywire.hal.sim.clock import VirtualClock
 from bywire.sim.runner import SimRun
 from bywire.sim.scenario import Scenario
 from bywire.sim.verify.actions import OPERATOR, TAIL_S, VOCABULARY, compile_steps
 from bywire.sim.verify.oracle import HazardOracle, OracleTiming
 from bywire.sim.verify.step_events import Step
+from bywire.sim.verify.supervisor_check import transition_labels
 from bywire.sim.verify.witness import OracleWitness
 
 __all__ = [

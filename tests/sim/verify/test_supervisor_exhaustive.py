@@ -13,9 +13,11 @@ from dataclasses import replace
 
 import pytest
 
-from bywire.control import supervisor, supervisor_check
+from bywire.control import supervisor
 from bywire.control.supervisor import Cause, SupervisorConfig, SupervisorState
-from bywire.control.supervisor_check import (
+from bywire.model import ControlMode
+from bywire.sim.verify import supervisor_check
+from bywire.sim.verify.supervisor_check import (
     INVARIANTS,
     MONITOR_CAUSES,
     SAME_RULES,
@@ -27,7 +29,6 @@ from bywire.control.supervisor_check import (
     same_rules,
     transitions_naming,
 )
-from bywire.model import ControlMode
 
 FULL = os.environ.get("BYWIRE_EXHAUSTIVE") == "full"
 

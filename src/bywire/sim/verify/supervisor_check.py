@@ -96,7 +96,7 @@ TRANSITIONS: tuple[str, ...] = tuple(
     )
 )
 """Every row of the transition table (as `transition_labels` names them) that a step from a
-reachable state can take; `tests/control/test_supervisor_exhaustive.py` proves the list is
+reachable state can take; `tests/sim/verify/test_supervisor_exhaustive.py` proves the list is
 exactly what the search reaches. `bywire verify` reports which of them its campaigns took."""
 
 MONITOR_CAUSES = frozenset(cause for _, cause in MONITORED)  # the controller's one list
