@@ -37,7 +37,7 @@ LAYERS: tuple[frozenset[str], ...] = tuple(
 
 
 class Import(NamedTuple):
-    path: Path  # inside the package: bywire/config/model.py
+    path: Path  # inside the package: bywire/config/tree.py
     line: int
     importer: str
     imported: str

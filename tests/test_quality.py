@@ -159,8 +159,8 @@ def test_every_import_runs_down_the_stated_layers() -> None:
 def test_the_layering_check_names_an_import_that_runs_back_up(tmp_path: Path) -> None:
     copy = tmp_path / "bywire"
     shutil.copytree(SOURCE, copy, ignore=shutil.ignore_patterns("__pycache__"))
-    model = copy / "config" / "model.py"
-    model.write_text(model.read_text() + "\nfrom bywire.runtime.loop import Runtime\n")
+    tree = copy / "config" / "tree.py"
+    tree.write_text(tree.read_text() + "\nfrom bywire.runtime.loop import Runtime\n")
     (wrong,) = upward(imports(copy))
     assert (wrong.importer, wrong.imported) == ("config", "runtime")
     assert str(wrong).endswith("config imports runtime")

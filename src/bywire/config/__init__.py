@@ -6,7 +6,8 @@ simulator's defaults, which also ship as `bywire/defaults/sim.toml`.
 """
 
 from bywire.config.loader import default_sim_config, load_config, parse_config
-from bywire.config.model import (
+from bywire.config.render import as_dict, describe
+from bywire.config.tree import (
     OUTPUT_LINE_KEYS,
     Backend,
     CanSection,
@@ -28,7 +29,6 @@ from bywire.config.model import (
     TimeoutsSection,
     output_lines,
 )
-from bywire.config.render import as_dict, describe
 from bywire.config.vehicle import VehicleSection
 
 __all__ = [

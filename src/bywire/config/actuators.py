@@ -14,7 +14,9 @@ from bywire.config.limits import (
     THRESHOLD_NORM,
     VREF_VOLTS,
 )
-from bywire.config.model import (
+from bywire.config.reader import MISSING, Table, toml_type
+from bywire.config.sections import pwm
+from bywire.config.tree import (
     DacOutput,
     DriveSection,
     EbrakeSection,
@@ -22,8 +24,6 @@ from bywire.config.model import (
     HydrobrakeSection,
     LightsSection,
 )
-from bywire.config.reader import MISSING, Table, toml_type
-from bywire.config.sections import pwm
 from bywire.control.drive import DriveConfig
 from bywire.protocol import dac6574
 

@@ -6,8 +6,8 @@ from collections.abc import Sequence
 from itertools import pairwise
 
 from bywire.config.deadlines import breaches
-from bywire.config.model import OUTPUT_LINE_KEYS, CanSection, RobotConfig, output_lines
 from bywire.config.reader import Problems, number_text, show
+from bywire.config.tree import OUTPUT_LINE_KEYS, CanSection, RobotConfig, output_lines
 from bywire.errors import ConfigError
 from bywire.protocol import bittiming
 from bywire.task_table import SUPERVISED_TASKS

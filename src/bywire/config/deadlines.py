@@ -16,8 +16,8 @@ import math
 from collections.abc import Callable
 from dataclasses import dataclass
 
-from bywire.config.model import RobotConfig
 from bywire.config.reader import number_text
+from bywire.config.tree import RobotConfig
 from bywire.control.dac_health import DAC_FAILURE_LIMIT
 from bywire.control.stop import STANDSTILL_LIMIT_MPS
 from bywire.model import MovementCommand

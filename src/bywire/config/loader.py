@@ -14,7 +14,6 @@ from bywire.config.actuators import (
     lights_section,
 )
 from bywire.config.consistency import check_consistency
-from bywire.config.model import BACKENDS, Backend, RobotConfig
 from bywire.config.reader import Problems, Table
 from bywire.config.sections import (
     can_section,
@@ -31,6 +30,7 @@ from bywire.config.sections import (
     timeouts_section,
 )
 from bywire.config.security import SecuritySection, security_section
+from bywire.config.tree import BACKENDS, Backend, RobotConfig
 from bywire.config.vehicle import vehicle_section
 from bywire.errors import ConfigError
 from bywire.security.keys import check_configuration_file, read_key_file

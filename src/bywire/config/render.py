@@ -6,7 +6,7 @@ import json
 from collections.abc import Mapping
 from dataclasses import fields, is_dataclass
 
-from bywire.config.model import GpioLine, RobotConfig, TasksSection
+from bywire.config.tree import GpioLine, RobotConfig, TasksSection
 from bywire.control.drive import DriveConfig
 from bywire.control.rc_mapping import RcMapping
 from bywire.control.steering import SteeringConfig

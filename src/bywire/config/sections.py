@@ -46,7 +46,8 @@ from bywire.config.limits import (
     WATCHDOG_S,
     WRITE_BUDGET_S,
 )
-from bywire.config.model import (
+from bywire.config.reader import MISSING, Interval, Table, toml_type
+from bywire.config.tree import (
     ALL_CPUS,
     CAN_COMMAND_NAMES,
     GC_MODES,
@@ -63,7 +64,6 @@ from bywire.config.model import (
     TimeoutsSection,
     parse_cpu_list,
 )
-from bywire.config.reader import MISSING, Interval, Table, toml_type
 from bywire.control.interlocks import InterlockConfig
 from bywire.control.rc_mapping import (
     AxisCalibration,

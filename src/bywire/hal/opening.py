@@ -25,7 +25,7 @@ from typing import TYPE_CHECKING, Protocol, TypeVar, cast
 
 from bywire.config import RobotConfig, output_lines
 from bywire.config.dac_backends import dac_backend
-from bywire.config.model import OUTPUT_LINE_KEYS, DacOutput, PwmOutput
+from bywire.config.tree import OUTPUT_LINE_KEYS, DacOutput, PwmOutput
 from bywire.errors import HardwareError
 from bywire.hal.hardware import DigitalOutputs, Hardware
 from bywire.hal.ports import ByteStream, CanPort, DigitalOut, I2cDevice, PwmChannel

@@ -15,7 +15,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 from bywire.config.consistency import CONTROL_TASKS
-from bywire.config.model import RobotConfig
+from bywire.config.tree import RobotConfig
 from bywire.control.steering import SteeringConfig
 from bywire.model import MovementCommand
 from bywire.sim.verify.oracle.causes import Cause
