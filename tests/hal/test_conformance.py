@@ -11,14 +11,13 @@ out by that rig's `NOT_APPLICABLE`, which says why.
 from __future__ import annotations
 
 from collections.abc import Callable, Iterator
-from dataclasses import fields
 from pathlib import Path
 
 import pytest
 
 from bywire.can_frame import CanFrame
 from bywire.errors import FrameError, HardwareError
-from bywire.hal.hardware import DigitalOutputs
+from bywire.hal.hardware import OUTPUT_NAMES
 from bywire.hal.ports import LinkState
 from bywire.protocol import dac6574, dbc, ibus
 from tests.hal.rigs import (
@@ -30,7 +29,7 @@ from tests.hal.rigs import (
     settle_until,
 )
 
-LINES = [line.name for line in fields(DigitalOutputs)]
+LINES = list(OUTPUT_NAMES)
 
 
 def pytest_generate_tests(metafunc: pytest.Metafunc) -> None:

@@ -19,7 +19,7 @@ import contextlib
 import importlib
 import logging
 from collections.abc import Callable, Iterator
-from dataclasses import dataclass, fields
+from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Protocol, TypeVar, cast
 
@@ -28,7 +28,7 @@ from bywire.config.dac_backends import dac_backend
 from bywire.config.model import OUTPUT_LINE_KEYS, DacOutput, PwmOutput
 from bywire.errors import HardwareError
 from bywire.hal.hardware import DigitalOutputs, Hardware
-from bywire.hal.ports import ByteStream, CanPort, DigitalOut, I2cDevice, PwmChannel
+from bywire.hal.ports import ByteStream, CanPort, I2cDevice, PwmChannel
 
 if TYPE_CHECKING:
     from bywire.hal.linux.clock import LinuxClock
@@ -63,8 +63,7 @@ def open_hardware(config: RobotConfig, paths: LinuxPaths | None = None) -> Itera
 
 def de_energise(hardware: Hardware, dac: DacOutput) -> None:
     """Every line low, 0 V on both DAC outputs, no PWM pulse; each tried whatever fails."""
-    for line in fields(DigitalOutputs):
-        output: DigitalOut = getattr(hardware.outputs, line.name)
+    for output in hardware.outputs.named().values():
         _try(output.set, False)
     for channel in (dac.throttle_channel, dac.regen_channel):
         _try(hardware.dac.write, dac6574.encode_write(channel, 0))
@@ -171,7 +170,7 @@ def _open_linux(config: RobotConfig, paths: LinuxPaths, stack: contextlib.ExitSt
             problems = [str(error), *_problems({n: openers[n] for n in later})]
             raise HardwareError("\n".join(dict.fromkeys(problems))) from error  # once each
     gpio = cast("GpiodOutputs", opened["GPIO output lines"])
-    outputs = DigitalOutputs(**gpio.lines)
+    outputs = DigitalOutputs.of(gpio.lines)
     return Hardware(
         clock,
         cast(CanPort, opened["CAN bus"]),
