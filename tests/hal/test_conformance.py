@@ -63,7 +63,7 @@ def test_every_test_a_rig_leaves_out_exists_and_has_a_reason() -> None:
 
 @pytest.mark.parametrize("name", LINES)
 def test_a_line_reads_back_what_was_written(rig: Rig, name: str) -> None:
-    line = getattr(rig.hardware.outputs, name)
+    line = rig.hardware.outputs.line(name)
     line.set(True)
     assert rig.level(name) is True
     assert not any(rig.level(other) for other in LINES if other != name)
@@ -210,7 +210,7 @@ def test_a_frame_classic_can_cannot_carry_is_refused(rig: Rig, frame_id: int, da
 
 def _drive_everything(rig: Rig) -> None:
     for name in LINES:
-        getattr(rig.hardware.outputs, name).set(True)
+        rig.hardware.outputs.line(name).set(True)
     rig.hardware.steering_pwm.set_pulse(0.0015)
     rig.hardware.hydrobrake_pwm.set_pulse(0.0005)
     for channel in (0, 1):
