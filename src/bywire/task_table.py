@@ -1,16 +1,18 @@
 """The schedule table (thesis Table 1): every periodic task, one row each, with what it runs.
 
-A row is ArduPilot's `SCHED_TASK(fn, rate_hz, max_us)`: a name (the configuration overrides its
-rate by `[tasks] <name>_rate_hz`, and the row's rate is that key's default), a rate, a budget and
-the function a pass calls; and what the rest of the controller derives from it: whether the
-watchdog covers it (its rate bounds `timeouts.watchdog_s`), when a changed decision writes it at
-once rather than at its next tick, and, for a task that drives GPIO lines only, those lines: the
-task writes them through the write gate under its own name, and the watchdog's trip and the safe
-state (`bywire.runtime.actuators`) drive them low. A new periodic task is a function here and a
-row below. The functions write through `TaskTarget`, what a task
-needs of the running controller (`bywire.runtime.loop.Runtime` is one), so this table sits below
-both the configuration, which reads its names and rates, and the runtime, which runs it; the
-runtime's own bookkeeping of deadlines and statistics is `bywire.runtime.schedule`.
+A row is ArduPilot's `SCHED_TASK(fn, rate_hz, max_us)`: a name (the configuration overrides its rate
+by `[tasks] <name>_rate_hz`, and the row's rate is that key's default), a rate, a budget and the
+function a pass calls; and what the rest of the controller derives from it: whether the watchdog
+covers it (its rate bounds `timeouts.watchdog_s`), when a changed decision writes it at once rather
+than at its next tick, and, for a task that drives GPIO lines only, those lines: the task writes
+them through the write gate under its own name, and the watchdog's trip and the safe state
+(`bywire.runtime.actuators`) drive them low; each line is an output of the hardware bundle and a
+robot-file key `[tasks] <line>_line` (its pin), both derived from the row. A new periodic task is a
+function here and a row below, and its rate (and lines) in the robot files. The functions write
+through `TaskTarget`, what a task needs of the running controller (`bywire.runtime.loop.Runtime` is
+one), so this table sits below both the configuration, which reads its names and rates, and the
+runtime, which runs it; the runtime's own bookkeeping of deadlines and statistics is
+`bywire.runtime.schedule`.
 """
 
 from __future__ import annotations
@@ -102,9 +104,7 @@ class TaskSpec:
     run: TaskFn
     supervised: bool = False  # the watchdog covers it: its rate bounds `timeouts.watchdog_s`
     changed: Changed | None = None  # written at once when this says the decision changed it
-    lines: tuple[
-        str, ...
-    ] = ()  # a line task's GPIO outputs (`DigitalOutputs` fields), low when safe
+    lines: tuple[str, ...] = ()  # a line task's GPIO outputs (`TASK_LINES`), low when safe
 
     @property
     def period_s(self) -> float:
@@ -127,3 +127,6 @@ TASK_NAMES = tuple(spec.name for spec in SCHEDULE)
 SUPERVISED_TASKS = tuple(spec.name for spec in SCHEDULE if spec.supervised)
 """The actuator tasks the watchdog covers: the slowest one's rate bounds `timeouts.watchdog_s`."""
 LINE_TASKS = tuple(spec for spec in SCHEDULE if spec.lines)
+TASK_LINES: tuple[str, ...] = tuple(line for task in LINE_TASKS for line in task.lines)
+"""The line tasks' GPIO outputs, in the table's order: each is a `DigitalOutputs` line
+(`bywire.hal.hardware`) and a robot-file key `[tasks] <line>_line`, derived from here."""

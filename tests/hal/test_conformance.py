@@ -11,14 +11,13 @@ out by that rig's `NOT_APPLICABLE`, which says why.
 from __future__ import annotations
 
 from collections.abc import Callable, Iterator
-from dataclasses import fields
 from pathlib import Path
 
 import pytest
 
 from bywire.can_frame import CanFrame
 from bywire.errors import FrameError, HardwareError
-from bywire.hal.hardware import DigitalOutputs
+from bywire.hal.hardware import OUTPUT_NAMES
 from bywire.hal.ports import LinkState
 from bywire.protocol import dac6574, dbc, ibus
 from tests.hal.rigs import (
@@ -30,7 +29,7 @@ from tests.hal.rigs import (
     settle_until,
 )
 
-LINES = [line.name for line in fields(DigitalOutputs)]
+LINES = list(OUTPUT_NAMES)
 
 
 def pytest_generate_tests(metafunc: pytest.Metafunc) -> None:
@@ -64,7 +63,7 @@ def test_every_test_a_rig_leaves_out_exists_and_has_a_reason() -> None:
 
 @pytest.mark.parametrize("name", LINES)
 def test_a_line_reads_back_what_was_written(rig: Rig, name: str) -> None:
-    line = getattr(rig.hardware.outputs, name)
+    line = rig.hardware.outputs.line(name)
     line.set(True)
     assert rig.level(name) is True
     assert not any(rig.level(other) for other in LINES if other != name)
@@ -211,7 +210,7 @@ def test_a_frame_classic_can_cannot_carry_is_refused(rig: Rig, frame_id: int, da
 
 def _drive_everything(rig: Rig) -> None:
     for name in LINES:
-        getattr(rig.hardware.outputs, name).set(True)
+        rig.hardware.outputs.line(name).set(True)
     rig.hardware.steering_pwm.set_pulse(0.0015)
     rig.hardware.hydrobrake_pwm.set_pulse(0.0005)
     for channel in (0, 1):

@@ -1,4 +1,5 @@
-"""Actuator sections: the drive DAC and motor lines, brakes and lights, into their dataclasses."""
+"""Actuator sections: the drive DAC and motor lines, brakes, lights and the periodic tasks' rates
+and lines, into their dataclasses."""
 
 from __future__ import annotations
 
@@ -11,18 +12,21 @@ from bywire.config.limits import (
     GPIO_OFFSETS,
     I2C_BUSES,
     MOTOR_VOLTS,
+    TASK_RATE_HZ,
     THRESHOLD_NORM,
     VREF_VOLTS,
 )
 from bywire.config.reader import MISSING, Table, toml_type
 from bywire.config.sections import pwm
 from bywire.config.tree import (
+    TASK_LINE_SUFFIX,
     DacOutput,
     DriveSection,
     EbrakeSection,
     GpioLine,
     HydrobrakeSection,
     LightsSection,
+    TasksSection,
 )
 from bywire.control.drive import DriveConfig
 from bywire.protocol import dac6574
@@ -101,6 +105,22 @@ def lights_section(table: Table, chip: str) -> LightsSection:
     section = replace(default, blink_rate_hz=blink_rate_hz, **lines)
     table.close()
     return section
+
+
+def tasks_section(table: Table, chip: str) -> TasksSection:
+    """`<name>_rate_hz` for each task of the schedule table and `<line>_line` for each line of
+    its line tasks; any other key is refused."""
+    default = TasksSection()
+    rates = tuple(
+        (name, table.number(f"{name}_rate_hz", default_hz, TASK_RATE_HZ))
+        for name, default_hz in default.rates_hz
+    )
+    lines = tuple(
+        (name, gpio_line(table, f"{name}{TASK_LINE_SUFFIX}", GpioLine(chip, line.line)))
+        for name, line in default.lines
+    )
+    table.close()
+    return TasksSection(rates, lines)
 
 
 def gpio_line(table: Table, name: str, default: GpioLine) -> GpioLine:

@@ -12,6 +12,7 @@ from bywire.config.actuators import (
     ebrake_section,
     hydrobrake_section,
     lights_section,
+    tasks_section,
 )
 from bywire.config.consistency import check_consistency
 from bywire.config.reader import Problems, Table
@@ -25,7 +26,6 @@ from bywire.config.sections import (
     steering_section,
     stop_section,
     supervisor_section,
-    tasks_section,
     telemetry_section,
     timeouts_section,
 )
@@ -109,7 +109,7 @@ def build_robot(data: Mapping[str, object], problems: Problems) -> RobotConfig:
         interlocks=interlocks_section(root.table("interlocks")),
         monitors=monitors_section(root.table("monitors")),
         supervisor=supervisor_section(root.table("supervisor")),
-        tasks=tasks_section(root.table("tasks")),
+        tasks=tasks_section(root.table("tasks"), chip),
         realtime=realtime_section(root.table("realtime")),
         telemetry=telemetry_section(root.table("telemetry")),
         sim=sim_section(root.table("sim")),

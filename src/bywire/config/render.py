@@ -6,7 +6,7 @@ import json
 from collections.abc import Mapping
 from dataclasses import fields, is_dataclass
 
-from bywire.config.tree import GpioLine, RobotConfig, TasksSection
+from bywire.config.tree import TASK_LINE_SUFFIX, GpioLine, RobotConfig, TasksSection
 from bywire.control.drive import DriveConfig
 from bywire.control.rc_mapping import RcMapping
 from bywire.control.steering import SteeringConfig
@@ -47,12 +47,13 @@ def _table(node: object, chip: str) -> dict[str, object]:
         if field.name in NOT_KEYS or value is None:
             continue
         if isinstance(value, TasksSection):
-            table[field.name] = {f"{name}_rate_hz": rate for name, rate in value.rates_hz}
+            rates = {f"{name}_rate_hz": rate for name, rate in value.rates_hz}
+            lines = {f"{name}{TASK_LINE_SUFFIX}": _line(line, chip) for name, line in value.lines}
+            table[field.name] = rates | lines
         elif _pairs(value):
             table[field.name] = dict(value)
         elif isinstance(value, GpioLine):
-            explicit = {"chip": value.chip, "line": value.line}
-            table[field.name] = value.line if value.chip == chip else explicit
+            table[field.name] = _line(value, chip)
         elif isinstance(value, FLATTENED):
             table.update(_table(value, chip))
         elif is_dataclass(value):
@@ -60,6 +61,11 @@ def _table(node: object, chip: str) -> dict[str, object]:
         else:
             table[field.name] = value
     return table
+
+
+def _line(line: GpioLine, chip: str) -> object:
+    """A line on the default chip as its name or offset, another chip's as a table."""
+    return line.line if line.chip == chip else {"chip": line.chip, "line": line.line}
 
 
 def _pairs(value: object) -> bool:

@@ -39,7 +39,6 @@ from bywire.config.limits import (
     STOP_DECEL_MPS2,
     SWITCH_BAND_RAW,
     SWITCH_HYSTERESIS_RAW,
-    TASK_RATE_HZ,
     TELEMETRY_RATE_HZ,
     TOLERANCE_NORM,
     TOP_SPEED_MPS,
@@ -59,7 +58,6 @@ from bywire.config.tree import (
     SimSection,
     SteeringSection,
     StopSection,
-    TasksSection,
     TelemetrySection,
     TimeoutsSection,
     parse_cpu_list,
@@ -233,16 +231,6 @@ def stop_section(table: Table) -> StopSection:
     )
     table.close()
     return section
-
-
-def tasks_section(table: Table) -> TasksSection:
-    """`<name>_rate_hz` for each task of the schedule table; any other key is refused."""
-    rates = tuple(
-        (name, table.number(f"{name}_rate_hz", default_hz, TASK_RATE_HZ))
-        for name, default_hz in TasksSection().rates_hz
-    )
-    table.close()
-    return TasksSection(rates)
 
 
 def sim_section(table: Table) -> SimSection:

@@ -21,7 +21,7 @@ from bywire.control.sensor_checks import MonitorConfig
 from bywire.control.steering import SteeringConfig
 from bywire.control.supervisor import SupervisorConfig
 from bywire.model import COMMAND_TYPES
-from bywire.task_table import SCHEDULE
+from bywire.task_table import SCHEDULE, TASK_LINES
 
 Backend = Literal["sim", "linux"]
 BACKENDS: tuple[Backend, ...] = ("sim", "linux")
@@ -163,10 +163,14 @@ class TimeoutsSection:
 
 @dataclass(frozen=True, slots=True)
 class TasksSection:
-    """The rate of each periodic task by its name, `[tasks] <name>_rate_hz`: the schedule
-    table's rows (`bywire.task_table.SCHEDULE`) give the tasks and their defaults."""
+    """The rate of each periodic task by its name, `[tasks] <name>_rate_hz`, and the GPIO line of
+    each line task's output, `[tasks] <line>_line`: the schedule table's rows
+    (`bywire.task_table.SCHEDULE`) give the tasks, their lines and their defaults."""
 
     rates_hz: tuple[tuple[str, float], ...] = tuple((spec.name, spec.rate_hz) for spec in SCHEDULE)
+    lines: tuple[tuple[str, GpioLine], ...] = tuple(
+        (line, _line(line.upper())) for line in TASK_LINES
+    )
 
     def rate_hz(self, name: str) -> float:
         """The configured rate of the task `name` (KeyError for no such task)."""
@@ -274,23 +278,30 @@ OUTPUT_SECTIONS = ("drive", "ebrake", "lights")
 """The sections whose GPIO lines are digital outputs."""
 
 
+TASK_LINE_SUFFIX = "_line"
+
+
 def _output_line_keys() -> dict[str, str]:
     defaults = RobotConfig()
-    return {
+    wired = {
         field.name: f"{section}.{field.name}"
         for section in OUTPUT_SECTIONS
         for field in fields(getattr(defaults, section))
         if isinstance(getattr(getattr(defaults, section), field.name), GpioLine)
     }
+    return wired | {line: f"tasks.{line}{TASK_LINE_SUFFIX}" for line in TASK_LINES}
 
 
 OUTPUT_LINE_KEYS: dict[str, str] = _output_line_keys()
-"""Every digital output, named like `bywire.hal.hardware.DigitalOutputs`' fields, to its key."""
+"""Every digital output, named like `bywire.hal.hardware.OUTPUT_NAMES`, to its key: the wired
+lines' in their sections, then the line tasks' `[tasks] <line>_line`."""
 
 
 def output_lines(config: RobotConfig) -> dict[str, GpioLine]:
-    """Every digital output's line, keyed like the fields of `DigitalOutputs`."""
-    lines: dict[str, GpioLine] = {}
+    """Every digital output's line, keyed like `OUTPUT_LINE_KEYS`."""
+    lines = dict(config.tasks.lines)  # the line tasks'
     for name, key in OUTPUT_LINE_KEYS.items():
-        lines[name] = getattr(getattr(config, key.partition(".")[0]), name)
-    return lines
+        section = key.partition(".")[0]
+        if section != "tasks":
+            lines[name] = getattr(getattr(config, section), name)
+    return {name: lines[name] for name in OUTPUT_LINE_KEYS}

@@ -18,17 +18,18 @@ from __future__ import annotations
 import contextlib
 import importlib
 import logging
-from collections.abc import Callable, Iterator
+from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass, fields
+from enum import StrEnum
 from pathlib import Path
-from typing import TYPE_CHECKING, Protocol, TypeVar, cast
+from typing import TYPE_CHECKING, Protocol, TypeVar
 
 from bywire.config import RobotConfig, output_lines
 from bywire.config.dac_backends import dac_backend
 from bywire.config.tree import OUTPUT_LINE_KEYS, DacOutput, PwmOutput
 from bywire.errors import HardwareError
 from bywire.hal.hardware import DigitalOutputs, Hardware
-from bywire.hal.ports import ByteStream, CanPort, DigitalOut, I2cDevice, PwmChannel
+from bywire.hal.ports import ByteStream, CanPort, I2cDevice, PwmChannel
 
 if TYPE_CHECKING:
     from bywire.hal.linux.clock import LinuxClock
@@ -63,8 +64,7 @@ def open_hardware(config: RobotConfig, paths: LinuxPaths | None = None) -> Itera
 
 def de_energise(hardware: Hardware, dac: DacOutput) -> None:
     """Every line low, 0 V on both DAC outputs, no PWM pulse; each tried whatever fails."""
-    for line in fields(DigitalOutputs):
-        output: DigitalOut = getattr(hardware.outputs, line.name)
+    for output in hardware.outputs.named().values():
         _try(output.set, False)
     for channel in (dac.throttle_channel, dac.regen_channel):
         _try(hardware.dac.write, dac6574.encode_write(channel, 0))
@@ -89,13 +89,40 @@ def _open_sim(config: RobotConfig, _paths: LinuxPaths, stack: contextlib.ExitSta
     return world.hardware
 
 
-Opener = Callable[[contextlib.ExitStack], object]
+Opener = Callable[[contextlib.ExitStack], T]
 """Opens one device and puts its close on the stack; HardwareError says what is wrong."""
 
 
-def _linux_openers(config: RobotConfig, paths: LinuxPaths, clock: LinuxClock) -> dict[str, Opener]:
-    """Every device the configuration names, by what the user calls it, in the order that keeps
-    the robot safe while they open (outputs low first, inputs last)."""
+class Device(StrEnum):
+    """Every device the Linux backend opens, by what the user calls it (`bywire run --check`)."""
+
+    GPIO = "GPIO output lines"
+    DAC = "DAC"
+    STEERING_PWM = "steering PWM"
+    HYDROBRAKE_PWM = "hydraulic brake PWM"
+    RC_UART = "RC receiver (UART)"
+    CAN = "CAN bus"
+
+
+@dataclass(frozen=True, slots=True)
+class LinuxOpeners:
+    """Each device's opener, typed by what it opens, in the order that keeps the robot safe while
+    they open (outputs low first, inputs last): the fields' order is the opening order."""
+
+    gpio: Opener[GpiodOutputs]
+    dac: Opener[I2cDevice]
+    steering_pwm: Opener[PwmChannel]
+    hydrobrake_pwm: Opener[PwmChannel]
+    rc_uart: Opener[ByteStream]
+    can: Opener[CanPort]
+
+    def in_order(self) -> list[tuple[Device, Opener[object]]]:
+        """(device, opener) for each field, in the opening order."""
+        return [(Device[field.name.upper()], getattr(self, field.name)) for field in fields(self)]
+
+
+def linux_openers(config: RobotConfig, paths: LinuxPaths, clock: LinuxClock) -> LinuxOpeners:
+    """Every device the configuration names (see `LinuxOpeners`)."""
     from bywire.hal.linux.can_open import BusSettings  # noqa: PLC0415 -- only the chosen backend
     from bywire.hal.linux.can_pythoncan import PythonCanPort  # noqa: PLC0415
     from bywire.hal.linux.clock import LinuxClock  # noqa: PLC0415
@@ -110,13 +137,13 @@ def _linux_openers(config: RobotConfig, paths: LinuxPaths, clock: LinuxClock) ->
         for name, line in output_lines(config).items()
     }
 
-    def gpio(stack: contextlib.ExitStack) -> object:
+    def gpio(stack: contextlib.ExitStack) -> GpiodOutputs:
         lines = GpiodOutputs(specs, paths.dev_root)
         stack.callback(lines.close)
         return lines
 
-    def pwm(key: str, output: PwmOutput) -> Opener:
-        def open_pwm(stack: contextlib.ExitStack) -> object:
+    def pwm(key: str, output: PwmOutput) -> Opener[PwmChannel]:
+        def open_pwm(stack: contextlib.ExitStack) -> PwmChannel:
             chip = find_pwm_chip(paths.sysfs_root, output.chip)
             opened = SysfsPwm(chip, output.channel, 1.0 / output.frequency_hz, key)
             stack.callback(opened.close)
@@ -124,14 +151,14 @@ def _linux_openers(config: RobotConfig, paths: LinuxPaths, clock: LinuxClock) ->
 
         return open_pwm
 
-    def rc(stack: contextlib.ExitStack) -> object:
+    def rc(stack: contextlib.ExitStack) -> ByteStream:
         port = PyserialStream(
             paths.device(config.rc.port), clock.notify_input, baud=config.rc.baud, now_s=clock.now
         )
         stack.callback(port.close)
         return port
 
-    def can(stack: contextlib.ExitStack) -> object:
+    def can(stack: contextlib.ExitStack) -> CanPort:
         section = config.can
         settings = BusSettings(
             section.interface,
@@ -146,47 +173,46 @@ def _linux_openers(config: RobotConfig, paths: LinuxPaths, clock: LinuxClock) ->
         stack.callback(port.close)
         return port
 
-    return {
-        "GPIO output lines": gpio,
-        "DAC": lambda stack: _open_dac(config.drive.dac, paths, stack),
-        "steering PWM": pwm("steering.pwm", config.steering.pwm),
-        "hydraulic brake PWM": pwm("hydrobrake.pwm", config.hydrobrake.pwm),
-        "RC receiver (UART)": rc,
-        "CAN bus": can,
-    }
+    return LinuxOpeners(
+        gpio=gpio,
+        dac=lambda stack: _open_dac(config.drive.dac, paths, stack),
+        steering_pwm=pwm("steering.pwm", config.steering.pwm),
+        hydrobrake_pwm=pwm("hydrobrake.pwm", config.hydrobrake.pwm),
+        rc_uart=rc,
+        can=can,
+    )
 
 
 def _open_linux(config: RobotConfig, paths: LinuxPaths, stack: contextlib.ExitStack) -> Hardware:
     from bywire.hal.linux.clock import LinuxClock  # noqa: PLC0415 -- only the chosen backend
 
     clock = LinuxClock()
-    openers = _linux_openers(config, paths, clock)
-    opened: dict[str, object] = {}
-    for name, opener in openers.items():
+    openers = linux_openers(config, paths, clock)
+    order = [device for device, _ in openers.in_order()]
+
+    def opened(device: Device, opener: Opener[T]) -> T:
         try:
-            opened[name] = opener(stack)
+            return opener(stack)
         except HardwareError as error:
             # Like a pre-arm check: every other device's problem too, not one per attempt.
-            later = list(openers)[len(opened) + 1 :]
-            problems = [str(error), *_problems({n: openers[n] for n in later})]
+            later = openers.in_order()[order.index(device) + 1 :]
+            problems = [str(error), *_problems([opener for _, opener in later])]
             raise HardwareError("\n".join(dict.fromkeys(problems))) from error  # once each
-    gpio = cast("GpiodOutputs", opened["GPIO output lines"])
-    outputs = DigitalOutputs(**gpio.lines)
-    return Hardware(
-        clock,
-        cast(CanPort, opened["CAN bus"]),
-        cast(ByteStream, opened["RC receiver (UART)"]),
-        cast(I2cDevice, opened["DAC"]),
-        cast(PwmChannel, opened["steering PWM"]),
-        cast(PwmChannel, opened["hydraulic brake PWM"]),
-        outputs,
-    )
+
+    gpio = opened(Device.GPIO, openers.gpio)
+    dac = opened(Device.DAC, openers.dac)
+    steering_pwm = opened(Device.STEERING_PWM, openers.steering_pwm)
+    hydrobrake_pwm = opened(Device.HYDROBRAKE_PWM, openers.hydrobrake_pwm)
+    rc_uart = opened(Device.RC_UART, openers.rc_uart)
+    can = opened(Device.CAN, openers.can)
+    outputs = DigitalOutputs.of(gpio.lines)
+    return Hardware(clock, can, rc_uart, dac, steering_pwm, hydrobrake_pwm, outputs)
 
 
-def _problems(openers: dict[str, Opener]) -> list[str]:
+def _problems(openers: Sequence[Opener[object]]) -> list[str]:
     """What is wrong with each device, each opened alone and closed again."""
     problems = []
-    for opener in openers.values():
+    for opener in openers:
         try:
             with contextlib.ExitStack() as stack:
                 opener(stack)
@@ -203,9 +229,9 @@ def preflight(config: RobotConfig, paths: LinuxPaths | None = None) -> list[tupl
     from bywire.hal.linux.clock import LinuxClock  # noqa: PLC0415 -- only the chosen backend
 
     results: list[tuple[str, str | None]] = []
-    for name, opener in _linux_openers(config, paths or LinuxPaths(), LinuxClock()).items():
-        problems = _problems({name: opener})
-        results.append((name, problems[0] if problems else None))
+    for device, opener in linux_openers(config, paths or LinuxPaths(), LinuxClock()).in_order():
+        problems = _problems([opener])
+        results.append((device.value, problems[0] if problems else None))
     return results
 
 

@@ -27,7 +27,7 @@ from bywire.control.dac_health import DAC_FAILURE_LIMIT, DacHealth, Transfer, da
 from bywire.control.drive import DriveOutputs
 from bywire.control.lights import LIGHT_LINES, LightOutputs
 from bywire.errors import HardwareError
-from bywire.hal.hardware import Hardware
+from bywire.hal.hardware import DigitalOutputs, Hardware
 from bywire.protocol import dac6574
 from bywire.runtime.recent_fault import RecentFault
 from bywire.runtime.timing import Budgets, Overruns, overrun_weight
@@ -212,7 +212,7 @@ class Actuators:
     def _write_lights(self, lights: LightOutputs) -> None:
         lines = self._hardware.outputs
         for name, light in LIGHT_LINES:
-            getattr(lines, light.line).set(getattr(lights, name))
+            lines.line(light.line).set(getattr(lights, name))
 
     def _tripped_light_writes(self) -> list[tuple[str, Action]]:
         """Each light's own safe level (`LightLine.tripped`): the error LED on, the rest held."""
@@ -296,14 +296,14 @@ def _each(writes: Sequence[tuple[str, Action]]) -> None:
         raise HardwareError("; ".join(failed))
 
 
-def _setter(lines: object, line: str, level: bool) -> Action:
-    output = getattr(lines, line)
+def _setter(lines: DigitalOutputs, line: str, level: bool) -> Action:
+    output = lines.line(line)
     return lambda: output.set(level)
 
 
-def _low(lines: object, line: str) -> Action:
+def _low(lines: DigitalOutputs, line: str) -> Action:
     return _setter(lines, line, False)
 
 
-def _lines_low(lines: object, names: Sequence[str]) -> Action:
+def _lines_low(lines: DigitalOutputs, names: Sequence[str]) -> Action:
     return lambda: _each([(name, _low(lines, name)) for name in names])

@@ -9,12 +9,12 @@ virtual channel of its own.
 from __future__ import annotations
 
 import uuid
-from dataclasses import dataclass, fields
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
 from bywire.config import RobotConfig, output_lines
-from bywire.hal.hardware import DigitalOutputs
+from bywire.hal.hardware import OUTPUT_NAMES
 from tests.hal.linux import fake_gpiod
 from tests.hal.linux.fake_sysfs import make_iio_dac, make_pwm_chip, read_iio, read_pwm
 
@@ -82,12 +82,10 @@ dac_transfer_budget_s = 0.02
         return fake_gpiod.read_state(self.gpio_chip)
 
     def levels(self) -> dict[str, int]:
-        """Level of every output, by `DigitalOutputs` field name."""
+        """Level of every output, by its name (`OUTPUT_NAMES`)."""
         by_line = self.gpio_state()["levels"]
         lines = output_lines(RobotConfig())
-        return {
-            field.name: by_line[str(lines[field.name].line)] for field in fields(DigitalOutputs)
-        }
+        return {name: by_line[str(lines[name].line)] for name in OUTPUT_NAMES}
 
     def pwm(self, channel: int) -> tuple[int, int, int]:
         """(period_ns, duty_cycle_ns, enable)."""

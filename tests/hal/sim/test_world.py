@@ -2,12 +2,12 @@
 
 from __future__ import annotations
 
-from dataclasses import fields, replace
+from dataclasses import replace
 
 import pytest
 
 from bywire.config import default_sim_config
-from bywire.hal.hardware import DigitalOutputs, Hardware
+from bywire.hal.hardware import OUTPUT_NAMES, Hardware
 from bywire.hal.sim.clock import RealtimeClock, VirtualClock
 from bywire.hal.sim.world import SimWorld
 from bywire.model import ControlMode, Gear, MovementCommand
@@ -24,7 +24,7 @@ def test_world_builds_the_hardware_bundle_from_its_parts() -> None:
     assert hardware.steering_pwm.period_s == 0.02
     assert hardware.hydrobrake_pwm.period_s == 0.002
     assert hardware.outputs.ebrake_release is world.gpio["ebrake_release"]
-    assert list(world.gpio) == [line.name for line in fields(DigitalOutputs)]
+    assert list(world.gpio) == list(OUTPUT_NAMES)
     assert hardware.wheel_speeds is not None
     assert hardware.wheel_speeds.read() == (0.0, 0.0)
 

@@ -8,11 +8,11 @@ Randomness (which byte a corrupted IBUS frame flips) comes from ``seed``, so run
 
 from __future__ import annotations
 
-from dataclasses import dataclass, fields
+from dataclasses import dataclass
 from typing import TYPE_CHECKING, Protocol
 
 from bywire.control.rc_mapping import RcMapping
-from bywire.hal.hardware import DigitalOutputs, Hardware, sensors_fitted
+from bywire.hal.hardware import OUTPUT_NAMES, DigitalOutputs, Hardware, sensors_fitted
 from bywire.hal.ports import Clock
 from bywire.hal.sim.can_bus import DEFAULT_BITRATE_BPS, SimCanBus
 from bywire.hal.sim.can_port import SimCanPort
@@ -132,7 +132,7 @@ class SimWorld:
             SimPwmChannel(clock, STEERING_PERIOD_S, "steering"),
             SimPwmChannel(clock, hydrobrake_period_s, "hydrobrake"),
         )
-        gpio = {line.name: SimDigitalOut(clock, line.name) for line in fields(DigitalOutputs)}
+        gpio = {name: SimDigitalOut(clock, name) for name in OUTPUT_NAMES}
         wiring = VehicleWiring(
             dac,
             gpio["motors_enable"],
@@ -155,7 +155,7 @@ class SimWorld:
             dac=dac,
             steering_pwm=pwm.steering,
             hydrobrake_pwm=pwm.hydrobrake,
-            outputs=DigitalOutputs(**gpio),
+            outputs=DigitalOutputs.of(gpio),
             # Unfitted, the parts still simulate (a fault changes nothing); nothing reads them.
             wheel_speeds=wheel_sensor if sensors else None,
             hydrobrake_pressure_bar=pressure_sensor if sensors else None,

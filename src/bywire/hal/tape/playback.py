@@ -10,14 +10,13 @@ DAC checks every frame); `bywire.replay.runner` tapes them and compares with the
 
 from __future__ import annotations
 
-import dataclasses
 from collections import deque
 from collections.abc import Sequence
 from typing import Generic, TypeVar
 
 from bywire.can_frame import CanFrame, check_can_frame
 from bywire.errors import HardwareError
-from bywire.hal.hardware import DigitalOutputs, Hardware
+from bywire.hal.hardware import OUTPUT_NAMES, DigitalOutputs, Hardware
 from bywire.hal.ports import LINK_UP, I2cDevice, LinkState
 from bywire.hal.sim.clock import VirtualClock
 from bywire.hal.sim.dac import SimDac6574
@@ -181,9 +180,7 @@ def replay_hardware(record: RecordedRun, clock: VirtualClock) -> Hardware:
     for time_s in sorted({t for t, _, _ in record.rc_bytes} | {t for t, _ in record.can_rx}):
         clock.call_at(time_s, clock.notify_input)
     periods, reads, present = record.header.pwm_period_s, record.sensor_reads, record.header.sensors
-    lines = {
-        line.name: SimDigitalOut(clock, line.name) for line in dataclasses.fields(DigitalOutputs)
-    }
+    lines = {name: SimDigitalOut(clock, name) for name in OUTPUT_NAMES}
 
     def analog(name: str) -> ReplayAnalogInput | None:
         return ReplayAnalogInput(reads.get(name, [])) if name in present else None
@@ -201,7 +198,7 @@ def replay_hardware(record: RecordedRun, clock: VirtualClock) -> Hardware:
         ),
         steering_pwm=SimPwmChannel(clock, periods["steering"], "steering"),
         hydrobrake_pwm=SimPwmChannel(clock, periods["hydrobrake"], "hydrobrake"),
-        outputs=DigitalOutputs(**lines),
+        outputs=DigitalOutputs.of(lines),
         wheel_speeds=ReplayWheelSpeeds(reads.get("wheel_speeds", []))
         if "wheel_speeds" in present
         else None,

@@ -8,7 +8,6 @@ events. The wrappers only forward and note: the controller cannot tell them from
 from __future__ import annotations
 
 from collections.abc import Callable
-from dataclasses import fields
 from typing import Generic, TypeVar
 
 from bywire.can_frame import CanFrame
@@ -198,8 +197,8 @@ def taped_hardware(hardware: Hardware, tape: Tape) -> Hardware:
     """The same bundle with every port taped; the clock is shared, not taped."""
     outputs = hardware.outputs
     lines = {
-        line.name: TapedDigitalOut(getattr(outputs, line.name), f"gpio.{line.name}", tape)
-        for line in fields(DigitalOutputs)
+        name: TapedDigitalOut(output, f"gpio.{name}", tape)
+        for name, output in outputs.named().items()
     }
     wheels, pressure, encoder = (
         hardware.wheel_speeds,
@@ -213,7 +212,7 @@ def taped_hardware(hardware: Hardware, tape: Tape) -> Hardware:
         dac=TapedDac(hardware.dac, tape),
         steering_pwm=TapedPwm(hardware.steering_pwm, "steering_pwm", tape),
         hydrobrake_pwm=TapedPwm(hardware.hydrobrake_pwm, "hydrobrake_pwm", tape),
-        outputs=DigitalOutputs(**lines),
+        outputs=DigitalOutputs.of(lines),
         wheel_speeds=None if wheels is None else TapedSensor(wheels.read, "wheel_speeds", tape),
         hydrobrake_pressure_bar=None
         if pressure is None
