@@ -21,7 +21,7 @@ def robot_files(draw: st.DrawFn) -> str:
     real robot could use."""
     rates = [draw(st.sampled_from([25, 50, 100, 200])) for _ in range(3)]
     # Timeouts across the loader's ranges (INPUT_TIMEOUT_S, WATCHDOG_S): R-TIMEOUT's 100 ms and
-    # R-WATCHDOG's 200 ms are defaults; a file is held to its own (oracle/test_timing.py)
+    # R-WATCHDOG's 200 ms are defaults; a file is held to its own (oracle/test_cause_deadlines.py)
     rc_ms, can_ms = draw(st.integers(30, 1000)), draw(st.integers(45, 1000))
     # the watchdog must outlast two periods of every task (the loader's rule) and the inputs
     watchdog_ms = draw(st.integers(max(rc_ms, can_ms, 2000 // min(rates) + 1), 5000))

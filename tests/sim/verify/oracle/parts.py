@@ -5,10 +5,10 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 from bywire.sim.verify.oracle.arming import ArmingTracker
+from bywire.sim.verify.oracle.cause_deadlines import OracleTiming
 from bywire.sim.verify.oracle.delays import Delays
 from bywire.sim.verify.oracle.faults_in_force import FaultsInForce
 from bywire.sim.verify.oracle.ledger import StopLedger
-from bywire.sim.verify.oracle.timing import OracleTiming
 
 TIMING = OracleTiming()  # the defaults: frames every 7.7 ms, a debounce of 3, 100 Hz tasks
 

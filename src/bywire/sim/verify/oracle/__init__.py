@@ -1,10 +1,10 @@
 """`bywire verify`'s judge: the hazard oracle (`judge.HazardOracle`), built of small typed parts
 (see `judge.py`), and the invariants it checks."""
 
+from bywire.sim.verify.oracle.cause_deadlines import OracleTiming, ServoPulses
 from bywire.sim.verify.oracle.causes import Cause
 from bywire.sim.verify.oracle.invariants import INVARIANTS, SAFE_LEVELS, Invariant, Violation
 from bywire.sim.verify.oracle.judge import HazardOracle
-from bywire.sim.verify.oracle.timing import OracleTiming, ServoPulses
 
 __all__ = [
     "INVARIANTS",

@@ -12,13 +12,13 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 from bywire.model import ControlMode
+from bywire.sim.verify.oracle.cause_deadlines import OracleTiming
 from bywire.sim.verify.oracle.causes import Cause
 from bywire.sim.verify.oracle.checks.h9 import TakeOver
 from bywire.sim.verify.oracle.delays import Delays
 from bywire.sim.verify.oracle.faults_in_force import FaultsInForce
 from bywire.sim.verify.oracle.ledger import Demand, StopLedger
 from bywire.sim.verify.oracle.requirements import CAN_STALE_S
-from bywire.sim.verify.oracle.timing import OracleTiming
 
 RC, CAN, STOP = ControlMode.RC, ControlMode.CAN, ControlMode.STOP
 STALE_S = {RC: 0.0, CAN: CAN_STALE_S}

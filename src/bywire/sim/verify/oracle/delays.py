@@ -7,7 +7,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 from bywire.model import ControlMode
-from bywire.sim.verify.oracle.timing import OracleTiming
+from bywire.sim.verify.oracle.cause_deadlines import OracleTiming
 
 
 @dataclass(slots=True)

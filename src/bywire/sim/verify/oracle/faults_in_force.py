@@ -6,8 +6,8 @@ from __future__ import annotations
 from collections.abc import Set
 from dataclasses import dataclass, field
 
+from bywire.sim.verify.oracle.cause_deadlines import OracleTiming
 from bywire.sim.verify.oracle.causes import CAN_ONLY, Cause
-from bywire.sim.verify.oracle.timing import OracleTiming
 
 
 @dataclass(slots=True)

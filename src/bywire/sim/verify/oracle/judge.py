@@ -23,6 +23,7 @@ from dataclasses import dataclass, field
 from bywire.hal.sim.world import SimWorld
 from bywire.model import ControlMode
 from bywire.sim.verify.oracle.arming import ArmingTracker
+from bywire.sim.verify.oracle.cause_deadlines import OracleTiming
 from bywire.sim.verify.oracle.causes import Cause
 from bywire.sim.verify.oracle.checks.h1 import StopFacts, StopWatch, check_h1
 from bywire.sim.verify.oracle.checks.h2 import HandoverFacts, check_h2
@@ -40,7 +41,6 @@ from bywire.sim.verify.oracle.invariants import Violation
 from bywire.sim.verify.oracle.ledger import StopLedger
 from bywire.sim.verify.oracle.outputs import Outputs
 from bywire.sim.verify.oracle.plant import Plant
-from bywire.sim.verify.oracle.timing import OracleTiming
 
 STOP = ControlMode.STOP
 

@@ -10,6 +10,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 
+from bywire.sim.verify.oracle.cause_deadlines import OracleTiming
 from bywire.sim.verify.oracle.causes import (
     CAN_ONLY,
     POWER_OFF,
@@ -20,7 +21,6 @@ from bywire.sim.verify.oracle.causes import (
 from bywire.sim.verify.oracle.delays import Delays
 from bywire.sim.verify.oracle.faults_in_force import FaultsInForce
 from bywire.sim.verify.oracle.requirements import DAC_LATCH_WRITES
-from bywire.sim.verify.oracle.timing import OracleTiming
 
 LINK_SILENCES = frozenset({Cause.RC_LINK_LOST})
 """A lost link carries no frames: no RC-borne cause arrives while it is lost…"""

@@ -8,11 +8,11 @@ from dataclasses import replace
 import pytest
 
 from bywire.model import ControlMode
+from bywire.sim.verify.oracle.cause_deadlines import ServoPulses
 from bywire.sim.verify.oracle.checks.h9 import TakeOver, check_h9, handover_rate
 from bywire.sim.verify.oracle.invariants import Invariant
 from bywire.sim.verify.oracle.outputs import Outputs
 from bywire.sim.verify.oracle.requirements import REQUIRED_HANDOVER_RATE
-from bywire.sim.verify.oracle.timing import ServoPulses
 from tests.sim.verify.oracle.checks.shown import DRIVING
 
 SERVO = ServoPulses()  # 1.5 ms ± 0.5 ms

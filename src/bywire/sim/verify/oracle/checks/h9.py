@@ -8,10 +8,10 @@ from __future__ import annotations
 from dataclasses import dataclass, replace
 
 from bywire.model import ControlMode
+from bywire.sim.verify.oracle.cause_deadlines import ServoPulses
 from bywire.sim.verify.oracle.invariants import Invariant, Violation
 from bywire.sim.verify.oracle.outputs import Outputs
 from bywire.sim.verify.oracle.requirements import REQUIRED_HANDOVER_RATE
-from bywire.sim.verify.oracle.timing import ServoPulses
 
 REACHED_NORM = 0.02
 """The pulse within this share of the half span of the source's steering has reached it; a
