@@ -11,8 +11,8 @@ import pytest
 from textual.app import App
 
 from bywire.monitor.app import MonitorApp
+from bywire.monitor.bus_reader import CanFeed
 from bywire.monitor.bus_state import BusModel
-from bywire.monitor.feed import CanFeed
 from bywire.teleop.app import TeleopApp
 
 

@@ -15,8 +15,8 @@ from bywire.hal.sim.can_bus import SimCanBus
 from bywire.hal.sim.clock import VirtualClock
 from bywire.loopback import Endpoint
 from bywire.monitor.app import MonitorApp
+from bywire.monitor.bus_reader import CanFeed, open_bus
 from bywire.monitor.bus_state import BusModel
-from bywire.monitor.feed import CanFeed, open_bus
 from bywire.netbus.bridge import serve_bus
 from bywire.sim.catalog import find_scenario
 from bywire.sim.runner import SimRun

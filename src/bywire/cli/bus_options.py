@@ -11,7 +11,7 @@ from typing import Any
 import can
 
 from bywire.loopback import DEFAULT_HOST, DEFAULT_PORT
-from bywire.monitor.feed import open_bus
+from bywire.monitor.bus_reader import open_bus
 
 
 def _keyword(text: str) -> tuple[str, Any]:

@@ -14,8 +14,8 @@ from pathlib import Path
 from bywire.cli.arguments import add_snapshot_options, snapshot_s
 from bywire.cli.bus_options import add_bus_options, bus_from_args, bus_source
 from bywire.cli.console import stdout_console
+from bywire.monitor.bus_reader import CanFeed
 from bywire.monitor.bus_state import BusModel
-from bywire.monitor.feed import CanFeed
 from bywire.monitor.view import snapshot_table
 
 SNAPSHOT_S = 1.0

@@ -1,1 +1,1 @@
-"""`bywire monitor`: a live, decoded view of any CAN bus (model, view, feed and the app)."""
+"""`bywire monitor`: a live, decoded view of any CAN bus (model, view, bus_reader and the app)."""

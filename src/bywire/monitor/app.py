@@ -10,8 +10,8 @@ from textual.app import App, ComposeResult
 from textual.binding import BindingType
 from textual.widgets import DataTable, Footer, Header
 
+from bywire.monitor.bus_reader import CanFeed
 from bywire.monitor.bus_state import BusModel
-from bywire.monitor.feed import CanFeed
 from bywire.monitor.view import COLUMNS, cells
 from bywire.quit_keys import QUIT_BINDINGS
 
