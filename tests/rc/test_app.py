@@ -10,7 +10,7 @@ from textual.widgets import DataTable, Static
 
 from bywire.config import RobotConfig
 from bywire.rc.app import RcApp
-from bywire.rc.session import RcSession
+from bywire.rc.ibus_reading import RcSession
 from bywire.rc.sweep import SweepSource
 
 TIMEOUT_S = 10.0

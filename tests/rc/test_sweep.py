@@ -11,7 +11,7 @@ from bywire.config import RobotConfig
 from bywire.control.rc_mapping import RcMapping, switch_position
 from bywire.hal.sim.rc_transmitter import idle_channels
 from bywire.protocol import ibus
-from bywire.rc.session import RcSession
+from bywire.rc.ibus_reading import RcSession
 from bywire.rc.suggestion import SwitchSuggestion
 from bywire.rc.sweep import JITTER_RAW, SWEEP_S, SweepSource, sweep_channels
 

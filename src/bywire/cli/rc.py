@@ -18,7 +18,7 @@ from bywire.cli.console import stdout_console
 from bywire.config import RobotConfig, default_sim_config, load_config
 from bywire.errors import ConfigError
 from bywire.hal.opening import LinuxPaths
-from bywire.rc.session import RcSession
+from bywire.rc.ibus_reading import RcSession
 from bywire.rc.snippet import snippet_text
 from bywire.rc.sources import ByteSource, SerialSource
 from bywire.rc.suggestion import MIN_TRAVEL_RAW, Suggestion

@@ -17,7 +17,7 @@ from textual.containers import VerticalScroll
 from textual.widgets import DataTable, Footer, Header, Static
 
 from bywire.quit_keys import QUIT_BINDINGS
-from bywire.rc.session import RcSession
+from bywire.rc.ibus_reading import RcSession
 from bywire.rc.sources import ByteSource
 from bywire.rc.suggestion import Suggestion
 from bywire.rc.view import COLUMNS, rows, status

@@ -14,7 +14,7 @@ from rich.text import Text
 
 from bywire.config.consistency import RC_FUNCTIONS
 from bywire.control.rc_mapping import RcMapping, RcRequest, SwitchesHeld
-from bywire.rc.session import RcSession
+from bywire.rc.ibus_reading import RcSession
 from bywire.rc.suggestion import Refusal, Suggestion
 
 COLUMNS = (
