@@ -230,8 +230,12 @@ def test_a_command_with_a_stale_stamp_is_never_sent(robot: Robot) -> None:
         status = next(s for s in array.status if s.name == "bywire: inputs")
         return {kv.key: kv.value for kv in status.values}
 
+    # cmd_vel is best effort, depth 1 (a late command is worth nothing): a loaded machine may
+    # drop some on the way, so every command that arrived is refused, and none was taken.
     sent = robot.client.published
-    assert wait_until(lambda: int(inputs()["commands_refused"]) == sent, 2.5), (sent, inputs())
+    assert wait_until(lambda: int(inputs()["commands_refused"]) > 0, 2.5), (sent, inputs())
+    assert int(inputs()["commands_refused"]) <= sent
+    assert inputs()["command_age_s"] == "never", inputs()  # no set-point was ever accepted
     assert inputs()["last_refusal"] == "header stamp older than max_stamp_age_s"
 
 
