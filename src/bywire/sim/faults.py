@@ -97,7 +97,7 @@ def _encoder_fail(run: SimRun, _values: FaultValues) -> None:
 def _impostor(kind: type[Command], *, forge: bool = False) -> Apply:
     def apply(run: SimRun, values: FaultValues) -> None:
         keyed = bool(values.get("keyed"))
-        run.world.impostor.start(_count(values), kind=kind, keyed=keyed, forge=forge)
+        run.world.impostors[kind].start(_count(values), kind=kind, keyed=keyed, forge=forge)
 
     return apply
 

@@ -191,7 +191,8 @@ class SimRun:
             return None
         key = simulated_run_key(robot.security, robot.sim.seed)
         self.world.hlc.sign_with(sender_signer(key))
-        self.world.impostor.forge_authenticator = True
+        for impostor in self.world.impostors.values():
+            impostor.forge_authenticator = True
         memory = replace(robot.security, freshness_file=None)
         return controller_receiver(memory, key)
 

@@ -10,7 +10,7 @@ from bywire.config import default_sim_config
 from bywire.hal.hardware import OUTPUT_NAMES, Hardware
 from bywire.hal.sim.clock import RealtimeClock, VirtualClock
 from bywire.hal.sim.world import SimWorld
-from bywire.model import ControlMode, Gear, MovementCommand
+from bywire.model import COMMAND_TYPES, ControlMode, Gear, LightsCommand, MovementCommand
 from bywire.protocol import dac6574, dbc, ibus
 
 
@@ -115,6 +115,24 @@ def test_stop_silences_every_device() -> None:
     clock.advance(0.5)
     assert world.uart.read_available() == b""
     assert world.controller_can.receive() == []
+
+
+def test_a_second_sender_on_one_id_leaves_another_ids_running() -> None:
+    """One node per command id: a lights impostor started while the movement id's runs does
+    not take its frames over (a single impostor did: the verify oracle then judged a second
+    sender that had gone quiet)."""
+    clock = VirtualClock()
+    world = SimWorld.create(clock)
+    world.start()
+    clock.advance(0.5)
+    world.impostor.start(30)
+    clock.advance(0.05)
+    world.impostors[LightsCommand].start(5, kind=LightsCommand)
+    clock.advance(1.0)
+    assert set(world.impostors) == set(COMMAND_TYPES)
+    assert world.impostor is world.impostors[MovementCommand]
+    assert world.impostor.frames_sent == 30
+    assert world.impostors[LightsCommand].frames_sent == 5
 
 
 def test_the_world_also_runs_on_the_realtime_clock() -> None:

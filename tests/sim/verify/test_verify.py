@@ -9,6 +9,7 @@ verify's campaigns depend on their seed and index alone."""
 
 from __future__ import annotations
 
+from dataclasses import replace
 from pathlib import Path
 
 import pytest
@@ -147,6 +148,44 @@ def test_campaigns_that_found_oracle_mistakes_on_albert_find_nothing(index: int)
     outcome = run_campaign(load_config(ALBERT), draw_campaign(0, index), index)
     assert outcome.checks > 0
     assert outcome.findings == [], outcome.findings[:1]
+
+
+@pytest.mark.parametrize("other", ["impostor_lights", "impostor_control"])
+def test_a_second_sender_on_another_id_leaves_the_movement_ids_second_sender_running(
+    other: str,
+) -> None:
+    """tests/sim/verify/test_other_numbers.py found it, 2026-11-26 (campaign 4706 of seed 0 on
+    a drawn robot file; this is its shrunk form, on the default robot): the simulated world had
+    one second sender, so one on the lights or control id took over the movement id's and
+    silenced it; the controller rightly trusted the id again and took the switch into CAN, while
+    the oracle, still counting the movement id's frames, demanded a stop (H1). Now each id has
+    its own, and the controller refuses CAN while the movement id's still sends."""
+    steps = [
+        Step(2.5, "arm", ControlMode.RC),
+        Step(0.7, "impostor_keyed", 30),
+        Step(0.05, other, 5),
+        Step(0.4, "handover", 0.0),
+    ]
+    outcome = run_campaign(default_sim_config(), steps)
+    assert outcome.checks > 0
+    assert outcome.findings == [], outcome.findings[:1]
+
+
+def test_a_second_sender_taken_over_by_one_without_the_key_is_over_for_the_oracle() -> None:
+    """With authentication, a keyed second sender on the movement id stops sending when one
+    without the key takes the id's node over; the oracle counted the first one's frames to their
+    end and flagged the arming into CAN the controller rightly allowed (H1)."""
+    steps = [
+        Step(0.3, "arm", ControlMode.CAN),
+        Step(0.4, "can_throttle", 0.0),
+        Step(0.5, "impostor_keyed", 30),
+        Step(0.05, "impostor", 5),
+        Step(0.3, "arm", ControlMode.CAN),
+    ]
+    scenario = replace(compile_steps(steps, ROBOT), authenticated=True)
+    oracle = Campaign(ROBOT).run_scenario(scenario).oracle
+    assert oracle.checks > 0
+    assert oracle.violations == [], oracle.violations[:1]
 
 
 def test_a_dac_failure_too_short_to_latch_demands_no_power_off_during_a_controlled_stop() -> None:

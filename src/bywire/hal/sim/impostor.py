@@ -26,6 +26,11 @@ from bywire.protocol import dbc, secoc
 IMPOSTOR_NODE = "impostor"
 
 
+def impostor_node(kind: type[Command]) -> str:
+    """The bus node of the second sender on `kind`'s id (the movement id's is `IMPOSTOR_NODE`)."""
+    return IMPOSTOR_NODE if kind is MovementCommand else f"{IMPOSTOR_NODE} ({kind.__name__})"
+
+
 class SimImpostor:
     """Sends `count` commands of one kind with the real sender's next counter, half a period
     off."""

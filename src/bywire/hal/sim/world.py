@@ -19,7 +19,7 @@ from bywire.hal.sim.can_port import SimCanPort
 from bywire.hal.sim.dac import SimDac6574
 from bywire.hal.sim.gpio_pwm import SimDigitalOut, SimPwmChannel
 from bywire.hal.sim.hlc import SimHigherLevelComputer
-from bywire.hal.sim.impostor import IMPOSTOR_NODE, SimImpostor
+from bywire.hal.sim.impostor import SimImpostor, impostor_node
 from bywire.hal.sim.rc_transmitter import SimRcTransmitter
 from bywire.hal.sim.timers import SimClock
 from bywire.hal.sim.uart import SimUart
@@ -31,6 +31,7 @@ from bywire.hal.sim.vehicle import (
     VehicleWiring,
 )
 from bywire.hal.sim.vehicle_model import VehicleConfig
+from bywire.model import COMMAND_TYPES, Command, MovementCommand
 from bywire.protocol import dac6574, dbc, ibus
 
 if TYPE_CHECKING:
@@ -77,7 +78,12 @@ class SimWorld:
     wheel_sensor: SimWheelSpeedSensor
     pressure_sensor: SimPressureSensor
     steering_encoder: SimSteeringEncoder
-    impostor: SimImpostor
+    impostors: dict[type[Command], SimImpostor]  # a second sender on each command id
+
+    @property
+    def impostor(self) -> SimImpostor:
+        """The second sender on the movement id (the one that asks for throttle)."""
+        return self.impostors[MovementCommand]
 
     @property
     def throttle_volts(self) -> float:
@@ -121,7 +127,10 @@ class SimWorld:
             tx_mailboxes=SOCKETCAN_TX_QUEUE,
         )
         hlc = SimHigherLevelComputer(clock, bus.attach(HLC_NODE, accept_ids=dbc.report_ids()))
-        impostor = SimImpostor(clock, bus.attach(IMPOSTOR_NODE, accept_ids=()), hlc)
+        impostors = {  # a node each, so a second sender on one id leaves another's running
+            kind: SimImpostor(clock, bus.attach(impostor_node(kind), accept_ids=()), hlc)
+            for kind in COMMAND_TYPES
+        }
         uart = SimUart(clock)
         rc = SimRcTransmitter(
             clock, uart, period_s=rc_frame_period_s, mapping=rc_mapping, seed=seed
@@ -176,7 +185,7 @@ class SimWorld:
             wheel_sensor,
             pressure_sensor,
             steering_encoder,
-            impostor,
+            impostors,
         )
 
     @classmethod
@@ -232,5 +241,6 @@ class SimWorld:
         self.rc.stop()
         self.hlc.silence()
         self.vehicle.stop()
-        self.impostor.stop()
+        for impostor in self.impostors.values():
+            impostor.stop()
         self.bus.stop_flood()

@@ -29,6 +29,8 @@ class OracleWitness:
     authenticated: bool = False  # commands signed: a second sender without the key is harmless
     remote_stop: bool = False
     re_enable: bool = False
+    sender_started_s: float | None = None  # the newest start of the movement id's second sender
+    harmful_sender: bool = False  # it is sending frames the controller can take (`second_sender`)
 
     def __call__(self, event: Event, now: float) -> None:
         values = event.values
@@ -93,13 +95,26 @@ class OracleWitness:
             self.oracle.fault(Cause.REMOTE_STOP, True, now)  # a request made while silent arrives
 
     def second_sender(self, frames: int, keyed: bool, now: float) -> None:
-        if self.authenticated and not keyed:
-            return  # its frames never verify, and cost the computer's no trust: no effect
+        """A second sender on the movement id. The id has one (`SimWorld.impostors`): a new
+        start takes it over, so the frames of one before it stop now."""
+        self.sender_started_s = now
+        if self.authenticated and not keyed:  # its frames never verify: no effect of its own
+            if self.harmful_sender:
+                self.harmful_sender = False
+                self.can_fault(Cause.CAN_IMPOSTOR, False, now)
+            return
+        self.harmful_sender = True
         self.can_fault(Cause.CAN_IMPOSTOR, True, now)
         # Over when its last frame is sent: the controller may trust the id again soon after
         # (a window of good frames), and the oracle must never think a fault lasts longer.
         end_s = now + frames * IMPOSTOR_PERIOD_S
-        self.clock.call_at(end_s, lambda: self.can_fault(Cause.CAN_IMPOSTOR, False, end_s))
+
+        def over() -> None:
+            if self.sender_started_s == now:  # not taken over since: these were its last frames
+                self.harmful_sender = False
+                self.can_fault(Cause.CAN_IMPOSTOR, False, end_s)
+
+        self.clock.call_at(end_s, over)
 
     def dac_restored(self, now: float) -> None:
         self.oracle.fault(Cause.DAC_FAIL, False, now)
