@@ -299,9 +299,9 @@ lines' in their sections, then the line tasks' `[tasks] <line>_line`."""
 
 def output_lines(config: RobotConfig) -> dict[str, GpioLine]:
     """Every digital output's line, keyed like `OUTPUT_LINE_KEYS`."""
-    lines = dict(config.tasks.lines)  # the line tasks'
-    for name, key in OUTPUT_LINE_KEYS.items():
-        section = key.partition(".")[0]
-        if section != "tasks":
-            lines[name] = getattr(getattr(config, section), name)
-    return {name: lines[name] for name in OUTPUT_LINE_KEYS}
+    task_lines = dict(config.tasks.lines)
+
+    def line(name: str, section: str) -> GpioLine:
+        return task_lines[name] if section == "tasks" else getattr(getattr(config, section), name)
+
+    return {name: line(name, key.partition(".")[0]) for name, key in OUTPUT_LINE_KEYS.items()}

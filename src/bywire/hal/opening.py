@@ -188,15 +188,16 @@ def _open_linux(config: RobotConfig, paths: LinuxPaths, stack: contextlib.ExitSt
 
     clock = LinuxClock()
     openers = linux_openers(config, paths, clock)
-    order = [device for device, _ in openers.in_order()]
+    in_order = openers.in_order()
+    devices = [device for device, _ in in_order]
 
     def opened(device: Device, opener: Opener[T]) -> T:
         try:
             return opener(stack)
         except HardwareError as error:
             # Like a pre-arm check: every other device's problem too, not one per attempt.
-            later = openers.in_order()[order.index(device) + 1 :]
-            problems = [str(error), *_problems([opener for _, opener in later])]
+            later = [other for _, other in in_order[devices.index(device) + 1 :]]
+            problems = [str(error), *_problems(later)]
             raise HardwareError("\n".join(dict.fromkeys(problems))) from error  # once each
 
     gpio = opened(Device.GPIO, openers.gpio)
