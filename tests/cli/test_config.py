@@ -73,7 +73,30 @@ def test_switch_bands_that_would_touch_are_refused_with_the_largest_that_fits(
 def test_json_gives_the_same_values() -> None:
     status, out, _ = _check(str(ALBERT), "--json")
     assert status == 0
-    assert json.loads(out) == json.loads(json.dumps(as_dict(load_config(ALBERT))))
+    resolved = json.loads(out)
+    losses = resolved.pop("loss_distances")
+    assert resolved == json.loads(json.dumps(as_dict(load_config(ALBERT))))
+    assert [(row["key"], row["distance_m"]) for row in losses] == [
+        ("timeouts.rc_timeout_s", 0.33),  # (0.1 s + one 10 ms period) at 3 m/s
+        ("timeouts.can_command_timeout_s", 0.33),
+        ("timeouts.watchdog_s", 0.6),
+    ]
+
+
+def test_the_text_states_what_each_timeout_buys(tmp_path: Path) -> None:
+    robot = tmp_path / "robot.toml"
+    robot.write_text(
+        'backend = "linux"\n[timeouts]\nrc_timeout_s = 1.0\nwatchdog_s = 1.0\n'
+        "[timeouts.can_message_timeout_s]\nMovementCommand = 0.5\n"
+    )
+    status, out, _ = _check(str(robot))
+    assert status == 0
+    assert (
+        "an unplugged RC receiver (timeouts.rc_timeout_s = 1 s): the stop begins within 1.01 s,"
+        " after up to 3.03 m at 3 m/s"
+    ) in out
+    assert "(timeouts.can_message_timeout_s.MovementCommand = 0.5 s)" in out
+    assert "a stalled control loop (timeouts.watchdog_s = 1 s): the stop begins within 1 s" in out
 
 
 def test_a_bad_value_names_the_key_and_range(tmp_path: Path) -> None:

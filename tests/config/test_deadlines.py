@@ -45,7 +45,50 @@ UNSAFE = [
         "[interlocks]\nunknown_speed_brake_norm = 0.3\n[hydrobrake]\nthreshold_norm = 0.5",
         "no reversal at speed",
         ("interlocks.unknown_speed_brake_norm", "hydrobrake.threshold_norm"),
-        "set interlocks.unknown_speed_brake_norm to 0.5 or more",
+        "set interlocks.unknown_speed_brake_norm to 0.75 or more",  # duty 0.5: 2 of 4 m/s²
+    ),
+    (  # issue 41: a demand equal to the threshold, duty 0: reverse at 1.30 m/s forward
+        "[interlocks]\nunknown_speed_brake_norm = 0.25\n[hydrobrake]\nthreshold_norm = 0.25",
+        "no reversal at speed",
+        ("interlocks.unknown_speed_brake_norm", "hydrobrake.threshold_norm"),
+        "set interlocks.unknown_speed_brake_norm to 0.625 or more",
+    ),
+    (  # issue 41: a tolerance of 2 never sees a servo stuck at 0.8 with straight ahead asked
+        "[monitors]\nsteering_tolerance_norm = 2.0",
+        "a stuck servo is noticed",
+        ("monitors.steering_tolerance_norm",),
+        "set monitors.steering_tolerance_norm to 0.3 or less",
+    ),
+    (
+        "[monitors]\nsteering_margin_s = 5",
+        "a stuck servo is noticed",
+        ("monitors.steering_margin_s", "monitors.servo_speed_norm_per_s"),
+        "set monitors.steering_margin_s to 0.766 or less",
+    ),
+    (
+        "[monitors]\nservo_speed_norm_per_s = 0.05",
+        "a stuck servo is noticed",
+        ("monitors.servo_speed_norm_per_s", "monitors.steering_margin_s"),
+        "set monitors.servo_speed_norm_per_s to 1.03 or more",
+    ),
+    (  # a margin past the deadline: no servo is fast enough, only a shorter margin helps
+        "[monitors]\nsteering_margin_s = 2.5\nservo_speed_norm_per_s = 100",
+        "a stuck servo is noticed",
+        ("monitors.steering_margin_s",),
+        "set monitors.steering_margin_s to 1.981 or less",
+    ),
+    (  # issue 41: regeneration plus drag (1.65 m/s²) counted as not slowing
+        "[stop]\ncontrolled_min_decel_mps2 = 5.0",
+        "a controlled stop keeps regeneration",
+        ("stop.controlled_min_decel_mps2", "drive.max_regen_volts"),
+        "set stop.controlled_min_decel_mps2 to 1.5 or less",
+    ),
+    (  # half the regeneration volts, half the regeneration
+        "[drive]\nmax_regen_volts = 2.5\n[stop]\ncontrolled_min_decel_mps2 = 1.0",
+        "a controlled stop keeps regeneration",
+        ("stop.controlled_min_decel_mps2", "drive.max_regen_volts"),
+        "set stop.controlled_min_decel_mps2 to 0.75 or less, or drive.max_regen_volts to 3.34 or"
+        " more",
     ),
     (  # issue 30: every task at 1 Hz, an unplugged receiver gave a second of full throttle
         "[tasks]\nsteering_rate_hz = 1\ndriving_rate_hz = 1\nhydrobrake_rate_hz = 1\n"
@@ -111,3 +154,39 @@ def test_a_slow_lights_command_is_no_hazard_it_moves_nothing() -> None:
 def test_the_limit_itself_is_safe() -> None:
     at_the_limit = "[timeouts]\ncan_command_timeout_s = 0.2\nrc_timeout_s = 0.2\nwatchdog_s = 0.2"
     assert breaches(parse_config(at_the_limit, "robot.toml")) == []
+
+
+@pytest.mark.parametrize(
+    "text",
+    [
+        "[monitors]\nsteering_tolerance_norm = 0.3",  # the deviation that matters, seen
+        "[monitors]\nsteering_margin_s = 0.766",  # 1.85 / 1.5 + 0.766 = 1.999 s
+        "[monitors]\nservo_speed_norm_per_s = 1.03",  # 1.85 / 1.03 + 0.2 = 1.996 s
+        "[monitors]\nsteering_tolerance_norm = 0.0\nsteering_margin_s = 0.0\n"
+        "servo_speed_norm_per_s = 1.0",  # 2 / 1 + 0 = 2 s: the deadline itself
+        "[interlocks]\nunknown_speed_brake_norm = 0.625\n[hydrobrake]\nthreshold_norm = 0.25",
+        "[interlocks]\nunknown_speed_brake_norm = 1.0\n[hydrobrake]\nthreshold_norm = 0.99",
+        "[stop]\ncontrolled_min_decel_mps2 = 1.5",
+        "[drive]\nmax_regen_volts = 5.5\n[drive.dac]\nvref_volts = 5.5\n[stop]\n"
+        "controlled_min_decel_mps2 = 1.5",  # volts above the motors' full scale add nothing
+    ],
+)
+def test_the_nearest_safe_values_are_accepted(text: str) -> None:
+    assert breaches(parse_config(text, "robot.toml")) == []
+
+
+@pytest.mark.parametrize(
+    "text",
+    [
+        "[monitors]\nsteering_tolerance_norm = 0.301",
+        "[monitors]\nsteering_margin_s = 0.767",
+        "[monitors]\nservo_speed_norm_per_s = 1.02",
+        "[interlocks]\nunknown_speed_brake_norm = 0.624\n[hydrobrake]\nthreshold_norm = 0.25",
+        "[interlocks]\nunknown_speed_brake_norm = 0.99\n[hydrobrake]\nthreshold_norm = 0.99",
+        "[stop]\ncontrolled_min_decel_mps2 = 1.51",
+        "[drive]\nmax_regen_volts = 0.0\n[stop]\ncontrolled_min_decel_mps2 = 0.1",
+    ],
+)
+def test_just_past_the_nearest_safe_values_is_refused(text: str) -> None:
+    with pytest.raises(ConfigError, match="breaks the deadline"):
+        parse_config(text, "robot.toml")

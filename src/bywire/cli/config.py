@@ -2,7 +2,9 @@
 
 The output is the whole resolved configuration as TOML (defaults filled in), which loads back to
 the same values, headed by comments (whether commands are authenticated, and the receive check
-of each CAN command: its DBC period and its timeout), or as JSON with `--json`. A bad file exits
+of each CAN command: its DBC period and its timeout; for each input timeout and the watchdog, how
+far the robot drives on at top speed before the stop begins), or as JSON with `--json` (the
+latter under `loss_distances`). A bad file exits
 2 with every problem, each naming its key and the allowed range; numbers that are each in range
 but together break a physical deadline (`bywire.config.deadlines`) are refused the same way,
 naming the deadline and the nearest safe values.
@@ -15,6 +17,7 @@ import json
 from pathlib import Path
 
 from bywire.config import RobotConfig, as_dict, describe, load_config
+from bywire.config.deadlines import loss_distances, loss_rows
 from bywire.runtime.rx_checks import rx_checks
 from bywire.security.keys import read_key_file
 
@@ -70,13 +73,16 @@ def switch_bands(config: RobotConfig) -> list[str]:
 def run(args: argparse.Namespace) -> int:
     config = load_config(args.file)
     if args.json:
-        print(json.dumps(as_dict(config), indent=2))
+        print(json.dumps(as_dict(config) | {"loss_distances": loss_rows(config)}, indent=2))
         return 0
     print(f"# {args.file}: valid; robot {config.name!r}, backend {config.backend!r}")
     print(f"# {authentication_line(config)}")
     print("# CAN commands received (DBC and [timeouts]):")
     for check in rx_checks(config.timeouts):
         print(f"#   {check.describe()}")
+    print("# What each timeout buys: how far the robot drives on at top speed before the stop:")
+    for loss in loss_distances(config):
+        print(f"#   {loss}")
     print("# RC switches (a value in no band is no position: the mode switch then means STOP):")
     for line in switch_bands(config):
         print(f"#   {line}")

@@ -32,6 +32,7 @@ from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, T
 
 from bywire.cli.arguments import positive_seconds, whole_number
 from bywire.config import RobotConfig, default_sim_config, load_config
+from bywire.config.deadlines import loss_distances, loss_rows
 from bywire.hal.hardware import sensors_fitted
 from bywire.sim.scenario import scenario_toml
 from bywire.sim.verify.draw import CAMPAIGN_S
@@ -171,10 +172,11 @@ def run(args: argparse.Namespace) -> int:
     summary = _summary(
         source, args, tally, wall_s, reproductions, cannot_happen=_cannot_happen(robot)
     )
+    summary["configuration"] = {"loss_distances": loss_rows(robot)}
     if args.json:
         print(json.dumps(summary, indent=2))
     else:
-        _print_summary(Console(), summary)
+        _print_summary(Console(), summary, robot)
     return 1 if tally.violations else 0
 
 
@@ -266,10 +268,13 @@ def _summary(
     }
 
 
-def _print_summary(console: Console, summary: dict[str, Any]) -> None:
+def _print_summary(console: Console, summary: dict[str, Any], robot: RobotConfig) -> None:
     violations = summary["violations"]
     transitions = summary["transitions"]
     console.print(f"[bold]bywire verify[/bold] on {summary['config']} (seed {summary['seed']})")
+    console.print("  configuration: what each timeout buys (at top speed, before the stop):")
+    for loss in loss_distances(robot):
+        console.print(f"    {loss}", highlight=False)
     console.print(
         f"  {summary['campaigns']} campaigns, {summary['simulated_s']:.0f} s simulated in"
         f" {summary['wall_s']:.1f} s on {summary['jobs']} processes"

@@ -19,6 +19,8 @@ from dataclasses import dataclass
 from bywire.config.reader import number_text
 from bywire.config.tree import RobotConfig
 from bywire.control.dac_health import DAC_FAILURE_LIMIT
+from bywire.control.hydrobrake import hydrobrake_duty
+from bywire.control.sensor_checks import MonitorConfig
 from bywire.control.stop import STANDSTILL_LIMIT_MPS
 from bywire.model import MovementCommand
 
@@ -32,6 +34,27 @@ TOP_SPEED_MPS = 3.0
 """The fastest a robot of this class drives: what the no-sensor rule must stop it from."""
 BRAKE_DECEL_MPS2 = 2.0
 """The least deceleration of the hydraulic brake at the no-sensor rule's brake demand."""
+HYDRAULIC_FULL_DECEL_MPS2 = 4.0
+"""The least deceleration the hydraulic brake gives at full duty; it falls in proportion with the
+duty (Figure 13: the valve's duty sets the pressure). The simulated vehicle's
+`max_hydraulic_decel_mps2`."""
+REGEN_DECEL_MPS2 = 1.5
+"""The least deceleration the drive's regenerative brake gives at full scale
+(`MOTOR_FULL_SCALE_VOLTS`), without the rolling drag: what a controlled stop has left when both
+mechanical brakes fail (docs/SAFETY.md row 37). The simulated vehicle's `max_regen_decel_mps2`."""
+MOTOR_FULL_SCALE_VOLTS = 5.0
+"""The motor controllers' full-scale input (thesis Table 2): regeneration scales with the volts."""
+STEERING_DEVIATION_NORM = 0.3
+"""A steering more than this off its command (of the -1..1 range; 9° of road-wheel angle on the
+reference robot's 30°) is a fault the steering monitor must see."""
+STUCK_SERVO_DEADLINE_S = 2.0
+"""A servo stuck anywhere on its travel is noticed within this of the command it does not follow
+(the worst case, full lock to full lock: the slowest acceptable servo's travel plus the margin;
+1.43 s on the defaults)."""
+FULL_TRAVEL_NORM = 2.0
+"""The steering's travel from full left (-1) to full right (+1)."""
+MAX_SERVO_MODEL_NORM_PER_S = 100.0
+"""The fastest slow-servo model the loader takes (`limits.POSITIVE_NORM_PER_S`)."""
 BLIND_SPOT_MPS = 0.5
 """A wheel sensor that dies faster than this is noticed (docs/SAFETY.md row 27)."""
 
@@ -138,20 +161,139 @@ def _no_reversal(robot: RobotConfig) -> list[Breach]:
                 f" {number_text(interlocks.direction_dwell_s)} or more",
             )
         )
+    found.extend(_no_sensor_brake(robot))
+    return found
+
+
+def no_sensor_brake_needed_norm(threshold_norm: float) -> float:
+    """The least brake demand whose hydraulic duty decelerates at `BRAKE_DECEL_MPS2`: the
+    inverse of `hydrobrake_duty` at the duty that deceleration needs."""
+    duty = BRAKE_DECEL_MPS2 / HYDRAULIC_FULL_DECEL_MPS2
+    return threshold_norm + duty * (1.0 - threshold_norm)
+
+
+def _no_sensor_brake(robot: RobotConfig) -> list[Breach]:
+    """The no-sensor rule's dwell is long enough only if its brake demand brakes at
+    `BRAKE_DECEL_MPS2`: the duty at the demand, not merely a demand above the threshold (issue
+    41: a demand equal to the threshold gave duty 0)."""
+    demand = robot.interlocks.unknown_speed_brake_norm
     threshold = robot.hydrobrake.threshold_norm
-    if interlocks.unknown_speed_brake_norm < threshold:
+    duty = hydrobrake_duty(demand, threshold)
+    decel_mps2 = duty * HYDRAULIC_FULL_DECEL_MPS2
+    if decel_mps2 >= BRAKE_DECEL_MPS2 - 1e-9:
+        return []
+    needed = math.ceil(no_sensor_brake_needed_norm(threshold) * 1000 - 1e-6) / 1000
+    return [
+        Breach(
+            NO_REVERSAL.name,
+            ("interlocks.unknown_speed_brake_norm", "hydrobrake.threshold_norm"),
+            f"the brake the no-sensor rule demands ({number_text(demand)}) gives the hydraulic"
+            f" brake duty {number_text(round(duty, 3))} above its threshold"
+            f" ({number_text(threshold)}), {number_text(round(decel_mps2, 2))} m/s² where the"
+            f" rule's dwell assumes {number_text(BRAKE_DECEL_MPS2)} m/s² (duty"
+            f" {number_text(BRAKE_DECEL_MPS2 / HYDRAULIC_FULL_DECEL_MPS2)} of"
+            f" {number_text(HYDRAULIC_FULL_DECEL_MPS2)} m/s² at full duty): the robot could"
+            " change direction still rolling",
+            f"set interlocks.unknown_speed_brake_norm to {number_text(needed)} or more",
+        )
+    ]
+
+
+def _noticed_text(seconds: float) -> str:
+    if not math.isfinite(seconds):
+        return "is never noticed"
+    return f"is noticed only after {number_text(round(seconds, 3))} s"
+
+
+def _steering_monitor(robot: RobotConfig) -> list[Breach]:
+    """The steering monitor sees a deviation that matters, and a stuck servo within the
+    deadline: the slow-servo model's travel (full lock to full lock, less the tolerance) at
+    `servo_speed_norm_per_s`, plus `steering_margin_s` (issue 41: a tolerance of 2, a margin of
+    5 s or a crawling model switched it off)."""
+    monitors = robot.monitors
+    tolerance, speed = monitors.steering_tolerance_norm, monitors.servo_speed_norm_per_s
+    margin_s, deadline_s = monitors.steering_margin_s, STUCK_SERVO_DEADLINE_S
+    found = []
+    if tolerance > STEERING_DEVIATION_NORM + 1e-9:
         found.append(
             Breach(
-                NO_REVERSAL.name,
-                ("interlocks.unknown_speed_brake_norm", "hydrobrake.threshold_norm"),
-                f"the brake the no-sensor rule demands"
-                f" ({number_text(interlocks.unknown_speed_brake_norm)}) is below the hydraulic"
-                f" brake's threshold ({number_text(threshold)}): the robot would change"
-                " direction without the brake ever applied",
-                f"set interlocks.unknown_speed_brake_norm to {number_text(threshold)} or more",
+                STEERING.name,
+                ("monitors.steering_tolerance_norm",),
+                f"a servo stuck up to {number_text(tolerance)} off its command is never seen"
+                f" (a deviation above {number_text(STEERING_DEVIATION_NORM)} must be)",
+                f"set monitors.steering_tolerance_norm to {number_text(STEERING_DEVIATION_NORM)}"
+                " or less",
             )
         )
+    travel = FULL_TRAVEL_NORM - min(tolerance, STEERING_DEVIATION_NORM)
+    noticed_s = travel / speed + margin_s
+    if noticed_s <= deadline_s + 1e-9:
+        return found
+    options = []
+    if margin_s < deadline_s:
+        speed_needed = math.ceil(travel / (deadline_s - margin_s) * 100 - 1e-6) / 100
+        if speed_needed <= MAX_SERVO_MODEL_NORM_PER_S:
+            needed = number_text(speed_needed)
+            options.append(f"monitors.servo_speed_norm_per_s to {needed} or more")
+    margin_max_s = (deadline_s - travel / speed) if math.isfinite(noticed_s) else -1.0
+    margin_max_s = math.floor(margin_max_s * 1000 + 1e-6) / 1000
+    if margin_max_s >= 0.0:
+        options.append(f"monitors.steering_margin_s to {number_text(margin_max_s)} or less")
+    if options:
+        fix = "set " + ", or ".join(options)
+    else:
+        default = MonitorConfig()
+        fix = (
+            f"set monitors.servo_speed_norm_per_s to {number_text(default.servo_speed_norm_per_s)}"
+            f" and monitors.steering_margin_s to {number_text(default.steering_margin_s)}"
+        )
+    found.append(
+        Breach(
+            STEERING.name,
+            (
+                "monitors.servo_speed_norm_per_s",
+                "monitors.steering_margin_s",
+                "monitors.steering_tolerance_norm",
+            ),
+            f"a servo stuck at full lock {_noticed_text(noticed_s)}"
+            f" ({number_text(round(travel, 3))} of travel at {number_text(speed)} /s, plus"
+            f" {number_text(margin_s)} s)",
+            fix,
+        )
+    )
     return found
+
+
+def regen_decel_mps2(robot: RobotConfig) -> float:
+    """The least deceleration the drive's regenerative brake gives this robot at full brake: the
+    requirement's figure, scaled by the volts the file lets it have."""
+    volts = min(robot.drive.limits.max_regen_volts, MOTOR_FULL_SCALE_VOLTS)
+    return REGEN_DECEL_MPS2 * volts / MOTOR_FULL_SCALE_VOLTS
+
+
+def _controlled_stop(robot: RobotConfig) -> list[Breach]:
+    """A controlled stop must not give up on a robot that regeneration alone is braking (issue
+    41: 5 m/s² counted regeneration plus drag, 1.65 m/s², as "not slowing", and power went off
+    at 0.66 m/s, with both mechanical brakes failed)."""
+    wanted = robot.stop.controlled_min_decel_mps2
+    regen = regen_decel_mps2(robot)
+    if wanted <= regen + 1e-9:
+        return []
+    allowed = math.floor(regen * 100 + 1e-6) / 100
+    volts = math.ceil(wanted / REGEN_DECEL_MPS2 * MOTOR_FULL_SCALE_VOLTS * 100 - 1e-6) / 100
+    fix = f"set stop.controlled_min_decel_mps2 to {number_text(allowed)} or less"
+    if volts <= MOTOR_FULL_SCALE_VOLTS:
+        fix += f", or drive.max_regen_volts to {number_text(volts)} or more"
+    return [
+        Breach(
+            CONTROLLED_STOP.name,
+            ("stop.controlled_min_decel_mps2", "drive.max_regen_volts"),
+            f"a controlled stop demanding {number_text(wanted)} m/s² gives up (power off) on a"
+            f" robot that regeneration alone brakes at {number_text(round(regen, 3))} m/s²,"
+            " throwing away the only brake left when both mechanical brakes fail",
+            fix,
+        )
+    ]
 
 
 def _blind_spot(robot: RobotConfig) -> list[Breach]:
@@ -175,15 +317,19 @@ def _blind_spot(robot: RobotConfig) -> list[Breach]:
     ]
 
 
+def _movement_timeout(robot: RobotConfig) -> tuple[str, float]:
+    """MovementCommand's timeout and the key that sets it (its own, else the section's)."""
+    timeouts = robot.timeouts
+    movement_s = timeouts.can_timeout_s(MovementCommand.__name__)
+    if movement_s == timeouts.can_command_timeout_s:
+        return "timeouts.can_command_timeout_s", movement_s
+    return f"timeouts.can_message_timeout_s.{MovementCommand.__name__}", movement_s
+
+
 def _stall(robot: RobotConfig) -> list[Breach]:
     timeouts = robot.timeouts
     watchdog_s = timeouts.watchdog_s
-    movement_s = timeouts.can_timeout_s(MovementCommand.__name__)
-    movement_key = (
-        "timeouts.can_command_timeout_s"
-        if movement_s == timeouts.can_command_timeout_s
-        else f"timeouts.can_message_timeout_s.{MovementCommand.__name__}"
-    )
+    movement_key, movement_s = _movement_timeout(robot)
     found = []
     for key, timeout_s, what in (
         ("timeouts.rc_timeout_s", timeouts.rc_timeout_s, "a lost RC link"),
@@ -253,6 +399,18 @@ SWITCH = Deadline(
     "the mode switch's debounce is shorter than the RC timeout",
     _debounce,
 )
+STEERING = Deadline(
+    "a stuck servo is noticed",
+    f"a servo stuck more than {number_text(STEERING_DEVIATION_NORM)} off its command, anywhere on"
+    f" its travel, is noticed within {number_text(STUCK_SERVO_DEADLINE_S)} s",
+    _steering_monitor,
+)
+CONTROLLED_STOP = Deadline(
+    "a controlled stop keeps regeneration",
+    f"a controlled stop never removes power from a robot regeneration alone brakes"
+    f" ({number_text(REGEN_DECEL_MPS2)} m/s² at {number_text(MOTOR_FULL_SCALE_VOLTS)} V)",
+    _controlled_stop,
+)
 DEADLINES: tuple[Deadline, ...] = (
     INPUT_LOSS,
     DAC_FAILURE,
@@ -260,6 +418,8 @@ DEADLINES: tuple[Deadline, ...] = (
     BLIND_SPOT,
     STALL,
     SWITCH,
+    STEERING,
+    CONTROLLED_STOP,
 )
 """Every deadline a robot file must keep, in the order of `docs/SAFETY.md`."""
 
@@ -267,3 +427,78 @@ DEADLINES: tuple[Deadline, ...] = (
 def breaches(robot: RobotConfig) -> list[Breach]:
     """Every deadline `robot` breaks, each with the nearest safe values."""
     return [breach for deadline in DEADLINES for breach in deadline.check(robot)]
+
+
+@dataclass(frozen=True, slots=True)
+class LossDistance:
+    """How far a lost input (or a stalled loop) lets the robot drive on at its top speed before
+    the stop begins: what a file's timeout buys (issue 41)."""
+
+    key: str
+    what: str
+    timeout_s: float
+    before_stop_s: float
+    top_speed_mps: float
+
+    @property
+    def distance_m(self) -> float:
+        return self.before_stop_s * self.top_speed_mps
+
+    def __str__(self) -> str:
+        return (
+            f"{self.what} ({self.key} = {number_text(self.timeout_s)} s): the stop begins within"
+            f" {number_text(round(self.before_stop_s, 3))} s, after up to"
+            f" {number_text(round(self.distance_m, 2))} m at"
+            f" {number_text(self.top_speed_mps)} m/s"
+        )
+
+
+def top_speed_mps(robot: RobotConfig) -> float:
+    """The robot's top speed: the simulated robot's own, else the class's (`TOP_SPEED_MPS`)."""
+    return robot.sim.top_speed_mps if robot.backend == "sim" else TOP_SPEED_MPS
+
+
+def loss_distances(robot: RobotConfig) -> list[LossDistance]:
+    """For each input timeout that moves the robot and for the watchdog: the time and the distance
+    at top speed before the stop begins. An input loss is acted on within its timeout plus one
+    decision period (`INPUT_LOSS`); a stalled loop when the watchdog runs out. No bound is put on
+    them beyond the loader's ranges and `STALL`: slow test rigs need long timeouts; a robot file
+    is shown what its own cost (`bywire config check`, `bywire verify`)."""
+    timeouts = robot.timeouts
+    period_s = _decision_period_s(robot)
+    movement_key, movement_s = _movement_timeout(robot)
+    speed = top_speed_mps(robot)
+    return [
+        LossDistance(
+            "timeouts.rc_timeout_s",
+            "an unplugged RC receiver",
+            timeouts.rc_timeout_s,
+            timeouts.rc_timeout_s + period_s,
+            speed,
+        ),
+        LossDistance(
+            movement_key, "a silent computer (CAN mode)", movement_s, movement_s + period_s, speed
+        ),
+        LossDistance(
+            "timeouts.watchdog_s",
+            "a stalled control loop",
+            timeouts.watchdog_s,
+            timeouts.watchdog_s,
+            speed,
+        ),
+    ]
+
+
+def loss_rows(robot: RobotConfig) -> list[dict[str, object]]:
+    """`loss_distances` as JSON rows (`bywire config check --json`, `bywire verify --json`)."""
+    return [
+        {
+            "key": loss.key,
+            "what": loss.what,
+            "timeout_s": loss.timeout_s,
+            "before_stop_s": round(loss.before_stop_s, 6),
+            "top_speed_mps": loss.top_speed_mps,
+            "distance_m": round(loss.distance_m, 6),
+        }
+        for loss in loss_distances(robot)
+    ]
