@@ -65,6 +65,31 @@ def test_on_a_robot_without_sensors_the_monitor_rows_cannot_happen_rather_than_n
     assert "8 more cannot happen on this robot" in capsys.readouterr().out
 
 
+def test_the_configuration_section_states_what_each_timeout_buys(
+    capsys: pytest.CaptureFixture[str], tmp_path: Path
+) -> None:
+    # Issue 41: a file may choose 1 s timeouts; verify shows the distance they cost at top speed.
+    robot = tmp_path / "robot.toml"
+    robot.write_text('backend = "sim"\n[timeouts]\nrc_timeout_s = 1.0\nwatchdog_s = 1.0\n')
+    args = ("--config", str(robot), "--budget", "1", "--campaign-s", "1", "--jobs", "1")
+    status, summary = _verify(capsys, *args)
+    assert status == 0
+    configuration = summary["configuration"]
+    assert isinstance(configuration, dict)
+    rows = {row["key"]: row["distance_m"] for row in configuration["loss_distances"]}
+    assert rows == {
+        "timeouts.rc_timeout_s": 3.03,  # (1 s + one 10 ms period) at 3 m/s
+        "timeouts.can_command_timeout_s": 0.33,
+        "timeouts.watchdog_s": 3.0,
+    }
+    assert main(["verify", *args, "--out", str(tmp_path)]) == 0
+    text = " ".join(capsys.readouterr().out.split())  # as the console wrapped it, unwrapped
+    assert "configuration: what each timeout buys" in text
+    assert (
+        "(timeouts.rc_timeout_s = 1 s): the stop begins within 1.01 s, after up to 3.03 m" in text
+    )
+
+
 def test_the_same_seed_gives_the_same_run_on_any_number_of_processes(
     capsys: pytest.CaptureFixture[str],
 ) -> None:
