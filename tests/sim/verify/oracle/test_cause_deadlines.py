@@ -25,7 +25,7 @@ from bywire.sim.verify.oracle.requirements import (
 BASE = 'backend = "sim"\n'
 OWN_FIGURES = (
     BASE + "[steering]\nhandover_rate_norm_per_s = 0.05\n\n"
-    "[stop]\ncontrolled_max_s = 2.0\ncontrolled_min_decel_mps2 = 5.0\n"
+    "[stop]\ncontrolled_max_s = 2.0\ncontrolled_min_decel_mps2 = 1.5\n"  # the most it may
 )
 
 
