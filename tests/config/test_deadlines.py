@@ -6,8 +6,15 @@ from __future__ import annotations
 import pytest
 
 from bywire.config import default_sim_config, parse_config
-from bywire.config.deadlines import DEADLINES, breaches
+from bywire.config.deadlines import (
+    DEADLINES,
+    HYDRAULIC_FULL_DECEL_MPS2,
+    MOTOR_FULL_SCALE_VOLTS,
+    REGEN_DECEL_MPS2,
+    breaches,
+)
 from bywire.errors import ConfigError
+from bywire.hal.sim.vehicle_model import VehicleConfig
 
 # (TOML, the deadline it breaks, the keys the refusal must name, the suggestion)
 UNSAFE = [
@@ -190,3 +197,12 @@ def test_the_nearest_safe_values_are_accepted(text: str) -> None:
 def test_just_past_the_nearest_safe_values_is_refused(text: str) -> None:
     with pytest.raises(ConfigError, match="breaks the deadline"):
         parse_config(text, "robot.toml")
+
+
+def test_the_simulated_vehicle_brakes_as_the_requirement_figures_say() -> None:
+    """The sequence tests judge the deadlines on the simulated vehicle: it must be no better than
+    the figures they are derived from promise, or a breach would pass unseen there."""
+    vehicle = VehicleConfig()
+    assert vehicle.max_hydraulic_decel_mps2 == HYDRAULIC_FULL_DECEL_MPS2
+    assert vehicle.max_regen_decel_mps2 == REGEN_DECEL_MPS2
+    assert vehicle.full_scale_volts == MOTOR_FULL_SCALE_VOLTS

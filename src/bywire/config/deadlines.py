@@ -7,7 +7,9 @@ the file's), and derives from it what the file's numbers must satisfy; a file th
 refused at load (exit 2), naming the deadline and the nearest safe values. `bywire verify`'s
 oracle judges with the same requirement figures, so an unsafe file cannot also set its judge's
 deadlines (issue 30: every task at 1 Hz, both dwells at 0 on a robot without a wheel sensor, or
-the loosest speed check each switched a safety function off while every key was in range).
+the loosest speed check each switched a safety function off while every key was in range; issue
+41: a steering tolerance of 2, a no-sensor brake demand at the hydraulic threshold, a controlled
+stop demanding more than regeneration gives).
 """
 
 from __future__ import annotations
@@ -16,6 +18,7 @@ import math
 from collections.abc import Callable
 from dataclasses import dataclass
 
+from bywire.config.limits import POSITIVE_NORM_PER_S
 from bywire.config.reader import number_text
 from bywire.config.tree import RobotConfig
 from bywire.control.dac_health import DAC_FAILURE_LIMIT
@@ -53,8 +56,6 @@ STUCK_SERVO_DEADLINE_S = 2.0
 1.43 s on the defaults)."""
 FULL_TRAVEL_NORM = 2.0
 """The steering's travel from full left (-1) to full right (+1)."""
-MAX_SERVO_MODEL_NORM_PER_S = 100.0
-"""The fastest slow-servo model the loader takes (`limits.POSITIVE_NORM_PER_S`)."""
 BLIND_SPOT_MPS = 0.5
 """A wheel sensor that dies faster than this is noticed (docs/SAFETY.md row 27)."""
 
@@ -232,7 +233,7 @@ def _steering_monitor(robot: RobotConfig) -> list[Breach]:
     options = []
     if margin_s < deadline_s:
         speed_needed = math.ceil(travel / (deadline_s - margin_s) * 100 - 1e-6) / 100
-        if speed_needed <= MAX_SERVO_MODEL_NORM_PER_S:
+        if speed_needed <= POSITIVE_NORM_PER_S.high:  # the fastest model the loader takes
             needed = number_text(speed_needed)
             options.append(f"monitors.servo_speed_norm_per_s to {needed} or more")
     margin_max_s = (deadline_s - travel / speed) if math.isfinite(noticed_s) else -1.0
