@@ -45,13 +45,27 @@ def test_a_latched_cause_is_named_and_an_error() -> None:
 
 
 def test_a_flag_that_is_not_a_latched_cause_is_a_warning() -> None:
-    driving = RobotStatus(True, 0.01, ControlMode.CAN, flags=ErrorFlag.IBUS_CHECKSUM)
+    driving = RobotStatus(
+        True, 0.01, ControlMode.CAN, flags=ErrorFlag.IBUS_CHECKSUM, speed_trusted=True
+    )
     rc = next(s for s in flag_statuses(driving) if s.name == "bywire: RC link")
     assert rc.level is Level.WARN
     assert rc.message == "IBUS_CHECKSUM"
     others = [s for s in flag_statuses(driving) if s.name != "bywire: RC link"]
     assert {s.level for s in others} == {Level.OK}
     assert mode_status(driving, engaged=True, remote_stop=False).level is Level.OK
+
+
+def test_an_unknown_speed_is_an_error_that_names_why() -> None:
+    """Issue 41 finding 6: the bridge will not drive on a speed it cannot trust."""
+    faulted = RobotStatus(True, 0.01, ControlMode.CAN, flags=ErrorFlag.SPEED_SENSOR_FAULT)
+    status = mode_status(faulted, engaged=True, remote_stop=False)
+    assert status.level is Level.ERROR
+    assert "SPEED_SENSOR_FAULT" in status.message
+    unheard = RobotStatus(True, 0.01, ControlMode.CAN)  # no recent ErrorReport: flags unknown
+    assert "ErrorReport" in mode_status(unheard, engaged=True, remote_stop=False).message
+    trusted = RobotStatus(True, 0.01, ControlMode.CAN, speed_trusted=True)
+    assert mode_status(trusted, engaged=True, remote_stop=False).level is Level.OK
 
 
 def test_without_reports_everything_of_the_robot_is_stale() -> None:
