@@ -3,15 +3,20 @@ stale reports STALE, the link's and the inputs' figures."""
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 from bywire.error_flags import ErrorFlag
 from bywire.model import ControlMode, StatusReport
 from bywire.ros2.diagnostics import (
     FLAG_GROUPS,
+    RECENT_S,
+    REFUSING_S,
     Level,
     LinkHealth,
     flag_statuses,
     inputs_status,
     link_status,
+    log_lines,
     mode_line,
     mode_status,
     statuses,
@@ -118,3 +123,40 @@ def test_a_starved_link_is_a_warning() -> None:
     starved = link_status(LinkHealth(bus="active", max_period_s=0.08), driving)
     assert starved.level is Level.WARN
     assert "0.080 s" in starved.message
+
+
+def test_commands_refused_while_they_keep_arriving_are_an_error_after_the_stated_time() -> None:
+    """Issue 41 finding 8: WARN while commands are refused, ERROR once none has been accepted
+    for `REFUSING_S` while they keep arriving, back to OK `RECENT_S` after the last refusal."""
+    refusing = LinkHealth(
+        refused=30,
+        last_refusal="header stamp older than max_stamp_age_s",
+        last_refusal_age_s=0.01,
+        arrival_age_s=0.02,
+        refusing_for_s=REFUSING_S - 0.01,
+    )
+    assert inputs_status(refusing, None).level is Level.WARN
+    starved = replace(refusing, refusing_for_s=REFUSING_S)
+    error = inputs_status(starved, None)
+    assert error.level is Level.ERROR
+    assert "header stamp older" in error.message
+    silent = replace(starved, arrival_age_s=REFUSING_S + 0.01)  # they stopped arriving
+    assert inputs_status(silent, None).level is Level.WARN
+    accepted = replace(starved, refusing_for_s=None, accepted_age_s=0.0)
+    assert inputs_status(accepted, None).level is Level.WARN
+    assert inputs_status(replace(accepted, last_refusal_age_s=RECENT_S), None).level is Level.OK
+
+
+def test_each_change_of_level_is_one_log_line() -> None:
+    ok = inputs_status(LinkHealth(), None)
+    warn = inputs_status(LinkHealth(last_refusal="x", last_refusal_age_s=0.0), None)
+    logged, lines = log_lines({}, [ok, ok])
+    assert lines == []
+    for _ in range(3):  # the same level again: nothing more
+        logged, lines = log_lines(logged, [warn])
+        if lines:
+            assert lines == [(Level.WARN, "bywire: inputs WARN: refused: x")]
+    logged, lines = log_lines(logged, [warn, ok])
+    assert lines == [(Level.OK, "bywire: inputs OK: OK")]
+    flags = flag_statuses(RobotStatus(True, 0.01, ControlMode.CAN, flags=ErrorFlag.IBUS_CHECKSUM))
+    assert log_lines(logged, flags)[1] == []  # the flag groups are not logged

@@ -346,3 +346,60 @@ def _brake(frame: LoggedFrame) -> float:
     command = dbc.decode_command(movement_id, frame.data, None)
     assert isinstance(command, MovementCommand)
     return command.brake_norm
+
+
+def test_a_lagging_stamp_that_stalls_the_robot_is_counted_shown_and_logged_once() -> None:
+    """Issue 41 finding 8: stamps 0.17 s old at arrival, at 20 Hz: each command ages past
+    `max_stamp_age_s` (0.2) before the next one comes, so the robot never moves. Every such
+    command is now counted with its reason; `bywire: inputs` turns WARN at once and ERROR once
+    none has been accepted for `REFUSING_S`; a planner with fresh stamps then drives, and the
+    status goes back. One log line per change of level, not one per command."""
+    rig = Rig.build()
+    rig.start()
+    _enable(rig, ENABLE_AT_S)
+    lagging_until_s, end_s = 3.0, 9.5
+    rig.publish(TARGET_MPS, DRIVE_FROM_S, lagging_until_s, stamp_lag_s=0.17)
+    rig.publish(TARGET_MPS, lagging_until_s, end_s)
+    seen: list[tuple[float, list[diagnostics.Status], int]] = []
+
+    def look() -> None:
+        snapshot = rig.link.snapshot()
+        seen.append((rig.clock.now(), _look(rig), snapshot.health.refused))
+
+    for second in range(1, 19):  # as the node: /diagnostics twice a second here
+        rig.at(DRIVE_FROM_S + 0.5 * second, look)
+    rig.run_until(end_s)
+
+    assert max(rig.speeds(0.0, lagging_until_s)) == 0.0  # stalled, as the rule says ...
+    arrived = round((lagging_until_s - DRIVE_FROM_S) / 0.05)
+    refused_then = next(refused for at_s, _s, refused in seen if at_s >= lagging_until_s)
+    assert refused_then >= arrived - 1  # ... but not silently: each command counted
+    health = rig.link.snapshot().health
+    assert dict(health.refused_by_reason)["STAMP_OLD"] >= arrived - 1  # with its reason
+    levels = {
+        round(at_s - DRIVE_FROM_S, 1): inputs_of(statuses).level for at_s, statuses, _ in seen
+    }
+    assert levels[0.5] is diagnostics.Level.WARN
+    assert levels[1.5] is diagnostics.Level.ERROR
+    assert levels[2.0] is diagnostics.Level.ERROR
+    error = inputs_of(next(s for at_s, s, _ in seen if at_s - DRIVE_FROM_S > 1.4))
+    assert "header stamp older than max_stamp_age_s" in error.message
+    assert min(rig.speeds(end_s - 1.0, end_s)) > TARGET_MPS - TOLERANCE_MPS  # fresh: it drives
+    assert levels[3.0] is diagnostics.Level.WARN  # accepted again, the refusals still recent
+    assert levels[8.5] is diagnostics.Level.OK
+    logged: dict[str, diagnostics.Level] = {}
+    lines: list[str] = []
+    for _at_s, statuses, _refused in seen:
+        logged, new = diagnostics.log_lines(logged, statuses)
+        lines += [line for _level, line in new if line.startswith("bywire: inputs")]
+    assert [line.split(":")[1] for line in lines] == [
+        " inputs WARN",
+        " inputs ERROR",
+        " inputs WARN",
+        " inputs OK",
+    ]
+    assert seen[-1][2] < arrived + 5  # nothing counted once the stamps are fresh
+
+
+def inputs_of(statuses: list[diagnostics.Status]) -> diagnostics.Status:
+    return next(s for s in statuses if s.name == "bywire: inputs")
