@@ -6,7 +6,8 @@ The rules, in the order they are applied:
 1. A remote stop request is sent in every period while it is on, and disengages the bridge.
 2. The bridge drives only while *engaged*: set by a successful `~/enable` (`enabling`), cleared
    the period the robot is no longer drivable (left CAN mode, latched STOP, or its reports
-   stopped) or a remote stop is requested. Disengaged: throttle 0, the holding brake.
+   stopped) or a remote stop is requested. Disengaged: throttle 0, the holding brake (after
+   full brake for `blind_brake_s` when the speed is not trusted: rule 4a).
 3. Engaged, with a usable set-point (`setpoint.usable`: both ages within their limits) and a
    trusted speed (`RobotStatus.speed_trusted`): the speed loop drives towards its speed, the
    steering follows it.
