@@ -10,9 +10,14 @@ import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
-from bywire.control.interlocks import InterlockConfig, InterlockState, interlock_step
+from bywire.control.interlocks import (
+    InterlockConfig,
+    InterlockState,
+    can_throttle_allowed,
+    interlock_step,
+)
 from bywire.control.mux import Movement
-from bywire.model import Gear
+from bywire.model import ControlMode, Gear
 
 CONFIG = InterlockConfig()
 F, R, N = Gear.FORWARD, Gear.REVERSE, Gear.NEUTRAL
@@ -442,3 +447,13 @@ def test_a_throttle_above_full_scale_is_applied_as_full_scale_after_a_long_ramp(
     state = InterlockState(Gear.FORWARD, Gear.FORWARD, throttle_norm=1.0, updated_at=0.0)
     _, applied, _ = interlock_step(state, Movement(0.0, 1.5, 0.0, Gear.FORWARD), 0.0, 1.0, CONFIG)
     assert applied.throttle_norm == 1.0
+
+
+@pytest.mark.parametrize("mode", list(ControlMode))
+@pytest.mark.parametrize("faulted", [False, True])
+def test_no_can_throttle_while_the_speed_check_has_faulted_the_sensor(
+    mode: ControlMode, faulted: bool
+) -> None:
+    """Issue 41 finding 6: only CAN mode with SPEED_SENSOR_FAULT latched takes no throttle; RC
+    keeps its operator's throttle, and a healthy sensor changes nothing."""
+    assert can_throttle_allowed(mode, faulted) is not (faulted and mode is ControlMode.CAN)

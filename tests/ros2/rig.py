@@ -37,6 +37,7 @@ class Sample:
     speed_mps: float
     mode: ControlMode | None
     latched: bool  # the controller's own latched causes, not what the bridge was told
+    flags: int = 0  # the controller's own error flags
 
 
 TRIP = 3  # the simulated controller's trip counter, announced with its reports
@@ -93,7 +94,8 @@ class Rig:
         mode = None if outputs is None else outputs.mode
         latched = outputs is not None and bool(outputs.causes)
         speed = self.world.vehicle.state.speed_mps
-        self.samples.append(Sample(self.clock.now(), speed, mode, latched))
+        flags = 0 if outputs is None else outputs.error_flags
+        self.samples.append(Sample(self.clock.now(), speed, mode, latched, flags))
 
     def run_until(self, until_s: float) -> None:
         """Run the whole robot to `until_s` (one call per test: a run starts from safe outputs)."""
@@ -143,6 +145,18 @@ class Rig:
 
     def modes(self, after_s: float, before_s: float = float("inf")) -> set[ControlMode | None]:
         return {s.mode for s in self.samples if after_s <= s.time_s < before_s}
+
+    def first(self, flag: int, after_s: float = 0.0) -> float:
+        """When the controller first raised `flag` after `after_s` (inf: never)."""
+        raised = [s.time_s for s in self.samples if s.time_s >= after_s and s.flags & flag]
+        return min(raised, default=float("inf"))
+
+    def throttle_volts(self, after_s: float) -> list[float]:
+        """The throttle DAC's output from `after_s` on: the volts it held then, and every change
+        after (volts)."""
+        writes = [(t, volts) for t, channel, volts in self.world.dac.history if channel == 0]
+        held = [volts for t, volts in writes if t <= after_s][-1:] or [0.0]
+        return held + [volts for t, volts in writes if t > after_s]
 
     def gear(self) -> Gear:
         return self.link.snapshot().decision.pedals.gear  # type: ignore[union-attr]

@@ -3,15 +3,20 @@ stale reports STALE, the link's and the inputs' figures."""
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 from bywire.error_flags import ErrorFlag
 from bywire.model import ControlMode, StatusReport
 from bywire.ros2.diagnostics import (
     FLAG_GROUPS,
+    RECENT_S,
+    REFUSING_S,
     Level,
     LinkHealth,
     flag_statuses,
     inputs_status,
     link_status,
+    log_lines,
     mode_line,
     mode_status,
     statuses,
@@ -45,13 +50,27 @@ def test_a_latched_cause_is_named_and_an_error() -> None:
 
 
 def test_a_flag_that_is_not_a_latched_cause_is_a_warning() -> None:
-    driving = RobotStatus(True, 0.01, ControlMode.CAN, flags=ErrorFlag.IBUS_CHECKSUM)
+    driving = RobotStatus(
+        True, 0.01, ControlMode.CAN, flags=ErrorFlag.IBUS_CHECKSUM, speed_trusted=True
+    )
     rc = next(s for s in flag_statuses(driving) if s.name == "bywire: RC link")
     assert rc.level is Level.WARN
     assert rc.message == "IBUS_CHECKSUM"
     others = [s for s in flag_statuses(driving) if s.name != "bywire: RC link"]
     assert {s.level for s in others} == {Level.OK}
     assert mode_status(driving, engaged=True, remote_stop=False).level is Level.OK
+
+
+def test_an_unknown_speed_is_an_error_that_names_why() -> None:
+    """Issue 41 finding 6: the bridge will not drive on a speed it cannot trust."""
+    faulted = RobotStatus(True, 0.01, ControlMode.CAN, flags=ErrorFlag.SPEED_SENSOR_FAULT)
+    status = mode_status(faulted, engaged=True, remote_stop=False)
+    assert status.level is Level.ERROR
+    assert "SPEED_SENSOR_FAULT" in status.message
+    unheard = RobotStatus(True, 0.01, ControlMode.CAN)  # no recent ErrorReport: flags unknown
+    assert "ErrorReport" in mode_status(unheard, engaged=True, remote_stop=False).message
+    trusted = RobotStatus(True, 0.01, ControlMode.CAN, speed_trusted=True)
+    assert mode_status(trusted, engaged=True, remote_stop=False).level is Level.OK
 
 
 def test_without_reports_everything_of_the_robot_is_stale() -> None:
@@ -104,3 +123,40 @@ def test_a_starved_link_is_a_warning() -> None:
     starved = link_status(LinkHealth(bus="active", max_period_s=0.08), driving)
     assert starved.level is Level.WARN
     assert "0.080 s" in starved.message
+
+
+def test_commands_refused_while_they_keep_arriving_are_an_error_after_the_stated_time() -> None:
+    """Issue 41 finding 8: WARN while commands are refused, ERROR once none has been accepted
+    for `REFUSING_S` while they keep arriving, back to OK `RECENT_S` after the last refusal."""
+    refusing = LinkHealth(
+        refused=30,
+        last_refusal="header stamp older than max_stamp_age_s",
+        last_refusal_age_s=0.01,
+        arrival_age_s=0.02,
+        refusing_for_s=REFUSING_S - 0.01,
+    )
+    assert inputs_status(refusing, None).level is Level.WARN
+    starved = replace(refusing, refusing_for_s=REFUSING_S)
+    error = inputs_status(starved, None)
+    assert error.level is Level.ERROR
+    assert "header stamp older" in error.message
+    silent = replace(starved, arrival_age_s=REFUSING_S + 0.01)  # they stopped arriving
+    assert inputs_status(silent, None).level is Level.WARN
+    accepted = replace(starved, refusing_for_s=None, accepted_age_s=0.0)
+    assert inputs_status(accepted, None).level is Level.WARN
+    assert inputs_status(replace(accepted, last_refusal_age_s=RECENT_S), None).level is Level.OK
+
+
+def test_each_change_of_level_is_one_log_line() -> None:
+    ok = inputs_status(LinkHealth(), None)
+    warn = inputs_status(LinkHealth(last_refusal="x", last_refusal_age_s=0.0), None)
+    logged, lines = log_lines({}, [ok, ok])
+    assert lines == []
+    for _ in range(3):  # the same level again: nothing more
+        logged, lines = log_lines(logged, [warn])
+        if lines:
+            assert lines == [(Level.WARN, "bywire: inputs WARN: refused: x")]
+    logged, lines = log_lines(logged, [warn, ok])
+    assert lines == [(Level.OK, "bywire: inputs OK: OK")]
+    flags = flag_statuses(RobotStatus(True, 0.01, ControlMode.CAN, flags=ErrorFlag.IBUS_CHECKSUM))
+    assert log_lines(logged, flags)[1] == []  # the flag groups are not logged

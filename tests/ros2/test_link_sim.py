@@ -4,13 +4,17 @@ latched STOP, a stale command is never sent, and only `~/enable` arms the robot.
 
 from __future__ import annotations
 
+from collections.abc import Callable
+
+import can
 import pytest
 
 from bywire.error_flags import ErrorFlag
-from bywire.model import ControlMode, Gear, MovementCommand
+from bywire.hal.sim.can_bus import LoggedFrame
+from bywire.model import ControlMode, Gear, MovementCommand, WheelSpeedReport
 from bywire.protocol import dbc
 from bywire.protocol.secoc import SecocKey
-from bywire.ros2 import diagnostics
+from bywire.ros2 import diagnostics, stop_ramp
 from bywire.ros2.bridge import Activity
 from bywire.ros2.settings import BridgeSettings
 from bywire.teleop.frames import SEND_PERIOD_S
@@ -206,3 +210,196 @@ def test_a_change_of_direction_stops_first_then_reverses() -> None:
     assert max(rig.speeds(4.0, reverse_from)) <= TARGET_MPS + TOLERANCE_MPS
     assert rig.modes(ENABLE_AT_S + 0.2, 9.0) == {ControlMode.CAN}
     assert ErrorFlag.CAN_COMMAND_REJECTED not in rig.link.snapshot().status.flags
+
+
+def _look(rig: Rig) -> list[diagnostics.Status]:
+    snapshot = rig.link.snapshot()
+    return diagnostics.statuses(
+        snapshot.status,
+        snapshot.health,
+        snapshot.robot_status_report,
+        engaged=snapshot.engaged,
+        remote_stop=snapshot.remote_stop,
+    )
+
+
+@pytest.mark.parametrize(
+    "cruise_mps",
+    [0.5, 0.3],
+    ids=["dies-at-0.5-read-as-a-jump", "dies-at-0.3-read-as-stuck-after-1s"],
+)
+def test_a_wheel_sensor_dying_while_driving_stops_the_robot_not_runs_it_away(
+    cruise_mps: float,
+) -> None:
+    """Issue 41 finding 6: the sensor reads 0 from 4 s on. The controller flags
+    SPEED_SENSOR_FAULT and stays in CAN mode; the bridge, seeing the flag, asks no throttle from
+    the next period and brakes fully for `blind_brake_s`: the robot stands, never faster than
+    when the flag came (the old loop held 0.64 throttle: 2.36 m/s after 8 s and rising)."""
+    settings = BridgeSettings()
+    rig = Rig.build(settings)
+    rig.start()
+    _enable(rig, ENABLE_AT_S)
+    dies_s, end_s = 4.0, 12.0
+    rig.publish(cruise_mps, DRIVE_FROM_S, end_s)
+    rig.at(dies_s, rig.world.wheel_sensor.die)
+    rig.run_until(end_s)
+
+    flagged_s = rig.first(ErrorFlag.SPEED_SENSOR_FAULT, dies_s)
+    assert flagged_s < dies_s + 1.5  # the controller's own check (row 27) noticed it
+    seen_s = flagged_s + 3 * SEND_PERIOD_S  # the ErrorReport, then the bridge's next period
+    at_flag_mps = max(rig.speeds(flagged_s - 0.01, flagged_s + 0.01))
+    assert max(rig.speeds(seen_s, end_s)) <= at_flag_mps + 0.01
+    standing_s = seen_s + stop_ramp.blind_brake_s(settings)
+    assert rig.speeds(standing_s, end_s) == [0.0] * len(rig.speeds(standing_s, end_s))
+    assert rig.throttle_volts(seen_s + SEND_PERIOD_S) == [0.0]
+    assert all(m.throttle_norm == 0.0 for m in rig.movements(seen_s))
+    assert all(m.brake_norm == 1.0 for m in rig.movements(seen_s)[:10])
+    assert rig.modes(ENABLE_AT_S + 0.2) == {ControlMode.CAN}
+    decision = rig.link.snapshot().decision
+    assert decision is not None
+    assert decision.activity is Activity.BLIND
+    mode = _look(rig)[0]
+    assert mode.level is diagnostics.Level.ERROR
+    assert "SPEED_SENSOR_FAULT" in mode.message
+
+
+class _DeafTo:
+    """The link's bus, deaf to one report from `from_s` on (a report that stopped arriving)."""
+
+    def __init__(self, bus: can.BusABC, frame_id: int, from_s: float, now: Callable[[], float]):
+        self.bus, self.frame_id, self.from_s, self.now = bus, frame_id, from_s, now
+
+    def recv(self, timeout: float | None = None) -> can.Message | None:
+        while True:
+            message = self.bus.recv(timeout)
+            lost = message is not None and message.arbitration_id == self.frame_id
+            if not (lost and self.now() >= self.from_s):
+                return message
+
+    def __getattr__(self, name: str) -> object:
+        return getattr(self.bus, name)
+
+
+def test_wheel_speed_reports_that_stop_arriving_brake_the_robot_to_standstill() -> None:
+    """Issue 41 finding 6, the stale speed: the wheel-speed report stops reaching the bridge at
+    1 m/s; the robot is still in CAN mode and the commands go on. Not the holding brake (0.1 here:
+    the robot coasted for seconds) but full brake for `blind_brake_s`, throttle 0."""
+    settings = BridgeSettings(hold_brake=0.1)
+    rig = Rig.build(settings)
+    lost_s, end_s = 5.0, 9.0
+    rig.link.bus = _DeafTo(  # type: ignore[assignment]
+        rig.link.bus, dbc.frame_id(WheelSpeedReport), lost_s, rig.clock.now
+    )
+    rig.start()
+    _enable(rig, ENABLE_AT_S)
+    rig.publish(1.0, DRIVE_FROM_S, end_s)
+    rig.run_until(end_s)
+
+    assert min(rig.speeds(lost_s - 0.5, lost_s)) > 0.9
+    stale_s = lost_s + settings.report_timeout_s + SEND_PERIOD_S
+    assert all(m.throttle_norm == 0.0 for m in rig.movements(stale_s))
+    assert rig.throttle_volts(stale_s + SEND_PERIOD_S) == [0.0]
+    standing_s = stale_s + stop_ramp.blind_brake_s(settings)
+    assert rig.speeds(standing_s, end_s) == [0.0] * len(rig.speeds(standing_s, end_s))
+    assert rig.modes(ENABLE_AT_S + 0.2) == {ControlMode.CAN}
+
+
+@pytest.mark.parametrize(
+    ("max_speed_mps", "cruise_mps", "silent_s"),
+    [(2.0, 2.0, 8.0), (3.0, 2.9, 12.0)],
+    ids=["2.0", "2.9"],
+)
+def test_the_stop_ramp_brakes_until_the_robot_stands(
+    max_speed_mps: float, cruise_mps: float, silent_s: float
+) -> None:
+    """Issue 41 finding 7: at 2 m/s (2.9), full brake cannot follow a 0.3 s ramp's line. The old
+    ramp dropped to the 0.1 holding brake at the line's end with the robot rolling at 0.64 m/s
+    (1.20): it coasted 1.5 m (3.5 m). Now the brake stays on until the robot reports standstill,
+    which it reaches within `stop_bound_s` of the ramp's start."""
+    settings = BridgeSettings(stop_ramp_s=0.3, hold_brake=0.1, max_speed_mps=max_speed_mps)
+    rig = Rig.build(settings)
+    rig.start()
+    _enable(rig, ENABLE_AT_S)
+    rig.publish(cruise_mps, DRIVE_FROM_S, silent_s)
+    rig.run_until(silent_s + 4.0)
+
+    at_silence_mps = rig.speeds(silent_s - 0.02, silent_s)[0]
+    assert at_silence_mps > cruise_mps - 0.45
+    ramp_s = silent_s + settings.cmd_timeout_s + SEND_PERIOD_S  # the first period without one
+    bound_s = stop_ramp.stop_bound_s(at_silence_mps, settings) + SEND_PERIOD_S
+    stood = [s.time_s for s in rig.samples if s.time_s > silent_s and s.speed_mps == 0.0]
+    standing_s = min(stood, default=float("inf"))
+    assert standing_s <= ramp_s + bound_s
+    distance = sum(rig.speeds(ramp_s, silent_s + 4.0)) * 0.01
+    assert distance <= at_silence_mps * bound_s
+    held = [m.brake_norm for m in rig.movements(ramp_s) if m.brake_norm < 1.0]
+    assert set(held) == {settings.hold_brake}  # then held, at standstill only
+    let_go_s = min(f.time_s for f in rig.sent if f.time_s > ramp_s and _brake(f) < 1.0)
+    assert let_go_s >= standing_s  # full brake until the robot stood
+    assert rig.modes(ENABLE_AT_S + 0.2) == {ControlMode.CAN}
+
+
+def _brake(frame: LoggedFrame) -> float:
+    movement_id = dbc.frame_id(MovementCommand)
+    if frame.arbitration_id != movement_id:
+        return 1.0
+    command = dbc.decode_command(movement_id, frame.data, None)
+    assert isinstance(command, MovementCommand)
+    return command.brake_norm
+
+
+def test_a_lagging_stamp_that_stalls_the_robot_is_counted_shown_and_logged_once() -> None:
+    """Issue 41 finding 8: stamps 0.17 s old at arrival, at 20 Hz: each command ages past
+    `max_stamp_age_s` (0.2) before the next one comes, so the robot never moves. Every such
+    command is now counted with its reason; `bywire: inputs` turns WARN at once and ERROR once
+    none has been accepted for `REFUSING_S`; a planner with fresh stamps then drives, and the
+    status goes back. One log line per change of level, not one per command."""
+    rig = Rig.build()
+    rig.start()
+    _enable(rig, ENABLE_AT_S)
+    lagging_until_s, end_s = 3.0, 9.5
+    rig.publish(TARGET_MPS, DRIVE_FROM_S, lagging_until_s, stamp_lag_s=0.17)
+    rig.publish(TARGET_MPS, lagging_until_s, end_s)
+    seen: list[tuple[float, list[diagnostics.Status], int]] = []
+
+    def look() -> None:
+        snapshot = rig.link.snapshot()
+        seen.append((rig.clock.now(), _look(rig), snapshot.health.refused))
+
+    for second in range(1, 19):  # as the node: /diagnostics twice a second here
+        rig.at(DRIVE_FROM_S + 0.5 * second, look)
+    rig.run_until(end_s)
+
+    assert max(rig.speeds(0.0, lagging_until_s)) == 0.0  # stalled, as the rule says ...
+    arrived = round((lagging_until_s - DRIVE_FROM_S) / 0.05)
+    refused_then = next(refused for at_s, _s, refused in seen if at_s >= lagging_until_s)
+    assert refused_then >= arrived - 1  # ... but not silently: each command counted
+    health = rig.link.snapshot().health
+    assert dict(health.refused_by_reason)["STAMP_OLD"] >= arrived - 1  # with its reason
+    levels = {
+        round(at_s - DRIVE_FROM_S, 1): inputs_of(statuses).level for at_s, statuses, _ in seen
+    }
+    assert levels[0.5] is diagnostics.Level.WARN
+    assert levels[1.5] is diagnostics.Level.ERROR
+    assert levels[2.0] is diagnostics.Level.ERROR
+    error = inputs_of(next(s for at_s, s, _ in seen if at_s - DRIVE_FROM_S > 1.4))
+    assert "header stamp older than max_stamp_age_s" in error.message
+    assert min(rig.speeds(end_s - 1.0, end_s)) > TARGET_MPS - TOLERANCE_MPS  # fresh: it drives
+    assert levels[3.0] is diagnostics.Level.WARN  # accepted again, the refusals still recent
+    assert levels[8.5] is diagnostics.Level.OK
+    logged: dict[str, diagnostics.Level] = {}
+    lines: list[str] = []
+    for _at_s, statuses, _refused in seen:
+        logged, new = diagnostics.log_lines(logged, statuses)
+        lines += [line for _level, line in new if line.startswith("bywire: inputs")]
+    assert [line.split(":")[1] for line in lines] == [
+        " inputs WARN",
+        " inputs ERROR",
+        " inputs WARN",
+        " inputs OK",
+    ]
+    assert seen[-1][2] < arrived + 5  # nothing counted once the stamps are fresh
+
+
+def inputs_of(statuses: list[diagnostics.Status]) -> diagnostics.Status:
+    return next(s for s in statuses if s.name == "bywire: inputs")

@@ -15,7 +15,12 @@ from typing import Protocol, TypeVar
 from bywire.control.command_edges import NO_EDGES, CommandEdges
 from bywire.control.drive import SAFE_DRIVE, DriveConfig, DriveOutputs, braking_drive, drive_outputs
 from bywire.control.hydrobrake import DEFAULT_THRESHOLD_NORM, hydrobrake_duty
-from bywire.control.interlocks import InterlockConfig, InterlockState, interlock_step
+from bywire.control.interlocks import (
+    InterlockConfig,
+    InterlockState,
+    can_throttle_allowed,
+    interlock_step,
+)
 from bywire.control.lights import BLINK_RATE_HZ, LightOutputs, LightRequest, light_outputs
 from bywire.control.mux import Movement, movement_from
 from bywire.control.rc_mapping import RcMapping, RcRequest
@@ -271,10 +276,11 @@ def _light_request(
     )
 
 
-def _requested(supervisor: SupervisorState, sources: _Sources) -> Movement:
-    """The commanding source's set-point; its throttle stays zero until the supervisor opens it."""
+def _requested(supervisor: SupervisorState, sources: _Sources, speed_faulted: bool) -> Movement:
+    """The commanding source's set-point; its throttle stays zero until the supervisor opens it,
+    and in CAN mode while the wheel sensor is faulted (`interlocks.can_throttle_allowed`)."""
     movement = movement_from(supervisor.mode, sources.rc, sources.can_movement)
-    if supervisor.throttle_allowed:
+    if supervisor.throttle_allowed and can_throttle_allowed(supervisor.mode, speed_faulted):
         return movement
     return Movement(movement.steering_norm, 0.0, movement.brake_norm, movement.gear)
 
@@ -299,7 +305,11 @@ def controller_step(
         speed_check = cleared(speed_check)  # an arming event acknowledges a sensor fault
     speed_mps = trusted_speed(speed_check, inputs.speed_mps)
     interlock, movement, held = interlock_step(
-        state.interlock, _requested(supervisor, sources), speed_mps, now, config.interlocks
+        state.interlock,
+        _requested(supervisor, sources, speed_check.faulted),
+        speed_mps,
+        now,
+        config.interlocks,
     )
     stop, stop_phase = stop_step(
         state.stop,

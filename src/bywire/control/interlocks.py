@@ -21,6 +21,13 @@
    steering.py's, not repeated here.
 
 So the applied throttle never exceeds the clamped requested throttle; every output is in range.
+
+Before them, `can_throttle_allowed` (issue 41 finding 6): in CAN mode no throttle is taken while
+the speed check has SPEED_SENSOR_FAULT latched. A computer that drives on the wheel speed it
+reads sees a dead sensor's 0 m/s and opens the throttle (the ROS 2 bridge did: 2.36 m/s after 8 s
+and rising); the controller cannot know whether the computer has another speed source, and zero
+is the only ceiling that bounds the speed without a measurement. It is no stop: the computer may
+still brake and steer, RC is unaffected, and the next arming (through STOP) clears the fault.
 """
 
 from __future__ import annotations
@@ -29,7 +36,7 @@ import math
 
 from bywire.control.mux import Movement
 from bywire.control.values import value
-from bywire.model import Gear
+from bywire.model import ControlMode, Gear
 
 # Without a speed sensor the dwell cannot prove standstill; 1.5 s is about what full regenerative
 # braking (≈ 1.5 m/s²) needs to stop the robot from walking pace (≈ 2 m/s), a plausible pace when
@@ -184,3 +191,9 @@ def interlock_step(
         gear, direction, quiet_since, standstill_since, throttle, applied.steering_norm, now
     )
     return new_state, applied, held
+
+
+def can_throttle_allowed(mode: ControlMode, speed_faulted: bool) -> bool:
+    """Whether the commanding source's throttle may be taken: not in CAN mode while the speed
+    check has SPEED_SENSOR_FAULT latched (see the module's text)."""
+    return not (speed_faulted and mode is ControlMode.CAN)

@@ -14,14 +14,17 @@ from __future__ import annotations
 import enum
 import functools
 import operator
-from dataclasses import dataclass
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, replace
 
 from bywire.error_flags import SUBSYSTEMS, ErrorFlag, Subsystem, flag_names
 from bywire.model import StatusReport
 from bywire.ros2.robot import LATCH_FLAGS, RobotStatus
+from bywire.ros2.setpoint import Refusal, Tally
 
 PREFIX = "bywire: "
 RECENT_S = 5.0  # a refusal this recent makes the inputs' status a warning
+REFUSING_S = 1.0  # commands arriving and every one refused this long: the inputs' status an error
 LATE_PERIOD_S = 0.05  # a period this long (20 ms nominal) eats half the robot's CAN timeout
 HARDWARE_ID = "bywire"
 
@@ -68,10 +71,33 @@ class LinkHealth:
     max_period_s: float = 0.0  # the longest time between two sending periods (a starved link)
     command_age_s: float | None = None  # the newest set-point, by arrival
     stamp_age_s: float | None = None  # the newest set-point, by header stamp
-    refused: int = 0  # set-points refused at arrival (stale, ahead, not finite)
+    refused: int = 0  # set-points refused (`setpoint.Tally`: at arrival, aged out while held)
     last_refusal: str = ""
     last_refusal_age_s: float | None = None
     activity: str = ""
+    refused_by_reason: tuple[tuple[str, int], ...] = ()  # (Refusal's name, count), each reason
+    accepted_age_s: float | None = None  # since a command was last replaced while usable
+    arrival_age_s: float | None = None  # since the newest command arrived
+    refusing_for_s: float | None = None  # since the first refusal after the last acceptance
+
+
+def with_tally(health: LinkHealth, tally: Tally, now_s: float) -> LinkHealth:
+    """`health` with the commands' fates from `tally` at `now_s`."""
+
+    def age(at_s: float | None) -> float | None:
+        return None if at_s is None else now_s - at_s
+
+    refusal = tally.last_refusal
+    return replace(
+        health,
+        refused=tally.total_refused,
+        last_refusal="" if refusal is None else refusal.value,
+        last_refusal_age_s=age(tally.refused_at_s),
+        refused_by_reason=tuple((r.name, n) for r, n in zip(Refusal, tally.refused, strict=True)),
+        accepted_age_s=age(tally.accepted_at_s),
+        arrival_age_s=age(tally.arrived_at_s),
+        refusing_for_s=age(tally.refusing_since_s),
+    )
 
 
 def _age(seconds: float | None) -> str:
@@ -107,6 +133,14 @@ def mode_status(status: RobotStatus, engaged: bool, remote_stop: bool) -> Status
     )
     if causes:
         return Status(PREFIX + "mode", Level.ERROR, f"STOP latched: {' '.join(causes)}", values)
+    if not status.speed_trusted:
+        why = (
+            "SPEED_SENSOR_FAULT"
+            if status.flags & ErrorFlag.SPEED_SENSOR_FAULT
+            else "no recent ErrorReport"
+        )
+        message = f"speed unknown ({why}): the bridge asks no throttle and brakes to a stop"
+        return Status(PREFIX + "mode", Level.ERROR, message, values)
     if status.drivable and engaged:
         return Status(PREFIX + "mode", Level.OK, "CAN mode, enabled", values)
     hint = "call ~/enable" if status.drivable else f"{mode} mode"
@@ -160,8 +194,10 @@ def inputs_status(health: LinkHealth, robot_status_report: StatusReport | None) 
         ("command_age_s", _age(health.command_age_s)),
         ("command_stamp_age_s", _age(health.stamp_age_s)),
         ("commands_refused", str(health.refused)),
+        *((f"refused_{name.lower()}", str(count)) for name, count in health.refused_by_reason),
         ("last_refusal", health.last_refusal),
         ("last_refusal_age_s", _age(health.last_refusal_age_s)),
+        ("last_accepted_age_s", _age(health.accepted_age_s)),
         ("activity", health.activity),
     ]
     if robot_status_report is not None:
@@ -172,10 +208,41 @@ def inputs_status(health: LinkHealth, robot_status_report: StatusReport | None) 
             ("robot_task_overruns", str(robot_status_report.overrun_count)),
         ]
     name = PREFIX + "inputs"
+    if refusing(health):
+        message = (
+            f"every command refused for {health.refusing_for_s:.1f} s while they keep arriving:"
+            f" {health.last_refusal}"
+        )
+        return Status(name, Level.ERROR, message, tuple(values))
     recent = health.last_refusal_age_s is not None and health.last_refusal_age_s < RECENT_S
     if recent:
         return Status(name, Level.WARN, f"refused: {health.last_refusal}", tuple(values))
     return Status(name, Level.OK, health.activity or "OK", tuple(values))
+
+
+def refusing(health: LinkHealth) -> bool:
+    """Commands keep arriving (the newest within `REFUSING_S`) and none has been accepted
+    since the first refusal, `REFUSING_S` or more ago: the planner cannot drive the robot."""
+    arriving = health.arrival_age_s is not None and health.arrival_age_s <= REFUSING_S
+    return arriving and health.refusing_for_s is not None and health.refusing_for_s >= REFUSING_S
+
+
+LOGGED = (PREFIX + "mode", PREFIX + "inputs")
+"""The statuses whose every change of level is logged (one line per change, not per command)."""
+
+
+def log_lines(
+    before: Mapping[str, Level], now: Sequence[Status]
+) -> tuple[dict[str, Level], list[tuple[Level, str]]]:
+    """The levels of `LOGGED` in `now`, and one line (with its level) for each that changed
+    since `before` (a first OK is not news)."""
+    levels = {status.name: status.level for status in now if status.name in LOGGED}
+    lines = [
+        (status.level, f"{status.name} {status.level.name}: {status.message}")
+        for status in now
+        if status.name in levels and before.get(status.name, Level.OK) is not status.level
+    ]
+    return levels, lines
 
 
 def statuses(

@@ -27,11 +27,11 @@ from bywire.model import StatusReport, SteeringReport, WheelSpeedReport
 from bywire.protocol import dbc
 from bywire.ros2 import odometry
 from bywire.ros2.bridge import BridgeState, Decision, Inputs, Requests, bridge_step
-from bywire.ros2.diagnostics import LinkHealth
+from bywire.ros2.diagnostics import LinkHealth, with_tally
 from bywire.ros2.enabling import Answer
 from bywire.ros2.odometry import Pose
 from bywire.ros2.robot import RobotStatus, robot_status
-from bywire.ros2.setpoint import Refusal, Setpoint, admit
+from bywire.ros2.setpoint import Refusal, Setpoint, Tally, arrived, held
 from bywire.ros2.settings import BridgeSettings, Geometry
 from bywire.runtime.realtime import SCHED_FIX
 from bywire.security.session import TRIP_IDS, SecocSigner
@@ -80,9 +80,7 @@ class _Inbox:
     setpoint: Setpoint | None = None
     enable_calls: int = 0
     remote_stop: bool = False
-    refused: int = 0
-    last_refusal: Refusal | None = None
-    refused_at_s: float | None = None
+    tally: Tally = field(default_factory=Tally)
     answers: dict[int, Answer] = field(default_factory=dict)
 
 
@@ -139,15 +137,13 @@ class CanLink:
     # --- the node's side (any thread) ---------------------------------------------------------
 
     def offer(self, setpoint: Setpoint) -> Refusal | None:
-        """A set-point that just arrived: stored if it passes the age gate, else counted."""
-        refusal = admit(setpoint, self.settings)
+        """A set-point that just arrived: stored if it passes the age gate, else counted (and
+        the fate of the one it replaces with it: `setpoint.arrived`)."""
         with self._lock:
+            inbox = self._inbox
+            inbox.tally, refusal = arrived(inbox.tally, inbox.setpoint, setpoint, self.settings)
             if refusal is None:
-                self._inbox.setpoint = setpoint
-            else:
-                self._inbox.refused += 1
-                self._inbox.last_refusal = refusal
-                self._inbox.refused_at_s = setpoint.arrived_s
+                inbox.setpoint = setpoint
         return refusal
 
     def request_enable(self) -> int:
@@ -247,6 +243,7 @@ class CanLink:
             inbox = self._inbox
             requests = Requests(inbox.enable_calls, inbox.remote_stop)
             setpoint = inbox.setpoint
+            inbox.tally = held(inbox.tally, setpoint, now_s, self.settings)
         self._state, decision = bridge_step(
             self._state, Inputs(now_s, setpoint, self._view, requests), self.settings
         )
@@ -312,16 +309,16 @@ class CanLink:
         ages = (None, None) if setpoint is None else setpoint.ages_s(now_s)
         with self._lock:
             inbox = self._inbox
-            refusal, refused_at_s = inbox.last_refusal, inbox.refused_at_s
-            self._health = replace(
-                self._health,
-                bus=self._bus_state(),
-                command_age_s=ages[0],
-                stamp_age_s=ages[1],
-                refused=inbox.refused,
-                last_refusal="" if refusal is None else refusal.value,
-                last_refusal_age_s=None if refused_at_s is None else now_s - refused_at_s,
-                activity=decision.activity.value,
+            self._health = with_tally(
+                replace(
+                    self._health,
+                    bus=self._bus_state(),
+                    command_age_s=ages[0],
+                    stamp_age_s=ages[1],
+                    activity=decision.activity.value,
+                ),
+                inbox.tally,
+                now_s,
             )
             if decision.answer is not None:
                 inbox.answers[decision.answer.request] = decision.answer

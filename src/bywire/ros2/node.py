@@ -88,6 +88,7 @@ class BridgeNode:
         self.shell = shell
         self._published: dict[str, object] = {}
         self._last_pose_s: float | None = None
+        self._logged: dict[str, diagnostics.Level] = {}  # the levels last logged, by status
         services = ReentrantCallbackGroup()
         timers = MutuallyExclusiveCallbackGroup()
         inputs = MutuallyExclusiveCallbackGroup()
@@ -132,11 +133,7 @@ class BridgeNode:
         self._offer(Setpoint(float(drive.speed), steering, self.link.now(), age, Source.ACKERMANN))
 
     def _offer(self, setpoint: Setpoint) -> None:
-        refusal = self.link.offer(setpoint)
-        if refusal is not None:
-            self.node.get_logger().warn(
-                f"{setpoint.source.value} refused: {refusal.value}", throttle_duration_sec=5.0
-            )
+        self.link.offer(setpoint)  # refusals are counted there, logged by their state's changes
 
     def _subscribe_ackermann(self, group: Any) -> None:
         try:
@@ -251,13 +248,23 @@ class BridgeNode:
         snapshot = self.link.snapshot()
         array = DiagnosticArray()
         array.header.stamp = self.node.get_clock().now().to_msg()
-        for status in diagnostics.statuses(
+        statuses = diagnostics.statuses(
             snapshot.status,
             snapshot.health,
             snapshot.robot_status_report,
             engaged=snapshot.engaged,
             remote_stop=snapshot.remote_stop,
-        ):
+        )
+        self._logged, lines = diagnostics.log_lines(self._logged, statuses)
+        logger = self.node.get_logger()
+        for level, line in lines:
+            if level is diagnostics.Level.ERROR:
+                logger.error(line)
+            elif level is diagnostics.Level.OK:
+                logger.info(line)
+            else:
+                logger.warn(line)
+        for status in statuses:
             array.status.append(
                 DiagnosticStatus(
                     level=bytes([int(status.level)]),

@@ -30,6 +30,12 @@ class RobotStatus:
     gear: Gear = Gear.NEUTRAL  # as the controller applies it (its interlocks may hold it back)
     speed_mps: float = 0.0
     flags: ErrorFlag = NO_FLAGS
+    speed_trusted: bool = False
+
+    @property
+    def trusted_speed_mps(self) -> float | None:
+        """The reported speed (signed, forward positive) when it is trusted, else None."""
+        return self.speed_mps if self.speed_trusted else None
 
     @property
     def drivable(self) -> bool:
@@ -56,15 +62,20 @@ def robot_status(view: ReportView, now_s: float, report_timeout_s: float) -> Rob
     if mode is None or wheels is None or age_s is None:
         return RobotStatus(reporting=False, report_age_s=age_s)
     errors = view.get(ErrorReport)
+    reporting = age_s <= report_timeout_s
+    errors_age_s = view.age_s(ErrorReport, now_s)
+    flags_known = errors_age_s is not None and errors_age_s <= report_timeout_s
+    flags = NO_FLAGS if errors is None else errors.flags
     return RobotStatus(
-        reporting=age_s <= report_timeout_s,
+        reporting=reporting,
         report_age_s=age_s,
         mode=mode.control_mode,
         latched=mode.stop_latched,
         armed=mode.armed,
         gear=mode.gear,
         speed_mps=(wheels.left_mps + wheels.right_mps) / 2,
-        flags=NO_FLAGS if errors is None else errors.flags,
+        flags=flags,
+        speed_trusted=reporting and flags_known and not flags & ErrorFlag.SPEED_SENSOR_FAULT,
     )
 
 
