@@ -37,6 +37,7 @@ class Observation:
     distance_m: float
     lights: LightOutputs  # as the lines show them, each read from its own (`LIGHT_LINES`)
     error_flags: int
+    bridge_refusals_shown: bool | None = None  # the bridge's /diagnostics inputs WARN or ERROR
 
     @property
     def drive_safe(self) -> bool:
