@@ -82,7 +82,8 @@ class Campaign:
         )
         run.on_event.append(witness)
         if run.bridge is not None:  # the bridge is the computer: its periods, and B1..B3
-            judge = BridgeJudge(oracle, run.bridge.settings)
+            bridge = run.bridge
+            judge = BridgeJudge(oracle, bridge.settings, lambda: bridge.planner.publishing)
             run.bridge.on_tick.extend((witness.bridge_period, judge.tick))
             run.bridge.on_offer.append(
                 lambda offer: judge.offered(offer.at_s, offer.refusal is not None)

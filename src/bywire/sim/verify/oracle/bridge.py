@@ -3,17 +3,18 @@ every period of the bridge's link: on the vehicle's true speed and the output li
 oracle was told (the switch, what is broken), and on the bridge's own outputs (its decision, and
 `/diagnostics` as the pure builder makes it from the link's snapshot).
 
-- **B1** With the speed flagged (the robot's reports carry SPEED_SENSOR_FAULT) while the bridge
-  drives, the true speed does not grow by more than `GROWTH_MPS` from where it was when the flag
-  arrived, and the robot reaches standstill within the bound of B2 at the bridge's top speed
-  (the speed it cannot rule out) plus `FLAGGED_EXTRA_S`.
+- **B1** With the speed flagged (the robot's reports carry SPEED_SENSOR_FAULT) or unknown (a
+  robot without the wheel-speed sensor) while the bridge drives, the true speed does not grow by
+  more than `GROWTH_MPS` from where it was when the flag arrived, and the robot reaches
+  standstill within the bound of B2 at the bridge's top speed (the speed it cannot rule out)
+  plus `FLAGGED_EXTRA_S`.
 - **B2** Once the planner's set-points run out (silent or aged out) while the robot rolls, the
   true speed reaches standstill within the stated bound: `stop_ramp_s`, or the time full brake
   needs from that speed by the bridge's own brake map when that is longer, plus two periods and
   `STOP_MARGIN_S` for the brakes' lag; and the brake is never let down to the holding brake
   while the robot still rolls.
 - **B3** Every set-point refused at arrival, and every period in which a live planner's
-  set-points are not used (the bridge stops although one arrived within `cmd_timeout_s`), is
+  set-points are not used (the bridge stops although the planner keeps publishing), is
   counted in `/diagnostics` (`commands_refused` grows), whose inputs status is WARN or ERROR,
   within `REFUSAL_GRACE_S`.
 
@@ -25,6 +26,7 @@ stop is B1's or the controller's).
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
 
 from bywire.error_flags import ErrorFlag
@@ -75,15 +77,19 @@ class Refusals:
 class BridgeJudge:
     """Checks B1..B3 after every period of the bridge's link; violations go to `oracle`'s."""
 
-    def __init__(self, oracle: HazardOracle, settings: BridgeSettings) -> None:
+    def __init__(
+        self, oracle: HazardOracle, settings: BridgeSettings, publishing: Callable[[], bool]
+    ) -> None:
+        """`publishing`: whether the planner publishes now (at its rate, 10 Hz or more)."""
         self.oracle = oracle
         self.settings = settings
+        self.publishing = publishing
         self.flagged: Watch | None = None  # B1
         self.stopping: Watch | None = None  # B2
         self.brake_norm = 0.0  # the brake the bridge asked for in the period before
         self.activity = Activity.DISENGAGED
         self.refusals = Refusals()
-        self.periods = 0
+        self.last_tick_s: float | None = None
 
     # --- what the planner offered ------------------------------------------------------------
 
@@ -98,7 +104,9 @@ class BridgeJudge:
     # --- one period of the link --------------------------------------------------------------
 
     def tick(self, decision: Decision, snapshot: Snapshot, now: float) -> None:
-        self.periods += 1
+        if self.last_tick_s is not None and now - self.last_tick_s > 2 * SEND_PERIOD_S:
+            self.refusals.due_s = None  # the link was silent: it had no period to show it in
+        self.last_tick_s = now
         out = Outputs.read(self.oracle.world)
         driving = (
             snapshot.engaged
@@ -119,7 +127,7 @@ class BridgeJudge:
 
     def _b1(self, snapshot: Snapshot, out: Outputs, driving: bool, now: float) -> Violation | None:
         flagged = bool(snapshot.status.flags & ErrorFlag.SPEED_SENSOR_FAULT)
-        if not (flagged and driving):
+        if not ((flagged or not self.oracle.plant.sensors_fitted) and driving):
             self.flagged = None
             return None
         speed = abs(out.speed_mps)
@@ -186,10 +194,7 @@ class BridgeJudge:
 
     def _b3(self, decision: Decision, snapshot: Snapshot, now: float) -> Violation | None:
         refusals, health = self.refusals, snapshot.health
-        live = (
-            refusals.last_offer_s is not None
-            and now - refusals.last_offer_s <= self.settings.cmd_timeout_s - SEND_PERIOD_S / 2
-        )
+        live = refusals.last_offer_s is not None and self.publishing()
         if decision.activity is Activity.DRIVING:
             refusals.when_used = health.refused
         elif snapshot.engaged and decision.activity is Activity.STOPPING and live:

@@ -28,6 +28,10 @@ class Invariant(StrEnum):
 
 
 INVARIANTS: tuple[Invariant, ...] = tuple(Invariant)
+OUTPUT_INVARIANTS = tuple(i for i in Invariant if i.startswith("H"))
+"""Judged in every campaign."""
+BRIDGE_INVARIANTS = tuple(i for i in Invariant if i.startswith("B"))
+"""Judged in bridge campaigns, besides `OUTPUT_INVARIANTS`."""
 
 _LEVELS: dict[Invariant, dict[str, Any]] = {
     Invariant.H1: {"ebrake_engaged": True, "throttle_volts_max": 0.0},
