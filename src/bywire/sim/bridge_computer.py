@@ -26,7 +26,7 @@ from bywire.hal.sim.timers import PeriodicTimer
 from bywire.hal.sim.world import SimWorld
 from bywire.protocol import dbc
 from bywire.ros2.bicycle import steering_from_twist
-from bywire.ros2.bridge import Decision
+from bywire.ros2.bridge import Activity, Decision
 from bywire.ros2.diagnostics import Level, inputs_status
 from bywire.ros2.link import CanLink, Snapshot
 from bywire.ros2.setpoint import Refusal, Setpoint
@@ -81,6 +81,10 @@ class SimBridge:
     on_tick: list[TickListener] = field(default_factory=list)
     on_offer: list[OfferListener] = field(default_factory=list)
     _timer: PeriodicTimer | None = None
+    unshown_drop: bool = False
+    """The bridge stopped in a period although its planner publishes (a set-point dropped), and
+    `/diagnostics` (its pure builder, on the link's snapshot) has not shown the planner's inputs
+    as WARN or ERROR since: what a scenario's `bridge_unshown_drop` reads."""
     _planner_series: int = 0
 
     @classmethod
@@ -125,15 +129,15 @@ class SimBridge:
         decision = self.link.tick()
         snapshot = self.link.snapshot()
         now = self.world.clock.now()
+        level = inputs_status(snapshot.health, snapshot.robot_status_report).level
+        if level in (Level.WARN, Level.ERROR):
+            self.unshown_drop = False
+        elif (
+            snapshot.engaged and decision.activity is Activity.STOPPING and self.planner.publishing
+        ):
+            self.unshown_drop = True
         for listener in self.on_tick:
             listener(decision, snapshot, now)
-
-    def refusals_shown(self) -> bool:
-        """Whether `/diagnostics` (its pure builder, on the link's latest snapshot) shows the
-        planner's inputs as WARN or ERROR."""
-        snapshot = self.link.snapshot()
-        status = inputs_status(snapshot.health, snapshot.robot_status_report)
-        return status.level in (Level.WARN, Level.ERROR)
 
     # --- the node's side: services and the planner -------------------------------------------
 

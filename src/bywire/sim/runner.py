@@ -366,7 +366,7 @@ class SimRun:
         observation = observe(self.world, outputs)
         if self.bridge is None:
             return observation
-        return replace(observation, bridge_refusals_shown=self.bridge.refusals_shown())
+        return replace(observation, bridge_unshown_drop=self.bridge.unshown_drop)
 
     def _observe(self, now: float) -> None:
         """After each pass of the loop: flags always; a full observation when one is due."""

@@ -217,7 +217,7 @@ def test_b3_flags_a_bridge_that_drops_live_commands_without_a_word(
     outcome = _run([*_driving(0.5), Step(2.0, "planner_speed", 0.5)])
     b3 = [f for f in outcome.findings if f.invariant == Invariant.B3]
     assert b3, outcome.findings
-    assert b3[0].expected == {"bridge_refusals_shown": True}
+    assert b3[0].expected == {"bridge_unshown_drop": False}
 
 
 def test_todays_bridge_stalls_silently_on_lagging_stamps_and_b3_finds_it() -> None:

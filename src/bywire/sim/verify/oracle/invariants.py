@@ -50,7 +50,7 @@ _LEVELS: dict[Invariant, dict[str, Any]] = {
     Invariant.H9: {},
     Invariant.B1: {},  # with the speed it must not exceed (`speed_max_mps`)
     Invariant.B2: {},  # with the standstill it must have reached (`speed_max_mps`)
-    Invariant.B3: {"bridge_refusals_shown": True},
+    Invariant.B3: {"bridge_unshown_drop": False},
 }
 SAFE_LEVELS: Mapping[Invariant, Mapping[str, Any]] = MappingProxyType(
     {invariant: MappingProxyType(levels) for invariant, levels in _LEVELS.items()}
