@@ -18,11 +18,12 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from dataclasses import replace
+from pathlib import Path
 from typing import Any
 
 import pytest
 
-from bywire.config import default_sim_config
+from bywire.config import default_sim_config, load_config
 from bywire.error_flags import ErrorFlag
 from bywire.model import ControlMode
 from bywire.ros2 import link
@@ -226,3 +227,15 @@ def test_todays_bridge_stalls_silently_on_lagging_stamps_and_b3_finds_it() -> No
     b3 = [f for f in outcome.findings if f.invariant == Invariant.B3]
     assert b3, outcome.findings
     assert "commands_refused=0" in b3[0].detail
+
+
+def test_todays_bridge_drives_a_robot_without_a_wheel_sensor_blind_and_b1_finds_it() -> None:
+    """The speed unknown from the start (albert: the Linux backend opens no wheel sensor): the
+    speed loop sees 0 m/s and pushes; B1 holds it to a stop as for a flagged speed (flips to
+    clean with a bridge that does not drive blind)."""
+    albert = load_config(Path(__file__).parents[4] / "config" / "albert.toml")
+    outcome = run_campaign(albert, [*_driving(0.5), Step(3.0, "planner_speed", 0.5)])
+    b1 = [f for f in outcome.findings if f.invariant == Invariant.B1]
+    assert b1, outcome.findings
+    assert "unknown (no wheel-speed sensor)" in b1[0].detail
+    assert not {i for i in _found(outcome) if i.startswith("H")}

@@ -127,9 +127,11 @@ class BridgeJudge:
 
     def _b1(self, snapshot: Snapshot, out: Outputs, driving: bool, now: float) -> Violation | None:
         flagged = bool(snapshot.status.flags & ErrorFlag.SPEED_SENSOR_FAULT)
-        if not ((flagged or not self.oracle.plant.sensors_fitted) and driving):
+        fitted = self.oracle.plant.sensors_fitted
+        if not ((flagged or not fitted) and driving):
             self.flagged = None
             return None
+        why = "flagged (SPEED_SENSOR_FAULT)" if fitted else "unknown (no wheel-speed sensor)"
         speed = abs(out.speed_mps)
         if self.flagged is None:
             settings = self.settings
@@ -141,8 +143,8 @@ class BridgeJudge:
             self.flagged = None
             limit = watch.from_mps + GROWTH_MPS
             detail = (
-                f"the speed flagged since {watch.since_s:.3f} s (SPEED_SENSOR_FAULT) and the"
-                f" bridge driving: true speed {speed:.2f} m/s, up from {watch.from_mps:.2f}"
+                f"the speed {why} since {watch.since_s:.3f} s and the bridge driving:"
+                f" true speed {speed:.2f} m/s, up from {watch.from_mps:.2f}"
             )
             return _speed_violation(Invariant.B1, now, detail, out.speed_mps, limit)
         if (
@@ -152,8 +154,8 @@ class BridgeJudge:
         ):
             self.flagged = None
             detail = (
-                f"the speed flagged since {watch.since_s:.3f} s (SPEED_SENSOR_FAULT): still"
-                f" rolling at {speed:.2f} m/s after {now - watch.since_s:.2f} s"
+                f"the speed {why} since {watch.since_s:.3f} s: still rolling at"
+                f" {speed:.2f} m/s after {now - watch.since_s:.2f} s"
             )
             limit = self.settings.standstill_speed_mps + ROLLING_MARGIN_MPS
             return _speed_violation(Invariant.B1, now, detail, out.speed_mps, limit)
