@@ -239,3 +239,37 @@ def test_todays_bridge_drives_a_robot_without_a_wheel_sensor_blind_and_b1_finds_
     assert b1, outcome.findings
     assert "unknown (no wheel-speed sensor)" in b1[0].detail
     assert not {i for i in _found(outcome) if i.startswith("H")}
+
+
+def test_b2_passes_full_brake_to_standstill_from_three_metres_a_second_on_the_shortest_ramp(
+    bend: Callable[[Step_], None],
+) -> None:
+    """The edges together (`max_speed_mps = 3`, `stop_ramp_s = 0.3`, `hold_brake = 0.1`) on a
+    ramp that brakes fully until its wheel sensor shows standstill (as a fixed bridge might):
+    full brake needs longer than the ramp from 3 m/s, and B2's bound allows for that."""
+
+    def brakes_to_standstill(state: BridgeState, inputs: Inputs, settings: BridgeSettings) -> Any:
+        state, decision = bridge_step(state, inputs, settings)
+        rolling = abs(decision.status.speed_mps) > settings.standstill_speed_mps
+        if decision.activity is Activity.STOPPING and rolling:
+            decision = _pedals(decision, 0.0, 1.0)
+        return state, decision
+
+    def lets_go_at_the_ramps_end(
+        state: BridgeState, inputs: Inputs, settings: BridgeSettings
+    ) -> Any:  # the control: the same run does reach the case
+        state, decision = bridge_step(state, inputs, settings)
+        if decision.activity is Activity.STOPPING and decision.pedals.brake_norm < 1.0:
+            decision = _pedals(decision, 0.0, settings.hold_brake)
+        return state, decision
+
+    steps = [
+        *_driving(3.0, "fast"),
+        Step(8.0, "planner_link", False),
+        Step(3.0, "planner_speed", 0.0),
+    ]
+    bend(lets_go_at_the_ramps_end)
+    assert Invariant.B2 in _found(_run(steps))
+    bend(brakes_to_standstill)
+    outcome = _run(steps)
+    assert _found(outcome) == set(), outcome.findings
