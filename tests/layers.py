@@ -26,8 +26,9 @@ LAYERS: tuple[frozenset[str], ...] = tuple(
         "config",  # the robot file, read into the core's configurations
         "hal",  # the hardware seam and its backends
         "runtime netbus canlog teleop rc",  # the controller's shell; tools beside it
+        "ros2",  # the bridge (its CAN side runs inside `bywire verify`'s bridge campaigns)
         "telemetry sim monitor",
-        "replay dashboard ros2",
+        "replay dashboard",
         "bench",
         "cli",
         "__main__",

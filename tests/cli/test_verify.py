@@ -10,6 +10,7 @@ from pathlib import Path
 import pytest
 
 from bywire.cli.main import main
+from bywire.sim.verify.draw_bridge import is_bridge_campaign
 from bywire.sim.verify.oracle import INVARIANTS
 from bywire.sim.verify.supervisor_check import MONITOR_CAUSES, TRANSITIONS, transitions_naming
 from tests.system.old_bugs import OLD_BUGS
@@ -150,3 +151,34 @@ def test_a_duration_runs_campaigns_until_the_time_is_up(
     assert status == 0
     assert isinstance(summary["campaigns"], int)
     assert summary["campaigns"] >= 1
+
+
+def test_bridge_campaigns_run_and_are_judged_in_a_small_budget(
+    capsys: pytest.CaptureFixture[str], tmp_path: Path
+) -> None:
+    """CI-sized: of seed 21's first five campaigns four are bridge campaigns (the ROS 2 bridge as
+    the computer); they run, and are judged on H1..H9 and on the bridge's B1..B3."""
+    status, summary = _verify(
+        capsys,
+        *("--budget", "5", "--campaign-s", "4", "--seed", "21", "--jobs", "1"),
+        *("--out", str(tmp_path)),
+    )
+    bridge = [index for index in range(5) if is_bridge_campaign(21, index)]
+    assert summary["bridge_campaigns"] == len(bridge) == 4
+    passes = summary["passes_checked"]
+    assert isinstance(passes, int)
+    assert passes > 0
+    # every pass is judged on the nine output invariants, a bridge campaign's on three more
+    checks = summary["invariant_checks"]
+    assert isinstance(checks, int)
+    assert 9 * passes < checks <= 12 * passes
+    violations = summary["violations"]
+    assert isinstance(violations, dict)
+    assert set(violations) == {*(f"H{n}" for n in range(1, 10)), "B1", "B2", "B3"}
+    assert (status, violations) == (0, dict.fromkeys(INVARIANTS, 0))
+    assert "(1 with the ROS 2 bridge as the computer)" in _text(capsys)  # of two
+
+
+def _text(capsys: pytest.CaptureFixture[str]) -> str:
+    main(["verify", "--budget", "2", "--campaign-s", "2", "--seed", "21", "--jobs", "1"])
+    return capsys.readouterr().out

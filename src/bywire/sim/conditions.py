@@ -75,6 +75,10 @@ CONDITIONS: tuple[Condition, ...] = (
               lambda o, wanted: o.steering_pulse_s >= float(wanted)),
     Condition("steering_pulse_max_s", "the steering pulse at most this (s)", TIME,
               lambda o, wanted: o.steering_pulse_s <= float(wanted)),
+    Condition("bridge_unshown_drop", "the ROS 2 bridge stopped although its planner publishes, "
+              "and /diagnostics has not shown its inputs WARN or ERROR since (a computer = "
+              "\"bridge\" scenario)", flag,
+              lambda o, wanted: o.bridge_unshown_drop is bool(wanted)),
     Condition("steering_held_since_s", "the steering pulse has not changed since this time (s)",
               TIME, lambda o, wanted: o.steering_changed_at_s <= float(wanted)),
 )

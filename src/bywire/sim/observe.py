@@ -37,6 +37,7 @@ class Observation:
     distance_m: float
     lights: LightOutputs  # as the lines show them, each read from its own (`LIGHT_LINES`)
     error_flags: int
+    bridge_unshown_drop: bool | None = None  # the bridge dropped a live set-point, unwarned
 
     @property
     def drive_safe(self) -> bool:

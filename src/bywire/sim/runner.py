@@ -12,7 +12,7 @@ import random
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, field, replace
-from typing import Any
+from typing import Any, Protocol
 
 from bywire.config import RobotConfig
 from bywire.config.security_setup import controller_receiver, sender_signer, simulated_run_key
@@ -24,10 +24,12 @@ from bywire.hal.sim.clock import RealtimeClock, ScaledRealtimeClock, VirtualCloc
 from bywire.hal.sim.timers import PeriodicTimer
 from bywire.hal.sim.world import SimWorld
 from bywire.model import LIGHTS_OFF, ControlMode, Gear
+from bywire.ros2.settings import settings_from
 from bywire.runtime.loop import Runtime
 from bywire.runtime.settings import RuntimeConfig
 from bywire.runtime.watchdog import POLL_S as WATCHDOG_POLL_S
-from bywire.security.session import SecocReceiver
+from bywire.security.session import SecocReceiver, SecocSigner
+from bywire.sim.bridge_computer import SimBridge
 from bywire.sim.conditions import conditions_hold
 from bywire.sim.faults import BY_NAME
 from bywire.sim.observe import Observation, observe
@@ -103,6 +105,13 @@ def run_clock(
     return RealtimeClock() if realtime or scenario.realtime or speed is not None else VirtualClock()
 
 
+class Computer(Protocol):
+    """The simulated higher-level computer a run's CAN faults silence and resume."""
+
+    def start(self) -> None: ...
+    def silence(self) -> None: ...
+
+
 class SimRun:
     """Build the world and the controller for one scenario; `run()` plays it to the end."""
 
@@ -133,7 +142,13 @@ class SimRun:
         # The watchdog's own thread measures the wall clock: only where the run is paced 1:1 by
         # it; elsewhere a timer checks it on the run's clock.
         self._realtime = realtime and not scaled
+        self._signer: SecocSigner | None = None
         self.secoc = self._authentication(robot, scenario)
+        self.bridge: SimBridge | None = None
+        """The ROS 2 bridge's CAN side, when the scenario's computer is the bridge."""
+        if scenario.computer == "bridge":
+            settings = settings_from(dict(scenario.bridge))
+            self.bridge = SimBridge.build(self.world, robot, settings, self._signer)
         self.runtime = self._controller(self.world.hardware)
         if self.runtime.watchdog is not None and not self._realtime:
             # On virtual time the watchdog runs on the simulated clock, checked by a timer where
@@ -190,11 +205,18 @@ class SimRun:
         if not (robot.security.enabled or scenario.authenticated):
             return None
         key = simulated_run_key(robot.security, robot.sim.seed)
-        self.world.hlc.sign_with(sender_signer(key))
+        self._signer = sender_signer(key)  # the bridge's link signs with it, or the computer
+        if scenario.computer != "bridge":
+            self.world.hlc.sign_with(self._signer)
         for impostor in self.world.impostors.values():
             impostor.forge_authenticator = True
         memory = replace(robot.security, freshness_file=None)
         return controller_receiver(memory, key)
+
+    @property
+    def computer(self) -> Computer:
+        """The higher-level computer sending the commands: the bridge, or `world.hlc`."""
+        return self.bridge if self.bridge is not None else self.world.hlc
 
     def add_can_monitor(self, monitor: Callable[[LoggedFrame], None]) -> None:
         """Called with every frame that crosses the bus (the CAN log writer)."""
@@ -214,7 +236,9 @@ class SimRun:
         clock = self.world.clock
         for event in self.scenario.events:
             clock.call_at(self.started_at + event.at_s, functools.partial(self._apply, event))
-        self.world.start()
+        self.world.start(hlc=self.bridge is None)
+        if self.bridge is not None:
+            self.bridge.start()
         try:
             self.runtime.run(until_s=self.started_at + self.duration_s)
         except HardwareError as error:  # as on the robot: the loop ends, its exit path is safe
@@ -226,6 +250,8 @@ class SimRun:
             for listener in self.on_exit:
                 listener(now)
         self.world.stop()
+        if self.bridge is not None:
+            self.bridge.silence()
         for verdict in self.record.verdicts:
             if verdict.passed is None:
                 verdict.passed = False
@@ -252,6 +278,8 @@ class SimRun:
             "hlc_lights": self._apply_hlc_lights,
             "hlc_control": self._apply_hlc_control,
             "fault": self._apply_fault,
+            "planner": self._apply_planner,
+            "bridge_service": self._apply_bridge_service,
         }
         appliers[event.kind](event.values)
         for listener in self.on_event:
@@ -293,6 +321,21 @@ class SimRun:
             bool(values.get("remote_stop", False)), bool(values.get("re_enable", False))
         )
 
+    def _running_bridge(self) -> SimBridge:
+        if self.bridge is None:
+            raise ValueError(f'{self.scenario.name}: planner events need computer = "bridge"')
+        return self.bridge
+
+    def _apply_planner(self, values: dict[str, Any]) -> None:
+        self._running_bridge().plan(values)
+
+    def _apply_bridge_service(self, values: dict[str, Any]) -> None:
+        bridge = self._running_bridge()
+        if values.get("enable"):
+            bridge.enable()
+        if "remote_stop" in values:
+            bridge.remote_stop(bool(values["remote_stop"]))
+
     def _apply_fault(self, values: dict[str, Any]) -> None:
         BY_NAME[str(values["fault"])].apply(self, values)
 
@@ -320,7 +363,10 @@ class SimRun:
         outputs = self.runtime.outputs
         if outputs is None:
             return None
-        return observe(self.world, outputs)
+        observation = observe(self.world, outputs)
+        if self.bridge is None:
+            return observation
+        return replace(observation, bridge_unshown_drop=self.bridge.unshown_drop)
 
     def _observe(self, now: float) -> None:
         """After each pass of the loop: flags always; a full observation when one is due."""

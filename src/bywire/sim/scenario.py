@@ -29,6 +29,13 @@ Other actions: `hlc = { steering, throttle, brake, gear }` (the simulated higher
 movement command), `hlc_lights = { turn_left, ... }` (a LightsCommand's requests),
 `hlc_control = { remote_stop, re_enable }`. Actions are listed in ACTIONS, conditions in
 CONDITIONS.
+
+`computer = "bridge"` (default "hlc") makes the ROS 2 bridge's CAN side the higher-level
+computer (`sim/bridge_computer.py`), with its parameters in an optional `[bridge]` table (the
+node's ROS parameters, range-checked as the node checks them). It is driven by
+`planner = { speed_mps, curvature_per_m, rate_hz, stamp_lag_s, publishing }` (a simulated planner
+publishing set-points) and `bridge_service = { enable = true }` or `{ remote_stop = ... }` (the
+node's services); `hlc*` events then change nothing (the simulated computer is not running).
 """
 
 from __future__ import annotations
@@ -43,6 +50,7 @@ import tomli_w
 
 from bywire.config.reader import show, show_key, toml_type
 from bywire.errors import ConfigError
+from bywire.ros2.settings import settings_from
 from bywire.sim.conditions import CONDITIONS as CONDITION_TABLE
 from bywire.sim.faults import FAULTS as FAULT_TABLE
 from bywire.sim.scenario_values import (
@@ -68,6 +76,9 @@ SENSORS = {
 EVENT_KEYS = {"at_s", "label", "fault", "count", "load", "stall_s", "line", "keyed", *ACTIONS}
 EXPECT_KEYS = {"after", "within_s", "during_s", "at_s", "label", *CONDITIONS}
 DEFAULT_DURATION_S = 30.0
+COMPUTERS = ("hlc", "bridge")
+"""Which simulated higher-level computer sends the commands: `hal.sim.hlc`, or the bridge."""
+BRIDGE_ACTIONS = frozenset({"planner", "bridge_service"})
 
 
 @dataclass(frozen=True, slots=True)
@@ -115,6 +126,8 @@ class Scenario:
     realtime: bool = False  # paced by the wall clock (what the watchdog measures)
     authenticated: bool = False  # commands signed and verified (SecOC, docs/SECURITY.md)
     needs_sensors: tuple[str, ...] = ()  # SENSORS its expectations rely on
+    computer: str = "hlc"  # one of COMPUTERS
+    bridge: tuple[tuple[str, Any], ...] = ()  # the bridge's parameters ([bridge]), by name
 
 
 def _refuse(
@@ -247,6 +260,8 @@ def parse_scenario(text: str, origin: str) -> Scenario:
         "realtime",
         "authenticated",
         "needs_sensors",
+        "computer",
+        "bridge",
         "event",
         "expect",
     }
@@ -274,7 +289,28 @@ def parse_scenario(text: str, origin: str) -> Scenario:
         realtime=_realtime(document, events, origin),
         authenticated=_authenticated(document, origin),
         needs_sensors=_needs_sensors(document, origin),
+        **_computer(document, events, origin),
     )
+
+
+def _computer(document: dict[str, Any], events: list[Event], origin: str) -> dict[str, Any]:
+    """`computer` and `[bridge]`: the bridge's parameters checked as its node checks them, and
+    planner or service events only where the bridge runs."""
+    computer = document.get("computer", "hlc")
+    if computer not in COMPUTERS:
+        raise _refuse(origin, "computer", f"got {show(computer)}", set(COMPUTERS), str(computer))
+    bridge = _table(document.get("bridge", {}), origin, "bridge", "a table of bridge parameters")
+    if bridge and computer != "bridge":
+        raise _refuse(origin, "bridge", 'parameters of the bridge need computer = "bridge"')
+    try:
+        settings_from(bridge)
+    except ConfigError as error:
+        raise _refuse(origin, "bridge", str(error)) from None
+    for index, event in enumerate(events):
+        if event.kind in BRIDGE_ACTIONS and computer != "bridge":
+            raise _refuse(origin, f"event[{index}].{event.kind}", 'needs computer = "bridge"')
+    parameters = {k: tuple(v) if isinstance(v, list) else v for k, v in bridge.items()}
+    return {"computer": computer, "bridge": tuple(sorted(parameters.items()))}
 
 
 def _needs_sensors(document: dict[str, Any], origin: str) -> tuple[str, ...]:
@@ -371,12 +407,21 @@ def scenario_toml(scenario: Scenario, header: str = "") -> str:
         document["authenticated"] = True
     if scenario.needs_sensors:
         document["needs_sensors"] = list(scenario.needs_sensors)
+    if scenario.computer != "hlc":
+        document["computer"] = scenario.computer
+    if scenario.bridge:
+        document["bridge"] = {key: _plain(value) for key, value in scenario.bridge}
     document.update(event=events, expect=expectations)
     comments = "".join(f"# {line}\n" if line else "#\n" for line in header.splitlines())
     return comments + tomli_w.dumps(document)
 
 
 _FAULT_VALUE_KEYS = ("fault", "count", "load", "stall_s", "line", "keyed")
+
+
+def _plain(value: Any) -> Any:
+    """A parameter as TOML writes it (a map's tuple as an array)."""
+    return list(value) if isinstance(value, tuple) else value
 
 
 def load_scenario(path: Path) -> Scenario:

@@ -75,6 +75,15 @@ ACTION_VALUES: dict[str, dict[str, Check]] = {
     "hlc": {"steering": NORM, "throttle": UNIT, "brake": UNIT, "gear": one_of(GEARS)},
     "hlc_lights": dict.fromkeys(LIGHT_REQUESTS, flag),
     "hlc_control": {"remote_stop": flag, "re_enable": flag},
+    # with `computer = "bridge"`: the planner feeding the ROS 2 bridge, and its service calls
+    "planner": {
+        "speed_mps": number(-30.0, 30.0, "m/s"),  # cmd_vel's linear.x
+        "curvature_per_m": number(-10.0, 10.0, "1/m"),  # angular.z / linear.x, left > 0
+        "rate_hz": number(1.0, 100.0, "Hz"),
+        "stamp_lag_s": number(-2.0, 2.0, "s"),  # each header stamp this old when it arrives
+        "publishing": flag,  # false: the planner falls silent
+    },
+    "bridge_service": {"enable": flag, "remote_stop": flag},  # ~/enable, ~/remote_stop
 }
 """Every key of every action, with what its value may be."""
 

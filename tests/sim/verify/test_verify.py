@@ -11,6 +11,7 @@ from __future__ import annotations
 
 from dataclasses import replace
 from pathlib import Path
+from typing import Any
 
 import pytest
 
@@ -208,3 +209,39 @@ def test_a_dac_failure_too_short_to_latch_demands_no_power_off_during_a_controll
     # a failure that lasts still demands category 0, and the controller gives it
     lasting = run_campaign(default_sim_config(), steps[:-1])
     assert lasting.findings == [], lasting.findings[:1]
+
+
+def test_a_bridge_campaigns_finding_is_shrunk_to_a_bridge_scenario_that_fails_on_replay(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """A bridge that drops every other live set-point without a word (B3), planted: a drawn
+    bridge campaign finds it, the shrinker keeps the bridge and the planner, and the scenario
+    written says `computer = "bridge"` and fails its expectation when replayed."""
+    from bywire.ros2 import link  # noqa: PLC0415
+    from bywire.ros2.bridge import bridge_step  # noqa: PLC0415
+    from bywire.sim.runner import SimRun  # noqa: PLC0415
+    from bywire.sim.verify.draw_bridge import draw_bridge_campaign  # noqa: PLC0415
+    from bywire.sim.verify.engine import Shrinker, reproduction  # noqa: PLC0415
+
+    periods = [0]
+
+    def drops(state: Any, inputs: Any, settings: Any) -> Any:
+        periods[0] += 1
+        if periods[0] % 2 and inputs.setpoint is not None:
+            inputs = replace(inputs, setpoint=None)
+        return bridge_step(state, inputs, settings)
+
+    monkeypatch.setattr(link, "bridge_step", drops)
+    steps = draw_bridge_campaign(0, 0, campaign_s=4.0)
+    outcome = run_campaign(ROBOT, steps)
+    found = next(f for f in outcome.findings if f.invariant == "B3")
+    shrunk = Shrinker(ROBOT, "B3", max_runs=40).shrink(steps, found.time_s)
+    assert len(shrunk) < len(steps)
+    assert {"bridge_enable", "planner_link"} <= {step.action for step in shrunk}
+    final = run_campaign(ROBOT, shrunk)
+    finding = next(f for f in final.findings if f.invariant == "B3")
+    written = scenario_toml(reproduction(ROBOT, shrunk, finding, "b3").scenario)
+    assert 'computer = "bridge"' in written
+    assert "bridge_unshown_drop = false" in written
+    record = SimRun(ROBOT, parse_scenario(written, "b3.toml")).run()
+    assert [verdict.passed for verdict in record.verdicts] == [False]

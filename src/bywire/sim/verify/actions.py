@@ -5,8 +5,9 @@ Each step waits its delay, then does one thing an operator, the higher-level com
 world can do: move a stick or a switch (or arm deliberately), bounce the switch, lose, garble or
 fake the RC link, send, corrupt or stop CAN commands, pull the CAN cable or flood the bus, ask
 for a remote stop or a re-enable, let a second node send on the computer's id, make DAC writes
-fail or hang, kill the wheel-speed sensor, break a brake or the steering. A new action is a row
-here.
+fail or hang, kill the wheel-speed sensor, break a brake or the steering. With the ROS 2 bridge
+as the computer (a bridge campaign): what its planner publishes (speed, curvature, rate, how old
+its stamps are, silence) and its service calls (`BRIDGE_ACTIONS`). A new action is a row here.
 """
 
 from __future__ import annotations
@@ -164,7 +165,32 @@ def _stall(events: StepEvents, at_s: float, length: str) -> None:
 
 
 def _nothing(_events: StepEvents, _at_s: float, _value: Any) -> None:
-    """The whole campaign is authenticated (`compile_steps`)."""
+    """The whole campaign is authenticated, or has the bridge's parameters (`compile_steps`)."""
+
+
+# --- the ROS 2 bridge as the computer: its planner and its services ----------------------------
+
+
+def _planner(key: str) -> Write:
+    def write(events: StepEvents, at_s: float, value: Any) -> None:
+        events.emit(Event(at_s, "planner", {key: value}))
+
+    return write
+
+
+def _service(key: str) -> Write:
+    def write(events: StepEvents, at_s: float, value: Any) -> None:
+        events.emit(Event(at_s, "bridge_service", {key: True if value is None else value}))
+
+    return write
+
+
+BRIDGE_PRESETS: dict[str, dict[str, Any]] = {
+    "default": {},
+    "short_ramp": {"stop_ramp_s": 0.3, "hold_brake": 0.1},  # both at the edge of their range
+    "fast": {"max_speed_mps": 3.0, "stop_ramp_s": 0.3, "hold_brake": 0.1},
+}
+"""The bridge's parameters a bridge campaign runs with: its defaults, or legal edges."""
 
 
 FRAMES = range(5, 41)
@@ -240,6 +266,18 @@ ACTIONS: tuple[Action, ...] = (
     Action("ebrake", (False,), _fault("ebrake_fail")),  # the spring brake fails to engage
     Action("servo", (False, True), _either("servo_free", "servo_stuck")),  # stuck, or free
     Action("encoder", (False,), _fault("encoder_fail")),  # the steering encoder gives nothing
+    # the ROS 2 bridge is the computer (drawn at a bridge campaign's start), with these parameters
+    Action("bridge", tuple(BRIDGE_PRESETS), _nothing),
+    # its planner: cmd_vel's speed, the curvature (1/m, left > 0), silent or publishing again,
+    # each stamp this old on arrival (below zero: ahead), this many messages a second
+    Action("planner_speed", (0.0, 0.5, 1.0, 2.0, 3.0, -0.5), _planner("speed_mps")),
+    Action("planner_turn", (0.0, -0.5, 0.5), _planner("curvature_per_m")),
+    Action("planner_link", (False, True), _planner("publishing")),
+    Action("planner_lag", (0.0, 0.1, 0.17, 0.3, -0.3), _planner("stamp_lag_s")),
+    Action("planner_rate", (20.0, 10.0, 50.0), _planner("rate_hz")),
+    # its services: ~/enable, ~/remote_stop
+    Action("bridge_enable", (None,), _service("enable")),
+    Action("bridge_remote_stop", (False, True), _service("remote_stop")),
 )
 # fmt: on
 BY_NAME: dict[str, Action] = {action.name: action for action in ACTIONS}
@@ -247,6 +285,10 @@ VOCABULARY: dict[str, Sequence[object]] = {action.name: action.values for action
 """Every action a step may name, with the values it may take (a range: any whole number in it)."""
 OPERATOR = frozenset({"arm", "flick", "handover", "rc_throttle", "can_throttle"})
 """What an operator does: drawn more often than any fault, so the robot is mostly driving."""
+BRIDGE_ACTIONS = frozenset(
+    name for name in BY_NAME if name == "bridge" or name.startswith(("planner_", "bridge_"))
+)
+"""The actions of a bridge campaign's computer: a campaign with any of them runs the bridge."""
 
 
 def compile_steps(steps: Iterable[Step], robot: RobotConfig, name: str = "campaign") -> Scenario:
@@ -260,6 +302,9 @@ def compile_steps(steps: Iterable[Step], robot: RobotConfig, name: str = "campai
         events.flush(at_s)
         BY_NAME[step.action].write(events, at_s, step.value)
     events.flush(float("inf"))
+    bridge = any(step.action in BRIDGE_ACTIONS for step in steps)
+    presets = [step.value for step in steps if step.action == "bridge"]
+    parameters = BRIDGE_PRESETS[str(presets[0])] if presets else {}
     end_s = max((event.at_s for event in events.events), default=0.0)
     end_s = max(end_s, sum(step.delay_s for step in steps))
     return Scenario(
@@ -269,4 +314,6 @@ def compile_steps(steps: Iterable[Step], robot: RobotConfig, name: str = "campai
         events=tuple(events.events),
         expectations=(),
         authenticated=any(step.action == "secoc" for step in steps),
+        computer="bridge" if bridge else "hlc",
+        bridge=tuple(sorted(parameters.items())),
     )

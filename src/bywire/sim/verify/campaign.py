@@ -25,6 +25,7 @@ from bywire.sim.runner import SimRun
 from bywire.sim.scenario import Scenario
 from bywire.sim.verify.actions import OPERATOR, TAIL_S, VOCABULARY, compile_steps
 from bywire.sim.verify.oracle import HazardOracle, OracleTiming
+from bywire.sim.verify.oracle.bridge import BridgeJudge
 from bywire.sim.verify.step_events import Step
 from bywire.sim.verify.supervisor_check import transition_labels
 from bywire.sim.verify.witness import OracleWitness
@@ -76,7 +77,17 @@ class Campaign:
         clock = cast(VirtualClock, run.world.clock)
         timing = OracleTiming.for_robot(self.robot)
         oracle = HazardOracle(run.world, timing=timing)
-        run.on_event.append(OracleWitness(oracle, clock, scenario.authenticated))
+        witness = OracleWitness(
+            oracle, clock, scenario.authenticated, bridge=run.bridge is not None
+        )
+        run.on_event.append(witness)
+        if run.bridge is not None:  # the bridge is the computer: its periods, and B1..B3
+            bridge = run.bridge
+            judge = BridgeJudge(oracle, bridge.settings, lambda: bridge.planner.publishing)
+            run.bridge.on_tick.extend((witness.bridge_period, judge.tick))
+            run.bridge.on_offer.append(
+                lambda offer: judge.offered(offer.at_s, offer.refusal is not None)
+            )
         run.on_exit.append(oracle.exited)
         log = TransitionLog(run)
         run.runtime.on_cycle.append(oracle.observe)

@@ -27,6 +27,7 @@ from dataclasses import replace
 from typing import cast
 
 from bywire.model import ControlMode, Gear
+from bywire.sim.verify.actions import BRIDGE_ACTIONS
 from bywire.sim.verify.campaign import OPERATOR, TAIL_S, VOCABULARY, Step
 from bywire.sim.verify.fault_rules import IMPOSTOR_PERIOD_S
 
@@ -36,6 +37,7 @@ DELAY_S = (0.005, 0.6)  # the wait before each step, drawn uniformly, to the mil
 WEIGHTS = {action: 4.0 if action in OPERATOR else 1.0 for action in VOCABULARY}
 WEIGHTS.update(ebrake=0.25, encoder=0.25)  # lasting faults: rarer, or the robot stays stopped
 WEIGHTS.update(line=0.1, secoc=0.0)  # a dead line ends the campaign; authentication opens one
+WEIGHTS.update(dict.fromkeys(BRIDGE_ACTIONS, 0.0))  # bridge campaigns' own (`draw_bridge.py`)
 SECOC_CHANCE = 0.25
 """A campaign runs with authenticated commands (a second sender without the key is harmless
 then, one with it is an impostor like any other)."""

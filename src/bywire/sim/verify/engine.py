@@ -1,9 +1,10 @@
 """`bywire verify`'s engine: random fault campaigns on one robot configuration, each judged by
 the hazard oracle; a failing one shrunk to a short scenario that replays the failure.
 
-Campaign `index` of seed `seed` is drawn from its own random source (`draw_campaign`), so a run
-is the same for a given seed and budget however many processes share it, and any one campaign
-can be drawn again alone (`sim/verify/draw.py` says how campaigns are drawn).
+Campaign `index` of seed `seed` is drawn from its own random source (`draw_bridge.draw_any`: a
+share of them are bridge campaigns, the ROS 2 bridge as the computer), so a run is the same for
+a given seed and budget however many processes share it, and any one campaign can be drawn again
+alone (`sim/verify/draw.py` and `draw_bridge.py` say how campaigns are drawn).
 """
 
 from __future__ import annotations
@@ -17,7 +18,7 @@ from typing import Any
 from bywire.config import RobotConfig, default_sim_config
 from bywire.sim.scenario import Expectation, Scenario
 from bywire.sim.verify.campaign import TAIL_S, VOCABULARY, Campaign, Step, compile_steps
-from bywire.sim.verify.draw import draw_campaign
+from bywire.sim.verify.draw_bridge import draw_any
 
 SHRINK_RUNS = 300  # at most this many campaigns to shrink one failure
 
@@ -43,6 +44,7 @@ class Outcome:
     checks: int
     findings: list[Finding]
     transitions: set[str]
+    bridge: bool = False  # a bridge campaign: the ROS 2 bridge was the computer (B1..B3 judged)
 
 
 def run_campaign(robot: RobotConfig, steps: list[Step], index: int = 0) -> Outcome:
@@ -58,6 +60,7 @@ def run_campaign(robot: RobotConfig, steps: list[Step], index: int = 0) -> Outco
         oracle.checks,
         findings,
         result.transitions,
+        result.scenario.computer == "bridge",
     )
 
 
@@ -78,7 +81,7 @@ class CampaignJob:
 
 def _run_one(job: CampaignJob, index: int) -> Outcome:
     robot = _ROBOT if _ROBOT is not None else default_sim_config()
-    return run_campaign(robot, draw_campaign(job.seed, index, job.campaign_s), index)
+    return run_campaign(robot, draw_any(job.seed, index, job.campaign_s), index)
 
 
 def _run_index(arguments: tuple[CampaignJob, int]) -> Outcome:

@@ -9,6 +9,8 @@ from typing import Any
 
 from bywire.hal.sim.clock import VirtualClock
 from bywire.model import ControlMode
+from bywire.ros2.bridge import Decision
+from bywire.ros2.link import Snapshot
 from bywire.runtime.watchdog import POLL_S as WATCHDOG_POLL_S
 from bywire.sim.faults import BY_NAME
 from bywire.sim.scenario import Event
@@ -31,18 +33,22 @@ class OracleWitness:
     re_enable: bool = False
     sender_started_s: float | None = None  # the newest start of the movement id's second sender
     harmful_sender: bool = False  # it is sending frames the controller can take (`second_sender`)
+    bridge: bool = False  # the computer is the ROS 2 bridge: its periods tell (`bridge_period`)
+    _sent: tuple[float, float] | None = None  # the bridge's last throttle and steering
 
     def __call__(self, event: Event, now: float) -> None:
         values = event.values
         match event.kind:
             case "rc":
                 self._rc(values, now)
+            case "hlc" | "hlc_control" if self.bridge:
+                return  # the simulated computer is not running: the bridge sends
             case "hlc":
                 self._hlc(values, now)
             case "hlc_control":
                 self._hlc_control(values, now)
-            case "hlc_lights":
-                return  # the lights demand nothing of the drive
+            case "hlc_lights" | "planner" | "bridge_service":
+                return  # the lights demand nothing of the drive; the bridge's periods tell
             case "fault":
                 BY_NAME[str(values["fault"])].expect(self, values, now)
             case _:
@@ -78,6 +84,17 @@ class OracleWitness:
         if re_enable and not self.re_enable:
             oracle.re_enable(now)
         self.re_enable = re_enable
+
+    def bridge_period(self, decision: Decision, _snapshot: Snapshot, now: float) -> None:
+        """One period of the bridge's link: what its frames ask for, told as the simulated
+        computer's events are (each change, as it goes out)."""
+        sent = (decision.pedals.throttle_norm, decision.steering_norm)
+        if sent != self._sent:
+            self._sent = sent
+            self._hlc({"throttle": sent[0], "steering": sent[1]}, now)
+        control = {"remote_stop": decision.remote_stop, "re_enable": decision.re_enable}
+        if (self.remote_stop, self.re_enable) != (decision.remote_stop, decision.re_enable):
+            self._hlc_control(control, now)
 
     # --- what the fault rules ask of it (`fault_rules.py`) ---------------------------------------
 

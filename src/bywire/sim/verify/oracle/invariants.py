@@ -1,5 +1,5 @@
-"""The output invariants of `docs/SAFETY.md` (H1..H9), the safe levels each asks for, and a
-violation of one."""
+"""The output invariants of `docs/SAFETY.md` (H1..H9), the ROS 2 bridge's (B1..B3, judged in
+bridge campaigns only), the safe levels each asks for, and a violation of one."""
 
 from __future__ import annotations
 
@@ -22,9 +22,16 @@ class Invariant(StrEnum):
     H7 = "H7"  # a stop stops
     H8 = "H8"  # the exit path never gives up
     H9 = "H9"  # a handover is bumpless for the steering
+    B1 = "B1"  # the bridge, its speed unknown or flagged: bounded throttle, a stop
+    B2 = "B2"  # the bridge's stop ramp brakes until standstill
+    B3 = "B3"  # every command the bridge refuses is counted, and /diagnostics warns
 
 
 INVARIANTS: tuple[Invariant, ...] = tuple(Invariant)
+OUTPUT_INVARIANTS = tuple(i for i in Invariant if i.startswith("H"))
+"""Judged in every campaign."""
+BRIDGE_INVARIANTS = tuple(i for i in Invariant if i.startswith("B"))
+"""Judged in bridge campaigns, besides `OUTPUT_INVARIANTS`."""
 
 _LEVELS: dict[Invariant, dict[str, Any]] = {
     Invariant.H1: {"ebrake_engaged": True, "throttle_volts_max": 0.0},
@@ -41,6 +48,9 @@ _LEVELS: dict[Invariant, dict[str, Any]] = {
         "throttle_volts_max": 0.0,
     },
     Invariant.H9: {},
+    Invariant.B1: {},  # with the speed it must not exceed (`speed_max_mps`)
+    Invariant.B2: {},  # with the standstill it must have reached (`speed_max_mps`)
+    Invariant.B3: {"bridge_unshown_drop": False},
 }
 SAFE_LEVELS: Mapping[Invariant, Mapping[str, Any]] = MappingProxyType(
     {invariant: MappingProxyType(levels) for invariant, levels in _LEVELS.items()}

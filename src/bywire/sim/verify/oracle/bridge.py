@@ -1,0 +1,228 @@
+"""The ROS 2 bridge's invariants (B1..B3 of `docs/SAFETY.md`), judged in bridge campaigns after
+every period of the bridge's link: on the vehicle's true speed and the output lines, on what the
+oracle was told (the switch, what is broken), and on the bridge's own outputs (its decision, and
+`/diagnostics` as the pure builder makes it from the link's snapshot).
+
+- **B1** With the speed flagged (the robot's reports carry SPEED_SENSOR_FAULT) or unknown (a
+  robot without the wheel-speed sensor) while the bridge drives, the true speed does not grow by
+  more than `GROWTH_MPS` from where it was when the flag arrived, and the robot reaches
+  standstill within the bound of B2 at the bridge's top speed (the speed it cannot rule out)
+  plus `FLAGGED_EXTRA_S`.
+- **B2** Once the planner's set-points run out (silent or aged out) while the robot rolls, the
+  true speed reaches standstill within the stated bound: `stop_ramp_s`, or the time full brake
+  needs from that speed by the bridge's own brake map when that is longer, plus two periods and
+  `STOP_MARGIN_S` for the brakes' lag; and the brake is never let down to the holding brake
+  while the robot still rolls.
+- **B3** Every set-point refused at arrival, and every period in which a live planner's
+  set-points are not used (the bridge stops although the planner keeps publishing), is
+  counted in `/diagnostics` (`commands_refused` grows), whose inputs status is WARN or ERROR,
+  within `REFUSAL_GRACE_S`.
+
+B1 and B2 are judged only while the bridge drives the robot: enabled, the switch at CAN, the
+motors enabled and the spring brake released (a stop of the controller's own is H1..H9's to
+judge), and B2 only with the hydraulic brake and the wheel sensor working (without them the
+stop is B1's or the controller's).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass
+
+from bywire.error_flags import ErrorFlag
+from bywire.model import ControlMode
+from bywire.ros2.bridge import Activity, Decision
+from bywire.ros2.diagnostics import Level, inputs_status
+from bywire.ros2.link import Snapshot
+from bywire.ros2.settings import BridgeSettings
+from bywire.sim.verify.oracle.invariants import Invariant, Violation
+from bywire.sim.verify.oracle.judge import HazardOracle
+from bywire.sim.verify.oracle.outputs import Outputs
+from bywire.teleop.frames import SEND_PERIOD_S
+
+GROWTH_MPS = 0.15  # B1: what the true speed may still gain once the flag has arrived
+ROLLING_MARGIN_MPS = 0.05  # above the bridge's standstill speed: the robot rolls
+STOP_MARGIN_S = 0.1  # B2: the brakes' lag, beyond the bound's two periods
+FLAGGED_EXTRA_S = 1.0  # B1: a flagged speed is not measured: a slower, open-loop stop
+REFUSAL_GRACE_S = 2 * SEND_PERIOD_S  # B3: /diagnostics shows a refusal within this
+
+
+def stop_bound_s(from_mps: float, settings: BridgeSettings) -> float:
+    """B2's bound from `from_mps`: the ramp's time, or full brake's by the bridge's brake map
+    when longer, plus two periods and the brakes' lag."""
+    full_brake_s = from_mps / max(settings.brake_decels_mps2)
+    return max(settings.stop_ramp_s, full_brake_s) + 2 * SEND_PERIOD_S + STOP_MARGIN_S
+
+
+@dataclass(slots=True)
+class Watch:
+    """A stop the bridge owes: since when, from which true speed, by when."""
+
+    since_s: float
+    from_mps: float
+    deadline_s: float
+
+
+@dataclass(slots=True)
+class Refusals:
+    """B3's memory: the newest offer, the count `/diagnostics` must reach and by when."""
+
+    last_offer_s: float | None = None
+    seen: int = 0  # commands_refused at the latest period
+    when_used: int = 0  # … at the latest period that drove with the planner's set-point
+    required: int = 0
+    due_s: float | None = None
+
+
+class BridgeJudge:
+    """Checks B1..B3 after every period of the bridge's link; violations go to `oracle`'s."""
+
+    def __init__(
+        self, oracle: HazardOracle, settings: BridgeSettings, publishing: Callable[[], bool]
+    ) -> None:
+        """`publishing`: whether the planner publishes now (at its rate, 10 Hz or more)."""
+        self.oracle = oracle
+        self.settings = settings
+        self.publishing = publishing
+        self.flagged: Watch | None = None  # B1
+        self.stopping: Watch | None = None  # B2
+        self.brake_norm = 0.0  # the brake the bridge asked for in the period before
+        self.activity = Activity.DISENGAGED
+        self.refusals = Refusals()
+        self.last_tick_s: float | None = None
+
+    # --- what the planner offered ------------------------------------------------------------
+
+    def offered(self, at_s: float, refused: bool) -> None:
+        refusals = self.refusals
+        refusals.last_offer_s = at_s
+        if refused:
+            refusals.required = max(refusals.required, refusals.seen) + 1
+            if refusals.due_s is None:
+                refusals.due_s = at_s + REFUSAL_GRACE_S
+
+    # --- one period of the link --------------------------------------------------------------
+
+    def tick(self, decision: Decision, snapshot: Snapshot, now: float) -> None:
+        if self.last_tick_s is not None and now - self.last_tick_s > 2 * SEND_PERIOD_S:
+            self.refusals.due_s = None  # the link was silent: it had no period to show it in
+        self.last_tick_s = now
+        out = Outputs.read(self.oracle.world)
+        driving = (
+            snapshot.engaged
+            and self.oracle.switch is ControlMode.CAN
+            and out.enable
+            and out.released
+        )
+        found = [
+            self._b1(snapshot, out, driving, now),
+            self._b2(decision, out, driving, now),
+            self._b3(decision, snapshot, now),
+        ]
+        self.oracle.violations.extend(v for v in found if v is not None)
+        self.brake_norm, self.activity = decision.pedals.brake_norm, decision.activity
+
+    def _rolling(self, out: Outputs) -> bool:
+        return abs(out.speed_mps) > self.settings.standstill_speed_mps + ROLLING_MARGIN_MPS
+
+    def _b1(self, snapshot: Snapshot, out: Outputs, driving: bool, now: float) -> Violation | None:
+        flagged = bool(snapshot.status.flags & ErrorFlag.SPEED_SENSOR_FAULT)
+        fitted = self.oracle.plant.sensors_fitted
+        if not ((flagged or not fitted) and driving):
+            self.flagged = None
+            return None
+        why = "flagged (SPEED_SENSOR_FAULT)" if fitted else "unknown (no wheel-speed sensor)"
+        speed = abs(out.speed_mps)
+        if self.flagged is None:
+            settings = self.settings
+            bound_s = stop_bound_s(settings.max_speed_mps, settings) + FLAGGED_EXTRA_S
+            self.flagged = Watch(now, speed, now + bound_s)
+            return None
+        watch = self.flagged
+        if speed > watch.from_mps + GROWTH_MPS:
+            self.flagged = None
+            limit = watch.from_mps + GROWTH_MPS
+            detail = (
+                f"the speed {why} since {watch.since_s:.3f} s and the bridge driving:"
+                f" true speed {speed:.2f} m/s, up from {watch.from_mps:.2f}"
+            )
+            return _speed_violation(Invariant.B1, now, detail, out.speed_mps, limit)
+        if (
+            now > watch.deadline_s
+            and self._rolling(out)
+            and not self.oracle.plant.hydrobrake_failed
+        ):
+            self.flagged = None
+            detail = (
+                f"the speed {why} since {watch.since_s:.3f} s: still rolling at"
+                f" {speed:.2f} m/s after {now - watch.since_s:.2f} s"
+            )
+            limit = self.settings.standstill_speed_mps + ROLLING_MARGIN_MPS
+            return _speed_violation(Invariant.B1, now, detail, out.speed_mps, limit)
+        return None
+
+    def _b2(self, decision: Decision, out: Outputs, driving: bool, now: float) -> Violation | None:
+        plant = self.oracle.plant
+        stopping = decision.activity is Activity.STOPPING
+        judged = driving and stopping and not (plant.hydrobrake_failed or plant.sensor_dead)
+        if not judged or not self._rolling(out):
+            self.stopping = None
+            return None
+        speed = abs(out.speed_mps)
+        if self.stopping is None:
+            if self.activity is not Activity.DRIVING:
+                return None  # not the planner falling silent: disengaged before, or a watch ended
+            self.stopping = Watch(now, speed, now + stop_bound_s(speed, self.settings))
+            return None
+        watch = self.stopping
+        hold = self.settings.hold_brake
+        limit = self.settings.standstill_speed_mps + ROLLING_MARGIN_MPS
+        if decision.pedals.brake_norm <= hold < self.brake_norm:
+            self.stopping = None
+            detail = (
+                f"the stop ramp from {watch.from_mps:.2f} m/s (since {watch.since_s:.3f} s) let"
+                f" the brake down to the holding brake {hold:g} with the robot at {speed:.2f} m/s"
+            )
+            return _speed_violation(Invariant.B2, now, detail, out.speed_mps, limit)
+        if now > watch.deadline_s:
+            self.stopping = None
+            detail = (
+                f"the planner's set-points ran out at {watch.since_s:.3f} s at"
+                f" {watch.from_mps:.2f} m/s: still rolling at {speed:.2f} m/s after"
+                f" {now - watch.since_s:.2f} s (bound {watch.deadline_s - watch.since_s:.2f} s)"
+            )
+            return _speed_violation(Invariant.B2, now, detail, out.speed_mps, limit)
+        return None
+
+    def _b3(self, decision: Decision, snapshot: Snapshot, now: float) -> Violation | None:
+        refusals, health = self.refusals, snapshot.health
+        live = refusals.last_offer_s is not None and self.publishing()
+        if decision.activity is Activity.DRIVING:
+            refusals.when_used = health.refused
+        elif snapshot.engaged and decision.activity is Activity.STOPPING and live:
+            refusals.required = max(refusals.required, refusals.when_used + 1)
+            if refusals.due_s is None:
+                refusals.due_s = now + REFUSAL_GRACE_S
+        refusals.seen = health.refused
+        level = inputs_status(health, snapshot.robot_status_report).level
+        if health.refused >= refusals.required and level in (Level.WARN, Level.ERROR):
+            refusals.due_s = None
+            return None
+        if refusals.due_s is None or now <= refusals.due_s + 1e-9:
+            return None
+        detail = (
+            f"commands refused or unused (a live planner, the bridge {decision.activity.name})"
+            f" but /diagnostics shows commands_refused={health.refused}"
+            f" ({refusals.required} due) and its inputs {level.name}"
+        )
+        refusals.due_s, refusals.required = None, health.refused  # one finding per episode
+        return Violation.of(Invariant.B3, now, detail)
+
+
+def _speed_violation(
+    invariant: Invariant, now: float, detail: str, speed_mps: float, limit_mps: float
+) -> Violation:
+    """A violation expecting the true speed within `limit_mps` of standstill, either way."""
+    bound = round(limit_mps, 3)
+    expected = {"speed_max_mps": bound} if speed_mps >= 0 else {"speed_min_mps": -bound}
+    return Violation.of(invariant, now, detail, **expected)
