@@ -34,6 +34,9 @@ EDGE_WEIGHTS = {"low": 3.0, "high": 3.0, "base": 2.0, "interior": 2.0}
 """How often each kind of value is drawn for a key: the ends most of all."""
 INSIDE_FRACTION = 1e-4
 """An open end is drawn just inside it, by this fraction of the range."""
+MAX_HALVINGS = 6
+"""A refused drawn value is moved half way back to the base value at most this often, then put
+back: the edge of what the other keys allow is found to 1/64 of the way."""
 UNBOUNDED_FACTOR = 10.0
 """A range without a high end is drawn up to this many times the base value."""
 
@@ -151,10 +154,12 @@ _DRAWERS: dict[str, Callable[[KeyRead, str, random.Random], object]] = {
 
 @dataclass(frozen=True, slots=True)
 class Repair:
-    """One drawn value put back to the base file's, and the refusal that asked for it."""
+    """One drawn value moved toward the base file's until the loader took it (`kept`: the base
+    value itself, or the nearest to the draw found by halving), and the refusal that moved it."""
 
     key: str
     drawn: object
+    kept: object
     base: object
     rule: str
 
@@ -214,8 +219,10 @@ def draw_robot(schema: Schema, seed: int, index: int) -> DrawnRobot:
         value = draw_value(read, rng)
         if value != read.value and not (isinstance(value, list) and tuple(value) == read.value):
             drawn[dotted(read.parts)] = (read, value)
-    repairs: list[Repair] = []
+    first = {name: value for name, (_read, value) in drawn.items()}
+    repairs: dict[str, Repair] = {}
     refusals: Counter[str] = Counter()
+    halvings: Counter[str] = Counter()
     while True:
         data = _copy(schema.base)
         for read, value in drawn.values():
@@ -226,12 +233,33 @@ def draw_robot(schema: Schema, seed: int, index: int) -> DrawnRobot:
         for key, message in entries:
             refusals[rule_of(message)] = 1  # a rule counts once a file
             name = _culprit(drawn, key, message, rng)
-            if name is not None:
-                read, value = drawn.pop(name)
-                repairs.append(Repair(name, value, read.value, rule_of(message)))
-        # every round puts back at least one drawn key, so this ends at the base file at worst
+            if name is None:
+                continue
+            read, value = drawn.pop(name)
+            halvings[name] += 1
+            nearer = _toward(read, value) if halvings[name] <= MAX_HALVINGS else read.value
+            if nearer != read.value:
+                drawn[name] = (read, nearer)
+            repairs[name] = Repair(name, first[name], nearer, read.value, rule_of(message))
+        # every round moves a drawn key toward the base value, and after MAX_HALVINGS onto it:
+        # this ends, at the base file at worst
     changed = {name: (read.value, value) for name, (read, value) in drawn.items()}
-    return DrawnRobot(index, robot_text(data), config, changed, repairs, refusals)
+    return DrawnRobot(index, robot_text(data), config, changed, list(repairs.values()), refusals)
+
+
+def _toward(read: KeyRead, value: object) -> object:
+    """Half way from `value` back to the base value (a flag or a last step: the base value), so
+    a refused edge is traded for the nearest value the other keys allow."""
+    base = read.value
+    if read.kind == "number" and isinstance(value, float | int) and isinstance(base, float | int):
+        middle = round(base + (value - base) / 2, 9)
+        return middle if middle != value else base
+    if read.kind == "integer" and isinstance(value, int) and isinstance(base, int):
+        return base + int((value - base) / 2)
+    if read.kind == "integers" and isinstance(value, list) and isinstance(base, tuple):
+        shift = int((value[0] - base[0]) / 2)
+        return [item + shift for item in base] if shift else base
+    return base
 
 
 def _culprit(drawn: Mapping[str, object], key: str, message: str, rng: random.Random) -> str | None:
