@@ -43,10 +43,18 @@ from bywire.sim.verify.engine import (
     Outcome,
     Reproduction,
     campaign_outcomes,
+    run_campaign,
     shrink_failure,
 )
 from bywire.sim.verify.oracle import INVARIANTS
-from bywire.sim.verify.robots import DrawnRobot, Schema, draw_robots, toml_value
+from bywire.sim.verify.robots import (
+    DrawnRobot,
+    Schema,
+    draw_robots,
+    keys_needed,
+    robot_with,
+    toml_value,
+)
 from bywire.sim.verify.supervisor_check import MONITOR_CAUSES, TRANSITIONS, transitions_naming
 from bywire.textfile import read_text
 
@@ -178,7 +186,7 @@ def run(args: argparse.Namespace) -> int:
     console = Console(stderr=True)
     show = sys.stderr.isatty() and not args.json
     budget = args.budget if args.budget is not None or args.duration else DEFAULT_BUDGET
-    summary = verify_robot(
+    summary, _ = verify_robot(
         robot,
         source=source,
         config=args.config,
@@ -205,9 +213,9 @@ def verify_robot(
     budget: int | None,
     console: Console,
     show: bool,
-) -> dict[str, Any]:
+) -> tuple[dict[str, Any], list[Reproduction]]:
     """`budget` campaigns of `args.seed` on `robot` (or campaigns until `args.duration` is
-    up), every failure shrunk and written to `out`: the summary."""
+    up), every failure shrunk and written to `out`: the summary, and the shrunk failures."""
     until = None if args.duration is None else time.monotonic() + args.duration
     job = CampaignJob(args.seed, args.campaign_s)
     tally = Tally()
@@ -222,7 +230,10 @@ def verify_robot(
     reproductions = _shrink_all(
         robot, tally, seed=args.seed, config=config, out=out, console=console, show=show
     )
-    return _summary(source, args, tally, wall_s, reproductions, cannot_happen=_cannot_happen(robot))
+    summary = _summary(
+        source, args, tally, wall_s, reproductions, cannot_happen=_cannot_happen(robot)
+    )
+    return summary, reproductions
 
 
 def _shrink_all(
@@ -395,7 +406,7 @@ def run_drawn(args: argparse.Namespace) -> int:
                     highlight=False,
                 )
             out = args.out / f"robot-{drawn.index:02d}-failures"
-            summary = verify_robot(
+            summary, found = verify_robot(
                 drawn.robot,
                 source=str(path),
                 config=path,
@@ -405,7 +416,12 @@ def run_drawn(args: argparse.Namespace) -> int:
                 console=console,
                 show=show,
             )
-            files.append(_file_entry(drawn, path, summary))
+            entry = _file_entry(drawn, path, summary)
+            for failure, reproduction in zip(entry["failures"], found, strict=True):
+                failure.update(
+                    _keys_needed(schema, drawn, reproduction, out, console=console, show=show)
+                )
+            files.append(entry)
             if show:
                 found = sum(summary["violations"].values())
                 console.print(
@@ -492,6 +508,45 @@ def _file_entry(drawn: DrawnRobot, path: Path, summary: dict[str, Any]) -> dict[
     }
 
 
+def _keys_needed(
+    schema: Schema,
+    drawn: DrawnRobot,
+    reproduction: Reproduction,
+    out: Path,
+    *,
+    console: Console,
+    show: bool,
+) -> dict[str, Any]:
+    """Which of the file's drawn keys the shrunk failure needs, and the base file with only
+    those drawn, written beside the scenario (the scenario replays on it)."""
+    invariant = reproduction.finding.invariant
+
+    def fails(robot: RobotConfig) -> bool:
+        outcome = run_campaign(robot, reproduction.steps)
+        return any(finding.invariant == invariant for finding in outcome.findings)
+
+    if show:
+        console.print(f"  finding the keys {invariant} needs ...", highlight=False)
+    changed = {key: new for key, (_old, new) in drawn.changed.items()}
+    needed = keys_needed(schema, changed, fails)
+    minimal = robot_with(schema, needed)
+    assert minimal is not None  # every key put back kept the file loading
+    scenario = Path(reproduction.notes[0])
+    path = out / f"{scenario.stem}-robot.toml"
+    lines = [
+        f"The base file ({drawn.index} of `bywire verify --draw-robots`) with only the drawn"
+        f" keys {invariant} needs: put any one back and it no longer fails.",
+        f"Replay: bywire sim --scenario {scenario} --config {path}",
+    ]
+    header = "\n".join(f"# {line}" for line in lines)
+    path.write_text(f"{header}\n\n{minimal[0]}", encoding="utf-8")
+    return {
+        "keys_needed": {key: _plain(value) for key, value in needed.items()},
+        "robot": str(path),
+        "replays": fails(minimal[1]),
+    }
+
+
 def _plain(value: object) -> object:
     return list(value) if isinstance(value, tuple) else value
 
@@ -531,6 +586,12 @@ def _print_drawn(console: Console, result: dict[str, Any]) -> None:
             console.print(
                 f"    {failure['invariant']} at {failure['time_s']:.3f} s:"
                 f" {escape(failure['detail'])}; {failure['scenario']}",
+                highlight=False,
+            )
+            needed = ", ".join(f"{k} = {_show(v)}" for k, v in failure["keys_needed"].items())
+            console.print(
+                f"      keys it needs: {escape(needed) or 'none (the base file fails too)'};"
+                f" {failure['robot']}",
                 highlight=False,
             )
         changed = ", ".join(

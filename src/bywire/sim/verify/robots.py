@@ -285,6 +285,50 @@ def draw_robots(schema: Schema, seed: int, count: int) -> Iterator[DrawnRobot]:
         yield draw_robot(schema, seed, index)
 
 
+# --- which drawn keys a failure needs ---------------------------------------------------------
+
+
+def robot_with(schema: Schema, changed: Mapping[str, object]) -> tuple[str, RobotConfig] | None:
+    """The base file with only `changed` (key: value) drawn, as text and robot; None if the
+    loader refuses it."""
+    reads = {dotted(read.parts): read for read in schema.keys}
+    data = _copy(schema.base)
+    for name, value in changed.items():
+        _set(data, reads[name].parts, value)
+    config, entries = _problems(data)
+    return None if entries else (robot_text(data), config)
+
+
+def keys_needed(
+    schema: Schema,
+    changed: Mapping[str, object],
+    fails: Callable[[RobotConfig], bool],
+) -> dict[str, object]:
+    """The drawn keys (of `changed`, key: value) a failure needs: keys are put back to the base
+    values in chunks (halves, quarters, … single ones, as the campaign shrinker drops steps),
+    and a chunk stays back when the file still loads and `fails` still holds; single keys again
+    until none goes. Every key left is one without which this failure goes (or the file no
+    longer loads)."""
+    needed = list(changed)
+
+    def still_fails(keys: list[str]) -> bool:
+        robot = robot_with(schema, {key: changed[key] for key in keys})
+        return robot is not None and fails(robot[1])
+
+    size = max(1, len(needed) // 2)
+    while True:
+        start, dropped = 0, False
+        while start < len(needed):
+            trial = needed[:start] + needed[start + size :]
+            if still_fails(trial):
+                needed, dropped = trial, True
+            else:
+                start += size
+        if size == 1 and not dropped:
+            return {key: changed[key] for key in needed}
+        size = max(1, size // 2)
+
+
 # --- the file as TOML ---------------------------------------------------------------------------
 
 
