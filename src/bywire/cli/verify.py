@@ -598,7 +598,7 @@ def _print_drawn(console: Console, result: dict[str, Any]) -> None:
             f"{key} = {_show(new)}" for key, (_old, new) in entry["changed"].items()
         )
         console.print(f"    keys differing from the base: {escape(changed)}", highlight=False)
-    if result["interrupted"]:
-        console.print("  [yellow]interrupted[/yellow]: the files above are all that ran")
     verdict = "[red]VIOLATIONS[/red]" if result["violating_files"] else "[green]clean[/green]"
+    if result["interrupted"]:
+        verdict = f"[yellow]interrupted[/yellow] after {result['files_verified']} files, {verdict}"
     console.print(f"  result: {verdict}")
