@@ -37,13 +37,13 @@ from bywire.config import RobotConfig, default_sim_config, load_config
 from bywire.config.loader import DEFAULT_SIM_RESOURCE
 from bywire.hal.hardware import sensors_fitted
 from bywire.sim.scenario import scenario_toml
+from bywire.sim.verify.campaign import Campaign
 from bywire.sim.verify.draw import CAMPAIGN_S
 from bywire.sim.verify.engine import (
     CampaignJob,
     Outcome,
     Reproduction,
     campaign_outcomes,
-    run_campaign,
     shrink_failure,
 )
 from bywire.sim.verify.oracle import INVARIANTS
@@ -522,8 +522,10 @@ def _keys_needed(
     invariant = reproduction.finding.invariant
 
     def fails(robot: RobotConfig) -> bool:
-        outcome = run_campaign(robot, reproduction.steps)
-        return any(finding.invariant == invariant for finding in outcome.findings)
+        """The written scenario, as `bywire sim --scenario` replays it, breaks the invariant
+        again on `robot` (the oracle watching)."""
+        result = Campaign(robot).run_scenario(reproduction.scenario)
+        return any(v.invariant == invariant for v in result.oracle.violations)
 
     if show:
         console.print(f"  finding the keys {invariant} needs ...", highlight=False)
