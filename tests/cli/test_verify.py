@@ -6,14 +6,21 @@ from __future__ import annotations
 
 import json
 from pathlib import Path
+from typing import Any
 
 import pytest
 
 from bywire.cli.main import main
+from bywire.config import parse_config, sections
+from bywire.config.reader import Interval, KeyRead
 from bywire.sim.verify.draw_bridge import is_bridge_campaign
 from bywire.sim.verify.oracle import INVARIANTS
+from bywire.sim.verify.robots import Schema, dotted, draw_robot
 from bywire.sim.verify.supervisor_check import MONITOR_CAUSES, TRANSITIONS, transitions_naming
 from tests.system.old_bugs import OLD_BUGS
+
+PLANTED_TRIES = 4
+SIM = Path(__file__).resolve().parents[2] / "src" / "bywire" / "defaults" / "sim.toml"
 
 
 def _verify(capsys: pytest.CaptureFixture[str], *args: str) -> tuple[int, dict[str, object]]:
@@ -182,3 +189,117 @@ def test_bridge_campaigns_run_and_are_judged_in_a_small_budget(
 def _text(capsys: pytest.CaptureFixture[str]) -> str:
     main(["verify", "--budget", "2", "--campaign-s", "2", "--seed", "21", "--jobs", "1"])
     return capsys.readouterr().out
+
+
+# --- --draw-robots: is any file this loader accepts unsafe? --------------------------------------
+
+
+def _drawn_run(capsys: pytest.CaptureFixture[str], *args: str) -> tuple[int, dict[str, Any]]:
+    status = main(["verify", "--json", "--jobs", "1", *args])
+    return status, json.loads(capsys.readouterr().out)
+
+
+def test_a_small_draw_verifies_each_file_drawn_to_the_edges_of_the_loaders_ranges(
+    capsys: pytest.CaptureFixture[str], tmp_path: Path
+) -> None:
+    """The CI-sized search: 3 files, 5 campaigns each."""
+    status, result = _drawn_run(
+        capsys, "--draw-robots", "3", "--budget", "15", "--seed", "0", "--campaign-s", "2",
+        "--out", str(tmp_path),
+    )  # fmt: skip
+    assert status == (1 if result["violating_files"] else 0)
+    assert (result["files_verified"], result["campaigns"], result["interrupted"]) == (3, 15, False)
+    assert "backend" in result["keys_kept"]
+    assert result["keys_drawn"] > 70
+    assert result["files_refused"] >= 1
+    assert result["refusals_repaired"]
+    schema = {dotted(read.parts): read for read in Schema.of(SIM.read_text()).keys}
+    texts = set()
+    for entry in result["files"]:
+        assert entry["campaigns"] == 5
+        path = Path(entry["file"])
+        assert path.parent == tmp_path
+        text = path.read_text()
+        texts.add(text)
+        robot = parse_config(text, str(path))  # every drawn file loads
+        assert robot.backend == "sim"
+        changed = entry["changed"]
+        assert len(changed) >= 30
+        for key, (base, new) in changed.items():
+            assert f"#   {key} = " in text  # the file says which keys differ
+            assert schema[key].value == (tuple(base) if isinstance(base, list) else base)
+            assert new != base
+        at_an_end = [key for key, (_base, new) in changed.items() if _at_an_end(schema[key], new)]
+        assert len(at_an_end) >= 15, at_an_end
+        assert set(entry["violations"]) == {f["invariant"] for f in entry["failures"]}
+    assert len(texts) == 3
+
+
+def _at_an_end(read: KeyRead, value: object) -> bool:
+    allowed = read.allowed
+    if isinstance(allowed, range):
+        values = value if isinstance(value, list) else [value]
+        return allowed.start in values or allowed[-1] in values
+    if isinstance(allowed, Interval):
+        assert isinstance(value, float | int)
+        near = (allowed.high - allowed.low) * 1e-3
+        return value - allowed.low <= near or allowed.high - value <= near
+    return read.kind == "flag"
+
+
+def test_a_planted_unsafe_range_is_found_with_the_key_it_needs(
+    capsys: pytest.CaptureFixture[str], monkeypatch: pytest.MonkeyPatch, tmp_path: Path
+) -> None:
+    """A loader that accepts the simulated receiver's frame period down to 1 ms again (row 58:
+    faster than the IBUS line carries): the drawer reads the widened range from the loader
+    itself, draws its new end, and verify finds the stale frames' late stop, naming
+    `sim.rc_frame_period_s` among the keys it needs. Files are drawn with many keys at once, so
+    one may hide it (a robot that never drives); the first of a few such files finds it."""
+    monkeypatch.setattr(sections, "RC_FRAME_PERIOD_S", Interval(0.001, 0.1, "s"))
+    schema = Schema.of(SIM.read_text())
+    planted = [
+        seed
+        for seed in range(100)
+        if draw_robot(schema, seed, 1).changed.get("sim.rc_frame_period_s", (0, 0))[1] == 0.001
+    ]
+    found: list[dict[str, Any]] = []
+    for seed in planted[:PLANTED_TRIES]:
+        out = tmp_path / str(seed)
+        status, result = _drawn_run(
+            capsys, "--draw-robots", "1", "--budget", "2", "--campaign-s", "5",
+            "--seed", str(seed), "--out", str(out),
+        )  # fmt: skip
+        [entry] = result["files"]
+        assert status == (1 if entry["violations"] else 0)
+        found = [f for f in entry["failures"] if "sim.rc_frame_period_s" in f["keys_needed"]]
+        if found:
+            break
+    assert found, planted[:PLANTED_TRIES]
+    failure = found[0]
+    assert failure["keys_needed"]["sim.rc_frame_period_s"] == 0.001
+    assert len(failure["keys_needed"]) < len(entry["changed"]) // 4
+    assert failure["replays"]
+    assert result["violating_files"] == [entry["file"]]
+    scenario, robot = Path(failure["scenario"]), Path(failure["robot"])
+    assert main(["sim", "--scenario", str(scenario), "--config", str(robot), "--json"]) == 1
+    capsys.readouterr()
+
+
+def test_draw_robots_takes_a_budget_not_a_duration(capsys: pytest.CaptureFixture[str]) -> None:
+    assert main(["verify", "--draw-robots", "2", "--duration", "5"]) == 2
+    assert "--draw-robots takes --budget, not --duration" in capsys.readouterr().err
+
+
+def test_the_same_seed_draws_and_runs_the_same_on_any_number_of_processes(
+    capsys: pytest.CaptureFixture[str], tmp_path: Path
+) -> None:
+    runs = []
+    for jobs in ("1", "2"):
+        out = tmp_path / jobs
+        main(["verify", "--json", "--draw-robots", "2", "--budget", "4", "--campaign-s", "2",
+              "--seed", "3", "--jobs", jobs, "--out", str(out)])  # fmt: skip
+        result = json.loads(capsys.readouterr().out)
+        files = [Path(entry["file"]).read_text() for entry in result["files"]]
+        verdicts = [(e["campaigns"], e["violations"], e["changed"]) for e in result["files"]]
+        runs.append((files, verdicts))
+    assert runs[0] == runs[1]

@@ -150,3 +150,44 @@ def test_bad_toml_names_the_file_and_line(tmp_path: Path, text: str, line: str) 
 def test_config_error_is_a_value_error() -> None:
     with pytest.raises(ValueError, match=r"rc\.baud"):
         parse_config("[rc]\nbaud = 9600")
+
+
+# --- the loader's own account of its keys (`read_schema`, `bywire verify --draw-robots`) --------
+
+
+@pytest.mark.parametrize("path", [SIM, ALBERT], ids=["sim", "albert"])
+def test_the_schema_names_every_typed_key_of_a_file_with_the_range_the_loader_checks(
+    path: Path,
+) -> None:
+    from bywire.config.limits import TOLERANCE_NORM  # noqa: PLC0415
+    from bywire.config.loader import read_schema  # noqa: PLC0415
+
+    text = path.read_text()
+    schema = {".".join(read.parts): read for read in read_schema(text, str(path))}
+    tolerance = schema["monitors.steering_tolerance_norm"]
+    assert (tolerance.kind, tolerance.allowed, tolerance.value) == ("number", TOLERANCE_NORM, 0.15)
+    assert schema["supervisor.debounce_frames"].allowed == range(2, 51)
+    assert schema["rc.mode_switch.positions_raw"].count == 3
+    assert schema["backend"].allowed == ("sim", "linux")
+    # every key of the file is in it but the raw strings its readers check themselves (a GPIO
+    # line's name, a CPU list, a file path, web origins): none is a number or a flag
+    data = tomllib.loads(text)
+    unrecorded = [key for key in leaf_keys(data) if key not in schema]
+    assert unrecorded
+    for key in unrecorded:
+        value: object = data
+        for part in key.split("."):
+            assert isinstance(value, dict)
+            value = value[part]
+        assert isinstance(value, str | list), key
+        assert all(isinstance(item, str) for item in value), key
+
+
+def test_the_schema_records_the_value_a_file_gives_or_the_default() -> None:
+    from bywire.config.loader import read_schema  # noqa: PLC0415
+
+    schema = {".".join(r.parts): r.value for r in read_schema("[monitors]\nhydro_min_duty = 0.3\n")}
+    assert schema["monitors.hydro_min_duty"] == 0.3
+    assert schema["monitors.steering_tolerance_norm"] == 0.15  # absent: the default
+    with pytest.raises(ConfigError, match="hydro_min_duty"):
+        read_schema("[monitors]\nhydro_min_duty = 3.0\n")

@@ -30,17 +30,21 @@ import sys
 import time
 from collections import Counter
 from dataclasses import dataclass, field
+from importlib import resources
 from pathlib import Path
 from typing import Any
 
 from rich.console import Console
+from rich.markup import escape
 from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
 
 from bywire.cli.arguments import positive_seconds, whole_number
 from bywire.config import RobotConfig, default_sim_config, load_config
 from bywire.config.deadlines import loss_distances, loss_rows
+from bywire.config.loader import DEFAULT_SIM_RESOURCE
 from bywire.hal.hardware import sensors_fitted
 from bywire.sim.scenario import scenario_toml
+from bywire.sim.verify.campaign import Campaign
 from bywire.sim.verify.draw import CAMPAIGN_S
 from bywire.sim.verify.engine import (
     CampaignJob,
@@ -51,7 +55,16 @@ from bywire.sim.verify.engine import (
 )
 from bywire.sim.verify.oracle import INVARIANTS
 from bywire.sim.verify.oracle.invariants import BRIDGE_INVARIANTS, OUTPUT_INVARIANTS
+from bywire.sim.verify.robots import (
+    DrawnRobot,
+    Schema,
+    draw_robots,
+    keys_needed,
+    robot_with,
+    toml_value,
+)
 from bywire.sim.verify.supervisor_check import MONITOR_CAUSES, TRANSITIONS, transitions_naming
+from bywire.textfile import read_text
 
 DEFAULT_BUDGET = 200
 DEFAULT_OUT = Path("verify-failures")
@@ -66,7 +79,9 @@ def configure(parser: argparse.ArgumentParser) -> None:
     parser.description = "\n\n".join((__doc__ or "").split("\n\n")[1:]).strip()
     parser.epilog = (
         "Examples: `bywire verify` (the simulator's configuration, 200 campaigns); "
-        "`bywire verify --config robot.toml --duration 600` (ten minutes on every core). "
+        "`bywire verify --config robot.toml --duration 600` (ten minutes on every core); "
+        "`bywire verify --draw-robots 20 --budget 2000` (is any file the loader accepts"
+        " unsafe? 20 drawn files, 100 campaigns each). "
         "The same --seed and --budget give the same campaigns and the same result."
     )
     parser.add_argument(
@@ -117,6 +132,19 @@ def configure(parser: argparse.ArgumentParser) -> None:
         action="store_true",
         help="run the campaigns even when the configuration is unsafe by construction",
     )
+    parser.add_argument(
+        "--draw-robots",
+        type=_positive_int,
+        metavar="N",
+        help=(
+            "verify N robot files drawn across the loader's whole legal range instead: every"
+            " key that picks no hardware moved to an end of its range, just inside an open end,"
+            " the base file's value (--config, else the simulator's defaults) or between; a"
+            " drawn file the loader refuses is repaired toward the base file. --budget is then"
+            " shared: N files get BUDGET/N campaigns each (at least one). Each file and each"
+            " failure's scenario is written to --out, with the keys that differ from the base"
+        ),
+    )
     parser.add_argument("--json", action="store_true", help="print the summary as JSON")
 
 
@@ -164,11 +192,43 @@ def _progress(console: Console, show: bool) -> Progress:
 
 
 def run(args: argparse.Namespace) -> int:
+    if args.draw_robots is not None:
+        return run_drawn(args)
     robot = default_sim_config() if args.config is None else load_config(args.config)
     source = str(args.config) if args.config is not None else "the simulator's defaults"
     console = Console(stderr=True)
     show = sys.stderr.isatty() and not args.json
     budget = args.budget if args.budget is not None or args.duration else DEFAULT_BUDGET
+    summary, _ = verify_robot(
+        robot,
+        source=source,
+        config=args.config,
+        out=args.out,
+        args=args,
+        budget=budget,
+        console=console,
+        show=show,
+    )
+    if args.json:
+        print(json.dumps(summary, indent=2))
+    else:
+        _print_summary(Console(), summary, robot)
+    return 1 if any(summary["violations"].values()) else 0
+
+
+def verify_robot(
+    robot: RobotConfig,
+    *,
+    source: str,
+    config: Path | None,
+    out: Path,
+    args: argparse.Namespace,
+    budget: int | None,
+    console: Console,
+    show: bool,
+) -> tuple[dict[str, Any], list[Reproduction]]:
+    """`budget` campaigns of `args.seed` on `robot` (or campaigns until `args.duration` is
+    up), every failure shrunk and written to `out`: the summary, and the shrunk failures."""
     until = None if args.duration is None else time.monotonic() + args.duration
     job = CampaignJob(args.seed, args.campaign_s)
     tally = Tally()
@@ -180,31 +240,32 @@ def run(args: argparse.Namespace) -> int:
             status = ", ".join(f"{k} {n}" for k, n in sorted(tally.violations.items()))
             progress.update(task, advance=1, status=status or "0 violations")
     wall_s = time.perf_counter() - started
-    reproductions = _shrink_all(robot, tally, args, console, show)
+    reproductions = _shrink_all(
+        robot, tally, seed=args.seed, config=config, out=out, console=console, show=show
+    )
     summary = _summary(
         source, args, tally, wall_s, reproductions, cannot_happen=_cannot_happen(robot)
     )
     summary["configuration"] = {"loss_distances": loss_rows(robot)}
-    if args.json:
-        print(json.dumps(summary, indent=2))
-    else:
-        _print_summary(Console(), summary, robot)
-    return 1 if tally.violations else 0
+    return summary, reproductions
 
 
 def _shrink_all(
     robot: RobotConfig,
     tally: Tally,
-    args: argparse.Namespace,
+    *,
+    seed: int,
+    config: Path | None,
+    out: Path,
     console: Console,
     show: bool,
 ) -> list[Reproduction]:
     """Shrink the first failing campaign of each broken invariant and write its scenario."""
     reproductions = []
     if tally.failing:
-        args.out.mkdir(parents=True, exist_ok=True)
+        out.mkdir(parents=True, exist_ok=True)
     for invariant, outcome in sorted(tally.failing.items()):
-        name = f"verify-seed{args.seed}-campaign{outcome.index}-{invariant}"
+        name = f"verify-seed{seed}-campaign{outcome.index}-{invariant}"
         with _progress(console, show) as progress:
             task = progress.add_task(f"shrinking {invariant}", total=None, status="")
 
@@ -212,12 +273,12 @@ def _shrink_all(
                 progress.update(task, status=f"{runs} runs")
 
             found = shrink_failure(robot, outcome, invariant, name, on_run=ran)
-        path = args.out / f"{name}.toml"
+        path = out / f"{name}.toml"
         replay = f"bywire sim --scenario {path}"
-        if args.config is not None:
-            replay += f" --config {args.config}"
+        if config is not None:
+            replay += f" --config {config}"
         header = (
-            f"Found by `bywire verify --seed {args.seed}` (campaign {outcome.index}),"
+            f"Found by `bywire verify --seed {seed}` (campaign {outcome.index}),"
             f" shrunk from {found.original_steps} steps to {len(found.steps)}"
             f" in {found.shrink_runs} runs.\nReplay: {replay}\n"
             f"The expectation fails: {found.finding.invariant} of docs/SAFETY.md broke there."
@@ -327,4 +388,239 @@ def _print_summary(console: Console, summary: dict[str, Any], robot: RobotConfig
             highlight=False,
         )
     verdict = "[red]VIOLATIONS[/red]" if any(violations.values()) else "[green]clean[/green]"
+    console.print(f"  result: {verdict}")
+
+
+# --- drawn robot files --------------------------------------------------------------------------
+
+
+def run_drawn(args: argparse.Namespace) -> int:
+    """`--draw-robots N`: N files drawn across the loader's legal space, each verified; exit 1
+    if any file had a violation, 130 on Ctrl-C (the files done so far are summarised)."""
+    if args.duration is not None:
+        print("bywire verify: error: --draw-robots takes --budget, not --duration", file=sys.stderr)
+        return 2
+    base_text, base_name = _base_text(args.config)
+    schema = Schema.of(base_text, base_name)
+    count = args.draw_robots
+    budget = args.budget if args.budget is not None else DEFAULT_BUDGET
+    each = max(1, budget // count)
+    console = Console(stderr=True)
+    show = sys.stderr.isatty() and not args.json
+    args.out.mkdir(parents=True, exist_ok=True)
+    files: list[dict[str, Any]] = []
+    refusals: Counter[str] = Counter()
+    refused = 0
+    started = time.perf_counter()
+    interrupted = False
+    try:
+        for drawn in draw_robots(schema, args.seed, count):
+            refusals.update(drawn.refusals)
+            refused += bool(drawn.refusals)
+            path = args.out / f"robot-{drawn.index:02d}.toml"
+            path.write_text(_drawn_text(drawn, args.seed, base_name), encoding="utf-8")
+            if show:
+                console.print(
+                    f"[{drawn.index}/{count}] {path}: {len(drawn.changed)} keys drawn,"
+                    f" {len(drawn.repairs)} put back",
+                    highlight=False,
+                )
+            out = args.out / f"robot-{drawn.index:02d}-failures"
+            summary, found = verify_robot(
+                drawn.robot,
+                source=str(path),
+                config=path,
+                out=out,
+                args=args,
+                budget=each,
+                console=console,
+                show=show,
+            )
+            entry = _file_entry(drawn, path, summary)
+            for failure, reproduction in zip(entry["failures"], found, strict=True):
+                failure.update(
+                    _keys_needed(schema, drawn, reproduction, out, console=console, show=show)
+                )
+            files.append(entry)
+            if show:
+                found = sum(summary["violations"].values())
+                console.print(
+                    f"  {summary['campaigns']} campaigns: "
+                    + (f"[red]{found} violating[/red]" if found else "[green]clean[/green]"),
+                    highlight=False,
+                )
+    except KeyboardInterrupt:
+        interrupted = True
+    result = {
+        "draw_robots": count,
+        "base": base_name,
+        "seed": args.seed,
+        "jobs": args.jobs,
+        "campaigns_per_file": each,
+        "keys_drawn": len(schema.keys),
+        "keys_kept": _kept(schema),
+        "files_verified": len(files),
+        "interrupted": interrupted,
+        "wall_s": round(time.perf_counter() - started, 3),
+        "campaigns": sum(f["campaigns"] for f in files),
+        "files_refused": refused,
+        "refusals_repaired": dict(refusals.most_common()),
+        "violating_files": [f["file"] for f in files if f["violations"]],
+        "files": files,
+    }
+    if args.json:
+        print(json.dumps(result, indent=2))
+    else:
+        _print_drawn(Console(soft_wrap=True), result)
+    if interrupted:
+        return 130
+    return 1 if result["violating_files"] else 0
+
+
+def _base_text(config: Path | None) -> tuple[str, str]:
+    """The base file's text and name: --config, else the packaged simulator defaults."""
+    if config is not None:
+        load_config(config)  # refused with its reason (exit 2) before anything is drawn
+        return read_text(config, "configuration file"), str(config)
+    resource = resources.files("bywire")
+    for part in DEFAULT_SIM_RESOURCE:
+        resource = resource.joinpath(part)
+    return resource.read_text(encoding="utf-8"), "bywire/defaults/sim.toml"
+
+
+def _kept(schema: Schema) -> list[str]:
+    return [".".join(read.parts) for read in schema.kept]
+
+
+def _drawn_text(drawn: DrawnRobot, seed: int, base: str) -> str:
+    """The drawn file with a header: where it came from and what differs from its base."""
+    lines = [
+        f"Drawn by `bywire verify --draw-robots --seed {seed}`: file {drawn.index}, from {base}.",
+        f"{len(drawn.changed)} keys differ from the base file:",
+        *(
+            f"  {key} = {_show(new)} (base {_show(old)})"
+            for key, (old, new) in drawn.changed.items()
+        ),
+    ]
+    if drawn.repairs:
+        lines.append(f"{len(drawn.repairs)} drawn values put back to the base file's (refused):")
+        lines += [f"  {r.key} = {_show(r.drawn)}: {r.rule}" for r in drawn.repairs]
+    header = "\n".join(f"# {line}" for line in lines)
+    return f"{header}\n\n{drawn.text}"
+
+
+def _show(value: object) -> str:
+    return toml_value(list(value) if isinstance(value, tuple) else value)
+
+
+def _file_entry(drawn: DrawnRobot, path: Path, summary: dict[str, Any]) -> dict[str, Any]:
+    return {
+        "file": str(path),
+        "index": drawn.index,
+        "campaigns": summary["campaigns"],
+        "violations": {k: n for k, n in summary["violations"].items() if n},
+        "failures": summary["failures"],
+        "changed": {key: [_plain(old), _plain(new)] for key, (old, new) in drawn.changed.items()},
+        "repaired": [
+            {"key": r.key, "drawn": _plain(r.drawn), "base": _plain(r.base), "rule": r.rule}
+            for r in drawn.repairs
+        ],
+    }
+
+
+def _keys_needed(
+    schema: Schema,
+    drawn: DrawnRobot,
+    reproduction: Reproduction,
+    out: Path,
+    *,
+    console: Console,
+    show: bool,
+) -> dict[str, Any]:
+    """Which of the file's drawn keys the shrunk failure needs, and the base file with only
+    those drawn, written beside the scenario (the scenario replays on it)."""
+    invariant = reproduction.finding.invariant
+
+    def fails(robot: RobotConfig) -> bool:
+        """The written scenario, as `bywire sim --scenario` replays it, breaks the invariant
+        again on `robot` (the oracle watching)."""
+        result = Campaign(robot).run_scenario(reproduction.scenario)
+        return any(v.invariant == invariant for v in result.oracle.violations)
+
+    if show:
+        console.print(f"  finding the keys {invariant} needs ...", highlight=False)
+    changed = {key: new for key, (_old, new) in drawn.changed.items()}
+    needed = keys_needed(schema, changed, fails)
+    minimal = robot_with(schema, needed)
+    assert minimal is not None  # every key put back kept the file loading
+    scenario = Path(reproduction.notes[0])
+    path = out / f"{scenario.stem}-robot.toml"
+    lines = [
+        f"The base file ({drawn.index} of `bywire verify --draw-robots`) with only the drawn"
+        f" keys {invariant} needs: put any one back and it no longer fails.",
+        f"Replay: bywire sim --scenario {scenario} --config {path}",
+    ]
+    header = "\n".join(f"# {line}" for line in lines)
+    path.write_text(f"{header}\n\n{minimal[0]}", encoding="utf-8")
+    return {
+        "keys_needed": {key: _plain(value) for key, value in needed.items()},
+        "robot": str(path),
+        "replays": fails(minimal[1]),
+    }
+
+
+def _plain(value: object) -> object:
+    return list(value) if isinstance(value, tuple) else value
+
+
+def _print_drawn(console: Console, result: dict[str, Any]) -> None:
+    console.print(
+        f"[bold]bywire verify --draw-robots {result['draw_robots']}[/bold] from"
+        f" {result['base']} (seed {result['seed']})",
+        highlight=False,
+    )
+    console.print(
+        f"  {result['keys_drawn']} keys drawn across their legal range;"
+        f" {len(result['keys_kept'])} hardware picks kept as the base file has them",
+        highlight=False,
+    )
+    console.print(
+        f"  {result['files_verified']} files, {result['campaigns']} campaigns"
+        f" ({result['campaigns_per_file']} a file), {result['wall_s']:.1f} s",
+        highlight=False,
+    )
+    refusals = result["refusals_repaired"]
+    if refusals:
+        console.print(
+            f"  {result['files_refused']} of {result['files_verified']} drawn files were refused"
+            " at first and repaired toward the base file; files refused by each rule:",
+            highlight=False,
+        )
+        for rule, count in refusals.items():
+            console.print(f"    {count:4d}  {escape(rule)}", highlight=False, soft_wrap=True)
+    for entry in result["files"]:
+        if not entry["violations"]:
+            console.print(f"  {entry['file']}: clean ({len(entry['changed'])} keys drawn)")
+            continue
+        broken = ", ".join(f"{k} {n}" for k, n in entry["violations"].items())
+        console.print(f"[red]  {entry['file']}: {broken}[/red]", highlight=False)
+        for failure in entry["failures"]:
+            console.print(
+                f"    {failure['invariant']} at {failure['time_s']:.3f} s:"
+                f" {escape(failure['detail'])}; {failure['scenario']}",
+                highlight=False,
+            )
+            needed = ", ".join(f"{k} = {_show(v)}" for k, v in failure["keys_needed"].items())
+            console.print(
+                f"      keys it needs: {escape(needed) or 'none (the base file fails too)'};"
+                f" {failure['robot']}",
+                highlight=False,
+            )
+        changed = ", ".join(
+            f"{key} = {_show(new)}" for key, (_old, new) in entry["changed"].items()
+        )
+        console.print(f"    keys differing from the base: {escape(changed)}", highlight=False)
+    verdict = "[red]VIOLATIONS[/red]" if result["violating_files"] else "[green]clean[/green]"
+    if result["interrupted"]:
+        verdict = f"[yellow]interrupted[/yellow] after {result['files_verified']} files, {verdict}"
     console.print(f"  result: {verdict}")

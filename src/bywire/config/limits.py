@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import math
+
 from bywire.config.reader import Interval
 from bywire.control.stop import MAX_CONTROLLED_STOP_S, MIN_CONTROLLED_STOP_S
 from bywire.protocol import bittiming, ibus
@@ -37,7 +39,9 @@ TASK_RATE_HZ = Interval(1.0, 1000.0, "Hz")
 TELEMETRY_RATE_HZ = Interval(0.1, 1000.0, "Hz")
 GPIO_OFFSETS = range(1024)
 SEEDS = range(2**32)
-RC_FRAME_PERIOD_S = Interval(0.001, 0.1, "s")
+RC_FRAME_PERIOD_S = Interval(math.ceil(ibus.LINE_FRAME_S * 10_000) / 10_000, 0.1, "s")
+"""The simulated receiver's period: no shorter than a frame takes on the IBUS line (2.8 ms, to
+the 0.1 ms), or its frames queue up and the controller reads ever older ones (SAFETY.md row 58)."""
 TOP_SPEED_MPS = Interval(0.1, 30.0, "m/s")
 STANDSTILL_MPS = Interval(0.0, 1.0, "m/s")
 DWELL_S = Interval(0.0, 10.0, "s")

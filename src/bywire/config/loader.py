@@ -15,7 +15,7 @@ from bywire.config.actuators import (
     tasks_section,
 )
 from bywire.config.consistency import check_consistency
-from bywire.config.reader import Problems, Table
+from bywire.config.reader import KeyRead, Problems, Table
 from bywire.config.sections import (
     can_section,
     interlocks_section,
@@ -87,9 +87,22 @@ def _located(error: tomllib.TOMLDecodeError, text: str) -> str:
     return str(error).replace("end of document", last_line)
 
 
-def build_robot(data: Mapping[str, object], problems: Problems) -> RobotConfig:
-    """The whole tree from a parsed TOML document; problems are recorded, not raised."""
-    root, default = Table(data, "", problems), RobotConfig()
+def read_schema(text: str, origin: str = "<string>") -> tuple[KeyRead, ...]:
+    """Every key the loader reads, in reading order, with its allowed values and the value this
+    text gives it (its default when absent): the loader's own account of its legal space. The
+    text must load (ConfigError otherwise)."""
+    parse_config(text, origin)
+    schema: list[KeyRead] = []
+    build_robot(tomllib.loads(text), Problems(origin), schema)
+    return tuple(schema)
+
+
+def build_robot(
+    data: Mapping[str, object], problems: Problems, schema: list[KeyRead] | None = None
+) -> RobotConfig:
+    """The whole tree from a parsed TOML document; problems are recorded, not raised (and, with
+    `schema`, every key read is recorded there: `read_schema`)."""
+    root, default = Table(data, "", problems, schema), RobotConfig()
     backend_name = root.text("backend", default.backend, BACKENDS)
     backend: Backend = "linux" if backend_name == "linux" else "sim"
     chip = root.text("gpio_chip", default.gpio_chip)

@@ -119,12 +119,48 @@ class Problems:
             raise ConfigError(f"{self.origin}: {len(self.entries)} problems:{lines}")
 
 
-class Table:
-    """One TOML table at a dotted path; every key read is remembered so the rest are unknown."""
+@dataclass(frozen=True, slots=True)
+class KeyRead:
+    """One key a reader asked for: where (the table names down from the root, then the key),
+    what it may be (an Interval, a range, a choice of strings, or None: any string, a flag or a
+    raw value the reader checks itself), the kind of reading, and the value it read (the
+    default when the key is absent)."""
 
-    def __init__(self, data: Mapping[str, object], path: str, problems: Problems) -> None:
+    parts: tuple[str, ...]
+    kind: str  # "number", "integer", "integers" (count increasing), "text", "flag"
+    allowed: Interval | range | tuple[str, ...] | None
+    value: object
+    count: int = 1
+
+
+class Table:
+    """One TOML table at a dotted path; every key read is remembered so the rest are unknown.
+    With `schema` (a list shared down the tree), every typed reading is also recorded there as
+    a KeyRead: the loader's own account of each key's allowed values (`bywire verify
+    --draw-robots` draws from it)."""
+
+    def __init__(
+        self,
+        data: Mapping[str, object],
+        path: str,
+        problems: Problems,
+        schema: list[KeyRead] | None = None,
+        parts: tuple[str, ...] = (),
+    ) -> None:
         self.data, self.path, self.problems = data, path, problems
+        self.schema, self.parts = schema, parts
         self._known: dict[str, None] = {}
+
+    def _record(
+        self,
+        name: str,
+        kind: str,
+        allowed: Interval | range | tuple[str, ...] | None,
+        value: object,
+        count: int = 1,
+    ) -> None:
+        if self.schema is not None:
+            self.schema.append(KeyRead((*self.parts, name), kind, allowed, value, count))
 
     def key(self, name: str) -> str:
         shown = show_key(name)
@@ -139,6 +175,11 @@ class Table:
         self.problems.add(self.key(name), f"{self.key(name)} = {show(value)}: {reason}")
 
     def number(self, name: str, default: float, allowed: Interval) -> float:
+        number = self._number(name, default, allowed)
+        self._record(name, "number", allowed, number)
+        return number
+
+    def _number(self, name: str, default: float, allowed: Interval) -> float:
         value = self.get(name)
         if value is MISSING:
             return default
@@ -161,6 +202,13 @@ class Table:
     ) -> int:
         """The integer at `name` (or `default`); out of `allowed`, a problem naming the range
         and, when given, `why` the range ends where it does."""
+        integer = self._integer(name, default, allowed, show_int, why)
+        self._record(name, "integer", allowed, integer)
+        return integer
+
+    def _integer(
+        self, name: str, default: int, allowed: range, show_int: Callable[[int], str], why: str
+    ) -> int:
         value = self.get(name)
         text = f"only {show_int(allowed.start)}" if len(allowed) == 1 else ""
         text = text or f"{show_int(allowed.start)}..{show_int(allowed[-1])}"
@@ -180,6 +228,13 @@ class Table:
         self, name: str, default: tuple[int, ...], allowed: range, count: int
     ) -> tuple[int, ...]:
         """`count` strictly increasing integers in `allowed` at `name` (or `default`)."""
+        integers = self._integer_list(name, default, allowed, count)
+        self._record(name, "integers", allowed, integers, count)
+        return integers
+
+    def _integer_list(
+        self, name: str, default: tuple[int, ...], allowed: range, count: int
+    ) -> tuple[int, ...]:
         value = self.get(name)
         if value is MISSING:
             return default
@@ -198,6 +253,11 @@ class Table:
         return tuple(value)
 
     def text(self, name: str, default: str, choices: Sequence[str] = ()) -> str:
+        text = self._text(name, default, choices)
+        self._record(name, "text", tuple(choices) or None, text)
+        return text
+
+    def _text(self, name: str, default: str, choices: Sequence[str]) -> str:
         value = self.get(name)
         allowed = "one of " + ", ".join(map(show, choices)) if choices else "a non-empty string"
         if value is MISSING:
@@ -214,6 +274,11 @@ class Table:
         return default
 
     def flag(self, name: str, default: bool) -> bool:
+        flag = self._flag(name, default)
+        self._record(name, "flag", None, flag)
+        return flag
+
+    def _flag(self, name: str, default: bool) -> bool:
         value = self.get(name)
         if value is MISSING:
             return default
@@ -224,12 +289,10 @@ class Table:
 
     def table(self, name: str) -> Table:
         value = self.get(name)
-        if value is MISSING:
-            return Table({}, self.key(name), self.problems)
-        if not isinstance(value, Mapping):
+        if value is not MISSING and not isinstance(value, Mapping):
             self.refuse(name, value, f"expected a table [{self.key(name)}], got {toml_type(value)}")
-            return Table({}, self.key(name), self.problems)
-        return Table(value, self.key(name), self.problems)
+        data = value if isinstance(value, Mapping) else {}
+        return Table(data, self.key(name), self.problems, self.schema, (*self.parts, name))
 
     def close(self) -> None:
         """Refuse every key that no reader asked for, suggesting the nearest known one."""

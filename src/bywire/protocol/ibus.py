@@ -30,6 +30,9 @@ CHANNEL_COUNT = 14
 HEADER = b"\x20\x40"
 BAUD_RATE = 115200
 """UART bit rate; 8N1 puts 10 bits on the wire per byte, so a frame takes ~2.8 ms (§4.2.1)."""
+BITS_PER_BYTE = 10  # 8N1: a start bit, eight data bits, a stop bit
+LINE_FRAME_S = FRAME_LENGTH * BITS_PER_BYTE / BAUD_RATE
+"""How long one frame takes on the line (2.78 ms): no receiver sends frames closer together."""
 FRAME_PERIOD_S = 0.0077
 """Receiver frame period: §4.2.1 states 7.7 ms and §4.2.2 uses 7.66 ms; Table 1's "~142 Hz"
 (7.0 ms) disagrees with both, so the two §4.2 figures win."""

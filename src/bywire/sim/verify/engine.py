@@ -10,6 +10,7 @@ alone (`sim/verify/draw.py` and `draw_bridge.py` say how campaigns are drawn).
 from __future__ import annotations
 
 import multiprocessing
+import signal
 import time
 from collections.abc import Callable, Iterator
 from dataclasses import dataclass, field, replace
@@ -98,7 +99,7 @@ def campaign_outcomes(
     if jobs == 1:
         yield from _serial(job, budget, until)
         return
-    with multiprocessing.get_context("fork").Pool(jobs) as pool:
+    with multiprocessing.get_context("fork").Pool(jobs, initializer=_ignore_interrupt) as pool:
         if budget is not None:
             yield from pool.imap_unordered(_run_index, ((job, i) for i in range(budget)), 2)
             return
@@ -107,6 +108,12 @@ def campaign_outcomes(
             batch = range(start, start + jobs * BATCH_PER_JOB)
             yield from pool.imap_unordered(_run_index, ((job, i) for i in batch))
             start = batch.stop
+
+
+def _ignore_interrupt() -> None:
+    """A worker leaves Ctrl-C to the parent, which ends the pool: one clean exit, no traceback
+    from every process."""
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
 
 
 def _serial(job: CampaignJob, budget: int | None, until: float | None) -> Iterator[Outcome]:
