@@ -21,6 +21,7 @@ from tests.system.test_stop_gets_through import DRIVING_BY_RC, dac_volts, level,
 CONTROL_PERIOD_S = 0.010  # docs/SAFETY.md: "plus one control period (10 ms)"
 INPUT_LOSS_S = 0.020  # docs/SAFETY.md row 45: "a lost input is acted on within its timeout + 20 ms"
 OPERATOR_STOP_S = ibus.FRAME_PERIOD_S + CONTROL_PERIOD_S  # 17.7 ms
+IBUS_WIRE_S = ibus.FRAME_LENGTH * 10 / ibus.BAUD_RATE  # a frame on the wire, 8N1
 SLOW_FROM_S = 2.0
 PHASES = 24  # the switch's move swept across a frame period and a slow pass, 0.9 ms apart
 PHASE_STEP_S = 0.0009
@@ -76,12 +77,14 @@ def _worst_operator_stop(
 
 
 def _worst_rc_loss(robot: RobotConfig, transfer_s: float) -> float:
+    """The latest the e-brake's line dropped after the receiver was unplugged, less the wire
+    time of a frame that was already on its way (the timeout counts from the last frame)."""
     worst_s = 0.0
     for phase in range(PHASES // 2):
         lost_s = 2.5 + phase * 2 * PHASE_STEP_S
         run = played(_slow_then(transfer_s, lost_s, 'fault = "rc_link_lost"'), 2.8, robot=robot)
         assert level(run, "ebrake_release", lost_s + 0.05)  # driving until the timeout
-        worst_s = max(worst_s, _ebrake_engaged_at(run, lost_s) - lost_s)
+        worst_s = max(worst_s, _ebrake_engaged_at(run, lost_s) - lost_s - IBUS_WIRE_S)
     return worst_s
 
 
@@ -115,6 +118,12 @@ LOOSEST_LEGAL = (
 )
 
 
+SLOWEST_TICK = (  # the slowest tasks the input-loss deadline allows, and what they then ask
+    "\n[tasks]\nhydrobrake_rate_hz = 50.0\nsteering_rate_hz = 50.0\ndriving_rate_hz = 50.0"
+    "\n[interlocks]\nspeed_step_tolerance_mps = 0.2\n"
+)
+
+
 def _loosest_accepted() -> RobotConfig:
     """The issue's loose file where the loader takes it, else the loosest budgets the promises
     leave (its refusal is `tests/config/test_deadlines.py`'s)."""
@@ -135,3 +144,6 @@ def test_the_loosest_budgets_the_loader_accepts_keep_every_stop_promise() -> Non
     assert worst_brake_s <= OPERATOR_STOP_S + 1e-9
     rc_loss_s = _worst_rc_loss(robot, transfer_s)
     assert rc_loss_s <= robot.timeouts.rc_timeout_s + INPUT_LOSS_S + 1e-9
+    # The slowest tick the input-loss deadline allows (50 Hz), with the same transfers.
+    slow_tick = parse_config(LOOSEST_LEGAL + SLOWEST_TICK, "<loosest legal, 50 Hz>")
+    assert _worst_rc_loss(slow_tick, transfer_s) <= robot.timeouts.rc_timeout_s + INPUT_LOSS_S

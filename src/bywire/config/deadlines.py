@@ -280,7 +280,7 @@ OPERATOR_STOP = StopPromise(
 )
 RC_LOSS = StopPromise(
     "an RC loss",
-    "the RC link is lost",
+    "the RC link's last frame arrives",
     "timeouts.rc_timeout_s",
     lambda robot: robot.timeouts.rc_timeout_s,
     MAX_CONTROL_PERIOD_S,
@@ -288,7 +288,7 @@ RC_LOSS = StopPromise(
 )
 CAN_LOSS = StopPromise(
     "a CAN loss",
-    "the computer falls silent in CAN mode",
+    "the computer's last movement command arrives, in CAN mode",
     "MovementCommand's timeout",
     _movement_timeout_s,
     MAX_CONTROL_PERIOD_S,
