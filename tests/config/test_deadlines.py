@@ -203,3 +203,18 @@ def test_the_promises_are_the_figures_safety_states() -> None:
     assert CAN_LOSS.deadline_s(robot) == pytest.approx(0.100 + 0.020)
     for promise in STOP_PROMISES:  # the defaults keep each with room for none of it wasted
         assert promise.response_needed_s(robot) <= promise.response_s
+
+
+def test_a_bench_that_declares_a_longer_stop_promise_is_held_to_its_own() -> None:
+    # A test bench (the kernel tier's guest, the Linux bench's file-backed stand-ins) cannot
+    # keep the robot's 10 ms: it declares its share of the promise, and the budgets follow it.
+    bench = "[timeouts]\nstop_response_s = 0.06\npass_budget_s = 0.05\ndac_transfer_budget_s = 0.02"
+    robot = parse_config(bench, "robot.toml")
+    assert OPERATOR_STOP.deadline_s(robot) == pytest.approx(0.0077 + 0.06)
+    assert RC_LOSS.deadline_s(robot) == pytest.approx(robot.timeouts.rc_timeout_s + 0.06)
+    with pytest.raises(ConfigError) as refused:
+        parse_config(bench.replace("0.06", "0.03"), "robot.toml")
+    assert "set timeouts.pass_budget_s to 0.0272 or less" in str(refused.value)
+    with pytest.raises(ConfigError) as tighter:  # never a promise tighter than the loader knows
+        parse_config("[timeouts]\nstop_response_s = 0.005", "robot.toml")
+    assert "timeouts.stop_response_s" in str(tighter.value)

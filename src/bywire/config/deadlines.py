@@ -233,7 +233,11 @@ class StopPromise:
     """One stop deadline `docs/SAFETY.md` promises (issue 41: budgets come from deadlines): from
     `event` to the spring brake's line engaged (and the enable line low, where the stop is
     category 0), at most `detection_s` (the time the event takes to reach the controller: the
-    frame that carries it, the input's timeout) plus `response_s`, the controller's share.
+    frame that carries it, the input's timeout) plus `response_s`, the controller's share as
+    the requirement states it. A robot file may declare a longer share
+    (`[timeouts] stop_response_s`, for a test bench that cannot keep the robot's): it is then
+    held to that at load, shown by `bywire config check`, and still judged at `response_s` by
+    `bywire verify`'s oracle.
 
     The controller keeps it by the rule `response_needed_s` states, for every pattern of work
     within the budgets `[timeouts]` gives: a stop is decided in the first pass that begins after
@@ -250,8 +254,13 @@ class StopPromise:
     wakes: bool
     wire_s: float = 0.0
 
+    def allowed_s(self, robot: RobotConfig) -> float:
+        """The controller's share `robot` is held to: the requirement's, or the longer one
+        the file declares."""
+        return max(self.response_s, robot.timeouts.stop_response_s)
+
     def deadline_s(self, robot: RobotConfig) -> float:
-        return self.detection_s(robot) + self.response_s
+        return self.detection_s(robot) + self.allowed_s(robot)
 
     def response_needed_s(self, robot: RobotConfig) -> float:
         """The longest the controller may take to act under `robot`'s budgets and rates."""
@@ -260,9 +269,11 @@ class StopPromise:
             return self.wire_s + pass_s
         return max(_decision_period_s(robot), pass_s)
 
-    def most_pass_budget_s(self) -> float:
-        """The largest pass budget that keeps this promise (given a fast enough tick)."""
-        return self.response_s - self.wire_s
+    def most_pass_budget_s(self, robot: RobotConfig | None = None) -> float:
+        """The largest pass budget that keeps this promise (given a fast enough tick): the
+        requirement's, or `robot`'s declared one."""
+        allowed_s = self.response_s if robot is None else self.allowed_s(robot)
+        return allowed_s - self.wire_s
 
 
 def _movement_timeout_s(robot: RobotConfig) -> float:
@@ -298,9 +309,30 @@ STOP_PROMISES: tuple[StopPromise, ...] = (OPERATOR_STOP, RC_LOSS, CAN_LOSS)
 """Every stop deadline `docs/SAFETY.md` promises, stated once: the load check below, the
 oracle of `bywire verify` and the tests judge with these."""
 MOST_PASS_BUDGET_S = min(promise.most_pass_budget_s() for promise in STOP_PROMISES)
-"""The largest pass budget any robot file may set: every promise kept by a pass within it."""
+"""The largest pass budget that keeps every promise as the requirement states it."""
 MOST_DAC_TRANSFER_BUDGET_S = MOST_PASS_BUDGET_S / DAC_TRANSFERS_PER_PASS
-"""The largest DAC transfer budget any robot file may set: a pass's transfers within it."""
+"""The largest DAC transfer budget that keeps them: a pass's transfers within it (what
+`bywire verify` bounds a file's budget by, whatever it declares)."""
+
+
+def promise_lines(robot: RobotConfig) -> list[str]:
+    """Each stop promise `robot` is held to, one line each (`bywire config check` shows them),
+    naming a share longer than the requirement's."""
+    lines = []
+    for promise in STOP_PROMISES:
+        allowed_s = promise.allowed_s(robot)
+        declared = (
+            f" (declared by timeouts.stop_response_s; the requirement is"
+            f" {number_text(promise.response_s)} s)"
+            if allowed_s > promise.response_s
+            else ""
+        )
+        lines.append(
+            f"{promise.event} -> the spring brake within {promise.detection} +"
+            f" {number_text(allowed_s)} s = {number_text(round(promise.deadline_s(robot), 4))}"
+            f" s{declared}"
+        )
+    return lines
 
 
 def _floor_ms(seconds: float) -> float:
@@ -311,10 +343,11 @@ def _floor_ms(seconds: float) -> float:
 def _stop_promises(robot: RobotConfig) -> list[Breach]:
     found = []
     budgets = robot.timeouts
+    most_pass_s = min(promise.most_pass_budget_s(robot) for promise in STOP_PROMISES)
     for promise in STOP_PROMISES:
         needed_s = promise.response_needed_s(robot)
-        if needed_s <= promise.response_s + 1e-12 or budgets.pass_budget_s <= (
-            promise.most_pass_budget_s() + 1e-12
+        if needed_s <= promise.allowed_s(robot) + 1e-12 or budgets.pass_budget_s <= (
+            promise.most_pass_budget_s(robot) + 1e-12
         ):
             continue  # kept, or broken by the tick alone (the input-loss deadline says so)
         found.append(
@@ -324,15 +357,14 @@ def _stop_promises(robot: RobotConfig) -> list[Breach]:
                 f"{promise.event}: the stop may reach the brakes"
                 f" {number_text(round(promise.detection_s(robot) + needed_s, 4))} s after it,"
                 f" past the {number_text(round(promise.deadline_s(robot), 4))} s promised"
-                f" ({promise.detection} + {number_text(promise.response_s)} s), when a pass"
+                f" ({promise.detection} + {number_text(promise.allowed_s(robot))} s), when a pass"
                 f" within its {number_text(budgets.pass_budget_s)} s budget is under way",
-                f"set timeouts.pass_budget_s to {number_text(_floor_ms(MOST_PASS_BUDGET_S))}"
-                " or less",
+                f"set timeouts.pass_budget_s to {number_text(_floor_ms(most_pass_s))} or less",
             )
         )
         break  # one pass budget for every promise: the tightest suggestion says it all
     # Held to the pass budget the file may have: one refusal names every budget to change.
-    pass_s = min(budgets.pass_budget_s, MOST_PASS_BUDGET_S)
+    pass_s = min(budgets.pass_budget_s, most_pass_s)
     transfers_s = DAC_TRANSFERS_PER_PASS * budgets.dac_transfer_budget_s
     if transfers_s > pass_s + 1e-12:
         found.append(
