@@ -114,3 +114,18 @@ def test_a_missing_file_is_one_line(tmp_path: Path) -> None:
     assert status == 2
     assert err.count("\n") == 1
     assert "no such configuration file" in err
+
+
+def test_the_stop_promises_are_shown_and_a_declared_longer_one_says_so(tmp_path: Path) -> None:
+    status, out, _ = _check(str(ALBERT))
+    assert status == 0
+    assert (
+        "#   the operator's switch moves to STOP -> the spring brake within the IBUS frame that"
+        " carries it + 0.01 s = 0.0177 s"
+    ) in out.splitlines()
+    bench = tmp_path / "bench.toml"
+    bench.write_text("[timeouts]\nstop_response_s = 0.06\npass_budget_s = 0.05\n")
+    status, out, _ = _check(str(bench))
+    assert status == 0
+    declared = [line for line in out.splitlines() if "declared by timeouts.stop_response_s" in line]
+    assert len(declared) == 3

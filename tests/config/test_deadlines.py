@@ -3,14 +3,22 @@ load, naming the deadline, every key involved and the nearest safe values."""
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import pytest
 
 from bywire.config import default_sim_config, parse_config
 from bywire.config.deadlines import (
+    CAN_LOSS,
     DEADLINES,
     HYDRAULIC_FULL_DECEL_MPS2,
+    MOST_DAC_TRANSFER_BUDGET_S,
+    MOST_PASS_BUDGET_S,
     MOTOR_FULL_SCALE_VOLTS,
+    OPERATOR_STOP,
+    RC_LOSS,
     REGEN_DECEL_MPS2,
+    STOP_PROMISES,
     breaches,
 )
 from bywire.errors import ConfigError
@@ -206,3 +214,99 @@ def test_the_simulated_vehicle_brakes_as_the_requirement_figures_say() -> None:
     assert vehicle.max_hydraulic_decel_mps2 == HYDRAULIC_FULL_DECEL_MPS2
     assert vehicle.max_regen_decel_mps2 == REGEN_DECEL_MPS2
     assert vehicle.full_scale_volts == MOTOR_FULL_SCALE_VOLTS
+
+
+# --- issue 41 finding 4: budgets come from the stop promises -----------------------------------
+
+BUDGET_BREACHES = [
+    (  # the issue's legal-before file: 50 ms passes, 20 ms transfers; STOP 41 ms, RC loss 128 ms
+        "[timeouts]\npass_budget_s = 0.05\nwrite_budget_s = 0.02\ndac_transfer_budget_s = 0.02",
+        ("timeouts.pass_budget_s",),
+        "set timeouts.pass_budget_s to 0.0072 or less",
+    ),
+    (  # the old defaults: 9.9 ms transfers made 19.8 ms passes and a 28 ms STOP
+        "[timeouts]\npass_budget_s = 0.02\nwrite_budget_s = 0.01\ndac_transfer_budget_s = 0.01",
+        ("timeouts.pass_budget_s",),
+        "set timeouts.pass_budget_s to 0.0072 or less",
+    ),
+    (  # just past the edge
+        "[timeouts]\npass_budget_s = 0.0073\ndac_transfer_budget_s = 0.003",
+        ("timeouts.pass_budget_s",),
+        "set timeouts.pass_budget_s to 0.0072 or less",
+    ),
+    (  # a pass within its budget, but its two transfers within theirs are not
+        "[timeouts]\npass_budget_s = 0.007\ndac_transfer_budget_s = 0.004",
+        ("timeouts.dac_transfer_budget_s", "timeouts.pass_budget_s"),
+        "set timeouts.dac_transfer_budget_s to 0.0035 or less",
+    ),
+    (
+        "[timeouts]\npass_budget_s = 0.005\nwrite_budget_s = 0.006\ndac_transfer_budget_s = 0.002",
+        ("timeouts.write_budget_s", "timeouts.pass_budget_s"),
+        "set timeouts.write_budget_s to 0.005 or less",
+    ),
+]
+
+
+@pytest.mark.parametrize(("text", "keys", "fix"), BUDGET_BREACHES)
+def test_budgets_that_let_a_stop_miss_its_promise_are_refused(
+    text: str, keys: tuple[str, ...], fix: str
+) -> None:
+    with pytest.raises(ConfigError) as refused:
+        parse_config(text, "robot.toml")
+    message = str(refused.value)
+    assert "breaks the deadline 'a stop within its promise'" in message
+    assert all(key in message for key in keys)
+    assert fix in message
+
+
+def test_every_budget_that_breaks_a_promise_is_named_with_its_nearest_safe_value() -> None:
+    robot = default_sim_config()
+    loose = replace(
+        robot,
+        timeouts=replace(
+            robot.timeouts, pass_budget_s=0.05, write_budget_s=0.02, dac_transfer_budget_s=0.02
+        ),
+    )
+    found = [str(breach) for breach in breaches(loose)]
+    assert len(found) == 3
+    assert "set timeouts.pass_budget_s to 0.0072 or less" in found[0]
+    assert "the operator's switch moves to STOP" in found[0]
+    # The transfers' and the write's suggestions are within the pass budget that is safe.
+    assert "set timeouts.dac_transfer_budget_s to 0.0036 or less" in found[1]
+    assert "set timeouts.write_budget_s to 0.0072 or less" in found[2]
+
+
+def test_the_loosest_budgets_the_promises_leave_are_legal() -> None:
+    edge = (
+        "[timeouts]\npass_budget_s = 0.0072\nwrite_budget_s = 0.0072\n"
+        "dac_transfer_budget_s = 0.0036"
+    )
+    assert breaches(parse_config(edge, "robot.toml")) == []
+    assert MOST_PASS_BUDGET_S >= 0.0072
+    assert MOST_DAC_TRANSFER_BUDGET_S >= 0.0036
+
+
+def test_the_promises_are_the_figures_safety_states() -> None:
+    # docs/SAFETY.md: the frame that carries the change (IBUS 7.7 ms) plus one control period
+    # (10 ms); a lost input within its timeout + 20 ms (row 45).
+    robot = default_sim_config()
+    assert OPERATOR_STOP.deadline_s(robot) == pytest.approx(0.0177)
+    assert RC_LOSS.deadline_s(robot) == pytest.approx(robot.timeouts.rc_timeout_s + 0.020)
+    assert CAN_LOSS.deadline_s(robot) == pytest.approx(0.100 + 0.020)
+    for promise in STOP_PROMISES:  # the defaults keep each with room for none of it wasted
+        assert promise.response_needed_s(robot) <= promise.response_s
+
+
+def test_a_bench_that_declares_a_longer_stop_promise_is_held_to_its_own() -> None:
+    # A test bench (the kernel tier's guest, the Linux bench's file-backed stand-ins) cannot
+    # keep the robot's 10 ms: it declares its share of the promise, and the budgets follow it.
+    bench = "[timeouts]\nstop_response_s = 0.06\npass_budget_s = 0.05\ndac_transfer_budget_s = 0.02"
+    robot = parse_config(bench, "robot.toml")
+    assert OPERATOR_STOP.deadline_s(robot) == pytest.approx(0.0077 + 0.06)
+    assert RC_LOSS.deadline_s(robot) == pytest.approx(robot.timeouts.rc_timeout_s + 0.06)
+    with pytest.raises(ConfigError) as refused:
+        parse_config(bench.replace("0.06", "0.03"), "robot.toml")
+    assert "set timeouts.pass_budget_s to 0.0272 or less" in str(refused.value)
+    with pytest.raises(ConfigError) as tighter:  # never a promise tighter than the loader knows
+        parse_config("[timeouts]\nstop_response_s = 0.005", "robot.toml")
+    assert "timeouts.stop_response_s" in str(tighter.value)

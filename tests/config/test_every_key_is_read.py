@@ -30,6 +30,8 @@ RESOLVED_AT_LOAD = {
     "gpio_chip": "the chip of every line that names none: each line's own chip is read",
     "timeouts.can_command_timeout_s": "the limit of every CAN message that names none: each"
     " message's own limit (timeouts.can_message_timeout_s) is read",
+    "timeouts.stop_response_s": "the stop promise the file declares: the load check holds the"
+    " budgets to it (bywire.config.deadlines), and the runtime holds the work to the budgets",
 }
 
 

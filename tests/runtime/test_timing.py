@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from bywire.control.dac_health import DAC_TRANSFERS_PER_PASS
 from bywire.control.drive import DriveOutputs
 from bywire.control.lights import LightOutputs
 from bywire.hal.sim.clock import VirtualClock
@@ -77,3 +78,12 @@ def test_a_port_write_that_hangs_is_timed_by_the_gate() -> None:
     actuators.write_lights(LightOutputs(brake=True))
     assert actuators.overruns.counts["lights write"] == 1
     assert actuators.overruns.active(world.clock.now())
+
+
+def test_a_drive_write_is_the_transfers_the_pass_budget_is_derived_from() -> None:
+    # The load check holds DAC_TRANSFERS_PER_PASS transfers within the pass budget: a drive
+    # write that made more would let transfers within their budget overrun the pass.
+    world, actuators = rig()
+    writes_before = world.dac.writes
+    actuators.write_drive(DRIVING, 0.0)
+    assert world.dac.writes - writes_before == DAC_TRANSFERS_PER_PASS

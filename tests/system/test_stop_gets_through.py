@@ -228,7 +228,7 @@ stall_s = 0.002
 def test_a_pass_writes_the_brakes_and_the_enable_line_before_the_slow_dac() -> None:
     # Before: the driving task's I2C writes ran before the brake task's, so a STOP's e-brake
     # waited for the DAC's transfers.
-    run = played(slow_dac(0.004), 3.0)  # slow, but within its budget
+    run = played(slow_dac(0.003), 3.0)  # slow, but within its budget (3.5 ms)
     ebrake_at_s = next(
         t for t, up in run.world.gpio["ebrake_release"].history if t > 2.5 and not up
     )

@@ -17,7 +17,7 @@ import json
 from pathlib import Path
 
 from bywire.config import RobotConfig, as_dict, describe, load_config
-from bywire.config.deadlines import loss_distances, loss_rows
+from bywire.config.deadlines import loss_distances, loss_rows, promise_lines
 from bywire.runtime.rx_checks import rx_checks
 from bywire.security.keys import read_key_file
 
@@ -85,6 +85,9 @@ def run(args: argparse.Namespace) -> int:
         print(f"#   {loss}")
     print("# RC switches (a value in no band is no position: the mode switch then means STOP):")
     for line in switch_bands(config):
+        print(f"#   {line}")
+    print("# Stop promises (docs/SAFETY.md; [timeouts] budgets are held to them):")
+    for line in promise_lines(config):
         print(f"#   {line}")
     print(describe(config), end="")
     return 0

@@ -21,11 +21,12 @@ from dataclasses import dataclass
 from bywire.config.limits import POSITIVE_NORM_PER_S
 from bywire.config.reader import number_text
 from bywire.config.tree import RobotConfig
-from bywire.control.dac_health import DAC_FAILURE_LIMIT
+from bywire.control.dac_health import DAC_FAILURE_LIMIT, DAC_TRANSFERS_PER_PASS
 from bywire.control.hydrobrake import hydrobrake_duty
 from bywire.control.sensor_checks import MonitorConfig
 from bywire.control.stop import STANDSTILL_LIMIT_MPS
 from bywire.model import MovementCommand
+from bywire.protocol import ibus
 
 MAX_CONTROL_PERIOD_S = 0.020
 """The longest a decision may wait for the next tick: a lost input reaches safe outputs within
@@ -58,6 +59,12 @@ FULL_TRAVEL_NORM = 2.0
 """The steering's travel from full left (-1) to full right (+1)."""
 BLIND_SPOT_MPS = 0.5
 """A wheel sensor that dies faster than this is noticed (docs/SAFETY.md row 27)."""
+STOP_RESPONSE_S = 0.010
+"""One control period: the most a stop carried by a frame may take from the frame's period to
+the brakes (docs/SAFETY.md: "the frame that carries the change, plus one control period")."""
+IBUS_WIRE_S = ibus.FRAME_LENGTH * 10 / ibus.BAUD_RATE
+"""An IBUS frame's time on the wire (8N1: 10 bits a byte): the frame period counts from when a
+frame begins, the controller has it when it ends (2.8 ms)."""
 
 
 @dataclass(frozen=True, slots=True)
@@ -368,6 +375,171 @@ def _debounce(robot: RobotConfig) -> list[Breach]:
     ]
 
 
+@dataclass(frozen=True, slots=True)
+class StopPromise:
+    """One stop deadline `docs/SAFETY.md` promises (issue 41: budgets come from deadlines): from
+    `event` to the spring brake's line engaged (and the enable line low, where the stop is
+    category 0), at most `detection_s` (the time the event takes to reach the controller: the
+    frame that carries it, the input's timeout) plus `response_s`, the controller's share as
+    the requirement states it. A robot file may declare a longer share
+    (`[timeouts] stop_response_s`, for a test bench that cannot keep the robot's): it is then
+    held to that at load, shown by `bywire config check`, and still judged at `response_s` by
+    `bywire verify`'s oracle.
+
+    The controller keeps it by the rule `response_needed_s` states, for every pattern of work
+    within the budgets `[timeouts]` gives: a stop is decided in the first pass that begins after
+    it is seen, and that pass writes the e-brake's line and the enable line first, before
+    anything slow (the schedule table's order). A frame wakes the loop when it has arrived
+    (`wakes`), so what it waits for is its wire time and the rest of a pass in flight; a timeout
+    is seen at a tick, the next one or the end of a pass in flight, whichever is later."""
+
+    name: str
+    event: str
+    detection: str
+    detection_s: Callable[[RobotConfig], float]
+    response_s: float
+    wakes: bool
+    wire_s: float = 0.0
+
+    def allowed_s(self, robot: RobotConfig) -> float:
+        """The controller's share `robot` is held to: the requirement's, or the longer one
+        the file declares."""
+        return max(self.response_s, robot.timeouts.stop_response_s)
+
+    def deadline_s(self, robot: RobotConfig) -> float:
+        return self.detection_s(robot) + self.allowed_s(robot)
+
+    def response_needed_s(self, robot: RobotConfig) -> float:
+        """The longest the controller may take to act under `robot`'s budgets and rates."""
+        pass_s = robot.timeouts.pass_budget_s
+        if self.wakes:
+            return self.wire_s + pass_s
+        return max(_decision_period_s(robot), pass_s)
+
+    def most_pass_budget_s(self, robot: RobotConfig | None = None) -> float:
+        """The largest pass budget that keeps this promise (given a fast enough tick): the
+        requirement's, or `robot`'s declared one."""
+        allowed_s = self.response_s if robot is None else self.allowed_s(robot)
+        return allowed_s - self.wire_s
+
+
+def _movement_timeout_s(robot: RobotConfig) -> float:
+    return robot.timeouts.can_timeout_s(MovementCommand.__name__)
+
+
+OPERATOR_STOP = StopPromise(
+    "the operator's STOP",
+    "the operator's switch moves to STOP",
+    "the IBUS frame that carries it",
+    lambda _robot: ibus.FRAME_PERIOD_S,
+    STOP_RESPONSE_S,
+    wakes=True,
+    wire_s=IBUS_WIRE_S,
+)
+RC_LOSS = StopPromise(
+    "an RC loss",
+    "the RC link's last frame arrives",
+    "timeouts.rc_timeout_s",
+    lambda robot: robot.timeouts.rc_timeout_s,
+    MAX_CONTROL_PERIOD_S,
+    wakes=False,
+)
+CAN_LOSS = StopPromise(
+    "a CAN loss",
+    "the computer's last movement command arrives, in CAN mode",
+    "MovementCommand's timeout",
+    _movement_timeout_s,
+    MAX_CONTROL_PERIOD_S,
+    wakes=False,
+)
+STOP_PROMISES: tuple[StopPromise, ...] = (OPERATOR_STOP, RC_LOSS, CAN_LOSS)
+"""Every stop deadline `docs/SAFETY.md` promises, stated once: the load check below, the
+oracle of `bywire verify` and the tests judge with these."""
+MOST_PASS_BUDGET_S = min(promise.most_pass_budget_s() for promise in STOP_PROMISES)
+"""The largest pass budget that keeps every promise as the requirement states it."""
+MOST_DAC_TRANSFER_BUDGET_S = MOST_PASS_BUDGET_S / DAC_TRANSFERS_PER_PASS
+"""The largest DAC transfer budget that keeps them: a pass's transfers within it (what
+`bywire verify` bounds a file's budget by, whatever it declares)."""
+
+
+def promise_lines(robot: RobotConfig) -> list[str]:
+    """Each stop promise `robot` is held to, one line each (`bywire config check` shows them),
+    naming a share longer than the requirement's."""
+    lines = []
+    for promise in STOP_PROMISES:
+        allowed_s = promise.allowed_s(robot)
+        declared = (
+            f" (declared by timeouts.stop_response_s; the requirement is"
+            f" {number_text(promise.response_s)} s)"
+            if allowed_s > promise.response_s
+            else ""
+        )
+        lines.append(
+            f"{promise.event} -> the spring brake within {promise.detection} +"
+            f" {number_text(allowed_s)} s = {number_text(round(promise.deadline_s(robot), 4))}"
+            f" s{declared}"
+        )
+    return lines
+
+
+def _floor_ms(seconds: float) -> float:
+    """`seconds` rounded down to 0.1 ms: a suggestion that keeps the bound it comes from."""
+    return math.floor(seconds * 10_000 + 1e-9) / 10_000
+
+
+def _stop_promises(robot: RobotConfig) -> list[Breach]:
+    found = []
+    budgets = robot.timeouts
+    most_pass_s = min(promise.most_pass_budget_s(robot) for promise in STOP_PROMISES)
+    for promise in STOP_PROMISES:
+        needed_s = promise.response_needed_s(robot)
+        if needed_s <= promise.allowed_s(robot) + 1e-12 or budgets.pass_budget_s <= (
+            promise.most_pass_budget_s(robot) + 1e-12
+        ):
+            continue  # kept, or broken by the tick alone (the input-loss deadline says so)
+        found.append(
+            Breach(
+                STOP_PROMISE.name,
+                ("timeouts.pass_budget_s",),
+                f"{promise.event}: the stop may reach the brakes"
+                f" {number_text(round(promise.detection_s(robot) + needed_s, 4))} s after it,"
+                f" past the {number_text(round(promise.deadline_s(robot), 4))} s promised"
+                f" ({promise.detection} + {number_text(promise.allowed_s(robot))} s), when a pass"
+                f" within its {number_text(budgets.pass_budget_s)} s budget is under way",
+                f"set timeouts.pass_budget_s to {number_text(_floor_ms(most_pass_s))} or less",
+            )
+        )
+        break  # one pass budget for every promise: the tightest suggestion says it all
+    # Held to the pass budget the file may have: one refusal names every budget to change.
+    pass_s = min(budgets.pass_budget_s, most_pass_s)
+    transfers_s = DAC_TRANSFERS_PER_PASS * budgets.dac_transfer_budget_s
+    if transfers_s > pass_s + 1e-12:
+        found.append(
+            Breach(
+                STOP_PROMISE.name,
+                ("timeouts.dac_transfer_budget_s", "timeouts.pass_budget_s"),
+                f"a pass writes {DAC_TRANSFERS_PER_PASS} DAC transfers, each within its"
+                f" {number_text(budgets.dac_transfer_budget_s)} s budget: together"
+                f" {number_text(round(transfers_s, 6))} s, more than a pass may take"
+                f" ({number_text(round(pass_s, 6))} s), so transfers no budget calls slow hold"
+                " a stop back",
+                f"set timeouts.dac_transfer_budget_s to"
+                f" {number_text(_floor_ms(pass_s / DAC_TRANSFERS_PER_PASS))} or less",
+            )
+        )
+    if budgets.write_budget_s > pass_s + 1e-12:
+        found.append(
+            Breach(
+                STOP_PROMISE.name,
+                ("timeouts.write_budget_s", "timeouts.pass_budget_s"),
+                f"one port write within its {number_text(budgets.write_budget_s)} s budget"
+                f" would be longer than a pass may take ({number_text(round(pass_s, 6))} s)",
+                f"set timeouts.write_budget_s to {number_text(_floor_ms(pass_s))} or less",
+            )
+        )
+    return found
+
+
 INPUT_LOSS = Deadline(
     "input loss",
     f"a lost input reaches safe outputs within its timeout plus"
@@ -412,6 +584,12 @@ CONTROLLED_STOP = Deadline(
     f" ({number_text(REGEN_DECEL_MPS2)} m/s² at {number_text(MOTOR_FULL_SCALE_VOLTS)} V)",
     _controlled_stop,
 )
+STOP_PROMISE = Deadline(
+    "a stop within its promise",
+    "every stop deadline of `STOP_PROMISES` holds whatever the work of a pass, within the"
+    " budgets: a pass within its budget, and its DAC transfers and port writes within theirs",
+    _stop_promises,
+)
 DEADLINES: tuple[Deadline, ...] = (
     INPUT_LOSS,
     DAC_FAILURE,
@@ -421,6 +599,7 @@ DEADLINES: tuple[Deadline, ...] = (
     SWITCH,
     STEERING,
     CONTROLLED_STOP,
+    STOP_PROMISE,
 )
 """Every deadline a robot file must keep, in the order of `docs/SAFETY.md`."""
 

@@ -37,6 +37,7 @@ from bywire.config.limits import (
     SPEED_STEP_MPS,
     STANDSTILL_MPS,
     STOP_DECEL_MPS2,
+    STOP_RESPONSE_S,
     SWITCH_BAND_RAW,
     SWITCH_HYSTERESIS_RAW,
     TELEMETRY_RATE_HZ,
@@ -208,6 +209,7 @@ def timeouts_section(table: Table) -> TimeoutsSection:
         rc_timeout_s=table.number("rc_timeout_s", default.rc_timeout_s, INPUT_TIMEOUT_S),
         can_command_timeout_s=can_default_s,
         watchdog_s=table.number("watchdog_s", default.watchdog_s, WATCHDOG_S),
+        stop_response_s=table.number("stop_response_s", default.stop_response_s, STOP_RESPONSE_S),
         pass_budget_s=table.number("pass_budget_s", default.pass_budget_s, PASS_BUDGET_S),
         write_budget_s=table.number("write_budget_s", default.write_budget_s, WRITE_BUDGET_S),
         dac_transfer_budget_s=table.number(

@@ -24,6 +24,10 @@ from bywire.control.values import value
 
 DAC_LEAK = 0.25  # one failure is forgiven after four good writes
 DAC_FAILURE_LIMIT = 3  # failures in a row (30 ms at 100 Hz) before the DAC counts as failing
+DAC_TRANSFERS_PER_PASS = 2
+"""A pass writes the drive's two analogue signals, the throttle then the regenerative brake, one
+I2C transfer each (`bywire.runtime.actuators.Actuators.write_drive`): what the pass budget must
+hold of the transfer budget (`bywire.config.deadlines`)."""
 
 
 class Transfer(enum.Enum):

@@ -33,12 +33,13 @@ class Budgets:
     `pass_s`: one pass of the loop, from its wake-up to its last write; also how late a pass may
     start after its deadline and still count as on time. `write_s`: one port write (GPIO line,
     PWM channel). `dac_transfer_s`: one I2C transfer to the DAC (a 3-byte write takes 0.3 ms at
-    100 kHz; 2 ms transfers are ordinary, 80 ms ones are not). A write or transfer may take a
-    control period before it counts against the drive."""
+    100 kHz; 2 ms transfers are ordinary, 80 ms ones are not). The defaults are what the stop
+    promises leave (`bywire.config.deadlines.STOP_PROMISES`): a pass within its budget, and
+    its two transfers within theirs, never holds a stop back past its deadline."""
 
-    pass_s: float = 0.020
-    write_s: float = 0.010
-    dac_transfer_s: float = 0.010
+    pass_s: float = 0.007
+    write_s: float = 0.005
+    dac_transfer_s: float = 0.0035
 
 
 LIMIT = 3.0

@@ -72,7 +72,8 @@ address = 0x{DAC_ADDRESS:02X}
 rc_timeout_s = 0.5
 can_command_timeout_s = 0.5
 watchdog_s = 2.0
-pass_budget_s = 0.05         # the stand-ins write files: milliseconds each on a busy machine
+stop_response_s = 0.06       # the stand-ins write files: milliseconds each on a busy machine,
+pass_budget_s = 0.05         # so the bench declares the loosest stop promise the loader allows
 write_budget_s = 0.02
 dac_transfer_budget_s = 0.02
 """

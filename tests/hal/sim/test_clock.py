@@ -93,3 +93,17 @@ def test_a_scaled_realtime_clock_runs_n_times_faster_than_the_wall_clock() -> No
     assert fired[0] >= 0.5
     assert clock.now() >= 0.6
     assert 0.06 <= wall_s < 0.6  # a tenth of the simulated time; real time would be 0.6 s
+
+
+def test_input_during_a_hung_write_wakes_the_next_wait_at_once() -> None:
+    # Issue 41: a frame that arrived while a slow DAC transfer let virtual time run was taken
+    # by the transfer's own wait, and the loop slept on to its next tick (up to a control
+    # period more). On the robot the interrupt's wake-up event stays set until the next wait.
+    clock = VirtualClock()
+    clock.call_at(0.002, clock.notify_input)
+    clock.advance(0.005)  # the hung write: timers run, the input stays pending
+    assert clock.now() == 0.005
+    clock.wait_until(0.010)
+    assert clock.now() == 0.005
+    clock.wait_until(0.010)  # consumed once
+    assert clock.now() == 0.010

@@ -175,7 +175,11 @@ def test_a_second_sender_is_over_when_its_last_frame_is_sent() -> None:
 def test_ordinary_and_short_stalls_and_crawls_only_delay_the_loop() -> None:
     crawl = _inject(_witness(), "dac_slow", stall_s=0.002)
     assert crawl.ledger.armed
-    assert crawl.delays.write_lag_s == 0.004
+    # Within the transfer budget: no stop may come later than promised (issue 41).
+    assert crawl.delays.write_lag_s == 0.0
+    past_budget = _inject(_witness(), "dac_slow", stall_s=0.0036)
+    assert past_budget.ledger.armed  # past the file's budget, not past every file's
+    assert past_budget.delays.write_lag_s == 2 * 0.0036
     hang = _inject(_witness(), "dac_stall", stall_s=0.05)
     assert hang.ledger.tripped_at is None
     assert hang.delays.hung_until == AT_S + TIMING.control_period_s + 0.05

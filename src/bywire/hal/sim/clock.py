@@ -65,10 +65,17 @@ class VirtualClock:
         self._input_pending = False
 
     def advance(self, duration_s: float) -> None:
-        """Run every timer in the next `duration_s` (input wake-ups included); for tests."""
+        """Run every timer in the next `duration_s` (a write that hangs, and tests). Input that
+        arrives meanwhile is not consumed: the loop's next `wait_until` returns at once, as a
+        UART or CAN interrupt during a slow I2C transfer leaves the real controller's wake-up
+        event set (`bywire.hal.linux.clock`), so a frame is acted on when the pass ends, not a
+        tick later."""
         deadline_s = self.now() + duration_s
-        while self.now() < deadline_s:
-            self.wait_until(deadline_s)
+        while (next_s := self._timers.next_time()) is not None and next_s <= deadline_s:
+            when_s, callback = self._timers.pop()
+            self._now_s = max(self._now_s, when_s)
+            callback()
+        self._now_s = max(self._now_s, deadline_s)
 
 
 class RealtimeClock(VirtualClock):
@@ -91,6 +98,15 @@ class RealtimeClock(VirtualClock):
             self._timers.pop()[1]()
         self._input_pending = False
         self._run_overdue()
+
+    def advance(self, duration_s: float) -> None:
+        """As `VirtualClock.advance`, paced by the wall clock: input that arrives meanwhile
+        wakes the loop's next wait."""
+        deadline_s = self.now() + duration_s
+        while (next_s := self._timers.next_time()) is not None and next_s <= deadline_s:
+            self._sleep_until(next_s)
+            self._timers.pop()[1]()
+        self._sleep_until(deadline_s)
 
     def _run_overdue(self) -> None:
         """Everything already due happens before the loop looks (a frame that arrived while it

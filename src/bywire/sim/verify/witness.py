@@ -7,6 +7,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Any
 
+from bywire.control.dac_health import DAC_TRANSFERS_PER_PASS
 from bywire.hal.sim.clock import VirtualClock
 from bywire.model import ControlMode
 from bywire.ros2.bridge import Decision
@@ -139,10 +140,13 @@ class OracleWitness:
         self.oracle.slow_writes(0.0)
 
     def slow_dac(self, transfer_s: float, now: float) -> None:
-        """Every DAC transfer crawls: each pass that writes the DAC is that much longer, and one
-        slower than any robot file's budget is a fault (category 0)."""
+        """Every DAC transfer crawls: one within the file's budget delays no stop past its
+        promise (the deadlines already allow for the transfers); one past it may make each pass
+        that writes the DAC that much longer; one slower than any robot file's budget is a
+        fault (category 0)."""
         oracle = self.oracle
-        oracle.slow_writes(2 * transfer_s)  # two transfers a pass, at most
+        legal = transfer_s <= oracle.timing.dac_transfer_s
+        oracle.slow_writes(0.0 if legal else DAC_TRANSFERS_PER_PASS * transfer_s)
         if transfer_s > SLOW_TRANSFER_S:
             oracle.hang(now, now + oracle.timing.driving_period_s + transfer_s)
             oracle.fault(Cause.DAC_SLOW, True, now)

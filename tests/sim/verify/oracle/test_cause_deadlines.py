@@ -89,3 +89,17 @@ def test_a_lax_rc_timeout_is_judged_by_its_own_promise() -> None:
     # The receiver unplugged while driving: the file's 0.3 s timeout keeps the throttle on for
     # 0.3 s, as it promised (the requirement gives 100 ms as a default, not a bound).
     assert run_campaign(parse_config(LAX, "<lax>"), RC_LOST_WHILE_DRIVING).findings == []
+
+
+def test_a_stop_a_frame_carries_is_judged_at_the_promise_whatever_the_file_declares() -> None:
+    # Issue 41: the frame, one control period, and the drive's two transfers (a controlled
+    # stop's throttle and regeneration), the transfers bounded by what the promise leaves.
+    default = OracleTiming.for_robot(default_sim_config())
+    assert default.deadline_s(Cause.SWITCH_STOP) == pytest.approx(0.0077 + 0.010 + 2 * 0.0035)
+    bench = parse_config(
+        "[timeouts]\nstop_response_s = 0.06\npass_budget_s = 0.05\ndac_transfer_budget_s = 0.02",
+        "bench.toml",
+    )
+    judged = OracleTiming.for_robot(bench)
+    assert judged.dac_transfer_s == pytest.approx(0.0072 / 2, abs=1e-4)
+    assert judged.deadline_s(Cause.SWITCH_STOP) < 0.0077 + 0.010 + 0.008

@@ -15,7 +15,9 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 from bywire.config.consistency import CONTROL_TASKS
+from bywire.config.deadlines import STOP_RESPONSE_S
 from bywire.config.tree import RobotConfig
+from bywire.control.dac_health import DAC_TRANSFERS_PER_PASS
 from bywire.control.steering import SteeringConfig
 from bywire.model import MovementCommand
 from bywire.sim.verify.oracle.causes import Cause
@@ -55,6 +57,7 @@ class OracleTiming:
     watchdog_s: float = 0.200
     control_period_s: float = 0.010
     driving_period_s: float = 0.010  # the task that writes the DAC
+    dac_transfer_s: float = 0.0035  # the slowest transfer that is no fault (the file's budget)
     standstill_mps: float = 0.05
     # The fastest a wheel sensor can die unnoticed: its drop to 0 m/s is then within the speed
     # check's step tolerance plus what braking explains in a pass (docs/SAFETY.md row 27).
@@ -81,6 +84,7 @@ class OracleTiming:
             watchdog_s=bounded(Figure.WATCHDOG_S, robot.timeouts.watchdog_s),
             control_period_s=period_s,
             driving_period_s=bounded(Figure.DRIVING_PERIOD_S, 1.0 / robot.tasks.rate_hz("driving")),
+            dac_transfer_s=bounded(Figure.DAC_TRANSFER_S, robot.timeouts.dac_transfer_budget_s),
             standstill_mps=bounded(Figure.STANDSTILL_MPS, interlocks.standstill_speed_mps),
             unnoticed_death_mps=bounded(Figure.BLIND_SPOT_MPS, blind_spot_mps),
             steering_boosted=robot.steering.servo.boost_gain > 0.0,
@@ -103,14 +107,22 @@ class OracleTiming:
         """A position held less than a frame (and its wire time) may be missed."""
         return self.frame_s + 0.004
 
+    @property
+    def frame_stop_s(self) -> float:
+        """A stop an IBUS frame carries: the promise (`bywire.config.deadlines.OPERATOR_STOP`:
+        the frame that carries it, then one control period to the spring brake, whatever the
+        task rates: the frame wakes the loop), then the drive's transfers after the brakes (a
+        controlled stop's throttle at 0 V and its regenerative brake), each within its budget."""
+        return self.frame_s + STOP_RESPONSE_S + DAC_TRANSFERS_PER_PASS * self.dac_transfer_s
+
     def deadline_s(self, cause: Cause) -> float:
         """How long after `cause` the outputs may still drive: detection, then a frame or
         command period, then the control periods that act on it."""
         frame, period = self.frame_s, self.control_period_s
         return {
-            Cause.SWITCH_STOP: frame + 2 * period + 0.0023,
-            Cause.RC_FAILSAFE: frame + 2 * period + 0.0023,
-            Cause.RC_IMPLAUSIBLE: frame + 2 * period + 0.0023,
+            Cause.SWITCH_STOP: self.frame_stop_s,
+            Cause.RC_FAILSAFE: self.frame_stop_s,
+            Cause.RC_IMPLAUSIBLE: self.frame_stop_s,
             Cause.RC_LINK_LOST: self.rc_timeout_s + frame + period + 0.0073,
             Cause.REMOTE_STOP: CAN_PERIOD_S + 2 * period + 0.005,
             Cause.CAN_LOST: self.can_timeout_s + 2 * CAN_PERIOD_S + period,

@@ -24,7 +24,12 @@ from dataclasses import dataclass
 from enum import Enum
 from types import MappingProxyType
 
-from bywire.config.deadlines import BLIND_SPOT_MPS, DAC_FAILURE_DEADLINE_S, MAX_CONTROL_PERIOD_S
+from bywire.config.deadlines import (
+    BLIND_SPOT_MPS,
+    DAC_FAILURE_DEADLINE_S,
+    MAX_CONTROL_PERIOD_S,
+    MOST_DAC_TRANSFER_BUDGET_S,
+)
 from bywire.config.limits import INPUT_TIMEOUT_S, WATCHDOG_S
 from bywire.control.dac_health import DAC_FAILURE_LIMIT
 from bywire.control.stop import MAX_CONTROLLED_STOP_S, MIN_CONTROLLED_STOP_S, STANDSTILL_LIMIT_MPS
@@ -41,6 +46,7 @@ class Figure(Enum):
     DRIVING_PERIOD_S = "how long apart the DAC is written (failing writes are counted per write)"
     STANDSTILL_MPS = "below this speed the robot counts as standing still"
     BLIND_SPOT_MPS = "the fastest a wheel sensor may die unnoticed"
+    DAC_TRANSFER_S = "the slowest DAC transfer that is no fault (the transfer budget)"
 
 
 @dataclass(frozen=True, slots=True)
@@ -73,6 +79,8 @@ REQUIRED: Mapping[Figure, Required] = MappingProxyType(
         Figure.STANDSTILL_MPS: Required("R-INTERLOCK", STANDSTILL_LIMIT_MPS),
         # "a bounded plausibility blind spot"
         Figure.BLIND_SPOT_MPS: Required("R-CONFIG-SAFETY", BLIND_SPOT_MPS),
+        # "budgets come from deadlines" (issue 41): what the stop promises leave a transfer
+        Figure.DAC_TRANSFER_S: Required("R-TIMING", MOST_DAC_TRANSFER_BUDGET_S),
     }
 )
 """Every figure a robot file sets that the oracle's deadlines are built from, with its bound."""
@@ -94,9 +102,11 @@ BRAKE_REACT_S = 0.05
 REQUIRED_HANDOVER_RATE = 2.0
 """R-SWITCH: how fast a handover may move the steering below 1 m/s (the most a robot file may
 set)."""
-SLOW_TRANSFER_S = 0.020
+SLOW_TRANSFER_S = MOST_DAC_TRANSFER_BUDGET_S
 """R-TIMING: a DAC transfer slower than this is no ordinary one (the robot file's budget is at
-most this): STOP, category 0. Transfers of 2 ms are ordinary and must never stop the robot."""
+most this, what the stop promises leave: `bywire.config.deadlines`): STOP, category 0.
+Transfers of 2 ms are ordinary and must never stop the robot; transfers within the file's budget
+delay no stop past its promise (`OracleTiming.deadline_s`)."""
 CAN_PERIOD_S = dbc.command_period_s()
 """R-DBC: the computer's commands' period as the protocol gives it (the DBC, never the robot
 file), and a second sender's frames, one a period."""
