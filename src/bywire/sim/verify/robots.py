@@ -45,12 +45,17 @@ HARDWARE_SECTIONS = ("can", "realtime", "telemetry")
 HARDWARE_KEYS = re.compile(r"(.*_)?channel|i2c_bus|address|enabled")
 """Keys that pick wiring (an IBUS, PWM or DAC channel, an I2C bus or address) or need files
 beside the robot's (security.enabled needs a key file)."""
+DECLARATIONS = frozenset({("timeouts", "stop_response_s")})
+"""Keys that declare the file is no robot's: a test bench's longer share of the stop promise
+(`config/deadlines.py` `StopPromise`), which `bywire verify` still judges at the requirement's.
+Drawing one would only find what the file already says; they stay as the base file has them."""
 
 
 def picks_hardware(read: KeyRead) -> bool:
     """A key that stays as the base file has it: a string (backend, interface, device path, pin,
-    process setting), a wiring number, or a key of a section that picks the bus or the process."""
-    if read.kind == "text" or read.parts[0] in HARDWARE_SECTIONS:
+    process setting), a wiring number, a key of a section that picks the bus or the process, or a
+    declaration that the file is a test bench's."""
+    if read.kind == "text" or read.parts[0] in HARDWARE_SECTIONS or read.parts in DECLARATIONS:
         return True
     return HARDWARE_KEYS.fullmatch(read.parts[-1]) is not None
 
