@@ -1,4 +1,4 @@
-"""The output invariants of `docs/SAFETY.md` (H1..H9), the safe levels each asks for, and a
+"""The output invariants of `docs/SAFETY.md` (H1..H10), the safe levels each asks for, and a
 violation of one."""
 
 from __future__ import annotations
@@ -22,6 +22,7 @@ class Invariant(StrEnum):
     H7 = "H7"  # a stop stops
     H8 = "H8"  # the exit path never gives up
     H9 = "H9"  # a handover is bumpless for the steering
+    H10 = "H10"  # a broken brake or servo is acted on
 
 
 INVARIANTS: tuple[Invariant, ...] = tuple(Invariant)
@@ -41,6 +42,7 @@ _LEVELS: dict[Invariant, dict[str, Any]] = {
         "throttle_volts_max": 0.0,
     },
     Invariant.H9: {},
+    Invariant.H10: {"ebrake_engaged": True},
 }
 SAFE_LEVELS: Mapping[Invariant, Mapping[str, Any]] = MappingProxyType(
     {invariant: MappingProxyType(levels) for invariant, levels in _LEVELS.items()}
