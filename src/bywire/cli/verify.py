@@ -7,7 +7,7 @@ a write, dead sensors, failing brakes and steering), partly strung into episodes
 ends, then a re-arming; a broken brake or servo, then a request that needs it; a brake asked
 with the throttle held, a reversal while rolling, a stop with the steering turned), run on the
 simulated robot built from the configuration, in virtual time, on every core. After every pass
-of the control loop the hazard oracle checks the output invariants H1–H9 of docs/SAFETY.md on
+of the control loop the hazard oracle checks the output invariants H1–H10 of docs/SAFETY.md on
 the simulated hardware.
 
 A violation is shrunk to a short scenario written to --out; `bywire sim --scenario FILE` replays
