@@ -71,3 +71,17 @@ def test_a_condition_that_lapses_starts_afresh() -> None:
     memory, found = check_h10(memory, BRAKING, BROKEN_BRAKE, 1.8)
     assert found is None  # 0.4 s since it began again, not 0.8 s
     assert memory.pressure_since == 1.4
+
+
+def test_a_servo_chasing_a_command_that_keeps_moving_is_timed_from_where_it_holds() -> None:
+    # The deadline is derived for a command the servo does not follow; a pulse that moves on
+    # starts the time afresh (the slowest acceptable servo would be chasing it too).
+    memory, _ = check_h10(Unnoticed(), OFF, STUCK_SERVO, 1.0)
+    memory, _ = check_h10(memory, replace(OFF, asked_steering_norm=0.505), STUCK_SERVO, 2.0)
+    assert memory.servo_since == 1.0  # within 0.01: held
+    memory, _ = check_h10(memory, replace(OFF, asked_steering_norm=-0.6), STUCK_SERVO, 2.5)
+    assert memory.servo_since == 2.5  # moved on
+    later = 2.5 + 2.0 + SLACK_S
+    moved = replace(OFF, asked_steering_norm=-0.6)
+    assert check_h10(memory, moved, STUCK_SERVO, later - 0.001)[1] is None
+    assert check_h10(memory, moved, STUCK_SERVO, later + 0.001)[1] is not None

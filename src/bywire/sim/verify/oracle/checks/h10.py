@@ -4,7 +4,10 @@ On a robot with the monitors' sensors fitted (a pressure sensor, a steering enco
 - a hydraulic brake that builds no pressure while its duty is `PRESSURE_DUTY` or more engages the
   e-brake within `PRESSURE_DEADLINE_S` of the first pass that shows that duty;
 - a servo stuck more than `SERVO_DEVIATION_NORM` off the position its pulse asks for engages the
-  e-brake within `SERVO_DEADLINE_S` of the first pass that shows that deviation.
+  e-brake within `SERVO_DEADLINE_S` of the first pass that shows that deviation with the pulse
+  held there (a pulse that moves on, by more than `HELD_NORM`, starts the time afresh: the
+  deadline is derived for a command the servo does not follow, and no monitor can tell a stuck
+  servo from the slowest acceptable one chasing a command that keeps jumping).
 
 Judged on the hardware (the hydraulic duty, the steering pulse, where the servo really is, the
 e-brake line) with the requirement's figures, never the file's `[monitors]` keys. A condition
@@ -26,6 +29,7 @@ from bywire.sim.verify.oracle.requirements import (
     SERVO_DEVIATION_NORM,
 )
 
+HELD_NORM = 0.01  # a pulse that moves less than this holds its command
 DUTY_SLACK = 0.005  # a duty read from the PWM's pulse, not the duty the controller commanded
 SLACK_S = 0.005
 
@@ -47,6 +51,7 @@ class Unnoticed:
 
     pressure_since: float | None = None
     servo_since: float | None = None
+    servo_asked_norm: float = 0.0  # where the pulse asked the servo to be at `servo_since`
 
 
 def _since(since: float | None, condition: bool, now: float) -> float | None:
@@ -61,9 +66,13 @@ def check_h10(
     braking = facts.hydrobrake_failed and out.hydrobrake_duty >= PRESSURE_DUTY + DUTY_SLACK
     deviation = abs(out.asked_steering_norm - out.steering_norm) / (1.0 + facts.boost_gain)
     off = facts.servo_stuck and deviation > SERVO_DEVIATION_NORM
-    memory = Unnoticed(
-        _since(memory.pressure_since, braking, now), _since(memory.servo_since, off, now)
-    )
+    asked = out.asked_steering_norm
+    servo_since = memory.servo_since
+    if servo_since is not None and abs(asked - memory.servo_asked_norm) > HELD_NORM:
+        servo_since = None  # the pulse moved on: a new command, timed afresh
+    servo_since = _since(servo_since, off, now)
+    held = memory.servo_asked_norm if servo_since == memory.servo_since else asked
+    memory = Unnoticed(_since(memory.pressure_since, braking, now), servo_since, held)
     slack_s = 2 * facts.control_period_s + SLACK_S
     late = None
     if memory.pressure_since is not None and (
