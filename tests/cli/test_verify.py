@@ -164,7 +164,7 @@ def test_bridge_campaigns_run_and_are_judged_in_a_small_budget(
     capsys: pytest.CaptureFixture[str], tmp_path: Path
 ) -> None:
     """CI-sized: of seed 21's first five campaigns four are bridge campaigns (the ROS 2 bridge as
-    the computer); they run, and are judged on H1..H9 and on the bridge's B1..B3."""
+    the computer); they run, and are judged on H1..H10 and on the bridge's B1..B3."""
     status, summary = _verify(
         capsys,
         *("--budget", "5", "--campaign-s", "4", "--seed", "21", "--jobs", "1"),
@@ -175,13 +175,13 @@ def test_bridge_campaigns_run_and_are_judged_in_a_small_budget(
     passes = summary["passes_checked"]
     assert isinstance(passes, int)
     assert passes > 0
-    # every pass is judged on the nine output invariants, a bridge campaign's on three more
+    # every pass is judged on the ten output invariants, a bridge campaign's on three more
     checks = summary["invariant_checks"]
     assert isinstance(checks, int)
-    assert 9 * passes < checks <= 12 * passes
+    assert 10 * passes < checks <= 13 * passes
     violations = summary["violations"]
     assert isinstance(violations, dict)
-    assert set(violations) == {*(f"H{n}" for n in range(1, 10)), "B1", "B2", "B3"}
+    assert set(violations) == {*(f"H{n}" for n in range(1, 11)), "B1", "B2", "B3"}
     assert (status, violations) == (0, dict.fromkeys(INVARIANTS, 0))
     assert "(1 with the ROS 2 bridge as the computer)" in _text(capsys)  # of two
 

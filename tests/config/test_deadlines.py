@@ -92,6 +92,25 @@ UNSAFE = [
         ("monitors.steering_margin_s",),
         "set monitors.steering_margin_s to 1.981 or less",
     ),
+    (  # a duty floor of 1: a dead hydraulic brake never noticed under partial braking
+        "[monitors]\nhydro_min_duty = 1.0",
+        "a failed hydraulic brake is noticed",
+        ("monitors.hydro_min_duty",),
+        "set monitors.hydro_min_duty to 0.2 or less",
+    ),
+    (  # five seconds of braking that does nothing
+        "[monitors]\nhydro_response_s = 5",
+        "a failed hydraulic brake is noticed",
+        ("monitors.hydro_response_s",),
+        "set monitors.hydro_response_s to 0.49 or less",
+    ),
+    (  # the deadline counts one decision period: 50 Hz leaves 0.48 s of build-up
+        "[monitors]\nhydro_response_s = 0.49\n[tasks]\nsteering_rate_hz = 50\n"
+        "driving_rate_hz = 50\nhydrobrake_rate_hz = 50\ncan_tx_rate_hz = 50",
+        "a failed hydraulic brake is noticed",
+        ("monitors.hydro_response_s",),
+        "set monitors.hydro_response_s to 0.48 or less",
+    ),
     (  # issue 41: regeneration plus drag (1.65 m/s²) counted as not slowing
         "[stop]\ncontrolled_min_decel_mps2 = 5.0",
         "a controlled stop keeps regeneration",
@@ -182,6 +201,8 @@ def test_the_limit_itself_is_safe() -> None:
         "[interlocks]\nunknown_speed_brake_norm = 0.625\n[hydrobrake]\nthreshold_norm = 0.25",
         "[interlocks]\nunknown_speed_brake_norm = 1.0\n[hydrobrake]\nthreshold_norm = 0.99",
         "[stop]\ncontrolled_min_decel_mps2 = 1.5",
+        "[monitors]\nhydro_min_duty = 0.2\nhydro_response_s = 0.49",  # 0.49 + 0.01 = 0.5 s
+        "[monitors]\nhydro_min_duty = 0.0",  # watching every duty: 0 bar expected at duty 0
         "[drive]\nmax_regen_volts = 5.5\n[drive.dac]\nvref_volts = 5.5\n[stop]\n"
         "controlled_min_decel_mps2 = 1.5",  # volts above the motors' full scale add nothing
     ],
@@ -199,6 +220,8 @@ def test_the_nearest_safe_values_are_accepted(text: str) -> None:
         "[interlocks]\nunknown_speed_brake_norm = 0.624\n[hydrobrake]\nthreshold_norm = 0.25",
         "[interlocks]\nunknown_speed_brake_norm = 0.99\n[hydrobrake]\nthreshold_norm = 0.99",
         "[stop]\ncontrolled_min_decel_mps2 = 1.51",
+        "[monitors]\nhydro_min_duty = 0.201",
+        "[monitors]\nhydro_response_s = 0.491",
         "[drive]\nmax_regen_volts = 0.0\n[stop]\ncontrolled_min_decel_mps2 = 0.1",
     ],
 )

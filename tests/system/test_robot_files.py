@@ -282,3 +282,59 @@ def test_config_check_states_how_far_a_lost_input_drives_on_at_full_throttle(
     driven_m = next(d for t, _, d, _ in samples if t >= stop_at) - at_loss[2]
     assert driven_m > 2.0  # the finding: a long way before the stop begins
     assert driven_m <= stated_m  # and the user was told at least that much
+
+
+# --- the pressure monitor switched off (issue 41 follow-up) ----------------------------------
+
+HYDRO_FAILURE_DEADLINE_S = 0.5  # docs/SAFETY.md row 62: no pressure at duty >= 0.2, noticed
+PRESSURE_REFUSAL = "breaks the deadline 'a failed hydraulic brake is noticed'"
+BRAKE_AT_S = 3.5
+
+HYDROBRAKE_FAILS_AS_THE_OPERATOR_BRAKES = (
+    ARMED_IN_RC
+    + """
+[[event]]
+at_s = 0.7
+rc = { throttle = 0.8 }
+[[event]]
+at_s = 3.0
+fault = "hydrobrake_fail"            # no pressure builds, no hydraulic braking
+[[event]]
+at_s = BRAKE
+rc = { throttle = STICK }
+"""
+)
+
+
+@pytest.mark.parametrize(
+    ("monitors", "fix"),
+    [
+        ("hydro_min_duty = 1.0", "set monitors.hydro_min_duty to 0.2 or less"),  # never noticed
+        ("hydro_min_duty = 0.2", ""),  # the nearest safe value
+        ("hydro_response_s = 5", "set monitors.hydro_response_s to 0.49 or less"),
+        ("hydro_response_s = 0.49", ""),  # the deadline itself: 0.49 s + one 10 ms period
+    ],
+)
+@pytest.mark.parametrize("stick", [-0.7, -1.0], ids=["partial brake", "full brake"])
+def test_a_failed_hydraulic_brake_stops_the_robot_on_every_file_the_loader_accepts(
+    monitors: str, fix: str, stick: float
+) -> None:
+    # Before: hydro_min_duty = 1.0 (in range) never watched a partial brake: the operator braked
+    # on a dead hydraulic brake and the spring brake never engaged; hydro_response_s = 5 let five
+    # seconds of braking do nothing before it did.
+    robot = accepted(f'backend = "sim"\n[monitors]\n{monitors}\n', (PRESSURE_REFUSAL, fix))
+    if robot is None:
+        return
+    samples: list[tuple[float, float, float, float]] = []
+    events = HYDROBRAKE_FAILS_AS_THE_OPERATOR_BRAKES.replace("BRAKE", str(BRAKE_AT_S))
+    events = events.replace("STICK", str(stick))
+    run = played(events, 7.0, robot=robot, prepare=lambda run: sampled(run, samples))
+    assert level(run, "ebrake_release", BRAKE_AT_S - 0.01)  # driving, spring brake released
+    assert next(v for t, v, _, _ in samples if t >= BRAKE_AT_S) > 1.0  # rolling fast
+    hydrobrake = run.world.pwm.hydrobrake
+    duty_at = BRAKE_AT_S + RC_FRAME_S + 2 * CONTROL_PERIOD_S
+    assert hydrobrake.pulse_at(duty_at) / hydrobrake.period_s >= 0.2  # braking that matters
+    deadline_s = BRAKE_AT_S + RC_FRAME_S + CONTROL_PERIOD_S + HYDRO_FAILURE_DEADLINE_S
+    assert not level(run, "ebrake_release", deadline_s)  # the spring brake engaged in time
+    assert not level(run, "motors_reverse", deadline_s)
+    assert abs(samples[-1][1]) < 0.05  # stood still by the end

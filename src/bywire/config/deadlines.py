@@ -9,7 +9,8 @@ oracle judges with the same requirement figures, so an unsafe file cannot also s
 deadlines (issue 30: every task at 1 Hz, both dwells at 0 on a robot without a wheel sensor, or
 the loosest speed check each switched a safety function off while every key was in range; issue
 41: a steering tolerance of 2, a no-sensor brake demand at the hydraulic threshold, a controlled
-stop demanding more than regeneration gives).
+stop demanding more than regeneration gives, a pressure monitor watching full duty only or
+allowing 5 s).
 """
 
 from __future__ import annotations
@@ -65,6 +66,13 @@ the brakes (docs/SAFETY.md: "the frame that carries the change, plus one control
 IBUS_WIRE_S = ibus.FRAME_LENGTH * 10 / ibus.BAUD_RATE
 """An IBUS frame's time on the wire (8N1: 10 bits a byte): the frame period counts from when a
 frame begins, the controller has it when it ends (2.8 ms)."""
+HYDRO_FAILURE_DUTY = 0.2
+"""A hydraulic brake that builds no pressure is a fault the pressure monitor must see at this
+duty or more (docs/SAFETY.md row 5, Table 4)."""
+HYDRO_FAILURE_DEADLINE_S = 0.5
+"""A hydraulic brake that builds no pressure at `HYDRO_FAILURE_DUTY` or more is noticed within
+this of the first decision commanding the duty (the pressure's build-up time plus one decision
+period; 0.31 s on the defaults): 1.5 m at 3 m/s of braking that does nothing."""
 
 
 @dataclass(frozen=True, slots=True)
@@ -269,6 +277,40 @@ def _steering_monitor(robot: RobotConfig) -> list[Breach]:
             fix,
         )
     )
+    return found
+
+
+def _pressure_monitor(robot: RobotConfig) -> list[Breach]:
+    """The pressure monitor watches the duties that matter, and flags a brake that builds no
+    pressure within the deadline: its build-up time plus one decision period (a duty floor of 1.0
+    or a 5 s build-up, both in range, switched it off or let seconds of braking do nothing)."""
+    monitors = robot.monitors
+    found = []
+    if monitors.hydro_min_duty > HYDRO_FAILURE_DUTY + 1e-9:
+        found.append(
+            Breach(
+                PRESSURE.name,
+                ("monitors.hydro_min_duty",),
+                f"a hydraulic brake that builds no pressure at a duty below"
+                f" {number_text(monitors.hydro_min_duty)} is never noticed (one at"
+                f" {number_text(HYDRO_FAILURE_DUTY)} or more must be)",
+                f"set monitors.hydro_min_duty to {number_text(HYDRO_FAILURE_DUTY)} or less",
+            )
+        )
+    period_s = _decision_period_s(robot)
+    noticed_s = monitors.hydro_response_s + period_s
+    if noticed_s > HYDRO_FAILURE_DEADLINE_S + 1e-9:
+        allowed_s = math.floor((HYDRO_FAILURE_DEADLINE_S - period_s) * 1000 + 1e-6) / 1000
+        found.append(
+            Breach(
+                PRESSURE.name,
+                ("monitors.hydro_response_s",),
+                f"a hydraulic brake that builds no pressure is noticed only after"
+                f" {number_text(round(noticed_s, 3))} s ({number_text(monitors.hydro_response_s)}"
+                f" s of build-up plus a decision period of {number_text(round(period_s, 4))} s)",
+                f"set monitors.hydro_response_s to {number_text(allowed_s)} or less",
+            )
+        )
     return found
 
 
@@ -578,6 +620,13 @@ STEERING = Deadline(
     f" its travel, is noticed within {number_text(STUCK_SERVO_DEADLINE_S)} s",
     _steering_monitor,
 )
+PRESSURE = Deadline(
+    "a failed hydraulic brake is noticed",
+    f"a hydraulic brake that builds no pressure at a duty of {number_text(HYDRO_FAILURE_DUTY)}"
+    f" or more is noticed within {number_text(HYDRO_FAILURE_DEADLINE_S)} s (with a pressure"
+    " sensor fitted)",
+    _pressure_monitor,
+)
 CONTROLLED_STOP = Deadline(
     "a controlled stop keeps regeneration",
     f"a controlled stop never removes power from a robot regeneration alone brakes"
@@ -600,6 +649,7 @@ DEADLINES: tuple[Deadline, ...] = (
     STEERING,
     CONTROLLED_STOP,
     STOP_PROMISE,
+    PRESSURE,
 )
 """Every deadline a robot file must keep, in the order of `docs/SAFETY.md`."""
 

@@ -39,6 +39,7 @@ from bywire.sim.verify.fault_rules import (
     rc_frames_lost,
     rc_implausible,
     second_sender,
+    servo,
     switch_chatter,
     wheel_sensor,
 )
@@ -177,9 +178,9 @@ FAULTS: tuple[Fault, ...] = (
     Fault("ebrake_fail", "the spring-applied emergency brake does not engage", _ebrake_fail,
           expect=ebrake_fails),
     Fault("servo_stuck", "the steering servo stays where it is", _servo(True),
-          expect=nothing),
+          expect=servo(stuck=True)),
     Fault("servo_free", "the steering servo moves again", _servo(False),
-          expect=nothing),
+          expect=servo(stuck=False)),
     Fault("encoder_fail", "the steering encoder gives no reading", _encoder_fail,
           expect=nothing),
     Fault("loop_stall", "the control loop hangs for `stall_s` (needs realtime = true: the "

@@ -47,6 +47,9 @@ def robot_files(draw: st.DrawFn) -> str:
     # travel (2 less the tolerance) at its speed, plus the margin
     tolerance, margin_ms = draw(st.integers(10, 30)) / 100, draw(st.integers(100, 400))
     servo_speed = _norm(math.ceil((2.0 - tolerance) / (2.0 - margin_ms / 1000) * 100) / 100, 3.0)
+    # A failed hydraulic brake is noticed within 0.5 s at a duty of 0.2 or more: the duty floor
+    # at 0.2 or less, the build-up time plus a decision period within 0.5 s
+    response_ms = math.floor((0.5 - period_s) * 1000 + 1e-6)
     # Timeouts across the loader's ranges (INPUT_TIMEOUT_S, WATCHDOG_S): R-TIMEOUT's 100 ms and
     # R-WATCHDOG's 200 ms are defaults; a file is held to its own (oracle/test_cause_deadlines.py)
     rc_ms = draw(st.integers(max(30, frame_t // 5 + 1), 1000))
@@ -81,8 +84,8 @@ def robot_files(draw: st.DrawFn) -> str:
             "speed_step_tolerance_mps": draw(step_tolerance),
         },
         "monitors": {
-            "hydro_min_duty": draw(_norm(0.1, 0.4)),
-            "hydro_response_s": draw(_seconds(100, 500)),
+            "hydro_min_duty": draw(_norm(0.0, 0.2)),
+            "hydro_response_s": draw(_seconds(100, response_ms)),
             "steering_tolerance_norm": f"{tolerance:.2f}",
             "steering_margin_s": f"{margin_ms / 1000:.3f}",
             "servo_speed_norm_per_s": draw(servo_speed),

@@ -245,3 +245,52 @@ def test_a_bridge_campaigns_finding_is_shrunk_to_a_bridge_scenario_that_fails_on
     assert "bridge_unshown_drop = false" in written
     record = SimRun(ROBOT, parse_scenario(written, "b3.toml")).run()
     assert [verdict.passed for verdict in record.verdicts] == [False]
+
+
+# --- H10: the monitors' deadlines, judged with the requirement's figures ---------------------
+
+RC = ControlMode.RC
+HYDROBRAKE_FAILS_AS_THE_OPERATOR_BRAKES = [
+    Step(0.2, "arm", RC),
+    Step(0.15, "rc_throttle", 0.8),
+    Step(2.0, "hydrobrake", False),  # builds no pressure
+    Step(0.1, "rc_throttle", -0.8),  # duty 0.6, on a brake that does nothing
+    Step(2.0, "rc_throttle", -0.8),
+]
+SERVO_STUCK_AS_THE_OPERATOR_TURNS = [
+    Step(0.2, "arm", RC),
+    Step(0.15, "rc_throttle", 0.3),
+    Step(1.0, "servo", False),  # stuck straight ahead
+    Step(0.1, "rc_steer", 0.5),
+    Step(3.0, "rc_steer", 0.5),
+]
+WEAKENED_MONITORS = {  # what a robot file could once set: the monitor acts, but too late
+    "pressure: 5 s of build-up": (
+        {"hydro_response_s": 5.0},
+        HYDROBRAKE_FAILS_AS_THE_OPERATOR_BRAKES,
+    ),
+    "pressure: full duty only": ({"hydro_min_duty": 1.0}, HYDROBRAKE_FAILS_AS_THE_OPERATOR_BRAKES),
+    "servo: a 5 s margin": ({"steering_margin_s": 5.0}, SERVO_STUCK_AS_THE_OPERATOR_TURNS),
+    "servo: a tolerance of 2": (
+        {"steering_tolerance_norm": 2.0},
+        SERVO_STUCK_AS_THE_OPERATOR_TURNS,
+    ),
+}
+
+
+@pytest.mark.parametrize("name", WEAKENED_MONITORS)
+def test_a_monitor_that_acts_later_than_the_requirement_is_flagged(name: str) -> None:
+    # The loader refuses these files (config/deadlines.py); the oracle must not take the file's
+    # word either: a controller built past the loader, its monitor weakened, breaks H10.
+    weakened, steps = WEAKENED_MONITORS[name]
+    robot = replace(ROBOT, monitors=replace(ROBOT.monitors, **weakened))
+    outcome = run_campaign(robot, steps)
+    assert [finding.invariant for finding in outcome.findings][:1] == ["H10"], outcome.findings
+    assert run_campaign(ROBOT, steps).findings == []  # the default robot acts in time
+
+
+def test_the_default_robot_acts_on_a_failed_brake_and_a_stuck_servo_in_time() -> None:
+    for steps in (HYDROBRAKE_FAILS_AS_THE_OPERATOR_BRAKES, SERVO_STUCK_AS_THE_OPERATOR_TURNS):
+        outcome = run_campaign(ROBOT, steps)
+        assert outcome.checks > 0
+        assert outcome.findings == []

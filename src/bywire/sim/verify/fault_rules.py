@@ -134,6 +134,13 @@ def hydrobrake(*, failed: bool) -> Expect:
     return expect
 
 
+def servo(*, stuck: bool) -> Expect:
+    def expect(witness: OracleWitness, _values: FaultValues, _now: float) -> None:
+        witness.oracle.servo_stuck(stuck)
+
+    return expect
+
+
 def wheel_sensor(*, dead: bool) -> Expect:
     def expect(witness: OracleWitness, _values: FaultValues, _now: float) -> None:
         if dead:

@@ -63,6 +63,7 @@ class OracleTiming:
     # check's step tolerance plus what braking explains in a pass (docs/SAFETY.md row 27).
     unnoticed_death_mps: float = 0.45
     steering_boosted: bool = False  # the pulse settles onto a held set-point (boost_gain > 0)
+    boost_gain: float = 0.0  # how far the pulse may overshoot the set-point (H10)
     servo: ServoPulses = field(default_factory=ServoPulses)
 
     @classmethod
@@ -88,6 +89,7 @@ class OracleTiming:
             standstill_mps=bounded(Figure.STANDSTILL_MPS, interlocks.standstill_speed_mps),
             unnoticed_death_mps=bounded(Figure.BLIND_SPOT_MPS, blind_spot_mps),
             steering_boosted=robot.steering.servo.boost_gain > 0.0,
+            boost_gain=robot.steering.servo.boost_gain,
             servo=ServoPulses.of(robot.steering.servo),
         )
 

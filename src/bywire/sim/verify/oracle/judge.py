@@ -3,7 +3,7 @@
 It never asks the controller what it believes: it is told every action and fault the test (or
 `bywire verify`) applies, and after every pass of the loop it reads the simulated hardware (the
 enable line, the DAC's throttle volts, the e-brake line, the steering pulse, the direction lines
-and the vehicle's true speed) and checks the output invariants of `docs/SAFETY.md` (H1..H9, one
+and the vehicle's true speed) and checks the output invariants of `docs/SAFETY.md` (H1..H10, one
 pure check each in `checks/`).
 
 What it was told is kept in small parts: the faults in force (`FaultsInForce`), what may delay
@@ -34,6 +34,7 @@ from bywire.sim.verify.oracle.checks.h6 import check_h6
 from bywire.sim.verify.oracle.checks.h7 import BrakeFacts, Braking, check_h7
 from bywire.sim.verify.oracle.checks.h8 import check_h8
 from bywire.sim.verify.oracle.checks.h9 import check_h9
+from bywire.sim.verify.oracle.checks.h10 import BrokenFacts, Unnoticed, check_h10
 from bywire.sim.verify.oracle.checks.hold import SteeringHold
 from bywire.sim.verify.oracle.delays import Delays
 from bywire.sim.verify.oracle.faults_in_force import FaultsInForce
@@ -54,10 +55,11 @@ class CheckMemory:
     stop_hold: SteeringHold = field(default_factory=SteeringHold)  # H5: held in STOP
     brake_with_throttle_at: float | None = None  # H6
     braking: Braking | None = None  # H7
+    unnoticed: Unnoticed = field(default_factory=Unnoticed)  # H10
 
 
 class HazardOracle:
-    """Told every action; `observe` after every pass checks H1..H9 on the world's hardware."""
+    """Told every action; `observe` after every pass checks H1..H10 on the world's hardware."""
 
     __slots__ = (
         "arming",
@@ -220,6 +222,10 @@ class HazardOracle:
         """The hydraulic brake builds no pressure (or works again)."""
         self.plant.hydrobrake_failed = failed
 
+    def servo_stuck(self, stuck: bool) -> None:
+        """The steering servo stays where it is (or moves again)."""
+        self.plant.servo_stuck = stuck
+
     def line_died(self, name: str) -> None:
         """Every write to the output `name` fails from now on."""
         self.plant.dead_lines.add(name)
@@ -233,7 +239,7 @@ class HazardOracle:
         self.judge(Outputs.read(self.world), now)
 
     def judge(self, out: Outputs, now: float) -> None:
-        """Check H1..H7 and H9 on `out`, what the hardware shows at `now` (a debounce that has
+        """Check H1..H7, H9 and H10 on `out`, what the hardware shows at `now` (a debounce that has
         just ended is `observe`'s to resolve first)."""
         arming, ledger, plant, timing, memory = (
             self.arming,
@@ -278,7 +284,15 @@ class HazardOracle:
         if taking is not None and not boosted:
             target = arming.sources[taking.source].steering_norm
             arming.taking, h9 = check_h9(taking, out, target, timing.servo, now)
-        found = (h1, h2, h3, h4, *h5, h6, h7, h9)
+        broken = BrokenFacts(
+            plant.sensors_fitted,
+            plant.hydrobrake_failed,
+            plant.servo_stuck,
+            timing.boost_gain,
+            timing.control_period_s,
+        )
+        memory.unnoticed, h10 = check_h10(memory.unnoticed, out, broken, now)
+        found = (h1, h2, h3, h4, *h5, h6, h7, h9, h10)
         self.violations.extend(violation for violation in found if violation is not None)
 
     def exited(self, now: float) -> None:

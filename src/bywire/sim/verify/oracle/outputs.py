@@ -5,6 +5,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+from bywire.hal.sim.vehicle_model import servo_target_norm
 from bywire.hal.sim.world import SimWorld
 
 
@@ -21,10 +22,14 @@ class Outputs:
     speed_mps: float  # signed: forward above zero
     forward: bool  # the direction lines
     reverse: bool
+    steering_norm: float = 0.0  # where the servo really is, -1..1 (the vehicle's own frame)
+    asked_steering_norm: float = 0.0  # where the steering pulse asks it to be (the same frame)
 
     @classmethod
     def read(cls, world: SimWorld) -> Outputs:
         gpio, pwm = world.gpio, world.pwm
+        vehicle = world.vehicle.model
+        steering = world.vehicle.state.steering_norm
         return cls(
             enable=gpio["motors_enable"].level,
             released=gpio["ebrake_release"].level,
@@ -35,4 +40,6 @@ class Outputs:
             speed_mps=world.vehicle.state.speed_mps,
             forward=gpio["motors_forward"].level,
             reverse=gpio["motors_reverse"].level,
+            steering_norm=steering,
+            asked_steering_norm=servo_target_norm(pwm.steering.pulse_s, steering, vehicle.config),
         )

@@ -17,6 +17,7 @@ class Plant:
     sensor_ever_dead: bool = False  # the wheel sensor died once: its standstill may not count
     hydrobrake_failed: bool = False  # builds no pressure: H4 is off with a dead sensor
     ebrake_failed: bool = False  # the spring brake does not engage (undetectable: row 6)
+    servo_stuck: bool = False  # the steering servo stays where it is (H10, with an encoder)
     dead_lines: set[str] = field(default_factory=set)  # outputs whose writes fail (H8)
 
     def __post_init__(self) -> None:

@@ -27,8 +27,12 @@ from types import MappingProxyType
 from bywire.config.deadlines import (
     BLIND_SPOT_MPS,
     DAC_FAILURE_DEADLINE_S,
+    HYDRO_FAILURE_DEADLINE_S,
+    HYDRO_FAILURE_DUTY,
     MAX_CONTROL_PERIOD_S,
     MOST_DAC_TRANSFER_BUDGET_S,
+    STEERING_DEVIATION_NORM,
+    STUCK_SERVO_DEADLINE_S,
 )
 from bywire.config.limits import INPUT_TIMEOUT_S, WATCHDOG_S
 from bywire.control.dac_health import DAC_FAILURE_LIMIT
@@ -118,3 +122,14 @@ DAC_FAULT: every other write failing trips the leaky count after eight writes; t
 margin."""
 FULL_DUTY = 1.0
 """R-HYDRO: the hydraulic brake's duty in STOP."""
+PRESSURE_DUTY = HYDRO_FAILURE_DUTY
+"""R-MONITORS (docs/SAFETY.md rows 5, 62): with a pressure sensor fitted, a hydraulic brake that
+builds no pressure at this duty or more is a fault…"""
+PRESSURE_DEADLINE_S = HYDRO_FAILURE_DEADLINE_S
+"""…acted on (the e-brake engaged) within this of the duty (the file's `[monitors]` figures are
+held within it at load)."""
+SERVO_DEVIATION_NORM = STEERING_DEVIATION_NORM
+"""R-MONITORS (docs/SAFETY.md rows 7, 50): with a steering encoder fitted, a servo stuck more than
+this off the position its pulse asks for is a fault…"""
+SERVO_DEADLINE_S = STUCK_SERVO_DEADLINE_S
+"""…acted on (the e-brake engaged) within this of the deviation."""
