@@ -1,7 +1,13 @@
 """The CAN input stage checked exhaustively: every reachable state of one command message ×
-every abstract frame (unreadable; an intact one whose counter is the same, the next, one
-further or far off, asking for request A, B or something out of range; arriving early, on time
-or after a gap), breadth-first from the first frame, every invariant on every transition.
+every abstract frame (unreadable; an intact one whose counter is the same, the next, two or
+three on, far off, or one or two back, asking for request A, B or something out of range;
+arriving early, on time or after a gap), breadth-first from the first frame, every invariant on
+every transition.
+
+Beside the stage's state the search keeps its own record of the counters the last frame taken
+in sequence skipped (from what it sent and the verdicts, not from the stage's fields), so I8
+judges the stage from outside: a skipped counter that then comes from the bus is a second
+sender (issue 41, finding 9).
 
 Times are kept relative to the step and capped where the rules stop telling them apart, and
 counters relative to the last one, so the reachable states are finite; the trust window is cut
@@ -26,11 +32,13 @@ WINDOW = 4
 A = MovementCommand(0.0, 0.2, 0.0, Gear.FORWARD, 0)
 B = MovementCommand(1.0, 0.8, 0.0, Gear.FORWARD, 0)
 REQUESTS: tuple[MovementCommand | None, ...] = (A, B, None)  # None: intact, out of range
-OFFSETS = (0, 1, 2, 5)
+OFFSETS = (0, 1, 2, 3, 5, 14, 15)  # 14, 15: two and one back
 WAITS_S = (0.5 * PERIOD_S, PERIOD_S, PERIOD_S + TIMEOUT_S)  # on a 10 ms grid
 Frame = tuple[Decoded, float, int | None]  # the frame, the wait before it, its counter offset
 
-Invariant = Callable[[MessageState, Frame, MessageState, Verdict], bool]
+Invariant = Callable[[MessageState, Frame, MessageState, Verdict, int], bool]
+"""(before, the frame, after, its verdict, the counters the last frame taken in sequence skipped
+as the search saw it) -> holds"""
 
 
 def _frames() -> list[Frame]:
@@ -64,20 +72,21 @@ def _canonical(state: MessageState, now: float) -> MessageState:
         last=last,
         last_at=_relative(state.last_at, now, TIMEOUT_S + PERIOD_S),
         lost=min(state.lost, 3),
+        skipped=state.skipped,
         window=state.window,
         untrusted=state.untrusted,
     )
 
 
 def _never_accepts_the_counter_just_used(
-    before: MessageState, frame: Frame, after: MessageState, verdict: Verdict
+    before: MessageState, frame: Frame, after: MessageState, verdict: Verdict, _skipped: int
 ) -> bool:
     gap = before.last_at is None or frame[1] - before.last_at > TIMEOUT_S  # it starts afresh
     return not (verdict.used and frame[2] == 0 and before.counter is not None and not gap)
 
 
 def _unreadable_changes_nothing_but_the_lost_count(
-    before: MessageState, frame: Frame, after: MessageState, verdict: Verdict
+    before: MessageState, frame: Frame, after: MessageState, verdict: Verdict, _skipped: int
 ) -> bool:
     if frame[0].readable:
         return True
@@ -85,7 +94,7 @@ def _unreadable_changes_nothing_but_the_lost_count(
 
 
 def _identical_repeats_cost_no_trust(
-    before: MessageState, frame: Frame, after: MessageState, verdict: Verdict
+    before: MessageState, frame: Frame, after: MessageState, verdict: Verdict, _skipped: int
 ) -> bool:
     decoded, wait_s, offset = frame
     gap = before.last_at is None or wait_s - before.last_at > TIMEOUT_S
@@ -102,28 +111,55 @@ def _identical_repeats_cost_no_trust(
 
 
 def _nothing_used_while_untrusted(
-    before: MessageState, frame: Frame, after: MessageState, verdict: Verdict
+    before: MessageState, frame: Frame, after: MessageState, verdict: Verdict, _skipped: int
 ) -> bool:
     return not (verdict.used and after.untrusted)
 
 
 def _a_conflict_distrusts_at_once(
-    before: MessageState, frame: Frame, after: MessageState, verdict: Verdict
+    before: MessageState, frame: Frame, after: MessageState, verdict: Verdict, _skipped: int
 ) -> bool:
     return verdict is not Verdict.CONFLICT or after.untrusted
 
 
 def _trust_returns_only_after_a_clean_window(
-    before: MessageState, frame: Frame, after: MessageState, verdict: Verdict
+    before: MessageState, frame: Frame, after: MessageState, verdict: Verdict, _skipped: int
 ) -> bool:
     regained = before.untrusted and not after.untrusted
     return not regained or (len(after.window) == WINDOW and not any(after.window))
 
 
 def _misses_distrust(
-    before: MessageState, frame: Frame, after: MessageState, verdict: Verdict
+    before: MessageState, frame: Frame, after: MessageState, verdict: Verdict, _skipped: int
 ) -> bool:
     return sum(after.window) < input_stage.COUNTER_MISS_LIMIT or after.untrusted
+
+
+def _gap(before: MessageState, wait_s: float) -> bool:
+    """The frame starts the sequence afresh (the first, or after a gap)."""
+    return before.last_at is None or wait_s - before.last_at > TIMEOUT_S
+
+
+def _a_skipped_counter_from_the_bus_is_a_second_sender(
+    before: MessageState, frame: Frame, after: MessageState, verdict: Verdict, skipped: int
+) -> bool:
+    decoded, wait_s, offset = frame
+    if not decoded.readable or offset is None or _gap(before, wait_s):
+        return True
+    back = (-offset) % 16
+    return not 1 <= back <= skipped or (verdict is Verdict.CONFLICT and after.untrusted)
+
+
+def _a_frame_the_lost_ones_explain_costs_no_trust(
+    before: MessageState, frame: Frame, after: MessageState, verdict: Verdict, _skipped: int
+) -> bool:
+    """The guard: an honest sender's damaged frames (unreadable) then its next one."""
+    decoded, wait_s, offset = frame
+    if before.counter is None or offset is None or decoded.command is None or _gap(before, wait_s):
+        return True
+    if not 1 <= offset <= 1 + before.lost:
+        return True
+    return verdict in (Verdict.ACCEPTED, Verdict.UNTRUSTED) and not after.window[-1]
 
 
 INVARIANTS: dict[str, Invariant] = {
@@ -136,7 +172,24 @@ INVARIANTS: dict[str, Invariant] = {
     "I5 a conflict distrusts at once": _a_conflict_distrusts_at_once,
     "I6 trust returns only after a clean window": _trust_returns_only_after_a_clean_window,
     "I7 misses distrust": _misses_distrust,
+    "I8 a skipped counter, then from the bus, is a second sender": (
+        _a_skipped_counter_from_the_bus_is_a_second_sender
+    ),
+    "I9 a frame the unreadable ones explain costs no trust": (
+        _a_frame_the_lost_ones_explain_costs_no_trust
+    ),
 }
+
+
+def _skipped_after(before: MessageState, frame: Frame, verdict: Verdict, skipped: int) -> int:
+    """The search's own record: what the last frame taken in sequence skipped."""
+    decoded, wait_s, offset = frame
+    if not decoded.readable or verdict is Verdict.REPEAT:
+        return skipped  # nothing taken: the record stands
+    in_sequence = verdict in (Verdict.ACCEPTED, Verdict.UNTRUSTED, Verdict.OUT_OF_RANGE)
+    if not in_sequence or offset is None or before.counter is None or _gap(before, wait_s):
+        return 0
+    return max(offset - 1, 0)
 
 
 Step = Callable[[MessageState, Decoded, float, float], tuple[MessageState, Verdict]]
@@ -147,25 +200,26 @@ def explore(
 ) -> tuple[int, int, list[tuple[str, list[Frame]]]]:
     """(states, transitions, violations with their shortest frame sequence)."""
     frames = _frames()
-    start = MessageState()
+    start = (MessageState(), 0)
     seen = {start}
-    paths: dict[MessageState, list[Frame]] = {start: []}
+    paths: dict[tuple[MessageState, int], list[Frame]] = {start: []}
     queue, transitions, violations = deque([start]), 0, []
     while queue:
-        state = queue.popleft()
+        state, skipped = node = queue.popleft()
         for frame in frames:
             decoded = _at(state, frame)
             after, verdict = step(state, decoded, frame[1], TIMEOUT_S)
             transitions += 1
+            sent = (decoded, frame[1], frame[2])
             for name, holds in INVARIANTS.items():
-                if not holds(state, (decoded, frame[1], frame[2]), after, verdict):
-                    violations.append((name, [*paths[state], frame]))
+                if not holds(state, sent, after, verdict, skipped):
+                    violations.append((name, [*paths[node], frame]))
                     if len(violations) >= max_violations:
                         return len(seen), transitions, violations
-            key = _canonical(after, frame[1])
+            key = (_canonical(after, frame[1]), _skipped_after(state, sent, verdict, skipped))
             if key not in seen:
                 seen.add(key)
-                paths[key] = [*paths[state], frame]
+                paths[key] = [*paths[node], frame]
                 queue.append(key)
     return len(seen), transitions, violations
 
@@ -215,3 +269,15 @@ def test_a_repeat_judged_as_a_counter_miss_is_found(monkeypatch: pytest.MonkeyPa
     original = input_stage._judged
     found = _found(monkeypatch, "_judged", old_repeat)
     assert "I3 an identical repeat costs no trust" in found
+
+
+def test_a_skip_that_forgets_the_skipped_counters_is_found(monkeypatch: pytest.MonkeyPatch) -> None:
+    """Issue 41, finding 9: 9002ac3's stage; a forgery skipping the counter after an unreadable
+    frame was taken, and the computer's own skipped counter then counted as a miss."""
+
+    def forgetting(state: MessageState, frame: Decoded) -> Verdict:
+        return original(replace(state, skipped=0), frame)
+
+    original = input_stage._judged
+    found = _found(monkeypatch, "_judged", forgetting)
+    assert "I8 a skipped counter, then from the bus, is a second sender" in found

@@ -252,3 +252,33 @@ def test_a_legal_but_unsafe_robot_file_is_refused_naming_the_deadline(
 def test_the_shipped_robot_files_keep_every_deadline() -> None:
     assert load_config(Path(__file__).parents[2] / "config" / "albert.toml").name == "albert"
     assert parse_config('backend = "sim"\n', "<sim>").backend == "sim"
+
+
+# --- issue 41, finding 9: one unreadable frame bought a forged counter ------------------------
+
+ATTACK_FROM_S, ATTACK_PERIOD_S = 1.5, 0.32  # two forgeries, then 14 quiet frames of 20 ms
+
+
+def skip_forgeries(repeats: int) -> str:
+    return "".join(
+        f"""
+[[event]]
+at_s = {ATTACK_FROM_S + k * ATTACK_PERIOD_S:.2f}
+fault = "can_skip_forgery"
+count = 2
+"""
+        for k in range(repeats)
+    )
+
+
+def test_forgeries_that_skip_the_computers_next_counter_stop_steering_the_robot() -> None:
+    # Before (9002ac3): a forgery after a bad-CRC frame may skip one counter, so each was taken
+    # and the computer's own skipped frame counted as a stale counter: the id never untrusted,
+    # 20 of 20 forgeries taken, the pulse at 1620 µs (straight asked) for 60 ms in every 300 ms
+    # (here 1600 µs, 0.2 of full lock, on every repeat; now 1520 µs once, then STOP).
+    run = played(DRIVING_BY_CAN.replace("THROTTLE", "0.3") + skip_forgeries(10), 5.0)
+    assert run.record.error_flags_seen & ErrorFlag.CAN_UNTRUSTED
+    after_first = pulses(run, ATTACK_FROM_S + ATTACK_PERIOD_S, 5.0)
+    assert max(abs(steering_norm(p)) for p in after_first) < 0.05  # later forgeries move nothing
+    assert max(steering_norm(p) for p in pulses(run, ATTACK_FROM_S, 5.0)) < 0.1  # one period
+    assert not level(run, "ebrake_release", ATTACK_FROM_S + ATTACK_PERIOD_S)  # stopped for it

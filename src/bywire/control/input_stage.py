@@ -17,7 +17,14 @@ what becomes of the frame. The rules, as the adversarial pass of issue 30 taught
 - **The next counter** (allowing one step for each unreadable frame since the last read one):
   accepted. A second sender that takes over the sequence (its frame carries the computer's next
   counter) is caught by the computer's own next frame, which then repeats that counter asking
-  for something else: a conflict, one period later at the most. Arrival times cannot tell a
+  for something else: a conflict, one period later at the most.
+- **A skipped counter, then from the bus**: a frame taken in sequence that skipped counters
+  (allowed by the unreadable frames before it) remembers the values it skipped; the next intact
+  frame carrying one of them is a *conflict*: two senders on one id (issue 41). A sender's own
+  frames arrive in order, so the value it skipped was lost for good; one that comes after is
+  another sender's. Before, a forger answering the computer's frame c with a bad-CRC frame and
+  then c+2 was accepted, and the computer's own c+1 then counted as a stale counter (a miss):
+  two forgeries in every 16 frames steered the robot indefinitely. Arrival times cannot tell a
   second sender's early frame from a burst (an adapter or a socketcand bridge that batches
   frames delivers a sender's own frames close together), so they are not used to judge it: a
   rule "two frames in one period" distrusted the ROS 2 bridge's own stream over socketcand.
@@ -82,6 +89,7 @@ class MessageState:
     last: Command | None = None  # the last accepted command, for repeats and conflicts
     last_at: float | None = None  # when the last intact frame arrived
     lost: int = 0  # unreadable frames since the last intact one
+    skipped: int = 0  # counters the last intact frame skipped, taken in sequence (a conflict next)
     window: tuple[bool, ...] = ()  # the last COUNTER_WINDOW frames: True for a miss or conflict
     untrusted: bool = False
 
@@ -101,11 +109,13 @@ def message_step(
     window = (*state.window, miss)[-COUNTER_WINDOW:]
     untrusted = _trust(state.untrusted, window, conflict=verdict is Verdict.CONFLICT)
     accepted = verdict is Verdict.ACCEPTED and frame.command is not None
+    in_sequence = verdict in (Verdict.ACCEPTED, Verdict.OUT_OF_RANGE)
     new_state = MessageState(
         counter=frame.counter,
         last=frame.command if accepted else state.last,
         last_at=arrived_at,
         lost=0,
+        skipped=_skipped(state.counter, frame.counter) if in_sequence else 0,
         window=window,
         untrusted=untrusted,
     )
@@ -124,9 +134,16 @@ def _judged(state: MessageState, frame: Decoded) -> Verdict:
     if counter == previous:
         same = command is not None and state.last is not None and same_request(command, state.last)
         return Verdict.REPEAT if same else Verdict.CONFLICT
+    if (previous - counter) % COUNTER_MODULUS <= state.skipped:  # a value the last one skipped
+        return Verdict.CONFLICT
     if not 1 <= (counter - previous) % COUNTER_MODULUS <= 1 + state.lost:
         return Verdict.COUNTER
     return _next(command)
+
+
+def _skipped(previous: int | None, counter: int) -> int:
+    """How many counters a frame taken in sequence skipped (0 for the next one, or a start)."""
+    return 0 if previous is None else (counter - previous) % COUNTER_MODULUS - 1
 
 
 def _next(command: Command | None) -> Verdict:
@@ -147,6 +164,7 @@ def _with(state: MessageState, *, lost: int, last_at: float | None = None) -> Me
         state.last,
         state.last_at if last_at is None else last_at,
         lost,
+        state.skipped,
         state.window,
         state.untrusted,
     )
