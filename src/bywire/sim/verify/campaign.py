@@ -76,7 +76,10 @@ class Campaign:
         clock = cast(VirtualClock, run.world.clock)
         timing = OracleTiming.for_robot(self.robot)
         oracle = HazardOracle(run.world, timing=timing)
-        run.on_event.append(OracleWitness(oracle, clock, scenario.authenticated))
+        witness = OracleWitness(
+            oracle, clock, scenario.authenticated, mapping=self.robot.rc.mapping
+        )
+        run.on_event.append(witness)
         run.on_exit.append(oracle.exited)
         log = TransitionLog(run)
         run.runtime.on_cycle.append(oracle.observe)
