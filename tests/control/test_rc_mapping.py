@@ -7,17 +7,24 @@ from hypothesis import given
 from hypothesis import strategies as st
 
 from bywire.control.rc_mapping import (
+    PLAUSIBLE_RAW,
     AxisCalibration,
     FailsafeSignature,
     RcMapping,
+    RcStage,
     SwitchCalibration,
+    SwitchesHeld,
     axis_norm,
     channels_plausible,
     in_failsafe,
+    mode_position,
     rc_request,
+    rc_step,
     switch_position,
 )
 from bywire.model import ControlMode, Gear
+
+STOP, RC, CAN = ControlMode.STOP, ControlMode.RC, ControlMode.CAN
 
 CENTRED = (1500,) * 14
 
@@ -188,3 +195,89 @@ def test_the_hazard_switch_up_asks_for_hazard_lights() -> None:
     assert request is not None
     assert request.hazard
     assert not request.low_beam
+
+
+# --- the mode switch's transit (issue 41, finding 10), checked exhaustively --------------------
+
+TRANSIT_SWITCHES = [
+    (SwitchCalibration(channel=6), (STOP, RC, CAN)),
+    (SwitchCalibration(channel=6, reverse=True), (STOP, RC, CAN)),
+    (
+        SwitchCalibration(6, positions_raw=(1250, 1500, 1750), band_raw=100, hysteresis_raw=16),
+        (STOP, RC, CAN),
+    ),
+    (SwitchCalibration(channel=6), (CAN, RC, STOP)),
+    (SwitchCalibration(channel=6), (RC, STOP, CAN)),  # STOP in the middle: no transit to hold
+]
+
+
+def _within(raw: int, switch: SwitchCalibration, position: int, reach: int) -> bool:
+    nominal = switch.positions_raw[switch.logical(position)]
+    return abs(raw - nominal) <= switch.band_raw + reach
+
+
+def _around(raw: int, switch: SwitchCalibration) -> tuple[int, int] | None:
+    """The positions whose nominal pulses are the nearest below and above `raw` (logical)."""
+    below = [i for i, p in enumerate(switch.positions_raw) if p < raw]
+    above = [i for i, p in enumerate(switch.positions_raw) if p > raw]
+    if not below or not above:
+        return None
+    return switch.logical(max(below)), switch.logical(min(above))
+
+
+def _transit_violations(
+    switch: SwitchCalibration, modes: tuple[ControlMode, ...], hold: int
+) -> list[str]:
+    mapping = RcMapping(mode_switch=switch, mode_positions=modes)  # type: ignore[arg-type]
+    positions = range(len(switch.positions_raw))
+    found = []
+    for raw in PLAUSIBLE_RAW:
+        in_band = [p for p in positions if _within(raw, switch, p, 0)]
+        around = _around(raw, switch)
+        for held in (None, *positions):
+            for transit in range(hold + 1):
+                got, transit_after = mode_position(raw, mapping, held, transit, hold)
+                kept = held is not None and _within(raw, switch, held, switch.hysteresis_raw)
+                where = f"raw {raw}, held {held}, {transit} frames in transit"
+                if in_band or kept:  # a position read: as before, nothing in transit
+                    if (got, transit_after) != (switch_position(raw, switch, held), 0):
+                        found.append(f"T1 a position read as before: {where}")
+                    continue
+                stop_next = around is None or STOP in (modes[around[0]], modes[around[1]])
+                if stop_next and got is not None:  # beside STOP, or beyond the ends
+                    found.append(f"T2 beside STOP is STOP at once: {where}")
+                elif not stop_next and around is not None:
+                    holds = held in around and transit < hold
+                    wanted = (held, transit + 1) if holds else (None, 0)
+                    if (got, transit_after) != wanted:
+                        found.append(f"T3 between driving positions, held {hold} frames: {where}")
+    return found
+
+
+@pytest.mark.parametrize("hold", [2, 3, 5])
+@pytest.mark.parametrize(("switch", "modes"), TRANSIT_SWITCHES)
+def test_every_value_after_every_position_and_time_in_transit_keeps_the_transit_rule(
+    switch: SwitchCalibration, modes: tuple[ControlMode, ...], hold: int
+) -> None:
+    assert _transit_violations(switch, modes, hold) == []
+
+
+@pytest.mark.parametrize(("switch", "modes"), TRANSIT_SWITCHES[:4])
+def test_a_value_held_between_two_driving_positions_is_stop_after_the_debounce(
+    switch: SwitchCalibration, modes: tuple[ControlMode, ...]
+) -> None:
+    # Issue 41, finding 10: RC to CAN with one frame at 1700 µs read STOP: the spring brake at
+    # 0.84 m/s. Now the frames in transit hold the position read before, for the debounce.
+    mapping = RcMapping(mode_switch=switch, mode_positions=modes)  # type: ignore[arg-type]
+    low, high = (modes.index(RC), modes.index(CAN))
+    between = (
+        switch.positions_raw[switch.logical(low)] + switch.positions_raw[switch.logical(high)]
+    ) // 2
+    for held in (low, high):
+        stage, shown = RcStage(held=SwitchesHeld(mode=held)), []
+        channels = list(frame(ch6=between))
+        for _ in range(6):
+            stage, request = rc_step(stage, tuple(channels), mapping, 3)
+            assert request is not None
+            shown.append(request.mode)
+        assert shown == [modes[held]] * 3 + [STOP] * 3

@@ -194,6 +194,77 @@ def test_a_forgery_after_an_unreadable_frame_is_judged_against_the_last_frame_re
     assert link.reader.untrusted
 
 
+def test_a_counter_skipped_after_an_unreadable_frame_then_from_the_bus_is_a_second_sender() -> None:
+    """Issue 41, finding 9: a second node answered the computer's frame 3 with a bad CRC and a
+    forgery carrying 5; one unreadable frame allows one skipped counter, so the forgery was
+    taken, and the computer's own 4 then counted as a stale counter (a miss), not a conflict."""
+    link = Link()
+    assert link.send(3) == [3]
+    _, payload = dbc.encode_command(MovementCommand(0.0, 0.0, 0.0, Gear.FORWARD, 4))
+    assert link.send(4, data=bytes([payload[0] ^ 1, *payload[1:]])) == []
+    forged = dbc.encode_command(MovementCommand(1.0, 0.0, 0.0, Gear.FORWARD, 5))[1]
+    assert link.send(5, data=forged) == [5]  # one period: a forgery with a plausible counter
+    assert link.send(4) == []  # the computer's own frame: the counter the forgery skipped
+    assert link.reader.verdicts[Verdict.CONFLICT] == 1
+    assert link.reader.untrusted
+
+
+def _forged(counter: int) -> bytes:
+    return dbc.encode_command(MovementCommand(1.0, 0.0, 0.0, Gear.FORWARD, counter))[1]
+
+
+@pytest.mark.parametrize(
+    "between",
+    [
+        [],  # the computer's skipped counter next
+        [("forged", 6)],  # one more forgery in sequence, which a first fix forgot the skip by
+        [("replayed", 3)],  # the computer's own frame 3 again: stale, a miss, moves nothing
+        [("forged", 11)],  # a miss as far ahead as a miss goes, to push the skip out of memory
+        [("forged", 11), ("forged", 1)],  # two of them: then the computer's frame is a third
+    ],
+)
+def test_a_skipped_counter_then_from_the_bus_distrusts_the_id_whatever_comes_between(
+    between: list[tuple[str, int]],
+) -> None:
+    """Issue 41, finding 9, and what an adversary tries around its fix: a second node answers
+    the computer's frame 3 with a bad CRC and a forgery carrying 5; the computer's own 4 then
+    carries a counter the sequence skipped."""
+    link = Link()
+    assert link.send(*range(10, 16), *range(4)) == [*range(10, 16), *range(4)]
+    _, payload = dbc.encode_command(MovementCommand(0.0, 0.0, 0.0, Gear.FORWARD, 4))
+    assert link.send(4, data=bytes([payload[0] ^ 1, *payload[1:]])) == []
+    assert link.send(5, data=_forged(5)) == [5]  # one period: a plausible counter, no MAC
+    for how, counter in between:
+        link.send(counter, data=_forged(counter) if how == "forged" else None)
+    link.send(4, 5, 6)  # the computer goes on
+    assert link.reader.untrusted
+
+
+def test_a_burst_taking_over_the_sequence_is_caught_by_the_computers_next_frame() -> None:
+    # Two forged frames with the computer's next two counters: its own next frame is then one
+    # behind, which once counted as a stale counter (a miss), not a second sender.
+    link = Link()
+    assert link.send(3) == [3]
+    assert link.send(4, data=_forged(4)) == [4]
+    assert link.send(5, data=_forged(5)) == [5]
+    assert link.send(4) == []
+    assert link.reader.untrusted
+
+
+def test_an_honest_computers_damaged_frames_still_cost_nothing() -> None:
+    """The guard of finding 9: the counters skipped over unreadable frames never come again
+    from one sender, so its doubled and damaged frames stay trusted."""
+    link = Link()
+    _, payload = dbc.encode_command(MovementCommand(0.0, 0.0, 0.0, Gear.FORWARD, 4))
+    bad = bytes([payload[0] ^ 1, *payload[1:]])
+    assert link.send(3, 3) == [3]
+    assert link.send(4, 4, data=bad) == []
+    assert link.send(5, 5, 6, 6) == [5, 6]
+    assert link.reader.verdicts[Verdict.CONFLICT] == 0
+    assert True not in link.reader.states[MOVEMENT_ID].window
+    assert not link.reader.untrusted
+
+
 def test_corrupt_frames_are_counted_per_frame_and_flagged_at_the_poll_time() -> None:
     link = Link()
     _, payload = dbc.encode_command(MovementCommand(0.0, 0.0, 0.0, Gear.FORWARD, 0))

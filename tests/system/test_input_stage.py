@@ -10,6 +10,7 @@ change.
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from pathlib import Path
 
 import pytest
@@ -18,8 +19,15 @@ from bywire.config import default_sim_config, load_config, parse_config
 from bywire.error_flags import ErrorFlag
 from bywire.errors import ConfigError
 from bywire.model import ControlMode
+from bywire.protocol import ibus
 from bywire.sim.runner import SimRun
-from tests.system.test_stop_gets_through import ARMED_IN_RC, DRIVING_BY_CAN, level, played
+from tests.system.test_stop_gets_through import (
+    ARMED_IN_RC,
+    DRIVING_BY_CAN,
+    dac_volts,
+    level,
+    played,
+)
 
 SERVO = default_sim_config().steering.servo
 
@@ -252,3 +260,119 @@ def test_a_legal_but_unsafe_robot_file_is_refused_naming_the_deadline(
 def test_the_shipped_robot_files_keep_every_deadline() -> None:
     assert load_config(Path(__file__).parents[2] / "config" / "albert.toml").name == "albert"
     assert parse_config('backend = "sim"\n', "<sim>").backend == "sim"
+
+
+# --- issue 41, finding 9: one unreadable frame bought a forged counter ------------------------
+
+ATTACK_FROM_S, ATTACK_PERIOD_S = 1.5, 0.32  # two forgeries, then 14 quiet frames of 20 ms
+
+
+def skip_forgeries(repeats: int) -> str:
+    return "".join(
+        f"""
+[[event]]
+at_s = {ATTACK_FROM_S + k * ATTACK_PERIOD_S:.2f}
+fault = "can_skip_forgery"
+count = 2
+"""
+        for k in range(repeats)
+    )
+
+
+def test_forgeries_that_skip_the_computers_next_counter_stop_steering_the_robot() -> None:
+    # Before (9002ac3): a forgery after a bad-CRC frame may skip one counter, so each was taken
+    # and the computer's own skipped frame counted as a stale counter: the id never untrusted,
+    # 20 of 20 forgeries taken, the pulse at 1620 µs (straight asked) for 60 ms in every 300 ms
+    # (here 1600 µs, 0.2 of full lock, on every repeat; now 1520 µs once, then STOP).
+    run = played(DRIVING_BY_CAN.replace("THROTTLE", "0.3") + skip_forgeries(10), 5.0)
+    assert run.record.error_flags_seen & ErrorFlag.CAN_UNTRUSTED
+    after_first = pulses(run, ATTACK_FROM_S + ATTACK_PERIOD_S, 5.0)
+    assert max(abs(steering_norm(p)) for p in after_first) < 0.05  # later forgeries move nothing
+    assert max(steering_norm(p) for p in pulses(run, ATTACK_FROM_S, 5.0)) < 0.1  # one period
+    assert not level(run, "ebrake_release", ATTACK_FROM_S + ATTACK_PERIOD_S)  # stopped for it
+
+
+# --- issue 41, finding 10: an IBUS frame caught in a switch's transit -------------------------
+
+ROBOT = default_sim_config()
+FRAME_S = ROBOT.sim.rc_frame_period_s
+HOLD_FRAMES = ROBOT.supervisor.debounce_frames
+DRIVING_BY_RC_AT_0_84 = (
+    """
+[[event]]
+at_s = 0.0
+hlc = { steering = 0.0, throttle = 0.0, brake = 0.0, gear = "forward" }
+"""
+    + ARMED_IN_RC
+    + """
+[[event]]
+at_s = 0.7
+rc = { throttle = 0.55 }
+"""
+)  # 0.83 m/s at 3.0 s; the receiver's frames at 2.9953, 3.003, 3.0107 s
+
+
+def mode_pulses_sent(sent: list[tuple[float, int]]) -> Callable[[SimRun], None]:
+    """Records, into `sent`, each IBUS frame's start and its mode switch pulse."""
+
+    def prepare(run: SimRun) -> None:
+        uart, channel = run.world.rc._uart, ROBOT.rc.mapping.mode_switch.channel
+        transmit = uart.transmit
+
+        def recorded(data: bytes, start_s: float | None = None) -> float:
+            at_s = run.world.clock.now() if start_s is None else start_s
+            sent.append((at_s, ibus.decode_frame(data)[channel]))
+            return transmit(data, start_s=start_s)
+
+        uart.transmit = recorded  # type: ignore[method-assign]
+
+    return prepare
+
+
+def test_a_handover_with_one_frame_caught_in_transit_keeps_the_robot_driving_by_can() -> None:
+    # Before (9002ac3): the frame at 1700 µs, between RC and CAN, read as no position: STOP at
+    # 3.006 s, the spring brake at 0.83 m/s, and CAN arming refused with the switch at CAN.
+    sent: list[tuple[float, int]] = []
+    run = played(
+        DRIVING_BY_RC_AT_0_84
+        + """
+[[event]]
+at_s = 3.0
+rc = { mode_raw = 1700 }
+[[event]]
+at_s = 3.0077
+rc = { mode = "can" }
+[[event]]
+at_s = 3.5
+hlc = { throttle = 0.3 }
+""",
+        4.5,
+        prepare=mode_pulses_sent(sent),
+    )
+    assert [raw for t, raw in sent if 2.985 < t < 3.02] == [1500, 1500, 1700, 2000, 2000]
+    assert all(level(run, "ebrake_release", 2.9 + t * 0.005) for t in range(320))
+    assert all(level(run, "motors_enable", 2.9 + t * 0.005) for t in range(320))
+    assert dac_volts(run, 0, 4.4) > 0.0  # the computer's throttle drives it: CAN
+
+
+def test_a_switch_held_between_rc_and_can_longer_than_the_debounce_is_stop() -> None:
+    run = played(
+        DRIVING_BY_RC_AT_0_84
+        + """
+[[event]]
+at_s = 3.0
+rc = { mode_raw = 1700 }
+""",
+        4.0,
+    )
+    hold_s = HOLD_FRAMES * FRAME_S
+    assert level(run, "ebrake_release", 3.0 + hold_s - FRAME_S)  # held as RC meanwhile
+    assert not level(run, "ebrake_release", 3.0 + hold_s + 2 * FRAME_S + 0.02)
+    assert not level(run, "ebrake_release", 3.99)
+    assert run.runtime.outputs is not None
+    assert run.runtime.outputs.mode is ControlMode.STOP
+
+
+def test_a_switch_between_stop_and_rc_still_stops_at_once() -> None:
+    run = played(DRIVING_BY_RC_AT_0_84 + "[[event]]\nat_s = 3.0\nrc = { mode_raw = 1250 }\n", 3.5)
+    assert not level(run, "ebrake_release", 3.0 + FRAME_S + 0.02)

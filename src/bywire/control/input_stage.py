@@ -10,19 +10,32 @@ what becomes of the frame. The rules, as the adversarial pass of issue 30 taught
   it moves no counter: the next readable frame may skip it (one lost frame, not a miss), and a
   forgery after it is judged against the last frame that was read.
 - **Out of range** (intact, a value outside its DBC range): dropped; its counter is followed.
-- **The counter just accepted, again**: with the same request, an identical repeat (a driver that
-  sends each frame twice, a redundant scheme): dropped, harmless, no miss; it keeps the link
-  going but never renews the command's age, so a sender stuck on one frame times out. With
-  another request, two senders on one id: a *conflict*, and the id is untrusted at once.
-- **The next counter** (allowing one step for each unreadable frame since the last read one):
-  accepted. A second sender that takes over the sequence (its frame carries the computer's next
-  counter) is caught by the computer's own next frame, which then repeats that counter asking
-  for something else: a conflict, one period later at the most. Arrival times cannot tell a
-  second sender's early frame from a burst (an adapter or a socketcand bridge that batches
-  frames delivers a sender's own frames close together), so they are not used to judge it: a
-  rule "two frames in one period" distrusted the ROS 2 bridge's own stream over socketcand.
-- **Any other counter** (skipped frames, a stale or replayed one): a *miss*; the counter is
-  followed, so one lost frame costs one frame, as panda does.
+- **The next counter** (allowing one step for each unreadable frame since the last read one, and
+  MAX_STEP steps at the most): accepted.
+- **A counter the sequence already passed** (the one followed, or one of the COUNTER_HISTORY - 1
+  before it): judged against what the bus carried with it in the sequence followed (`seen`). The
+  same request again: with the counter followed, an identical repeat (a driver that sends each
+  frame twice, a redundant scheme), dropped, harmless, no miss; it keeps the link going but
+  never renews the command's age, so a sender stuck on one frame times out; with an earlier
+  counter, a stale frame (a replay): a miss, the counter not followed back. Anything else
+  (another request, or a counter the sequence skipped) is two senders on one id: a *conflict*,
+  and the id is untrusted at once. One sender's frames arrive in order, so the counters it
+  skipped never come later and it never goes back (issue 41: a forger answering the computer's
+  frame c with a bad-CRC frame and then c+2 had its forgery taken, and the computer's own c+1
+  counted as a stale counter, a miss; two forgeries in every 16 frames steered the robot
+  indefinitely). So a second sender that takes over the sequence (its frames carry the
+  computer's next counters, one or a burst of them) is caught by the computer's own next frame,
+  which carries a counter already passed: one period later at the most. Arrival times cannot
+  tell a second sender's early frame from a burst (an adapter or a socketcand bridge that
+  batches frames delivers a sender's own frames close together), so they are not used to judge
+  it: a rule "two frames in one period" distrusted the ROS 2 bridge's own stream over
+  socketcand.
+- **Any other counter** (further ahead, up to COUNTER_MODULUS - COUNTER_HISTORY: frames lost
+  without a trace): a *miss*; the counter is followed, the counters it skipped remembered as
+  skipped, so one lost frame costs one frame, as panda does. A frame after more lost or
+  unreadable frames in a row than that cannot be told from a counter already passed and is
+  judged as one (a conflict: the safe side); with the default timeout (five periods) such a
+  gap is a timeout first.
 - **A gap** longer than the timeout: the sequence starts afresh.
 - **Trust**: COUNTER_MISS_LIMIT misses among the last COUNTER_WINDOW frames, or one conflict, make
   the message untrusted; a whole window of good frames in a row trusts it again. An untrusted
@@ -45,6 +58,13 @@ from bywire.model import Command, ControlCommand, same_request
 COUNTER_WINDOW = 16  # the last frames of a command message whose counters are judged
 COUNTER_MISS_LIMIT = 3  # this many counter misses among them: the message is not trusted
 COUNTER_MODULUS = 16
+MAX_STEP = 4  # the furthest ahead a frame is taken in sequence: three unreadable ones before it
+COUNTER_HISTORY = (COUNTER_MODULUS + MAX_STEP) // 2
+"""The counter followed and those before it whose frames are remembered (10): more than half
+the modulus, so that no frame can push a counter the sequence skipped out of the history in
+one miss (a miss steps at most COUNTER_MODULUS - COUNTER_HISTORY = 6 ahead, and a skipped
+counter sits at most MAX_STEP - 1 = 3 back: 9 < 10); pushing it out takes two misses, and the
+frame that then carries it is a third, which distrusts the id."""
 
 
 class Verdict(enum.Enum):
@@ -78,8 +98,10 @@ class Decoded:
 class MessageState:
     """One command message's receive state (see the module's rules)."""
 
-    counter: int | None = None  # the counter to follow: of the last intact frame in sequence
-    last: Command | None = None  # the last accepted command, for repeats and conflicts
+    counter: int | None = None  # the counter followed: of the last intact frame followed
+    seen: tuple[Command | None, ...] = ()  # what the bus carried with `counter` and each counter
+    # before it in the sequence followed, newest first (None: skipped, or out of range), up to
+    # COUNTER_HISTORY of them: for repeats and conflicts
     last_at: float | None = None  # when the last intact frame arrived
     lost: int = 0  # unreadable frames since the last intact one
     window: tuple[bool, ...] = ()  # the last COUNTER_WINDOW frames: True for a miss or conflict
@@ -100,33 +122,61 @@ def message_step(
     miss = verdict in (Verdict.COUNTER, Verdict.CONFLICT)
     window = (*state.window, miss)[-COUNTER_WINDOW:]
     untrusted = _trust(state.untrusted, window, conflict=verdict is Verdict.CONFLICT)
-    accepted = verdict is Verdict.ACCEPTED and frame.command is not None
+    # A second sender's frame moves nothing, nor does a stale one: the sequence never goes back.
+    followed = verdict is not Verdict.CONFLICT and _passed(state, frame.counter) is None
     new_state = MessageState(
-        counter=frame.counter,
-        last=frame.command if accepted else state.last,
+        counter=frame.counter if followed else state.counter,
+        seen=_seen_after(state, frame) if followed else state.seen,
         last_at=arrived_at,
         lost=0,
         window=window,
         untrusted=untrusted,
     )
-    if accepted and untrusted:
+    if verdict is Verdict.ACCEPTED and untrusted:
         return new_state, Verdict.UNTRUSTED
     return new_state, verdict
 
 
 def _judged(state: MessageState, frame: Decoded) -> Verdict:
     """The verdict of an intact frame, before trust."""
-    previous, counter, command = state.counter, frame.counter, frame.command
+    counter, command = frame.counter, frame.command
     if counter is None:
         return Verdict.UNREADABLE
-    if previous is None:  # the first frame, or the first after a gap: the sequence starts
-        return Verdict.ACCEPTED if command is not None else Verdict.OUT_OF_RANGE
-    if counter == previous:
-        same = command is not None and state.last is not None and same_request(command, state.last)
-        return Verdict.REPEAT if same else Verdict.CONFLICT
-    if not 1 <= (counter - previous) % COUNTER_MODULUS <= 1 + state.lost:
+    if state.counter is None or _in_sequence(state, counter):
+        return _next(command)
+    back = _passed(state, counter)
+    if back is None:
         return Verdict.COUNTER
-    return _next(command)
+    carried = state.seen[back]  # what the bus carried with this counter in the sequence
+    if command is None or carried is None or not same_request(command, carried):
+        return Verdict.CONFLICT
+    return Verdict.REPEAT if back == 0 else Verdict.COUNTER  # late, but the same: stale
+
+
+def _in_sequence(state: MessageState, counter: int) -> bool:
+    """Whether `counter` is next after the one followed (the unreadable frames allowing a step
+    each, MAX_STEP at the most)."""
+    if state.counter is None:
+        return False
+    ahead = (counter - state.counter) % COUNTER_MODULUS
+    return 1 <= ahead <= min(1 + state.lost, MAX_STEP)
+
+
+def _passed(state: MessageState, counter: int) -> int | None:
+    """How far behind the counter followed `counter` is, when the sequence has passed it
+    (0: the counter followed itself); None when it has not, or too long ago to remember."""
+    if state.counter is None or _in_sequence(state, counter):
+        return None
+    back = (state.counter - counter) % COUNTER_MODULUS
+    return back if back < len(state.seen) else None
+
+
+def _seen_after(state: MessageState, frame: Decoded) -> tuple[Command | None, ...]:
+    """`seen` once `frame` is followed: its request first, None for each counter it skipped."""
+    if state.counter is None or frame.counter is None:
+        return (frame.command,)
+    skipped = (frame.counter - state.counter) % COUNTER_MODULUS - 1
+    return (frame.command, *(None,) * skipped, *state.seen)[:COUNTER_HISTORY]
 
 
 def _next(command: Command | None) -> Verdict:
@@ -144,7 +194,7 @@ def _trust(untrusted: bool, window: tuple[bool, ...], *, conflict: bool) -> bool
 def _with(state: MessageState, *, lost: int, last_at: float | None = None) -> MessageState:
     return MessageState(
         state.counter,
-        state.last,
+        state.seen,
         state.last_at if last_at is None else last_at,
         lost,
         state.window,

@@ -13,6 +13,15 @@ its band widened by the hysteresis, so a knob dithering at a band's edge does no
 transmitter whose switch travel is set to 50 % sends 1250 µs in its low position: read with the
 default bands that is no position (STOP), never RC. `bywire rc` shows what a transmitter sends
 and suggests the bands.
+
+The mode switch's transit (R-SWITCH, issue 41): a value between two neighbouring positions
+neither of which is STOP (RC and CAN on the default switch) is a switch moving between them, not
+a STOP request: it holds the position read before (one of the two) for at most
+`debounce_frames` frames in a row, the supervisor's debounce, then reads as no position (STOP).
+A value between STOP and a neighbour is STOP at once, as before. Which positions neighbour STOP
+comes from the calibration (`positions_raw`, `reverse`) and `mode_positions`, not from fixed
+pulses (`mode_position`). Before, one IBUS frame caught at 1700 µs in an RC to CAN handover at
+0.84 m/s was STOP: the spring brake at speed, and CAN arming then refused with the switch at CAN.
 """
 
 from __future__ import annotations
@@ -57,6 +66,10 @@ class SwitchCalibration:
         """The raw range (µs, inclusive) of the position `index` (counted low to high)."""
         nominal = self.positions_raw[index]
         return nominal - self.band_raw, nominal + self.band_raw
+
+    def logical(self, index: int) -> int:
+        """The position (as the switch's users count them) of the `index`-th pulse from low."""
+        return len(self.positions_raw) - 1 - index if self.reverse else index
 
 
 @value
@@ -125,19 +138,44 @@ def switch_position(
     holds `raw`; `held`, the position read before, while `raw` stays within its band widened
     by the hysteresis; None between positions."""
     count = len(calibration.positions_raw)
-
-    def logical(index: int) -> int:
-        return count - 1 - index if calibration.reverse else index
-
     if held is not None and 0 <= held < count:
-        low, high = calibration.band(logical(held))
+        low, high = calibration.band(calibration.logical(held))
         if low - calibration.hysteresis_raw <= raw <= high + calibration.hysteresis_raw:
             return held
     for index in range(count):
         low, high = calibration.band(index)
         if low <= raw <= high:
-            return logical(index)
+            return calibration.logical(index)
     return None
+
+
+def neighbours_around(raw: int, calibration: SwitchCalibration) -> tuple[int, int] | None:
+    """The two neighbouring positions whose bands `raw` lies between; None inside a band or
+    beyond the end ones."""
+    for index in range(len(calibration.positions_raw) - 1):
+        if calibration.band(index)[1] < raw < calibration.band(index + 1)[0]:
+            return calibration.logical(index), calibration.logical(index + 1)
+    return None
+
+
+def mode_position(
+    raw: int, mapping: RcMapping, held: int | None, transit_frames: int, hold_frames: int
+) -> tuple[int | None, int]:
+    """The mode switch's position this frame and how many frames in a row it has now been
+    held in transit: `switch_position` with the hysteresis; between two neighbours neither of
+    which is STOP, with `held` one of them, `held` again for at most `hold_frames` frames in a
+    row; anything else between positions is no position (STOP) at once."""
+    switch = mapping.mode_switch
+    position = switch_position(raw, switch, held)
+    if position is not None or held is None:
+        return position, 0
+    pair = neighbours_around(raw, switch)
+    if pair is None or held not in pair or transit_frames >= hold_frames:
+        return None, 0
+    modes = mapping.mode_positions
+    if any(index >= len(modes) or modes[index] is ControlMode.STOP for index in pair):
+        return None, 0
+    return held, transit_frames + 1
 
 
 def channels_plausible(channels: tuple[int, ...], mapping: RcMapping) -> bool:
@@ -162,12 +200,14 @@ def in_failsafe(channels: tuple[int, ...], mapping: RcMapping) -> bool:
 @value
 class SwitchesHeld:
     """Each switch's position as last read (None: between positions, or not read yet): what the
-    hysteresis holds. The mode switch's debounce is the supervisor's; the gear's is `gear`."""
+    hysteresis holds, and the frames in a row the mode switch's has been held in transit. The
+    mode switch's debounce is the supervisor's; the gear's is `gear`."""
 
     mode: int | None = None
     gear: int | None = None
     low_beam: int | None = None
     hazard: int | None = None
+    mode_transit: int = 0
 
 
 NONE_HELD = SwitchesHeld()
@@ -180,15 +220,20 @@ def rc_request(channels: tuple[int, ...], mapping: RcMapping) -> RcRequest | Non
 
 
 def rc_decoded(
-    channels: tuple[int, ...], mapping: RcMapping, held: SwitchesHeld
+    channels: tuple[int, ...], mapping: RcMapping, held: SwitchesHeld, transit_frames: int = 0
 ) -> tuple[RcRequest | None, SwitchesHeld]:
-    """The request this frame carries, and the switches' positions now; the request is None
+    """The request this frame carries, and the switches' positions now (the mode switch held
+    in transit for at most `transit_frames` frames: `mode_position`); the request is None
     when the frame is failsafe output or any used channel is implausible: suspect input is
     refused whole, at once (and the positions held are forgotten)."""
     if in_failsafe(channels, mapping) or not channels_plausible(channels, mapping):
         return None, NONE_HELD
+    mode, transit = mode_position(
+        channels[mapping.mode_switch.channel], mapping, held.mode, held.mode_transit, transit_frames
+    )
     positions = SwitchesHeld(
-        mode=switch_position(channels[mapping.mode_switch.channel], mapping.mode_switch, held.mode),
+        mode=mode,
+        mode_transit=transit,
         gear=switch_position(channels[mapping.gear_switch.channel], mapping.gear_switch, held.gear),
         low_beam=switch_position(
             channels[mapping.low_beam_switch.channel], mapping.low_beam_switch, held.low_beam
@@ -220,7 +265,8 @@ class RcStage:
     """The RC frames' state between frames: the switches' positions as last read (the
     hysteresis) and the gear as debounced: a new gear counts once `debounce_frames` frames in a
     row showed it (the mode switch's debounce is the supervisor's); a gear switch between
-    positions is neutral at once, the safe direction."""
+    positions is neutral at once, the safe direction. The mode switch in transit between two
+    driving positions holds for at most `debounce_frames` frames (`mode_position`)."""
 
     held: SwitchesHeld = NONE_HELD
     gear: Gear = Gear.NEUTRAL
@@ -232,7 +278,7 @@ def rc_step(
     stage: RcStage, channels: tuple[int, ...], mapping: RcMapping, debounce_frames: int
 ) -> tuple[RcStage, RcRequest | None]:
     """One frame: the next stage and the request it carries (None: refused whole)."""
-    request, held = rc_decoded(channels, mapping, stage.held)
+    request, held = rc_decoded(channels, mapping, stage.held, debounce_frames)
     if request is None:
         return RcStage(gear=stage.gear), None
     shown = request.gear

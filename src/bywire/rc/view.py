@@ -101,7 +101,10 @@ def _pedal(request: RcRequest, _held: SwitchesHeld, _mapping: RcMapping) -> Text
 def _mode(_request: RcRequest, held: SwitchesHeld, mapping: RcMapping) -> Text:
     if held.mode is None:
         return Text("between positions: STOP", style=WARNING_STYLE)
-    return Text(mapping.mode_positions[held.mode].name)
+    name = mapping.mode_positions[held.mode].name
+    if held.mode_transit:  # between two driving positions: held for the debounce's frames
+        return Text(f"{name} (in transit, held)", style=WARNING_STYLE)
+    return Text(name)
 
 
 def _gear(request: RcRequest, held: SwitchesHeld, mapping: RcMapping) -> Text:

@@ -159,7 +159,8 @@ class CanReader:
     """Controller's CAN port → checked commands: the shell of the CAN input stage.
 
     Every rule lives in the pure stage (`bywire.control.input_stage`): per command message, the
-    counter, repeats, second senders (a payload conflict, two frames in one period) and trust;
+    counter, repeats, second senders (a counter the sequence passed, from the bus asking anything
+    but what it carried with it) and trust;
     ControlCommand's edges and their settling after a gap; and the stop requests that pass every
     filter (R-STOP-PASS). This class only reads the port, decodes each frame with the codec,
     steps the stage with the frame's arrival stamp, and counts and flags what it refused.

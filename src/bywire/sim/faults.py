@@ -95,10 +95,11 @@ def _encoder_fail(run: SimRun, _values: FaultValues) -> None:
     run.world.steering_encoder.failed = True
 
 
-def _impostor(kind: type[Command], *, forge: bool = False) -> Apply:
+def _impostor(kind: type[Command], *, forge: bool = False, skip: bool = False) -> Apply:
     def apply(run: SimRun, values: FaultValues) -> None:
         keyed = bool(values.get("keyed"))
-        run.world.impostors[kind].start(_count(values), kind=kind, keyed=keyed, forge=forge)
+        impostor = run.world.impostors[kind]
+        impostor.start(_count(values), kind=kind, keyed=keyed, forge=forge, skip=skip)
 
     return apply
 
@@ -218,6 +219,11 @@ FAULTS: tuple[Fault, ...] = (
     Fault("can_forgery", "a second node answers each of `count` movement frames with a bad-CRC "
           "frame and a forgery carrying the counter just used (full right lock, throttle 0.8)",
           _impostor(MovementCommand, forge=True),
+          expect=second_sender),
+    Fault("can_skip_forgery", "a second node answers each of `count` movement frames with a "
+          "bad-CRC frame and a forgery carrying the counter after the computer's next, skipping "
+          "it (full right lock, throttle 0.8)",
+          _impostor(MovementCommand, forge=True, skip=True),
           expect=second_sender),
     Fault("can_doubles", "the computer sends each of its next `count` movement frames twice, same "
           "counter and payload (a driver's bug, or a redundant scheme): harmless",

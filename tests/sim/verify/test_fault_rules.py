@@ -75,6 +75,7 @@ RULES: dict[str, tuple[dict[str, Any], Callable[[HazardOracle], bool]] | None] =
     "rc_implausible": ({"count": 2}, lambda o: Cause.RC_IMPLAUSIBLE in o.ledger.stopped_by),
     "can_impostor": ({"count": 5}, _in_force(Cause.CAN_IMPOSTOR)),
     "can_forgery": ({"count": 5}, _in_force(Cause.CAN_IMPOSTOR)),
+    "can_skip_forgery": ({"count": 5}, _in_force(Cause.CAN_IMPOSTOR)),
     "dac_slow": ({"stall_s": 0.08}, _in_force(Cause.DAC_SLOW)),
     "line_dead": ({"line": "brake_light"}, lambda o: o.plant.dead_lines == {"brake_light"}),
     "wheel_sensor_dead": ({}, lambda o: o.plant.sensor_dead and o.ledger.armed),

@@ -11,7 +11,10 @@ With authentication on it has no key and guesses a MAC (`forge_authenticator`), 
 
 A *forger* (`forge`) answers each of the computer's frames with a frame whose CRC is bad and then
 a forgery carrying the counter the computer just used, asking for full right lock: dce19d3's
-reader restarted its sequence at the unreadable frame and took the forgery (issue 30).
+reader restarted its sequence at the unreadable frame and took the forgery (issue 30). A
+*skipping* forger (`skip`) carries the counter after the computer's next instead: the unreadable
+frame allowed one skipped counter, and the computer's own next frame then counted as a stale
+counter, a miss, not a second sender (issue 41).
 """
 
 from __future__ import annotations
@@ -45,6 +48,7 @@ class SimImpostor:
         self.kind: type[Command] = MovementCommand
         self.keyed = False
         self.forge = False
+        self.skip = False
         self.frames_sent = 0
         self.forge_authenticator = False
         """Also send a cryptographic PDU (SecOC) after each frame: without the key its MAC is a
@@ -58,12 +62,14 @@ class SimImpostor:
         *,
         keyed: bool = False,
         forge: bool = False,
+        skip: bool = False,
     ) -> None:
         """Send `count` frames of `kind` (a movement frame asking for `throttle_norm`), the first
         half a period from now; `keyed`: signed with the computer's key and freshness; `forge`:
-        each a bad-CRC frame and a forgery with the counter just used (full right lock)."""
+        each a bad-CRC frame and a forgery with the counter just used (full right lock); with
+        `skip`, with the counter after the computer's next."""
         self._remaining, self.throttle_norm = count, throttle_norm
-        self.kind, self.keyed, self.forge = kind, keyed, forge
+        self.kind, self.keyed, self.forge, self.skip = kind, keyed, forge, skip
         self._timer.start(self._clock.now() + COMMAND_PERIOD_S / 2)
 
     def stop(self) -> None:
@@ -83,7 +89,7 @@ class SimImpostor:
             return
         counter = self._real.next_counter(self.kind)
         if self.forge:
-            self._forge((counter - 1) % dbc.COUNTER_MODULUS)
+            self._forge((counter + (1 if self.skip else -1)) % dbc.COUNTER_MODULUS)
             return
         command = self._command(counter)
         frame_id, payload = dbc.encode_command(command)
@@ -100,9 +106,9 @@ class SimImpostor:
                 self._port.send(CanFrame(secoc.auth_id(frame_id), guess))
         self._remaining -= 1
 
-    def _forge(self, just_used: int) -> None:
-        """A frame the controller cannot read, then a forgery with the counter just used."""
-        forged = MovementCommand(1.0, self.throttle_norm, 0.0, Gear.FORWARD, just_used)
+    def _forge(self, counter: int) -> None:
+        """A frame the controller cannot read, then a forgery with `counter`."""
+        forged = MovementCommand(1.0, self.throttle_norm, 0.0, Gear.FORWARD, counter)
         frame_id, payload = dbc.encode_command(forged)
         unreadable = payload[:-1] + bytes((payload[-1] ^ 0x5A,))
         if self._port.send(CanFrame(frame_id, unreadable)) and self._port.send(

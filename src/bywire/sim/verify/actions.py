@@ -80,7 +80,7 @@ def _handover_asking(settings: Callable[[Any], dict[str, Any]]) -> Write:
 
 def _switch_between(events: StepEvents, at_s: float, raw: int) -> None:
     events.emit(Event(at_s, "rc", {"mode_raw": raw}))
-    events.switch = STOP  # no position: the controller reads STOP
+    events.switch = STOP  # no position: STOP (between RC and CAN, after the debounce's frames)
 
 
 def _set(kind: str, *keys: str, name: bool = False) -> Write:
@@ -230,7 +230,7 @@ ACTIONS: tuple[Action, ...] = (
     # the RC link
     Action("chatter", range(4, 41),  # of the next frames every other one reads STOP
            _counted("switch_chatter")),
-    Action("switch_between", (1250, 1750),  # the mode switch between two positions (µs): STOP
+    Action("switch_between", (1250, 1750),  # the mode switch left between two positions (µs)
            _switch_between),
     Action("dither", range(10, 200),  # the mode switch's pulse dithers ±4 µs for these frames
            _counted("switch_dither")),

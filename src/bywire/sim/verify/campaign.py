@@ -78,7 +78,11 @@ class Campaign:
         timing = OracleTiming.for_robot(self.robot)
         oracle = HazardOracle(run.world, timing=timing)
         witness = OracleWitness(
-            oracle, clock, scenario.authenticated, bridge=run.bridge is not None
+            oracle,
+            clock,
+            scenario.authenticated,
+            bridge=run.bridge is not None,
+            mapping=self.robot.rc.mapping,
         )
         run.on_event.append(witness)
         if run.bridge is not None:  # the bridge is the computer: its periods, and B1..B3

@@ -4,10 +4,11 @@ for the outputs: where the switch went, what each source asks for, which faults 
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Any
 
 from bywire.control.dac_health import DAC_TRANSFERS_PER_PASS
+from bywire.control.rc_mapping import RcMapping
 from bywire.hal.sim.clock import VirtualClock
 from bywire.model import ControlMode
 from bywire.ros2.bridge import Decision
@@ -36,6 +37,8 @@ class OracleWitness:
     harmful_sender: bool = False  # it is sending frames the controller can take (`second_sender`)
     bridge: bool = False  # the computer is the ROS 2 bridge: its periods tell (`bridge_period`)
     _sent: tuple[float, float] | None = None  # the bridge's last throttle and steering
+    mapping: RcMapping = field(default_factory=RcMapping)  # the robot's switch calibration
+    switch_moved_s: float | None = None  # the newest event that set the mode switch
 
     def __call__(self, event: Event, now: float) -> None:
         values = event.values
@@ -61,13 +64,57 @@ class OracleWitness:
             oracle.set_throttle(RC, max(float(values["throttle"]), 0.0), now)
         if "steering" in values:
             oracle.set_steering(RC, float(values["steering"]), now)
-        if "mode_raw" in values:  # between positions (the campaigns' only use): no position
-            oracle.set_switch(STOP, now)
+        if "mode_raw" in values:
+            self._mode_raw(int(values["mode_raw"]), now)
         if "mode" in values:
+            self.switch_moved_s = now
             mode = ControlMode[str(values["mode"]).upper()]
             oracle.set_switch(mode, now)
             if mode is CAN and oracle.faults.any_of(CAN_ONLY):
                 oracle.stop_event(Cause.CAN_LOST, now)
+
+    def _mode_raw(self, raw: int, now: float) -> None:
+        """The mode switch's pulse set to `raw`: in a position's band, that position; between
+        two driving positions with the switch at one of them, a switch in transit, which reads
+        as that position for the debounce's frames and then as STOP (R-SWITCH, issue 41); any
+        other value, STOP at once."""
+        self.switch_moved_s = now
+        oracle, timing = self.oracle, self.oracle.timing
+        banded, neighbours = self._read(raw, oracle.switch)
+        if banded is not None:
+            oracle.set_switch(banded, now)
+            return
+        if oracle.switch is STOP or oracle.switch not in neighbours or STOP in neighbours:
+            oracle.set_switch(STOP, now)
+            return
+        stop_s = now + timing.debounce_frames * timing.frame_s  # the last frame it may hold
+
+        def stops() -> None:
+            if self.switch_moved_s == now:  # not moved since
+                oracle.set_switch(STOP, stop_s)
+
+        self.clock.call_at(stop_s, stops)
+
+    def _read(
+        self, raw: int, switch_at: ControlMode
+    ) -> tuple[ControlMode | None, tuple[ControlMode, ...]]:
+        """The mode whose band holds `raw` (`switch_at`'s widened by the hysteresis; None:
+        none), and the modes whose nominal pulses are the nearest on either side of it (none
+        beyond the ends)."""
+        switch, modes = self.mapping.mode_switch, self.mapping.mode_positions
+        count = len(switch.positions_raw)
+        by_pulse = sorted(
+            (switch.positions_raw[count - 1 - i if switch.reverse else i], modes[i])
+            for i in range(count)
+        )
+        for pulse, mode in by_pulse:
+            reach = switch.hysteresis_raw if mode is switch_at else 0
+            if abs(raw - pulse) <= switch.band_raw + reach:
+                return mode, ()
+        below = [mode for pulse, mode in by_pulse if pulse < raw][-1:]
+        above = [mode for pulse, mode in by_pulse if pulse > raw][:1]
+        neighbours = (*below, *above)
+        return None, neighbours if len(neighbours) == 2 else ()
 
     def _hlc(self, values: dict[str, Any], now: float) -> None:
         if "throttle" in values:

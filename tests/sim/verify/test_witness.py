@@ -1,0 +1,51 @@
+"""The campaign's witness: what an event applied to the simulated robot means for the outputs.
+Here the mode switch left between two positions (issue 41, finding 10): between RC and CAN the
+controller holds the position read before for the debounce's frames, then stops; the oracle
+must expect the same, neither sooner (a false finding) nor never (a blind one)."""
+
+from __future__ import annotations
+
+import pytest
+
+from bywire.config import RobotConfig, default_sim_config, parse_config
+from bywire.control import rc_mapping
+from bywire.model import ControlMode
+from bywire.sim.verify.campaign import Step
+from bywire.sim.verify.engine import run_campaign
+
+ROBOT = default_sim_config()
+SLOW_DEBOUNCE = parse_config('backend = "sim"\n\n[supervisor]\ndebounce_frames = 5\n', "<robot>")
+DRIVING_BY = {
+    ControlMode.CAN: [Step(0.3, "arm", ControlMode.CAN), Step(0.4, "can_throttle", 0.6)],
+    ControlMode.RC: [Step(0.3, "arm", ControlMode.RC), Step(0.4, "rc_throttle", 0.6)],
+}
+
+
+@pytest.mark.parametrize("robot", [ROBOT, SLOW_DEBOUNCE], ids=["default", "debounce 5"])
+@pytest.mark.parametrize("source", [ControlMode.CAN, ControlMode.RC])
+@pytest.mark.parametrize("raw", [1750, 1250])
+def test_a_switch_left_between_two_positions_is_judged_as_the_controller_reads_it(
+    robot: RobotConfig, source: ControlMode, raw: int
+) -> None:
+    # Before, the witness told the oracle STOP at once for 1750 too, which the controller now
+    # reaches after the debounce's frames: with a debounce of 5, H1 on a correct robot.
+    steps = [*DRIVING_BY[source], Step(1.0, "switch_between", raw), Step(0.5, "arm", source)]
+    outcome = run_campaign(robot, steps)
+    assert outcome.checks > 0
+    assert outcome.findings == [], outcome.findings[:1]
+
+
+def test_a_controller_that_holds_a_switch_in_transit_for_ever_is_found(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    original = rc_mapping.mode_position
+
+    def for_ever(
+        raw: int, mapping: rc_mapping.RcMapping, held: int | None, transit: int, hold: int
+    ) -> tuple[int | None, int]:
+        return original(raw, mapping, held, 0, hold)[0], 0
+
+    monkeypatch.setattr(rc_mapping, "mode_position", for_ever)
+    steps = [*DRIVING_BY[ControlMode.CAN], Step(1.0, "switch_between", 1750)]
+    outcome = run_campaign(ROBOT, steps)
+    assert {finding.invariant for finding in outcome.findings} & {"H1"}
