@@ -99,3 +99,28 @@ def test_the_bridge_drives_the_robot_and_its_silence_is_the_controllers_can_time
     assert all(verdict.passed for verdict in record.verdicts), record.verdicts
     assert run.bridge is not None
     assert not run.bridge.sending
+
+
+def test_a_scenario_bounds_the_throttle_the_bridge_asks_for() -> None:
+    """`bridge_throttle_max_norm` reads the throttle of the bridge's latest period: while it
+    drives at 1 m/s it asks for some (0 is exceeded, 1 is not); once the planner falls silent,
+    none (B1's finding is written with it)."""
+    text = (BRIDGE_RUN % 3.0).replace(
+        "[bridge]",
+        """[[expect]]
+at_s = 2.5
+bridge_throttle_max_norm = 0.0
+[[expect]]
+at_s = 2.5
+bridge_throttle_max_norm = 1.0
+[[event]]
+at_s = 2.6
+planner = { publishing = false }
+[[expect]]
+at_s = 2.9
+bridge_throttle_max_norm = 0.0
+[bridge]""",
+    )
+    record = SimRun(default_sim_config(), parse_scenario(text, "bridge.toml")).run()
+    passed = [verdict.passed for verdict in record.verdicts]
+    assert passed == [True, False, True, True], record.verdicts

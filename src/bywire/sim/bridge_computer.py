@@ -85,6 +85,9 @@ class SimBridge:
     """The bridge stopped in a period although its planner publishes (a set-point dropped), and
     `/diagnostics` (its pure builder, on the link's snapshot) has not shown the planner's inputs
     as WARN or ERROR since: what a scenario's `bridge_unshown_drop` reads."""
+    throttle_norm: float | None = None
+    """The throttle the bridge asked for in its latest period (None before the first): what a
+    scenario's `bridge_throttle_max_norm` reads."""
     _planner_series: int = 0
 
     @classmethod
@@ -127,6 +130,7 @@ class SimBridge:
 
     def _tick(self, _tick_s: float) -> None:
         decision = self.link.tick()
+        self.throttle_norm = decision.pedals.throttle_norm
         snapshot = self.link.snapshot()
         now = self.world.clock.now()
         level = inputs_status(snapshot.health, snapshot.robot_status_report).level

@@ -79,6 +79,10 @@ CONDITIONS: tuple[Condition, ...] = (
               "and /diagnostics has not shown its inputs WARN or ERROR since (a computer = "
               "\"bridge\" scenario)", flag,
               lambda o, wanted: o.bridge_unshown_drop is bool(wanted)),
+    Condition("bridge_throttle_max_norm", "the throttle the ROS 2 bridge asked for in its latest"
+              " period at most this (a computer = \"bridge\" scenario)", UNIT,
+              lambda o, wanted: o.bridge_throttle_norm is not None
+              and o.bridge_throttle_norm <= float(wanted)),
     Condition("steering_held_since_s", "the steering pulse has not changed since this time (s)",
               TIME, lambda o, wanted: o.steering_changed_at_s <= float(wanted)),
 )

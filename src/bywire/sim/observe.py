@@ -38,6 +38,7 @@ class Observation:
     lights: LightOutputs  # as the lines show them, each read from its own (`LIGHT_LINES`)
     error_flags: int
     bridge_unshown_drop: bool | None = None  # the bridge dropped a live set-point, unwarned
+    bridge_throttle_norm: float | None = None  # the throttle the bridge asked for, last period
 
     @property
     def drive_safe(self) -> bool:

@@ -366,7 +366,11 @@ class SimRun:
         observation = observe(self.world, outputs)
         if self.bridge is None:
             return observation
-        return replace(observation, bridge_unshown_drop=self.bridge.unshown_drop)
+        return replace(
+            observation,
+            bridge_unshown_drop=self.bridge.unshown_drop,
+            bridge_throttle_norm=self.bridge.throttle_norm,
+        )
 
     def _observe(self, now: float) -> None:
         """After each pass of the loop: flags always; a full observation when one is due."""

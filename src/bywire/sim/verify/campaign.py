@@ -89,9 +89,7 @@ class Campaign:
             bridge = run.bridge
             judge = BridgeJudge(oracle, bridge.settings, lambda: bridge.planner.publishing)
             run.bridge.on_tick.extend((witness.bridge_period, judge.tick))
-            run.bridge.on_offer.append(
-                lambda offer: judge.offered(offer.at_s, offer.refusal is not None)
-            )
+            run.bridge.on_offer.append(lambda offer: judge.offered(offer.at_s, offer.refusal))
         run.on_exit.append(oracle.exited)
         log = TransitionLog(run)
         run.runtime.on_cycle.append(oracle.observe)

@@ -1,13 +1,11 @@
 """The bridge's invariants B1..B3 (`sim/verify/oracle/bridge.py`), judged on whole runs: the
 bridge's real CAN side on the simulated robot, fed by the simulated planner.
 
-Each finding of issue 41 about the bridge (6, 7, 8) is planted twice:
-
-- on a bridge whose decisions are bent into the finding's bad behaviour (`_bent`): the oracle
-  must flag it, today and after the bridge is fixed;
-- on today's bridge with the finding's parameters (`test_todays_bridge_*`): found now. These
-  assert what today's code does; once the bridge's fixes merge they must flip to clean (the
-  report of this branch names them).
+Each finding of issue 41 about the bridge (6, 7, 8) is planted on a bridge whose decisions (or
+whose link's refusal count) are bent back into the finding's old behaviour (the held throttle, the
+ramp let go at its end, stale commands dropped uncounted): the oracle must flag each. And the
+bridge as fixed (`src/bywire/ros2/`) is clean on the very sequences that found them
+(`test_the_fixed_bridge_*`).
 
 And the honest behaviour next to each (a bridge that stops on a flagged speed, a ramp that holds
 its brake to standstill, refusals that are counted) is not flagged: the oracle must never flag a
@@ -26,13 +24,15 @@ import pytest
 from bywire.config import default_sim_config, load_config
 from bywire.error_flags import ErrorFlag
 from bywire.model import ControlMode
-from bywire.ros2 import link
+from bywire.ros2 import link, setpoint, stop_ramp
 from bywire.ros2.bridge import Activity, BridgeState, Decision, Inputs, bridge_step
+from bywire.ros2.setpoint import Refusal, Setpoint, Tally, admit
 from bywire.ros2.settings import BridgeSettings
 from bywire.ros2.speed_loop import Pedals
 from bywire.sim.verify.engine import Outcome, run_campaign
 from bywire.sim.verify.oracle import Invariant
 from bywire.sim.verify.step_events import Step
+from bywire.teleop.frames import SEND_PERIOD_S
 
 CAN = ControlMode.CAN
 Step_ = Callable[[BridgeState, Inputs, BridgeSettings], tuple[BridgeState, Decision]]
@@ -95,9 +95,13 @@ def _flagged(inputs: Inputs, decision: Decision) -> bool:
 def test_b1_flags_a_bridge_that_holds_its_throttle_on_a_flagged_speed(
     bend: Callable[[Step_], None],
 ) -> None:
+    """Finding 6's old behaviour: the speed loop's 0.64, held on the flagged speed. The
+    controller's own rule (no CAN throttle while SPEED_SENSOR_FAULT is latched) keeps the true
+    speed from growing, so B1 judges the throttle the bridge asks for."""
+
     def runaway(state: BridgeState, inputs: Inputs, settings: BridgeSettings) -> Any:
         state, decision = bridge_step(state, inputs, settings)
-        if _flagged(inputs, decision) and decision.activity is Activity.DRIVING:
+        if _flagged(inputs, decision):
             decision = _pedals(decision, 0.64, 0.0)  # finding 6's throttle, held
         return state, decision
 
@@ -105,8 +109,9 @@ def test_b1_flags_a_bridge_that_holds_its_throttle_on_a_flagged_speed(
     outcome = _run(SENSOR_DIES)
     b1 = [f for f in outcome.findings if f.invariant == Invariant.B1]
     assert b1, outcome.findings
-    assert "up from 0.5" in b1[0].detail
-    assert b1[0].expected["speed_max_mps"] == pytest.approx(0.5 + 0.15, abs=0.02)
+    assert "asks for throttle 0.640" in b1[0].detail
+    assert b1[0].expected == {"bridge_throttle_max_norm": 0.0}
+    assert not any("up from" in f.detail for f in b1)  # the controller's defence held
 
 
 def test_b1_passes_a_bridge_that_brakes_to_a_stop_on_a_flagged_speed(
@@ -126,26 +131,44 @@ def test_b1_passes_a_bridge_that_brakes_to_a_stop_on_a_flagged_speed(
 def test_b1_flags_a_bridge_that_never_stops_on_a_flagged_speed(
     bend: Callable[[Step_], None],
 ) -> None:
-    """Throttle only enough to hold the speed: it does not grow, but the robot never stops."""
+    """Throttle 0 as it must, but no brake: the robot coasts on, well past the bridge's blind
+    bound (`stop_ramp.blind_brake_s`)."""
 
-    def cruises(state: BridgeState, inputs: Inputs, settings: BridgeSettings) -> Any:
+    def coasts(state: BridgeState, inputs: Inputs, settings: BridgeSettings) -> Any:
         state, decision = bridge_step(state, inputs, settings)
-        if _flagged(inputs, decision) and decision.activity is Activity.DRIVING:
-            decision = _pedals(decision, 0.146, 0.0)  # the feed-forward map's 0.5 m/s
+        if _flagged(inputs, decision):
+            decision = _pedals(decision, 0.0, 0.0)
         return state, decision
 
-    bend(cruises)
+    bend(coasts)
     outcome = _run(SENSOR_DIES)
     b1 = [f for f in outcome.findings if f.invariant == Invariant.B1]
     assert b1, outcome.findings
     assert "still rolling" in b1[0].detail
 
 
-def test_todays_bridge_runs_away_on_a_dead_wheel_sensor_and_b1_finds_it() -> None:
-    """Finding 6 on today's bridge (flips to clean with the bridge's fix)."""
-    outcome = _run(SENSOR_DIES)
-    assert Invariant.B1 in _found(outcome)
-    assert not {i for i in _found(outcome) if i.startswith("H")}
+def test_b1_flags_a_bridge_that_asks_for_a_cruising_throttle_on_a_flagged_speed(
+    bend: Callable[[Step_], None],
+) -> None:
+    """Only the feed-forward map's throttle for 0.5 m/s: the speed would not grow, and the
+    controller zeroes it anyway; the bridge asked for it, and B1 says so."""
+
+    def cruises(state: BridgeState, inputs: Inputs, settings: BridgeSettings) -> Any:
+        state, decision = bridge_step(state, inputs, settings)
+        if _flagged(inputs, decision):
+            decision = _pedals(decision, 0.146, 0.0)
+        return state, decision
+
+    bend(cruises)
+    b1 = [f for f in _run(SENSOR_DIES).findings if f.invariant == Invariant.B1]
+    assert b1
+    assert "asks for throttle 0.146" in b1[0].detail
+
+
+def test_the_fixed_bridge_stops_on_a_dead_wheel_sensor() -> None:
+    """Finding 6's sequence on the fixed bridge: throttle 0 and full brake from the flag, clean
+    (before the fix, B1 found it: `test_b1_flags_a_bridge_that_holds_its_throttle_*`)."""
+    assert _found(_run(SENSOR_DIES)) == set()
 
 
 # --- B2: the stop ramp -------------------------------------------------------------------------
@@ -185,13 +208,30 @@ def test_b2_passes_a_ramp_that_brakes_until_standstill() -> None:
     assert _found(_run(steps)) == set()
 
 
-def test_todays_bridge_lets_its_ramp_go_at_speed_and_b2_finds_it() -> None:
-    """Finding 7 on today's bridge (flips to clean with the bridge's fix)."""
+def _releases_at_the_ramps_end(state: BridgeState, inputs: Inputs, settings: BridgeSettings) -> Any:
+    """Finding 7's old ramp: at `stop_ramp_s` from its start the brake drops to the holding brake,
+    whatever the speed."""
+    state, decision = bridge_step(state, inputs, settings)
+    ramp = state.ramp
+    ended = ramp is not None and inputs.now_s - ramp.started_s >= settings.stop_ramp_s
+    if decision.activity is Activity.STOPPING and ended:
+        decision = _pedals(decision, 0.0, settings.hold_brake)
+    return state, decision
+
+
+def test_b2_flags_the_old_ramp_that_let_go_at_its_end(bend: Callable[[Step_], None]) -> None:
+    bend(_releases_at_the_ramps_end)
     outcome = _run(SILENT_AT_SPEED)
     b2 = [f for f in outcome.findings if f.invariant == Invariant.B2]
     assert b2, outcome.findings
     assert "holding brake 0.1" in b2[0].detail
     assert not {i for i in _found(outcome) if i.startswith("H")}
+
+
+def test_the_fixed_bridge_brakes_its_ramp_to_standstill_at_the_edges() -> None:
+    """Finding 7's sequence (`stop_ramp_s = 0.3`, `hold_brake = 0.1`, silent at 2.0 m/s) on the
+    fixed bridge: full brake until standstill is shown, clean."""
+    assert _found(_run(SILENT_AT_SPEED)) == set()
 
 
 # --- B3: refusals shown ------------------------------------------------------------------------
@@ -221,18 +261,60 @@ def test_b3_flags_a_bridge_that_drops_live_commands_without_a_word(
     assert b3[0].expected == {"bridge_unshown_drop": False}
 
 
-def test_todays_bridge_stalls_silently_on_lagging_stamps_and_b3_finds_it() -> None:
-    """Finding 8 on today's bridge (flips to clean with the bridge's fix)."""
+def test_b3_flags_a_link_that_drops_stale_commands_uncounted(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """Finding 8's old link: a command is counted only when refused at arrival; one that ages
+    past `max_stamp_age_s` while held, or goes late, is dropped without a word."""
+
+    def old_arrived(
+        tally: Tally, stored: Setpoint | None, new: Setpoint, settings: BridgeSettings
+    ) -> tuple[Tally, Refusal | None]:
+        refusal = admit(new, settings)
+        return (tally if refusal is None else tally.refuse(refusal, new.arrived_s)), refusal
+
+    monkeypatch.setattr(link, "arrived", old_arrived)
+    monkeypatch.setattr(link, "held", lambda tally, *_: tally)
     outcome = _run(LAGGING_STAMPS)
     b3 = [f for f in outcome.findings if f.invariant == Invariant.B3]
     assert b3, outcome.findings
     assert "commands_refused=0" in b3[0].detail
 
 
-def test_todays_bridge_drives_a_robot_without_a_wheel_sensor_blind_and_b1_finds_it() -> None:
-    """The speed unknown from the start (albert: the Linux backend opens no wheel sensor): the
-    speed loop sees 0 m/s and pushes; B1 holds it to a stop as for a flagged speed (flips to
-    clean with a bridge that does not drive blind)."""
+def test_b3_flags_refusals_counted_under_the_wrong_reason(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """Stamps refused at arrival for their age, counted (and warned) as LATE: the total grows,
+    `refused_stamp_old` does not, and B3 reads the count by reason."""
+
+    def misnamed(
+        tally: Tally, stored: Setpoint | None, new: Setpoint, settings: BridgeSettings
+    ) -> tuple[Tally, Refusal | None]:
+        refusal = admit(new, settings)
+        if refusal is None:
+            return real_arrived(tally, stored, new, settings)
+        return tally.refuse(Refusal.LATE, new.arrived_s), refusal
+
+    real_arrived = setpoint.arrived
+    monkeypatch.setattr(link, "arrived", misnamed)
+    outcome = _run([*_driving(0.5), Step(0.5, "planner_lag", 0.3), Step(2.0, "planner_lag", 0.0)])
+    b3 = [f for f in outcome.findings if f.invariant == Invariant.B3]
+    assert b3, outcome.findings
+    assert "due stamp_old=" in b3[0].detail
+
+
+def test_the_fixed_bridge_counts_and_warns_lagging_stamps() -> None:
+    """Finding 8's sequence on the fixed bridge: every command that ages out is counted by its
+    reason and `/diagnostics` warns, clean."""
+    assert _found(_run(LAGGING_STAMPS)) == set()
+
+
+def test_the_bridge_still_drives_a_robot_without_a_wheel_sensor_blind_and_b1_finds_it() -> None:
+    """The speed unknown from the start (albert: the Linux backend opens no wheel sensor). The
+    robot's reports cannot tell the bridge: its WheelSpeedReport says 0 m/s and its ErrorReport
+    carries no SPEED_SENSOR_FAULT (no sensor to check), so even the fixed bridge trusts the 0 and
+    its loop pushes; and the controller's rule (row 55) needs the latched fault. B1 finds it
+    (open: the bridge needs a wheel sensor, docs/ROS2.md)."""
     albert = load_config(Path(__file__).parents[4] / "config" / "albert.toml")
     outcome = run_campaign(albert, [*_driving(0.5), Step(3.0, "planner_speed", 0.5)])
     b1 = [f for f in outcome.findings if f.invariant == Invariant.B1]
@@ -244,32 +326,36 @@ def test_todays_bridge_drives_a_robot_without_a_wheel_sensor_blind_and_b1_finds_
 def test_b2_passes_full_brake_to_standstill_from_three_metres_a_second_on_the_shortest_ramp(
     bend: Callable[[Step_], None],
 ) -> None:
-    """The edges together (`max_speed_mps = 3`, `stop_ramp_s = 0.3`, `hold_brake = 0.1`) on a
-    ramp that brakes fully until its wheel sensor shows standstill (as a fixed bridge might):
-    full brake needs longer than the ramp from 3 m/s, and B2's bound allows for that."""
-
-    def brakes_to_standstill(state: BridgeState, inputs: Inputs, settings: BridgeSettings) -> Any:
-        state, decision = bridge_step(state, inputs, settings)
-        rolling = abs(decision.status.speed_mps) > settings.standstill_speed_mps
-        if decision.activity is Activity.STOPPING and rolling:
-            decision = _pedals(decision, 0.0, 1.0)
-        return state, decision
-
-    def lets_go_at_the_ramps_end(
-        state: BridgeState, inputs: Inputs, settings: BridgeSettings
-    ) -> Any:  # the control: the same run does reach the case
-        state, decision = bridge_step(state, inputs, settings)
-        if decision.activity is Activity.STOPPING and decision.pedals.brake_norm < 1.0:
-            decision = _pedals(decision, 0.0, settings.hold_brake)
-        return state, decision
-
+    """The edges together (`max_speed_mps = 3`, `stop_ramp_s = 0.3`, `hold_brake = 0.1`): full
+    brake needs longer than the ramp from 3 m/s, and the fixed bridge brakes fully until it
+    shows standstill, within its own `stop_ramp.stop_bound_s`, which is B2's bound: clean. The
+    old ramp, letting go at its end, is flagged in the same run."""
     steps = [
         *_driving(3.0, "fast"),
         Step(8.0, "planner_link", False),
         Step(3.0, "planner_speed", 0.0),
     ]
-    bend(lets_go_at_the_ramps_end)
+    assert _found(_run(steps)) == set()
+    bend(_releases_at_the_ramps_end)
     assert Invariant.B2 in _found(_run(steps))
-    bend(brakes_to_standstill)
-    outcome = _run(steps)
-    assert _found(outcome) == set(), outcome.findings
+
+
+def test_b2_judges_the_bridges_own_stated_bound(bend: Callable[[Step_], None]) -> None:
+    """A ramp that never lets go but brakes with half the brake: the robot stands long after
+    `stop_ramp.stop_bound_s` (B2's bound, plus two periods), and B2 says so with the bound."""
+
+    def half_brake(state: BridgeState, inputs: Inputs, settings: BridgeSettings) -> Any:
+        state, decision = bridge_step(state, inputs, settings)
+        if decision.activity is Activity.STOPPING and decision.pedals.brake_norm > 0.5:
+            decision = _pedals(decision, 0.0, 0.5)
+        return state, decision
+
+    bend(half_brake)
+    settings = BridgeSettings()
+    outcome = _run(
+        [*_driving(2.0), Step(6.0, "planner_link", False), Step(3.0, "planner_speed", 0.0)]
+    )
+    b2 = [f for f in outcome.findings if f.invariant == Invariant.B2]
+    assert b2, outcome.findings
+    bound_s = stop_ramp.stop_bound_s(2.0, settings) + 2 * SEND_PERIOD_S
+    assert f"(bound {bound_s:.2f} s)" in b2[0].detail

@@ -4,19 +4,23 @@ oracle was told (the switch, what is broken), and on the bridge's own outputs (i
 `/diagnostics` as the pure builder makes it from the link's snapshot).
 
 - **B1** With the speed flagged (the robot's reports carry SPEED_SENSOR_FAULT) or unknown (a
-  robot without the wheel-speed sensor) while the bridge drives, the true speed does not grow by
-  more than `GROWTH_MPS` from where it was when the flag arrived, and the robot reaches
-  standstill within the bound of B2 at the bridge's top speed (the speed it cannot rule out)
-  plus `FLAGGED_EXTRA_S`.
+  robot without the wheel-speed sensor) while the bridge drives: the throttle it *asks for* is
+  at most `BLIND_THROTTLE_NORM` (0: bridge rule 4a), whatever the controller then does with it
+  (in CAN mode the controller takes no throttle while the fault is latched, SAFETY row 55: a
+  bridge that asks is still wrong, and on a robot without the sensor nothing else holds it);
+  the true speed does not grow by more than `GROWTH_MPS` from where it was when the flag
+  arrived; and the robot reaches standstill within the bridge's own blind bound
+  (`stop_ramp.blind_brake_s`: full brake's stop from the fastest speed its settings know) plus
+  `REPORT_LAG_S`.
 - **B2** Once the planner's set-points run out (silent or aged out) while the robot rolls, the
-  true speed reaches standstill within the stated bound: `stop_ramp_s`, or the time full brake
-  needs from that speed by the bridge's own brake map when that is longer, plus two periods and
-  `STOP_MARGIN_S` for the brakes' lag; and the brake is never let down to the holding brake
-  while the robot still rolls.
+  true speed reaches standstill within the bridge's own stated bound from that speed
+  (`stop_ramp.stop_bound_s`, one definition for the bridge and its judge) plus `REPORT_LAG_S`;
+  and the brake is never let down to the holding brake while the robot still rolls.
 - **B3** Every set-point refused at arrival, and every period in which a live planner's
   set-points are not used (the bridge stops although the planner keeps publishing), is
-  counted in `/diagnostics` (`commands_refused` grows), whose inputs status is WARN or ERROR,
-  within `REFUSAL_GRACE_S`.
+  counted in `/diagnostics` (`commands_refused` grows, and for a refusal at arrival the count
+  of its reason, `refused_<reason>`, from the bridge's `setpoint.Tally`), whose inputs status is
+  WARN or ERROR, within `REFUSAL_GRACE_S`.
 
 B1 and B2 are judged only while the bridge drives the robot: enabled, the switch at CAN, the
 motors enabled and the spring brake released (a stop of the controller's own is H1..H10's to
@@ -27,31 +31,39 @@ stop is B1's or the controller's).
 from __future__ import annotations
 
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 from bywire.error_flags import ErrorFlag
 from bywire.model import ControlMode
+from bywire.ros2 import stop_ramp
 from bywire.ros2.bridge import Activity, Decision
 from bywire.ros2.diagnostics import Level, inputs_status
 from bywire.ros2.link import Snapshot
+from bywire.ros2.setpoint import Refusal
 from bywire.ros2.settings import BridgeSettings
 from bywire.sim.verify.oracle.invariants import Invariant, Violation
 from bywire.sim.verify.oracle.judge import HazardOracle
 from bywire.sim.verify.oracle.outputs import Outputs
 from bywire.teleop.frames import SEND_PERIOD_S
 
+BLIND_THROTTLE_NORM = 0.0  # B1: the throttle a bridge may ask for without a trusted speed
 GROWTH_MPS = 0.15  # B1: what the true speed may still gain once the flag has arrived
 ROLLING_MARGIN_MPS = 0.05  # above the bridge's standstill speed: the robot rolls
-STOP_MARGIN_S = 0.1  # B2: the brakes' lag, beyond the bound's two periods
-FLAGGED_EXTRA_S = 1.0  # B1: a flagged speed is not measured: a slower, open-loop stop
+REPORT_LAG_S = 2 * SEND_PERIOD_S  # B1, B2: the bridge's bounds are on the speed it is told,
+# one report period late; the true speed is judged, and the brake follows a period later
 REFUSAL_GRACE_S = 2 * SEND_PERIOD_S  # B3: /diagnostics shows a refusal within this
 
 
 def stop_bound_s(from_mps: float, settings: BridgeSettings) -> float:
-    """B2's bound from `from_mps`: the ramp's time, or full brake's by the bridge's brake map
-    when longer, plus two periods and the brakes' lag."""
-    full_brake_s = from_mps / max(settings.brake_decels_mps2)
-    return max(settings.stop_ramp_s, full_brake_s) + 2 * SEND_PERIOD_S + STOP_MARGIN_S
+    """B2's bound from `from_mps`: the bridge's own (`stop_ramp.stop_bound_s`) plus
+    `REPORT_LAG_S`."""
+    return stop_ramp.stop_bound_s(from_mps, settings) + REPORT_LAG_S
+
+
+def blind_bound_s(settings: BridgeSettings) -> float:
+    """B1's bound from the flag: the bridge's full brake without a trusted speed
+    (`stop_ramp.blind_brake_s`) plus `REPORT_LAG_S`."""
+    return stop_ramp.blind_brake_s(settings) + REPORT_LAG_S
 
 
 @dataclass(slots=True)
@@ -72,6 +84,8 @@ class Refusals:
     when_used: int = 0  # … at the latest period that drove with the planner's set-point
     required: int = 0
     due_s: float | None = None
+    by_reason: dict[Refusal, int] = field(default_factory=dict)  # each reason's count due
+    seen_by_reason: dict[str, int] = field(default_factory=dict)  # … at the latest period
 
 
 class BridgeJudge:
@@ -85,6 +99,7 @@ class BridgeJudge:
         self.settings = settings
         self.publishing = publishing
         self.flagged: Watch | None = None  # B1
+        self.asked_blind = False  # B1: a throttle asked in this flagged episode, flagged once
         self.stopping: Watch | None = None  # B2
         self.brake_norm = 0.0  # the brake the bridge asked for in the period before
         self.activity = Activity.DISENGAGED
@@ -93,11 +108,14 @@ class BridgeJudge:
 
     # --- what the planner offered ------------------------------------------------------------
 
-    def offered(self, at_s: float, refused: bool) -> None:
+    def offered(self, at_s: float, refusal: Refusal | None) -> None:
+        """The planner offered a set-point at `at_s`; `refusal`: why the link refused it."""
         refusals = self.refusals
         refusals.last_offer_s = at_s
-        if refused:
+        if refusal is not None:
             refusals.required = max(refusals.required, refusals.seen) + 1
+            counted = refusals.seen_by_reason.get(refusal.name, 0)
+            refusals.by_reason[refusal] = max(refusals.by_reason.get(refusal, 0), counted) + 1
             if refusals.due_s is None:
                 refusals.due_s = at_s + REFUSAL_GRACE_S
 
@@ -115,7 +133,7 @@ class BridgeJudge:
             and out.released
         )
         found = [
-            self._b1(snapshot, out, driving, now),
+            self._b1(decision, snapshot, out, driving, now),
             self._b2(decision, out, driving, now),
             self._b3(decision, snapshot, now),
         ]
@@ -125,20 +143,29 @@ class BridgeJudge:
     def _rolling(self, out: Outputs) -> bool:
         return abs(out.speed_mps) > self.settings.standstill_speed_mps + ROLLING_MARGIN_MPS
 
-    def _b1(self, snapshot: Snapshot, out: Outputs, driving: bool, now: float) -> Violation | None:
+    def _b1(
+        self, decision: Decision, snapshot: Snapshot, out: Outputs, driving: bool, now: float
+    ) -> Violation | None:
         flagged = bool(snapshot.status.flags & ErrorFlag.SPEED_SENSOR_FAULT)
         fitted = self.oracle.plant.sensors_fitted
         if not ((flagged or not fitted) and driving):
-            self.flagged = None
+            self.flagged, self.asked_blind = None, False
             return None
         why = "flagged (SPEED_SENSOR_FAULT)" if fitted else "unknown (no wheel-speed sensor)"
         speed = abs(out.speed_mps)
         if self.flagged is None:
-            settings = self.settings
-            bound_s = stop_bound_s(settings.max_speed_mps, settings) + FLAGGED_EXTRA_S
-            self.flagged = Watch(now, speed, now + bound_s)
-            return None
+            self.flagged = Watch(now, speed, now + blind_bound_s(self.settings))
         watch = self.flagged
+        throttle = decision.pedals.throttle_norm
+        if throttle > BLIND_THROTTLE_NORM and not self.asked_blind:
+            self.asked_blind = True
+            detail = (
+                f"the speed {why} since {watch.since_s:.3f} s and the bridge driving: it asks"
+                f" for throttle {throttle:.3f} (at most {BLIND_THROTTLE_NORM:g}), the robot at"
+                f" {speed:.2f} m/s"
+            )
+            expected = {"bridge_throttle_max_norm": BLIND_THROTTLE_NORM}
+            return Violation.of(Invariant.B1, now, detail, **expected)
         if speed > watch.from_mps + GROWTH_MPS:
             self.flagged = None
             limit = watch.from_mps + GROWTH_MPS
@@ -204,8 +231,14 @@ class BridgeJudge:
             if refusals.due_s is None:
                 refusals.due_s = now + REFUSAL_GRACE_S
         refusals.seen = health.refused
+        refusals.seen_by_reason = dict(health.refused_by_reason)
         level = inputs_status(health, snapshot.robot_status_report).level
-        if health.refused >= refusals.required and level in (Level.WARN, Level.ERROR):
+        by_reason = all(
+            refusals.seen_by_reason.get(reason.name, 0) >= due
+            for reason, due in refusals.by_reason.items()
+        )
+        shown = health.refused >= refusals.required and by_reason
+        if shown and level in (Level.WARN, Level.ERROR):
             refusals.due_s = None
             return None
         if refusals.due_s is None or now <= refusals.due_s + 1e-9:
@@ -213,10 +246,17 @@ class BridgeJudge:
         detail = (
             f"commands refused or unused (a live planner, the bridge {decision.activity.name})"
             f" but /diagnostics shows commands_refused={health.refused}"
-            f" ({refusals.required} due) and its inputs {level.name}"
+            f" ({refusals.required} due; by reason {_counts(refusals.seen_by_reason)}, due"
+            f" {_counts({r.name: n for r, n in refusals.by_reason.items()})}) and its inputs"
+            f" {level.name}"
         )
         refusals.due_s, refusals.required = None, health.refused  # one finding per episode
+        refusals.by_reason = {}
         return Violation.of(Invariant.B3, now, detail)
+
+
+def _counts(counts: dict[str, int]) -> str:
+    return ", ".join(f"{name.lower()}={n}" for name, n in counts.items() if n) or "none"
 
 
 def _speed_violation(
