@@ -21,8 +21,12 @@ from bywire.config.deadlines import (
     STOP_PROMISES,
     breaches,
 )
+from bywire.config.security import PAIRING_WINDOW_S
 from bywire.errors import ConfigError
 from bywire.hal.sim.vehicle_model import VehicleConfig
+from bywire.sim.runner import SimRun
+from bywire.sim.scenario import parse_scenario
+from tests.system.harness import volts_at
 
 # (TOML, the deadline it breaks, the keys the refusal must name, the suggestion)
 UNSAFE = [
@@ -155,6 +159,24 @@ UNSAFE = [
         ("interlocks.standstill_speed_mps",),
         "set interlocks.standstill_speed_mps to 0.1 or less",
     ),
+    (  # issue 41: 0.5 ms at 500 kbit/s rejected every authenticated command, the stop among them
+        "[security]\npairing_window_s = 0.0005",
+        "an authenticated command pairs",
+        ("security.pairing_window_s", "can.bitrate_bps"),
+        "set security.pairing_window_s to 0.00108 or more",  # 4 frames of 135 bits
+    ),
+    (  # the default window on a slower bus
+        "[can]\nbitrate_bps = 100_000",
+        "an authenticated command pairs",
+        ("security.pairing_window_s", "can.bitrate_bps"),
+        "set security.pairing_window_s to 0.0054 or more",
+    ),
+    (  # a bus so slow that no legal window pairs: only a faster bus helps
+        "[can]\nbitrate_bps = 20_000\n[security]\npairing_window_s = 0.02",
+        "an authenticated command pairs",
+        ("security.pairing_window_s", "can.bitrate_bps"),
+        "set can.bitrate_bps to 27000 or more",
+    ),
 ]
 
 
@@ -205,6 +227,9 @@ def test_the_limit_itself_is_safe() -> None:
         "[monitors]\nhydro_min_duty = 0.0",  # watching every duty: 0 bar expected at duty 0
         "[drive]\nmax_regen_volts = 5.5\n[drive.dac]\nvref_volts = 5.5\n[stop]\n"
         "controlled_min_decel_mps2 = 1.5",  # volts above the motors' full scale add nothing
+        "[security]\npairing_window_s = 0.00108",
+        "[can]\nbitrate_bps = 100_000\n[security]\npairing_window_s = 0.0054",
+        "[can]\nbitrate_bps = 27_000\n[security]\npairing_window_s = 0.02",
     ],
 )
 def test_the_nearest_safe_values_are_accepted(text: str) -> None:
@@ -223,6 +248,8 @@ def test_the_nearest_safe_values_are_accepted(text: str) -> None:
         "[monitors]\nhydro_min_duty = 0.201",
         "[monitors]\nhydro_response_s = 0.491",
         "[drive]\nmax_regen_volts = 0.0\n[stop]\ncontrolled_min_decel_mps2 = 0.1",
+        "[security]\npairing_window_s = 0.00107",
+        "[can]\nbitrate_bps = 26_999\n[security]\npairing_window_s = 0.02",
     ],
 )
 def test_just_past_the_nearest_safe_values_is_refused(text: str) -> None:
@@ -333,3 +360,64 @@ def test_a_bench_that_declares_a_longer_stop_promise_is_held_to_its_own() -> Non
     with pytest.raises(ConfigError) as tighter:  # never a promise tighter than the loader knows
         parse_config("[timeouts]\nstop_response_s = 0.005", "robot.toml")
     assert "timeouts.stop_response_s" in str(tighter.value)
+
+
+# --- issue 41: a legal pairing window lost every authenticated command --------------------------
+
+REMOTE_STOP_WHILE_DRIVING_BY_RC = """
+name = "remote stop in RC mode"
+description = "driving by RC at 0.6, authenticated commands; the computer asks for a stop"
+duration_s = 2.5
+authenticated = true
+[[event]]
+at_s = 0.0
+hlc = { steering = 0.0, throttle = 0.0, brake = 0.0, gear = "forward" }
+[[event]]
+at_s = 0.3
+rc = { mode = "stop", gear = "forward", throttle = 0.0 }
+[[event]]
+at_s = 0.5
+rc = { mode = "rc" }
+[[event]]
+at_s = 0.7
+rc = { throttle = 0.6 }
+[[event]]
+at_s = 2.0
+hlc_control = { remote_stop = true, re_enable = false }
+"""
+WINDOW_STEP_S = 0.00001
+
+
+def smallest_legal_window(bitrate_bps: int) -> tuple[str, float]:
+    """The robot file at `bitrate_bps` with the smallest pairing window (to WINDOW_STEP_S) the
+    loader accepts, and that window: what a user may write."""
+    for step in range(round((PAIRING_WINDOW_S.high - PAIRING_WINDOW_S.low) / WINDOW_STEP_S) + 1):
+        window_s = round(PAIRING_WINDOW_S.low + step * WINDOW_STEP_S, 5)
+        text = f"[can]\nbitrate_bps = {bitrate_bps}\n[security]\npairing_window_s = {window_s}"
+        try:
+            parse_config(text, "robot.toml")
+        except ConfigError:
+            continue
+        return text, window_s
+    raise AssertionError(f"no legal pairing window at {bitrate_bps} bit/s")
+
+
+@pytest.mark.parametrize("bitrate_bps", [500_000, 125_000])
+def test_a_remote_stop_in_rc_mode_pairs_at_the_smallest_legal_window(bitrate_bps: int) -> None:
+    # Before: 0.0005 s was legal at 500 kbit/s; a command frame met its cryptographic PDU up to
+    # 3 frames (0.81 ms) later, every command was rejected ("no cryptographic PDU within the
+    # pairing window") and the robot drove on at 3 V by RC, the remote stop lost (H1).
+    text, window_s = smallest_legal_window(bitrate_bps)
+    run = SimRun(
+        parse_config(text, "robot.toml"), parse_scenario(REMOTE_STOP_WHILE_DRIVING_BY_RC, "<test>")
+    )
+    run.run()
+    enable, ebrake_release = run.world.gpio["motors_enable"], run.world.gpio["ebrake_release"]
+    assert volts_at(run.world.dac.history, 0, 1.99) > 2.5, window_s  # driving by RC
+    deadline_s = 2.0 + 0.020 + 2 * 0.010  # a command period (the frame), two control periods
+    for tick in range(10):
+        at_s = deadline_s + tick * 0.04
+        assert not ebrake_release.level_at(at_s), (window_s, at_s)
+        assert volts_at(run.world.dac.history, 0, at_s) == 0.0, (window_s, at_s)
+        assert not enable.level_at(at_s) or volts_at(run.world.dac.history, 1, at_s) > 0.0
+    assert not run.runtime.can.auth_failures, window_s  # every command paired

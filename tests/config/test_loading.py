@@ -186,7 +186,9 @@ def test_the_schema_names_every_typed_key_of_a_file_with_the_range_the_loader_ch
 def test_the_schema_records_the_value_a_file_gives_or_the_default() -> None:
     from bywire.config.loader import read_schema  # noqa: PLC0415
 
-    schema = {".".join(r.parts): r.value for r in read_schema("[monitors]\nhydro_min_duty = 0.15\n")}
+    schema = {
+        ".".join(r.parts): r.value for r in read_schema("[monitors]\nhydro_min_duty = 0.15\n")
+    }
     assert schema["monitors.hydro_min_duty"] == 0.15
     assert schema["monitors.steering_tolerance_norm"] == 0.15  # absent: the default
     with pytest.raises(ConfigError, match="hydro_min_duty"):

@@ -10,7 +10,7 @@ from collections.abc import Callable
 import can
 import pytest
 
-from bywire.errors import ConfigError
+from bywire.errors import ConfigError, FrameError
 from bywire.protocol import bittiming
 from bywire.protocol.bittiming import BitTiming
 from tests.protocol import linux_bittiming as linux
@@ -347,3 +347,17 @@ def test_every_exact_python_can_solution_in_tolerance_is_offered() -> None:
             close = abs(theirs.sample_point - sample_point * 100) <= 5
             if exact and close and min(theirs.tseg1, theirs.tseg2) >= sjw:
                 assert (theirs.brp, theirs.nbt) in ours, (clock_hz, rate, sample_point, sjw)
+
+
+@pytest.mark.parametrize(("dlc", "bits"), [(0, 55), (1, 65), (3, 85), (4, 95), (8, 135)])
+def test_frame_bits_include_worst_case_stuffing(dlc: int, bits: int) -> None:
+    assert bittiming.frame_bits(dlc) == bits
+
+
+def test_frame_bits_rejects_more_than_eight_bytes() -> None:
+    with pytest.raises(FrameError):
+        bittiming.frame_bits(9)
+
+
+def test_frame_time_is_the_bits_at_the_bitrate() -> None:
+    assert bittiming.frame_time_s(8, 500_000) == pytest.approx(135 / 500_000)

@@ -21,9 +21,9 @@ from dataclasses import dataclass
 from bywire.bench.stats import LatencySummary, summarise
 from bywire.can_frame import CanFrame
 from bywire.hal.ports import LINK_UP, LinkState
-from bywire.hal.sim.can_bus import frame_bits
 from bywire.model import Gear, MovementCommand
 from bywire.protocol import dbc
+from bywire.protocol.bittiming import frame_bits
 from bywire.protocol.secoc import AUTH_PDU_BYTES, SecocKey
 from bywire.runtime.readers import CanReader
 from bywire.security.freshness import FreshnessStore

@@ -21,6 +21,7 @@ from dataclasses import dataclass
 
 from bywire.config.limits import POSITIVE_NORM_PER_S
 from bywire.config.reader import number_text
+from bywire.config.security import PAIRING_WINDOW_S
 from bywire.config.tree import RobotConfig
 from bywire.control.dac_health import DAC_FAILURE_LIMIT, DAC_TRANSFERS_PER_PASS
 from bywire.control.hydrobrake import hydrobrake_duty
@@ -28,6 +29,7 @@ from bywire.control.sensor_checks import MonitorConfig
 from bywire.control.stop import STANDSTILL_LIMIT_MPS
 from bywire.model import MovementCommand
 from bywire.protocol import ibus
+from bywire.protocol.bittiming import frame_bits
 
 MAX_CONTROL_PERIOD_S = 0.020
 """The longest a decision may wait for the next tick: a lost input reaches safe outputs within
@@ -73,6 +75,9 @@ HYDRO_FAILURE_DEADLINE_S = 0.5
 """A hydraulic brake that builds no pressure at `HYDRO_FAILURE_DUTY` or more is noticed within
 this of the first decision commanding the duty (the pressure's build-up time plus one decision
 period; 0.31 s on the defaults): 1.5 m at 3 m/s of braking that does nothing."""
+FOREIGN_FRAMES_BETWEEN = 1
+"""Frames of other nodes that may win arbitration between a command frame and its cryptographic
+PDU: one that waited for the bus while the command was on it and has a lower id than the PDU."""
 
 
 @dataclass(frozen=True, slots=True)
@@ -582,6 +587,56 @@ def _stop_promises(robot: RobotConfig) -> list[Breach]:
     return found
 
 
+def pairing_frames() -> tuple[int, int]:
+    """How many frames may end between a command frame's last bit and its cryptographic PDU's
+    last bit, the PDU included, and the bits of the longest of them: the period's other
+    commands (a lower id wins arbitration, and every command's id is below every PDU's), one
+    frame of another node, and the PDU itself; (commands + 1) frames."""
+    from bywire.protocol import dbc  # noqa: PLC0415 (cantools only when a file is checked)
+    from bywire.protocol.secoc import AUTH_PDU_BYTES  # noqa: PLC0415
+
+    commands = dbc.command_ids()
+    longest_bytes = max(AUTH_PDU_BYTES, *(dbc.length_bytes(frame) for frame in commands))
+    return len(commands) - 1 + FOREIGN_FRAMES_BETWEEN + 1, frame_bits(longest_bytes)
+
+
+def pairing_window_needed_s(bitrate_bps: int) -> float:
+    """The least pairing window in which every command frame of a period meets its cryptographic
+    PDU at `bitrate_bps` (`pairing_frames`)."""
+    frames, bits = pairing_frames()
+    return frames * bits / bitrate_bps
+
+
+def _pairing(robot: RobotConfig) -> list[Breach]:
+    """Authenticated commands pair on this bus (issue 41: a window of 0.5 ms at 500 kbit/s
+    rejected every command, a remote stop in RC mode among them; 0.8 ms lost a third)."""
+    window_s, bitrate_bps = robot.security.pairing_window_s, robot.can.bitrate_bps
+    needed_s = pairing_window_needed_s(bitrate_bps)
+    if window_s >= needed_s - 1e-12:
+        return []
+    frames, bits = pairing_frames()
+    suggested_s = math.ceil(needed_s * 1e5 - 1e-6) / 1e5
+    if suggested_s <= PAIRING_WINDOW_S.high:
+        fix = f"set security.pairing_window_s to {number_text(suggested_s)} or more"
+    else:
+        least_bps = math.ceil(frames * bits / PAIRING_WINDOW_S.high)
+        fix = (
+            f"no legal window is that long (at most {number_text(PAIRING_WINDOW_S.high)} s):"
+            f" set can.bitrate_bps to {least_bps} or more"
+        )
+    return [
+        Breach(
+            PAIRING.name,
+            ("security.pairing_window_s", "can.bitrate_bps"),
+            f"a command frame's cryptographic PDU may end up to {frames} frames of {bits} bits"
+            f" after it ({number_text(round(needed_s, 7))} s at {bitrate_bps} bit/s):"
+            f" a window of {number_text(window_s)} s rejects authenticated commands, the stop"
+            " among them",
+            fix,
+        )
+    ]
+
+
 INPUT_LOSS = Deadline(
     "input loss",
     f"a lost input reaches safe outputs within its timeout plus"
@@ -639,6 +694,12 @@ STOP_PROMISE = Deadline(
     " budgets: a pass within its budget, and its DAC transfers and port writes within theirs",
     _stop_promises,
 )
+PAIRING = Deadline(
+    "an authenticated command pairs",
+    "a command frame meets its cryptographic PDU within the pairing window, with the period's"
+    " other commands and one frame of another node between them on the bus",
+    _pairing,
+)
 DEADLINES: tuple[Deadline, ...] = (
     INPUT_LOSS,
     DAC_FAILURE,
@@ -650,6 +711,7 @@ DEADLINES: tuple[Deadline, ...] = (
     CONTROLLED_STOP,
     STOP_PROMISE,
     PRESSURE,
+    PAIRING,
 )
 """Every deadline a robot file must keep, in the order of `docs/SAFETY.md`."""
 

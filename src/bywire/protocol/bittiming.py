@@ -37,7 +37,7 @@ from dataclasses import dataclass, replace
 from fractions import Fraction
 from functools import cache
 
-from bywire.errors import ConfigError
+from bywire.errors import ConfigError, FrameError
 
 BRP_RANGE = range(1, 1025)
 TSEG1_RANGE = range(1, 17)
@@ -59,6 +59,25 @@ STANDARD_BITRATES_BPS = (
     10_000,
 )
 _NS_PER_S = 1_000_000_000
+
+
+def frame_bits(dlc: int) -> int:
+    """Bits a classic base-format data frame holds on the bus, worst-case stuffing included.
+
+    47 fixed bits (SOF, 11-bit id, RTR, IDE, r0, DLC, 15-bit CRC, CRC and ACK delimiters, ACK
+    slot, 7-bit EOF, 3-bit intermission) plus 8 per data byte, plus one stuff bit per 4 bits of
+    the 34 + 8 * dlc bits from SOF to the end of the CRC (Davis et al. 2007): 135 bits for 8 bytes.
+    """
+    if not 0 <= dlc <= 8:
+        raise FrameError(f"classic CAN carries 0..8 data bytes, got {dlc}")
+    stuffable_bits = 34 + 8 * dlc
+    return 47 + 8 * dlc + (stuffable_bits - 1) // 4
+
+
+def frame_time_s(dlc: int, bitrate_bps: int) -> float:
+    """Seconds a classic base-format frame of `dlc` data bytes holds the bus at `bitrate_bps`,
+    worst-case stuffing included (`frame_bits`)."""
+    return frame_bits(dlc) / bitrate_bps
 
 
 @dataclass(frozen=True)

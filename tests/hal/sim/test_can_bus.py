@@ -10,8 +10,9 @@ from hypothesis import strategies as st
 
 from bywire.can_frame import CanFrame
 from bywire.errors import FrameError
-from bywire.hal.sim.can_bus import LoggedFrame, SimCanBus, frame_bits
+from bywire.hal.sim.can_bus import LoggedFrame, SimCanBus
 from bywire.hal.sim.clock import VirtualClock
+from bywire.protocol.bittiming import frame_bits
 
 BIT_S = 1 / 500_000
 EIGHT_BYTES = bytes(range(8))
@@ -20,16 +21,6 @@ EIGHT_BYTES = bytes(range(8))
 def bus_with_two_nodes() -> tuple[VirtualClock, SimCanBus]:
     clock = VirtualClock()
     return clock, SimCanBus(clock)
-
-
-@pytest.mark.parametrize(("dlc", "bits"), [(0, 55), (1, 65), (3, 85), (4, 95), (8, 135)])
-def test_frame_bits_include_worst_case_stuffing(dlc: int, bits: int) -> None:
-    assert frame_bits(dlc) == bits
-
-
-def test_frame_bits_rejects_more_than_eight_bytes() -> None:
-    with pytest.raises(FrameError):
-        frame_bits(9)
 
 
 def test_a_frame_arrives_after_its_time_on_the_wire_and_not_at_its_sender() -> None:

@@ -16,27 +16,14 @@ from collections.abc import Callable, Iterable
 
 from bywire.can_frame import CanFrame
 from bywire.control.values import value
-from bywire.errors import FrameError
 from bywire.hal.sim.can_port import DEFAULT_RX_CAPACITY, SimCanPort
 from bywire.hal.sim.flood import CanFlood
 from bywire.hal.sim.timers import SimClock
+from bywire.protocol.bittiming import frame_bits, frame_time_s
 
 DEFAULT_BITRATE_BPS = 500_000
 DEFAULT_LOG_LIMIT = 20_000
 FLOOD_PORT_NAME = "flood"
-
-
-def frame_bits(dlc: int) -> int:
-    """Bits a classic base-format data frame holds on the bus, worst-case stuffing included.
-
-    47 fixed bits (SOF, 11-bit id, RTR, IDE, r0, DLC, 15-bit CRC, CRC and ACK delimiters, ACK
-    slot, 7-bit EOF, 3-bit intermission) plus 8 per data byte, plus one stuff bit per 4 bits of
-    the 34 + 8 * dlc bits from SOF to the end of the CRC (Davis et al. 2007): 135 bits for 8 bytes.
-    """
-    if not 0 <= dlc <= 8:
-        raise FrameError(f"classic CAN carries 0..8 data bytes, got {dlc}")
-    stuffable_bits = 34 + 8 * dlc
-    return 47 + 8 * dlc + (stuffable_bits - 1) // 4
 
 
 @value
@@ -100,7 +87,7 @@ class SimCanBus:
 
     def frame_time_s(self, dlc: int) -> float:
         """Seconds a frame with ``dlc`` data bytes holds the bus."""
-        return frame_bits(dlc) / self.bitrate_bps
+        return frame_time_s(dlc, self.bitrate_bps)
 
     def bits_sent(self, sender: str | None = None) -> int:
         """Bits put on the wire so far by one node, or by all."""
