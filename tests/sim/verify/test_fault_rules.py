@@ -90,7 +90,7 @@ RULES: dict[str, tuple[dict[str, Any], Callable[[HazardOracle], bool]] | None] =
     # Nothing the oracle must know: `nothing`.
     "can_flood": None,
     "can_flood_off": None,
-    "servo_stuck": None,
+    "servo_stuck": ({}, lambda o: o.plant.servo_stuck),  # H10 times it (row 63)
     "servo_free": None,
     "encoder_fail": None,
     "loop_stall": None,
@@ -106,7 +106,11 @@ ENDINGS = {
     "can_plug": ("can_unplug", Cause.CAN_UNPLUGGED),
     "dac_restore": ("dac_fail", Cause.DAC_FAIL),
 }
-MENDED = {"hydrobrake_restore": "hydrobrake_fail", "wheel_sensor_restore": "wheel_sensor_dead"}
+MENDED = {
+    "hydrobrake_restore": "hydrobrake_fail",
+    "wheel_sensor_restore": "wheel_sensor_dead",
+    "servo_free": "servo_stuck",
+}
 NOTHING = [name for name, rule in RULES.items() if rule is None and name not in {*ENDINGS, *MENDED}]
 
 
