@@ -1,4 +1,4 @@
-"""How long the controller may take to act on each cause, and the servo's calibration.
+"""How long the controller may take to act on each cause, and the servo's and sticks' calibration.
 
 Each deadline is a detection threshold (an input's timeout, the watchdog) plus the frame,
 command period and control periods in which the controller may notice it and act. Those figures
@@ -6,7 +6,8 @@ are bounded by the requirements (`requirements.REQUIRED`, by R- id): a robot fil
 less time is held to its promise, one that allows itself more is judged as if it kept the
 requirement (R-CONFIG-SAFETY). What the controller must then do, and how fast, is the
 requirements' alone. Facts of the simulated world are the file's: the RC receiver's frame
-period, the servo's calibration, whether the steering is boosted; and the switch's debounce,
+period, the servo's calibration, the sticks' deadbands, whether the steering is boosted; and the
+switch's debounce,
 which only says when an arming may count (the oracle waits for it, leaning to allowing).
 """
 
@@ -18,6 +19,7 @@ from bywire.config.consistency import CONTROL_TASKS
 from bywire.config.deadlines import STOP_RESPONSE_S
 from bywire.config.tree import RobotConfig
 from bywire.control.dac_health import DAC_TRANSFERS_PER_PASS
+from bywire.control.rc_mapping import AxisCalibration
 from bywire.control.steering import SteeringConfig
 from bywire.model import MovementCommand
 from bywire.sim.verify.oracle.causes import Cause
@@ -46,6 +48,39 @@ class ServoPulses:
 
 
 @dataclass(frozen=True, slots=True)
+class StickDeadband:
+    """One RC stick's deadband (a calibration of the robot, as the servo's): a stick nearer its
+    centre than `deadband_norm` reads as centred (zero throttle, straight ahead), whatever the
+    operator meant. Its position travels as a whole number of microseconds, so within
+    `rounding_norm` (half a microsecond of the stick's shorter half) of the deadband's edge it
+    may read either way; the oracle then takes it as centred, leaning to allowing (an arming at
+    zero throttle, a source seen at zero)."""
+
+    deadband_norm: float = 0.02
+    rounding_norm: float = 0.001
+
+    @classmethod
+    def of(cls, axis: AxisCalibration) -> StickDeadband:
+        half_raw = min(axis.max_raw - axis.center_raw, axis.center_raw - axis.min_raw)
+        return cls(axis.deadband_norm, 0.5 / max(half_raw, 1))
+
+    def read_norm(self, stick_norm: float) -> float:
+        """What the controller may read of a stick at `stick_norm`."""
+        near = abs(stick_norm) <= self.deadband_norm + self.rounding_norm
+        return 0.0 if near else stick_norm
+
+
+@dataclass(frozen=True, slots=True)
+class RcSticks:
+    """The RC sticks' deadbands, from the robot file (`[rc.steering]`, `[rc.throttle_brake]`).
+    The ends, the centre and `reverse` need nothing here: the simulated transmitter sends a
+    position with the same calibration the controller reads it with."""
+
+    steering: StickDeadband = field(default_factory=StickDeadband)
+    throttle: StickDeadband = field(default_factory=StickDeadband)
+
+
+@dataclass(frozen=True, slots=True)
 class OracleTiming:
     """How long the controller may take for each thing (the defaults: the figures
     `docs/SAFETY.md` gives; `for_robot`: a robot file's, bounded by the requirements)."""
@@ -65,6 +100,7 @@ class OracleTiming:
     steering_boosted: bool = False  # the pulse settles onto a held set-point (boost_gain > 0)
     boost_gain: float = 0.0  # how far the pulse may overshoot the set-point (H10)
     servo: ServoPulses = field(default_factory=ServoPulses)
+    sticks: RcSticks = field(default_factory=RcSticks)
 
     @classmethod
     def for_robot(cls, robot: RobotConfig) -> OracleTiming:
@@ -91,6 +127,10 @@ class OracleTiming:
             steering_boosted=robot.steering.servo.boost_gain > 0.0,
             boost_gain=robot.steering.servo.boost_gain,
             servo=ServoPulses.of(robot.steering.servo),
+            sticks=RcSticks(
+                StickDeadband.of(robot.rc.mapping.steering),
+                StickDeadband.of(robot.rc.mapping.throttle_brake),
+            ),
         )
 
     @property

@@ -101,9 +101,16 @@ class HazardOracle:
         self.arming.set_switch(mode, now)
 
     def set_throttle(self, source: ControlMode, throttle_norm: float, now: float) -> None:
+        """`throttle_norm`: the stick's position (RC) or the computer's set-point (CAN); the
+        controller reads a stick inside its deadband as zero."""
+        if source is ControlMode.RC:
+            throttle_norm = self.timing.sticks.throttle.read_norm(throttle_norm)
         self.arming.set_throttle(source, throttle_norm, now)
 
     def set_steering(self, source: ControlMode, steering_norm: float, _now: float) -> None:
+        """As `set_throttle`: a stick inside its deadband steers straight ahead."""
+        if source is ControlMode.RC:
+            steering_norm = self.timing.sticks.steering.read_norm(steering_norm)
         self.arming.set_steering(source, steering_norm)
 
     def re_enable(self, now: float) -> None:
