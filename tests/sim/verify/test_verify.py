@@ -264,7 +264,8 @@ SERVO_STUCK_AS_THE_OPERATOR_TURNS = [
     Step(0.1, "rc_steer", 0.5),
     Step(3.0, "rc_steer", 0.5),
 ]
-WEAKENED_MONITORS = {  # what a robot file could once set: the monitor acts, but too late
+# What a robot file could once set: the monitor acts, but too late.
+WEAKENED_MONITORS: dict[str, tuple[dict[str, Any], list[Step]]] = {
     "pressure: 5 s of build-up": (
         {"hydro_response_s": 5.0},
         HYDROBRAKE_FAILS_AS_THE_OPERATOR_BRAKES,
