@@ -248,7 +248,7 @@ def _at_an_end(read: KeyRead, value: object) -> bool:
     return read.kind == "flag"
 
 
-PLANTED_SEED = 130
+PLANTED_SEED = 93
 """A seed whose file 1 draws `sim.rc_frame_period_s` at the planted 1 ms end and whose first
 campaign of 1.5 s breaks H1 on it (found once by drawing seeds; the test asserts both)."""
 OTHER_KEYS_TRIED = 3
