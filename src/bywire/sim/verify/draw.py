@@ -22,7 +22,7 @@ A follow-up is a step like any other: it may bring its own, and the shrinker dro
 from __future__ import annotations
 
 import random
-from collections.abc import Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import replace
 from typing import cast
 
@@ -211,19 +211,36 @@ def draw_campaign(seed: int, index: int, campaign_s: float = CAMPAIGN_S) -> list
         upcoming = _drawn(IN_MOTION[(source, ROLLING_THROTTLE[mode])][mode], opening)
     if random.Random(f"bywire-verify-secoc:{seed}:{index}").random() < SECOC_CHANCE:
         steps.insert(0, Step(0.0, "secoc", True))
-    actions, weights = list(WEIGHTS), list(WEIGHTS.values())
-    at_s, switch = sum(step.delay_s for step in steps), mode
+    return walked(steps, upcoming, rng, WEIGHTS, switch=mode, campaign_s=campaign_s)
+
+
+def walked(
+    steps: list[Step],
+    upcoming: list[Step],
+    rng: random.Random,
+    weights: Mapping[str, float],
+    *,
+    switch: ControlMode,
+    campaign_s: float,
+    follow: Callable[[ControlMode, Step], list[Episode]] | None = None,
+) -> list[Step]:
+    """`steps` (the opening, `switch` where they leave the mode switch) walked on to
+    `campaign_s`: `upcoming` first, then actions drawn by `weights`, each step maybe bringing its
+    follow-ups (`follow`, else `follow_ups`)."""
+    follow = follow_ups if follow is None else follow
+    actions, chances = list(weights), list(weights.values())
+    at_s = sum(step.delay_s for step in steps)
     while True:
         if upcoming:
             step = upcoming.pop(0)
         else:
-            action = rng.choices(actions, weights)[0]
+            action = rng.choices(actions, chances)[0]
             step = Step(round(rng.uniform(*DELAY_S), 3), action, rng.choice(VOCABULARY[action]))
         if at_s + step.delay_s > campaign_s - TAIL_S:
             return steps
         at_s = round(at_s + step.delay_s, 3)
         steps.append(step)
         switch = switch_after(switch, step)
-        episodes = follow_ups(switch, step)
+        episodes = follow(switch, step)
         if episodes and rng.random() < FOLLOW_UP_CHANCE:
             upcoming[:0] = _drawn(episodes, rng)

@@ -18,17 +18,14 @@ import random
 
 from bywire.model import ControlMode
 from bywire.sim.verify.actions import BRIDGE_PRESETS
-from bywire.sim.verify.campaign import TAIL_S, VOCABULARY, Step
+from bywire.sim.verify.campaign import Step
 from bywire.sim.verify.draw import (
     CAMPAIGN_S,
-    DELAY_S,
     ENDED,
     ENDINGS,
-    FOLLOW_UP_CHANCE,
     Episode,
-    _drawn,
     draw_campaign,
-    switch_after,
+    walked,
 )
 
 RC, CAN = ControlMode.RC, ControlMode.CAN
@@ -118,19 +115,6 @@ def draw_bridge_campaign(seed: int, index: int, campaign_s: float = CAMPAIGN_S) 
         Step(0.0, "planner_link", True),
     ]
     upcoming: list[Step] = list(rng.choice(ROLLING)) if rng.random() < ROLLING_CHANCE else []
-    actions, weights = list(BRIDGE_WEIGHTS), list(BRIDGE_WEIGHTS.values())
-    at_s, switch = sum(step.delay_s for step in steps), CAN
-    while True:
-        if upcoming:
-            step = upcoming.pop(0)
-        else:
-            action = rng.choices(actions, weights)[0]
-            step = Step(round(rng.uniform(*DELAY_S), 3), action, rng.choice(VOCABULARY[action]))
-        if at_s + step.delay_s > campaign_s - TAIL_S:
-            return steps
-        at_s = round(at_s + step.delay_s, 3)
-        steps.append(step)
-        switch = switch_after(switch, step)
-        episodes = follow_ups(switch, step)
-        if episodes and rng.random() < FOLLOW_UP_CHANCE:
-            upcoming[:0] = _drawn(episodes, rng)
+    return walked(
+        steps, upcoming, rng, BRIDGE_WEIGHTS, switch=CAN, campaign_s=campaign_s, follow=follow_ups
+    )
