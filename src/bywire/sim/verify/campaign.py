@@ -101,8 +101,9 @@ class Campaign:
 
 @contextlib.contextmanager
 def _quiet_runtime() -> Iterator[None]:
-    """The runtime's log (safe writes that failed at its exit) silenced for one campaign."""
-    logger = logging.getLogger("bywire.runtime.loop")
+    """The runtime's log (safe writes that failed at its exit, the DAC writes a campaign's fault
+    fails) silenced for one campaign: the whole `bywire.runtime` tree, its children included."""
+    logger = logging.getLogger("bywire.runtime")
     level = logger.level
     logger.setLevel(logging.CRITICAL)
     try:
