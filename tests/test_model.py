@@ -65,7 +65,7 @@ def test_messages_are_frozen_values() -> None:
     with pytest.raises(dataclasses.FrozenInstanceError):
         command.counter = 4  # type: ignore[misc]  # what mypy refuses must also fail at run time
     assert command == MovementCommand(0.1, 0.2, 0.0, Gear.FORWARD, 3)
-    assert len({WheelSpeedReport(1.0, 1.0), WheelSpeedReport(1.0, 1.0)}) == 1
+    assert len({WheelSpeedReport(1.0, 1.0, True), WheelSpeedReport(1.0, 1.0, True)}) == 1
 
 
 COMMANDS: list[Command] = [

@@ -123,10 +123,13 @@ class ErrorReport:
 
 @dataclass(frozen=True, slots=True)
 class WheelSpeedReport:
-    """Wheel speeds, positive forward (int16, 0.01 m/s per bit, as in the thesis' Figure 26)."""
+    """Wheel speeds, positive forward (int16, 0.01 m/s per bit, as in the thesis' Figure 26);
+    they mean nothing unless ``measured_valid`` (no sensor fitted, or no reading: the speed is
+    unknown, never standstill)."""
 
     left_mps: float
     right_mps: float
+    measured_valid: bool
 
 
 @dataclass(frozen=True, slots=True)

@@ -29,7 +29,7 @@ CFLAGS = ["-std=c99", "-Wall", "-Wextra", "-Werror"]
 MOVEMENT = MovementCommand(-0.1234, 0.5, 1.0, Gear.REVERSE, counter=7)
 CONTROL = ControlCommand(remote_stop=True, re_enable=True, counter=15)
 LIGHTS = LightsCommand(turn_left=False, turn_right=True, hazard=True, low_beam=True, counter=0)
-SPEEDS = WheelSpeedReport(left_mps=-1.5, right_mps=327.67)
+SPEEDS = WheelSpeedReport(left_mps=-1.5, right_mps=327.67, measured_valid=True)
 STATUS = StatusReport(uptime_s=123456, overrun_count=7, rc_input_age_ms=4095, can_command_age_ms=9)
 ERRORS = ErrorReport(ErrorFlag.TASK_CRASHED | ErrorFlag.RC_TIMEOUT | ErrorFlag.NOT_ARMED)
 
@@ -73,7 +73,7 @@ int main(void) {{
     print_frame(buffer, albert_lights_command_pack(buffer, &lights, sizeof buffer));
     struct albert_wheel_speed_report_t speeds = {{
         .left_mps = albert_wheel_speed_report_left_mps_encode(-1.5),
-        .right_mps = 32767 }};
+        .right_mps = 32767, .measured_valid = 1 }};
     print_frame(buffer, albert_wheel_speed_report_pack(buffer, &speeds, sizeof buffer));
     struct albert_status_report_t status = {{
         .uptime_s = 123456u, .overrun_count = 7u, .rc_input_age_ms = 4095u,

@@ -54,8 +54,9 @@ REPORTS: list[Report] = [
     ErrorReport(ErrorFlag.TASK_CRASHED),
     ErrorReport(ErrorFlag.RC_TIMEOUT | ErrorFlag.NOT_ARMED),
     ErrorReport(ErrorFlag(sum(ErrorFlag))),  # every flag up
-    WheelSpeedReport(left_mps=-327.68, right_mps=327.67),
-    WheelSpeedReport(left_mps=1.25, right_mps=-0.01),
+    WheelSpeedReport(left_mps=-327.68, right_mps=327.67, measured_valid=True),
+    WheelSpeedReport(left_mps=1.25, right_mps=-0.01, measured_valid=True),
+    WheelSpeedReport(left_mps=0.0, right_mps=0.0, measured_valid=False),
     SteeringReport(commanded_norm=-1.0, measured_norm=1.0, measured_valid=True),
     SteeringReport(commanded_norm=0.1234, measured_norm=-0.0007, measured_valid=False),
     LightsReport(True, False, True, False, True, False, True),
@@ -214,8 +215,8 @@ def test_reports_saturate_at_the_signal_range() -> None:
         uptime_s=10**9, overrun_count=10**6, rc_input_age_ms=10**5, can_command_age_ms=-3
     )
     assert dbc.decode_report(*dbc.encode_report(status)) == StatusReport(2**24 - 1, 65535, 4095, 0)
-    speeds = dbc.decode_report(*dbc.encode_report(WheelSpeedReport(1000.0, -1000.0)))
-    assert speeds == WheelSpeedReport(327.67, -327.68)
+    speeds = dbc.decode_report(*dbc.encode_report(WheelSpeedReport(1000.0, -1000.0, True)))
+    assert speeds == WheelSpeedReport(327.67, -327.68, True)
 
 
 # --- the ErrorReport: one 1-bit signal per ErrorFlag --------------------------------------------
@@ -269,7 +270,7 @@ def test_error_report_reserved_bits_are_ignored_and_never_sent() -> None:
 
 def test_report_nan_is_a_frame_error() -> None:
     with pytest.raises(FrameError):
-        dbc.encode_report(WheelSpeedReport(math.nan, 0.0))
+        dbc.encode_report(WheelSpeedReport(math.nan, 0.0, True))
 
 
 @pytest.mark.parametrize(

@@ -31,7 +31,7 @@ def view(
                 now_s,
                 ModeReport(Gear.FORWARD, mode, mode is ControlMode.STOP, latched, True),
             ),
-            WheelSpeedReport: (now_s, WheelSpeedReport(speed, speed)),
+            WheelSpeedReport: (now_s, WheelSpeedReport(speed, speed, True)),
             ErrorReport: (now_s, ErrorReport(flags)),
         }
     )
@@ -196,3 +196,18 @@ def test_a_stale_error_report_is_an_unknown_speed() -> None:
     _, decision = bridge_step(state, inputs, SETTINGS)
     assert decision.pedals == Pedals(0.0, 1.0, Gear.FORWARD)
     assert decision.activity is Activity.BLIND
+
+
+def test_an_unmeasured_wheel_speed_is_an_unknown_speed() -> None:
+    """Row 60: a robot without a wheel sensor reports 0 m/s with `measured_valid` 0 and no flag;
+    the bridge never takes it for standstill: no throttle, full brake, BLIND, in every period."""
+    state, now_s = _engaged(0.5)
+    for index in range(1, 100):
+        at_s = now_s + index * PERIOD_S
+        robot = view(at_s, ControlMode.CAN, False, 0.0)
+        robot.latest[WheelSpeedReport] = (at_s, WheelSpeedReport(0.0, 0.0, False))
+        inputs = Inputs(at_s, Setpoint(0.5, 0.0, at_s, 0.0), robot, Requests(enable=1))
+        state, decision = bridge_step(state, inputs, SETTINGS)
+        assert decision.pedals.throttle_norm == 0.0
+        assert decision.activity is Activity.BLIND
+        assert not decision.status.speed_trusted

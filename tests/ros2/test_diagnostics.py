@@ -67,8 +67,12 @@ def test_an_unknown_speed_is_an_error_that_names_why() -> None:
     status = mode_status(faulted, engaged=True, remote_stop=False)
     assert status.level is Level.ERROR
     assert "SPEED_SENSOR_FAULT" in status.message
-    unheard = RobotStatus(True, 0.01, ControlMode.CAN)  # no recent ErrorReport: flags unknown
+    unheard = RobotStatus(True, 0.01, ControlMode.CAN, speed_measured=True)  # flags unknown
     assert "ErrorReport" in mode_status(unheard, engaged=True, remote_stop=False).message
+    unmeasured = RobotStatus(True, 0.01, ControlMode.CAN)  # no wheel sensor (albert): row 60
+    status = mode_status(unmeasured, engaged=True, remote_stop=False)
+    assert status.level is Level.ERROR
+    assert "measures no wheel speed" in status.message
     trusted = RobotStatus(True, 0.01, ControlMode.CAN, speed_trusted=True)
     assert mode_status(trusted, engaged=True, remote_stop=False).level is Level.OK
 

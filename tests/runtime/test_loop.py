@@ -16,7 +16,7 @@ from bywire.control.controller import ControlConfig, ControlInputs, ControlOutpu
 from bywire.error_flags import ErrorFlag
 from bywire.hal.sim.clock import VirtualClock
 from bywire.hal.sim.world import SimWorld
-from bywire.model import ControlMode, ErrorReport, Gear, SteeringReport
+from bywire.model import ControlMode, ErrorReport, Gear, SteeringReport, WheelSpeedReport
 from bywire.runtime import loop
 from bywire.runtime.loop import MODE_LOG_LENGTH, Runtime
 from bywire.runtime.readers import COUNTER_MISS_LIMIT
@@ -187,6 +187,30 @@ def test_without_an_encoder_the_report_says_so() -> None:
     report = robot.world.hlc.latest(SteeringReport)
     assert isinstance(report, SteeringReport)
     assert (report.measured_valid, report.measured_norm) == (False, 0.0)
+
+
+def test_the_wheel_speed_report_carries_a_measured_speed_as_valid() -> None:
+    robot = Robot.build()
+    robot.arm_rc()
+    robot.at(0.3, lambda: robot.world.rc.set_gear(Gear.FORWARD))
+    robot.at(0.3, lambda: robot.world.rc.set_throttle(0.3))
+    robot.run(2.0)
+    report = robot.world.hlc.latest(WheelSpeedReport)
+    assert isinstance(report, WheelSpeedReport)
+    assert report.measured_valid
+    true_speed = robot.world.vehicle.state.speed_mps
+    assert true_speed > 0.1
+    assert (report.left_mps + report.right_mps) / 2 == pytest.approx(true_speed, abs=0.05)
+
+
+def test_a_wheel_sensor_that_gives_no_reading_is_reported_unmeasured_not_standstill() -> None:
+    """Row 60: without a reading the report said 0 m/s, which a computer takes for standstill."""
+    robot = Robot.build()
+    robot.world.wheel_sensor.fail()
+    robot.run(0.5)
+    report = robot.world.hlc.latest(WheelSpeedReport)
+    assert isinstance(report, WheelSpeedReport)
+    assert (report.measured_valid, report.left_mps, report.right_mps) == (False, 0.0, 0.0)
 
 
 @pytest.mark.parametrize("freeze", [True, False])

@@ -56,7 +56,7 @@ async def _reports_through_the_notifier(teleop: can.BusABC, robot: can.BusABC) -
     app = TeleopApp(teleop, now=lambda: 10.0, auto_tick=False)
     async with app.run_test() as pilot:
         send_report(robot, ModeReport(Gear.FORWARD, ControlMode.CAN, False, False, True))
-        send_report(robot, WheelSpeedReport(0.5, 0.5))
+        send_report(robot, WheelSpeedReport(0.5, 0.5, True))
         for _ in range(WAIT_LIMIT):
             app.tick()
             if app.view.get(WheelSpeedReport) is not None:

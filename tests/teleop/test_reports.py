@@ -21,7 +21,7 @@ from bywire.teleop.state import TeleopState, press
 REPORTS: tuple[Report, ...] = (
     ModeReport(Gear.REVERSE, ControlMode.CAN, False, False, True),
     ErrorReport(ErrorFlag.RC_TIMEOUT | ErrorFlag.REMOTE_STOP),
-    WheelSpeedReport(1.0, 1.5),
+    WheelSpeedReport(1.0, 1.5, True),
     SteeringReport(-0.25, -0.2, True),
     LightsReport(True, True, False, False, False, True, False),
     StatusReport(12, 3, 40, 20),
@@ -59,6 +59,15 @@ def test_the_panel_names_mode_gear_speed_steering_lights_flags_and_ages() -> Non
     assert "mode 100 ms" in text
 
 
+def test_an_unmeasured_wheel_speed_reads_no_reading_not_standstill() -> None:
+    """Row 60: a robot without a wheel sensor sends 0 m/s with `measured_valid` 0."""
+    view = view_of(WheelSpeedReport(0.0, 0.0, False))
+    assert speed_mps(view) is None
+    text = "\n".join(report_lines(view, 1.1))
+    assert "speed no reading" in text
+    assert "0.00 m/s" not in text
+
+
 def test_a_latched_stop_and_no_errors_read_plainly() -> None:
     mode = ModeReport(Gear.NEUTRAL, ControlMode.STOP, True, True, False)
     view = view_of(mode, ErrorReport(ErrorFlag(0)))
@@ -78,7 +87,7 @@ def test_a_robot_in_stop_says_why_on_a_line_of_its_own() -> None:
 
 
 def test_the_newest_report_wins() -> None:
-    first, second = WheelSpeedReport(1.0, 1.0), WheelSpeedReport(-0.5, -0.5)
+    first, second = WheelSpeedReport(1.0, 1.0, True), WheelSpeedReport(-0.5, -0.5, True)
     view = fold(view_of(first, at_s=1.0), *dbc.encode_report(second), 1.5)
     assert speed_mps(view) == -0.5
     assert view.age_s(WheelSpeedReport, 1.5) == 0.0

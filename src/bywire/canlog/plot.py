@@ -271,7 +271,11 @@ def draw_log(log: DecodedLog, title: str) -> Figure:
     steering.step(measured.times_s, measured.values, where="post", label="measured", lw=1.2)
     _legend(steering)
     wheels = "WheelSpeedReport."
-    _lines(speed, log, "speed (m/s)", left=wheels + "left_mps", right=wheels + "right_mps")
+    for side in ("left", "right"):  # a gap where the robot measured no speed (not 0 m/s)
+        shown = _where_valid(log, f"{wheels}{side}_mps", wheels + "measured_valid")
+        speed.step(shown.times_s, shown.values, where="post", label=side, lw=1.2)
+    speed.set_ylabel("speed (m/s)")
+    speed.grid(alpha=0.3)
     _legend(speed)
     _legend(lights, _lights_panel(lights, log))
     _mode_panel(mode, log)

@@ -200,7 +200,8 @@ class RosbagExport:
         if isinstance(report, WheelSpeedReport):
             steering = self._view.get(SteeringReport)
             self._pose = odometry.advance(self._pose, report, steering, time_s, self._geometry)
-            self._odometry(time_s)
+            if self._pose.at_s is not None:  # a speed the robot did not measure: no odometry
+                self._odometry(time_s)
 
     def _odometry(self, time_s: float) -> None:
         pose = self._pose

@@ -134,11 +134,12 @@ def mode_status(status: RobotStatus, engaged: bool, remote_stop: bool) -> Status
     if causes:
         return Status(PREFIX + "mode", Level.ERROR, f"STOP latched: {' '.join(causes)}", values)
     if not status.speed_trusted:
-        why = (
-            "SPEED_SENSOR_FAULT"
-            if status.flags & ErrorFlag.SPEED_SENSOR_FAULT
-            else "no recent ErrorReport"
-        )
+        if status.flags & ErrorFlag.SPEED_SENSOR_FAULT:
+            why = "SPEED_SENSOR_FAULT"
+        elif not status.speed_measured:
+            why = "the robot measures no wheel speed"
+        else:
+            why = "no recent ErrorReport"
         message = f"speed unknown ({why}): the bridge asks no throttle and brakes to a stop"
         return Status(PREFIX + "mode", Level.ERROR, message, values)
     if status.drivable and engaged:

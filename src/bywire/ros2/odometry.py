@@ -4,7 +4,10 @@ steering report through the bicycle model, integrated at each wheel-speed report
 Pure: `advance` takes the report's values and its arrival time. The speed is the mean of the two
 wheels; the steering is the measured one when the robot has an encoder (`measured_valid`), else
 the commanded one as applied. A gap longer than `MAX_STEP_S` is not bridged (the robot was not
-heard from; it may have moved any way): the pose holds and integration starts again.
+heard from; it may have moved any way): the pose holds and integration starts again. A report
+that measures no speed (`measured_valid` 0: no wheel sensor, or no reading) is not integrated
+as standstill: the pose holds with no time (`at_s` None), so no odometry is published from it
+and integration starts again at the next measured report.
 """
 
 from __future__ import annotations
@@ -57,7 +60,10 @@ def advance(
     at_s: float,
     geometry: Geometry,
 ) -> Pose:
-    """The pose after a wheel-speed report that arrived at `at_s` (midpoint heading)."""
+    """The pose after a wheel-speed report that arrived at `at_s` (midpoint heading); after one
+    that measures no speed, the same position with no time and no velocities (unknown)."""
+    if not wheels.measured_valid:
+        return Pose(pose.x_m, pose.y_m, pose.yaw_rad)
     speed_mps = (wheels.left_mps + wheels.right_mps) / 2
     yaw_rate = yaw_rate_radps(speed_mps, steering_norm(steering), geometry)
     step_s = 0.0 if pose.at_s is None else at_s - pose.at_s

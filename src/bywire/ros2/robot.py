@@ -28,9 +28,10 @@ class RobotStatus:
     latched: bool = False
     armed: bool = False
     gear: Gear = Gear.NEUTRAL  # as the controller applies it (its interlocks may hold it back)
-    speed_mps: float = 0.0
+    speed_mps: float = 0.0  # the report's figure; means nothing unless `speed_trusted`
     flags: ErrorFlag = NO_FLAGS
     speed_trusted: bool = False
+    speed_measured: bool = False  # the WheelSpeedReport's measured_valid
 
     @property
     def trusted_speed_mps(self) -> float | None:
@@ -75,7 +76,13 @@ def robot_status(view: ReportView, now_s: float, report_timeout_s: float) -> Rob
         gear=mode.gear,
         speed_mps=(wheels.left_mps + wheels.right_mps) / 2,
         flags=flags,
-        speed_trusted=reporting and flags_known and not flags & ErrorFlag.SPEED_SENSOR_FAULT,
+        speed_measured=wheels.measured_valid,
+        speed_trusted=(
+            reporting
+            and wheels.measured_valid  # no sensor, or no reading: unknown, never standstill
+            and flags_known
+            and not flags & ErrorFlag.SPEED_SENSOR_FAULT
+        ),
     )
 
 

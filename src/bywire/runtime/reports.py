@@ -3,6 +3,7 @@ last ones a loop that ended by a task raising sends (TASK_CRASHED)."""
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 from bywire.control.controller import ControlOutputs
@@ -50,7 +51,9 @@ def _age_ms(age_s: float | None) -> int:
 def build_reports(outputs: ControlOutputs, health: Health) -> tuple[Report, ...]:
     """Reports in priority order: safety state first, then data."""
     request = outputs.light_request
-    left_mps, right_mps = health.wheel_speeds_mps or (0.0, 0.0)
+    wheels = health.wheel_speeds_mps  # None: no sensor fitted, or it gave no reading
+    wheels_valid = wheels is not None and all(math.isfinite(speed) for speed in wheels)
+    left_mps, right_mps = wheels if wheels is not None and wheels_valid else (0.0, 0.0)
     measured = health.steering_measured
     return (
         ModeReport(
@@ -61,7 +64,7 @@ def build_reports(outputs: ControlOutputs, health: Health) -> tuple[Report, ...]
             armed=not outputs.causes,
         ),
         ErrorReport(flags=ErrorFlag(outputs.error_flags)),
-        WheelSpeedReport(left_mps=left_mps, right_mps=right_mps),
+        WheelSpeedReport(left_mps=left_mps, right_mps=right_mps, measured_valid=wheels_valid),
         SteeringReport(
             commanded_norm=health.steering_setpoint_norm,
             measured_norm=0.0 if measured is None else measured,

@@ -26,6 +26,7 @@ from bywire.security.session import SecocSigner
 from bywire.teleop.state import TeleopState
 
 NEVER = "—"
+NO_READING = "no reading"  # a WheelSpeedReport that says the robot measures no speed
 MPS_TO_KMH = 3.6
 
 _R = TypeVar("_R", bound=Report)
@@ -61,9 +62,12 @@ def fold(view: ReportView, frame_id: int, data: bytes, received_at_s: float) -> 
 
 
 def speed_mps(view: ReportView) -> float | None:
-    """The robot's speed: the mean of the two wheel speeds, None before the first report."""
+    """The robot's speed: the mean of the two wheel speeds, None before the first report and
+    while the robot measures none (no wheel sensor, or no reading: unknown, never standstill)."""
     wheels = view.get(WheelSpeedReport)
-    return None if wheels is None else (wheels.left_mps + wheels.right_mps) / 2
+    if wheels is None or not wheels.measured_valid:
+        return None
+    return (wheels.left_mps + wheels.right_mps) / 2
 
 
 def _on(names: dict[str, bool]) -> str:
@@ -81,7 +85,12 @@ def _mode_line(view: ReportView) -> str:
 
 def _motion_line(view: ReportView) -> str:
     speed = speed_mps(view)
-    speed_text = NEVER if speed is None else f"{speed:+.2f} m/s ({speed * MPS_TO_KMH:+.1f} km/h)"
+    if view.get(WheelSpeedReport) is None:
+        speed_text = NEVER
+    elif speed is None:
+        speed_text = NO_READING
+    else:
+        speed_text = f"{speed:+.2f} m/s ({speed * MPS_TO_KMH:+.1f} km/h)"
     steering = view.get(SteeringReport)
     steer_text = NEVER if steering is None else f"{steering.commanded_norm:+.2f}"
     if steering is not None and steering.measured_valid:

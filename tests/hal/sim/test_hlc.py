@@ -173,11 +173,11 @@ def test_reports_are_decoded_and_stamped_and_other_frames_ignored() -> None:
     for cycle in range(10):
         clock.advance(0.02 * cycle - clock.now())
         controller.send(CanFrame(*dbc.encode_report(mode)))
-        controller.send(CanFrame(*dbc.encode_report(WheelSpeedReport(1.23, -0.5))))
+        controller.send(CanFrame(*dbc.encode_report(WheelSpeedReport(1.23, -0.5, True))))
         controller.send(CanFrame(0x333, b"\x00"))
     clock.advance(0.01)
     assert hlc.latest(ModeReport) == mode
-    assert hlc.latest(WheelSpeedReport) == WheelSpeedReport(1.23, -0.5)
+    assert hlc.latest(WheelSpeedReport) == WheelSpeedReport(1.23, -0.5, True)
     arrivals = hlc.arrivals(ModeReport)
     assert len(arrivals) == 10
     assert [b - a for a, b in itertools.pairwise(arrivals)] == pytest.approx([0.02] * 9)

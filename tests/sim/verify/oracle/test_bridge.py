@@ -15,7 +15,7 @@ correct bridge.
 from __future__ import annotations
 
 from collections.abc import Callable
-from dataclasses import replace
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
@@ -23,7 +23,7 @@ import pytest
 
 from bywire.config import default_sim_config, load_config
 from bywire.error_flags import ErrorFlag
-from bywire.model import ControlMode
+from bywire.model import ControlMode, WheelSpeedReport
 from bywire.ros2 import link, setpoint, stop_ramp
 from bywire.ros2.bridge import Activity, BridgeState, Decision, Inputs, bridge_step
 from bywire.ros2.setpoint import Refusal, Setpoint, Tally, admit
@@ -31,6 +31,7 @@ from bywire.ros2.settings import BridgeSettings
 from bywire.ros2.speed_loop import Pedals
 from bywire.sim.verify.engine import Outcome, run_campaign
 from bywire.sim.verify.oracle import Invariant
+from bywire.sim.verify.oracle.outputs import Outputs
 from bywire.sim.verify.step_events import Step
 from bywire.teleop.frames import SEND_PERIOD_S
 
@@ -309,18 +310,92 @@ def test_the_fixed_bridge_counts_and_warns_lagging_stamps() -> None:
     assert _found(_run(LAGGING_STAMPS)) == set()
 
 
-def test_the_bridge_still_drives_a_robot_without_a_wheel_sensor_blind_and_b1_finds_it() -> None:
-    """The speed unknown from the start (albert: the Linux backend opens no wheel sensor). The
-    robot's reports cannot tell the bridge: its WheelSpeedReport says 0 m/s and its ErrorReport
-    carries no SPEED_SENSOR_FAULT (no sensor to check), so even the fixed bridge trusts the 0 and
-    its loop pushes; and the controller's rule (row 55) needs the latched fault. B1 finds it
-    (open: the bridge needs a wheel sensor, docs/ROS2.md)."""
-    albert = load_config(Path(__file__).parents[4] / "config" / "albert.toml")
-    outcome = run_campaign(albert, [*_driving(0.5), Step(3.0, "planner_speed", 0.5)])
+ALBERT = Path(__file__).parents[4] / "config" / "albert.toml"
+NO_SENSOR_DRIVING = [*_driving(0.5), Step(3.0, "planner_speed", 0.5)]
+"""Row 60: albert (the Linux backend opens no wheel sensor), armed into CAN, ~/enable, cmd_vel
+0.5 m/s for 3 s."""
+
+
+@dataclass
+class _Seen:
+    """What the hardware showed at every pass (the oracle's own reading) and what the bridge
+    decided each period."""
+
+    throttle_volts: list[float] = field(default_factory=list)
+    speeds_mps: list[float] = field(default_factory=list)
+    activities: list[Activity] = field(default_factory=list)
+    drivable: list[bool] = field(default_factory=list)
+
+
+@pytest.fixture
+def seen(monkeypatch: pytest.MonkeyPatch) -> _Seen:
+    """Record the simulated hardware after each pass (`Outputs.read`, as the oracle reads it)."""
+    record = _Seen()
+    read = Outputs.read
+
+    def recording(cls: type[Outputs], world: Any) -> Outputs:
+        out = read(world)
+        record.throttle_volts.append(out.throttle_volts)
+        record.speeds_mps.append(out.speed_mps)
+        return out
+
+    monkeypatch.setattr(Outputs, "read", classmethod(recording))
+    return record
+
+
+def _ignores_validity(state: BridgeState, inputs: Inputs, settings: BridgeSettings) -> Any:
+    """The bridge before row 60's fix: it reads the WheelSpeedReport's 0 m/s as a measured
+    standstill (the validity bit ignored)."""
+    wheels = inputs.view.get(WheelSpeedReport)
+    if wheels is not None and not wheels.measured_valid:
+        latest = dict(inputs.view.latest)
+        latest[WheelSpeedReport] = (
+            latest[WheelSpeedReport][0],
+            replace(wheels, measured_valid=True),
+        )
+        inputs = replace(inputs, view=replace(inputs.view, latest=latest))
+    return bridge_step(state, inputs, settings)
+
+
+def test_the_bridge_never_drives_a_robot_without_a_wheel_sensor_blind(
+    bend: Callable[[Step_], None], seen: _Seen
+) -> None:
+    """Row 60: albert's WheelSpeedReport says its speed is unknown (`measured_valid` 0), so the
+    bridge never trusts the 0: it stays BLIND, asks no throttle, and the throttle line's DAC
+    stays at 0 V with the robot standing, in CAN mode and enabled; the oracle is clean. (Before
+    the fix the report said 0 m/s and the bridge's loop opened the throttle: 1.3 m/s after
+    3.4 s, B1.)"""
+
+    def spy(state: BridgeState, inputs: Inputs, settings: BridgeSettings) -> Any:
+        state, decision = bridge_step(state, inputs, settings)
+        seen.activities.append(decision.activity)
+        seen.drivable.append(decision.status.drivable and state.engaged)
+        return state, decision
+
+    bend(spy)
+    outcome = run_campaign(load_config(ALBERT), NO_SENSOR_DRIVING)
+    assert outcome.bridge
+    assert _found(outcome) == set(), outcome.findings
+    assert any(seen.drivable)  # armed into CAN and enabled: the planner's 0.5 m/s was live
+    assert Activity.DRIVING not in seen.activities
+    assert Activity.BLIND in seen.activities
+    assert seen.throttle_volts
+    assert max(seen.throttle_volts) == 0.0
+    assert max(abs(speed) for speed in seen.speeds_mps) == 0.0
+
+
+def test_b1_finds_a_bridge_that_ignores_the_wheel_speed_reports_validity(
+    bend: Callable[[Step_], None], seen: _Seen
+) -> None:
+    """Row 60 planted: the same run with a bridge that takes the unmeasured 0 m/s as standstill.
+    Its loop opens the throttle, the robot rolls away, and B1 finds it."""
+    bend(_ignores_validity)
+    outcome = run_campaign(load_config(ALBERT), NO_SENSOR_DRIVING)
     b1 = [f for f in outcome.findings if f.invariant == Invariant.B1]
     assert b1, outcome.findings
     assert "unknown (no wheel-speed sensor)" in b1[0].detail
-    assert not {i for i in _found(outcome) if i.startswith("H")}
+    assert max(seen.throttle_volts) > 0.0
+    assert max(seen.speeds_mps) > 0.5
 
 
 def test_b2_passes_full_brake_to_standstill_from_three_metres_a_second_on_the_shortest_ramp(
