@@ -130,7 +130,10 @@ def configure(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--keep-going",
         action="store_true",
-        help="run the campaigns even when the configuration is unsafe by construction",
+        help=(
+            "accepted for old scripts, changes nothing: an unsafe combination of numbers is"
+            " refused at load (exit 2)"
+        ),
     )
     parser.add_argument(
         "--draw-robots",
