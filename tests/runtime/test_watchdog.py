@@ -193,3 +193,22 @@ def test_stop_is_safe_before_start_and_when_repeated(starts: int) -> None:
     watchdog.stop()
     watchdog.stop()
     assert _watchdog_threads() == []
+
+
+def test_a_trip_whose_safe_writes_check_it_again_does_not_deadlock() -> None:
+    # In the simulator a trip's safe DAC write, crawling, runs the virtual clock, whose timers
+    # check the watchdog again on the same thread (`bywire verify --draw-robots` hung there).
+    clock, seen = FakeTime(), []
+    watchdog: Watchdog
+
+    def on_trip() -> None:
+        seen.append(watchdog.check())  # the clock's timer, inside the trip's safe write
+
+    watchdog = Watchdog(on_trip, 0.2, monotonic=clock)
+    clock.now_s += 0.3
+    checking = threading.Thread(target=watchdog.check, daemon=True)
+    checking.start()
+    checking.join(timeout=5.0)
+    assert not checking.is_alive()
+    assert seen == [True]  # the inner check finds it tripped, and it tripped once
+    assert watchdog.trips == 1

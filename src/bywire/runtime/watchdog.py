@@ -37,7 +37,10 @@ class Watchdog:
         self._on_trip = on_trip
         self._monotonic = monotonic
         self._notify = notify
-        self._lock = threading.Lock()
+        # Re-entrant: in the simulator a trip's safe writes run the virtual clock (a DAC transfer
+        # that crawls advances it), whose timers check the watchdog again on the same thread; it
+        # finds itself tripped and returns (issue 41: `verify --draw-robots` hung there).
+        self._lock = threading.RLock()
         self._last_feed_s = monotonic()
         self._tripped = False
         self._stop = threading.Event()
