@@ -18,9 +18,10 @@ from pathlib import Path
 import pytest
 
 from bywire.config import default_sim_config
-from bywire.control.supervisor import Cause
-from bywire.model import COMMAND_TYPES
+from bywire.control.supervisor import CAN_BOUND, Cause
+from bywire.model import COMMAND_TYPES, ControlMode
 from bywire.sim.faults import BY_NAME as FAULTS
+from bywire.sim.runner import SimRun
 from bywire.sim.verify.actions import ACTIONS, compile_steps
 from bywire.sim.verify.actions import BY_NAME as VERIFY_ACTIONS
 from bywire.sim.verify.campaign import Step
@@ -71,21 +72,25 @@ def links(text: str, pattern: re.Pattern[str]) -> dict[str, set[int]]:
     return named
 
 
-def _verify_injects() -> frozenset[str]:
-    """Every fault that some step of `bywire verify`'s vocabulary compiles to."""
+def _verify_steps() -> dict[str, list[Step]]:
+    """Every fault that some step of `bywire verify`'s vocabulary compiles to, with those steps
+    (a range of values: its ends)."""
     robot = default_sim_config()
-    faults: set[str] = set()
+    steps: dict[str, list[Step]] = {}
     for action in ACTIONS:
         values = list(action.values)
         drawn = (values[0], values[-1]) if isinstance(action.values, range) else values
         for value in drawn:
-            scenario = compile_steps([Step(0.0, action.name, value)], robot)
-            faults.update(str(e.values["fault"]) for e in scenario.events if e.kind == "fault")
-    return frozenset(faults)
+            step = Step(0.0, action.name, value)
+            for event in compile_steps([step], robot).events:
+                if event.kind == "fault" and step not in steps.get(str(event.values["fault"]), []):
+                    steps.setdefault(str(event.values["fault"]), []).append(step)
+    return steps
 
 
 TEXT = SAFETY.read_text(encoding="utf-8")
-VERIFY_INJECTS = _verify_injects()
+VERIFY_STEPS = _verify_steps()
+VERIFY_INJECTS = frozenset(VERIFY_STEPS)
 
 
 def _faults_of(rows: set[int]) -> set[str]:
@@ -149,3 +154,59 @@ def test_the_links_of_a_row_are_read_and_a_missing_one_is_found() -> None:
     assert "CAN_LOST" in links(without, CAUSE)
     outside = TEXT.replace("## Hazard table", "## Hazard table\n\n## Elsewhere")
     assert links(outside, CAUSE) == {}  # only the hazard table's rows count
+
+
+def _latched_after(step: Step, mode: ControlMode) -> set[Cause]:
+    """The causes the controller latches once `step` is done to a robot armed at `mode` and
+    driving, then steering and braking (what a broken servo or brake needs to show)."""
+    robot = default_sim_config()
+    can = mode is ControlMode.CAN
+    steps = [
+        Step(0.0, "arm", mode),
+        Step(0.3, "can_throttle" if can else "rc_throttle", 0.3),
+        Step(0.3, step.action, step.value),
+        Step(0.05, "can_steer" if can else "rc_steer", 0.5),
+        Step(0.05, "can_brake" if can else "rc_throttle", 1.0 if can else -1.0),
+        Step(1.5, "rc_lights", False),  # time for the monitors
+    ]
+    run = SimRun(robot, compile_steps(steps, robot))
+    latched: set[Cause] = set()
+
+    def observe(now: float) -> None:
+        outputs = run.runtime.outputs
+        if outputs is not None and now >= FAULT_AT_S:
+            latched.update(outputs.causes)
+
+    run.runtime.on_cycle.append(observe)
+    run.run()
+    return latched
+
+
+FAULT_AT_S = 0.6
+
+
+def _steps_bringing_on(cause: Cause) -> dict[str, list[Step]]:
+    """What verify does that should bring `cause` on, by name: the faults its rows name, or the
+    action that asks for it."""
+    action = PROVOKED_OTHERWISE.get(cause)
+    if action is not None:
+        return {action: [Step(0.0, action, value) for value in VERIFY_ACTIONS[action].values]}
+    faults = sorted(_faults_of(links(TEXT, CAUSE)[cause.name]) & VERIFY_INJECTS)
+    return {fault: VERIFY_STEPS[fault] for fault in faults}
+
+
+@pytest.mark.parametrize(
+    "cause", [cause for cause in Cause if cause is not Cause.POWER_UP], ids=lambda c: c.name
+)
+def test_what_a_causes_rows_name_brings_the_cause_on_in_the_controller(cause: Cause) -> None:
+    """The links are true: some fault a cause's rows name (or its action), done as verify does
+    it to a robot armed and driving (in CAN mode for the CAN-bound causes), latches it."""
+    mode = ControlMode.CAN if cause in CAN_BOUND else ControlMode.RC
+    tried: dict[str, list[str]] = {}
+    for name, steps in _steps_bringing_on(cause).items():
+        for step in steps:
+            latched = _latched_after(step, mode)
+            if cause in latched:
+                return
+            tried[f"{name} ({step.action} {step.value})"] = sorted(c.name for c in latched)
+    pytest.fail(f"nothing the rows of Cause.{cause.name} name latches it: {tried}")
