@@ -191,7 +191,7 @@ def _steps_bringing_on(cause: Cause) -> dict[str, list[Step]]:
     action = PROVOKED_OTHERWISE.get(cause)
     if action is not None:
         return {action: [Step(0.0, action, value) for value in VERIFY_ACTIONS[action].values]}
-    faults = sorted(_faults_of(links(TEXT, CAUSE)[cause.name]) & VERIFY_INJECTS)
+    faults = sorted(_faults_of(links(TEXT, CAUSE).get(cause.name, set())) & VERIFY_INJECTS)
     return {fault: VERIFY_STEPS[fault] for fault in faults}
 
 
