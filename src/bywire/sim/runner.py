@@ -12,7 +12,7 @@ import random
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, field, replace
-from typing import Any, Protocol
+from typing import Any
 
 from bywire.config import RobotConfig
 from bywire.config.security_setup import controller_receiver, sender_signer, simulated_run_key
@@ -31,7 +31,7 @@ from bywire.runtime.watchdog import POLL_S as WATCHDOG_POLL_S
 from bywire.security.session import SecocReceiver, SecocSigner
 from bywire.sim.bridge_computer import SimBridge
 from bywire.sim.conditions import conditions_hold
-from bywire.sim.faults import BY_NAME
+from bywire.sim.faults import BY_NAME, SilencedComputer
 from bywire.sim.observe import Observation, observe
 from bywire.sim.scenario import Event, Expectation, Scenario
 from bywire.sim.trace import Trace
@@ -103,13 +103,6 @@ def run_clock(
     if scaled:
         return ScaledRealtimeClock(speed=speed or 1.0)
     return RealtimeClock() if realtime or scenario.realtime or speed is not None else VirtualClock()
-
-
-class Computer(Protocol):
-    """The simulated higher-level computer a run's CAN faults silence and resume."""
-
-    def start(self) -> None: ...
-    def silence(self) -> None: ...
 
 
 class SimRun:
@@ -214,7 +207,7 @@ class SimRun:
         return controller_receiver(memory, key)
 
     @property
-    def computer(self) -> Computer:
+    def computer(self) -> SilencedComputer:
         """The higher-level computer sending the commands: the bridge, or `world.hlc`."""
         return self.bridge if self.bridge is not None else self.world.hlc
 

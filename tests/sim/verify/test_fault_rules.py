@@ -1,7 +1,7 @@
-"""Each fault's oracle rule, carried by its row of `faults.FAULTS`: what the oracle is told
-when the fault is injected, through the campaign's witness, on a robot armed and driving in CAN
-at 1 s. Every row's rule is decided here: a new fault fails `test_every_fault_has_a_decided_rule`
-until it has one."""
+"""Each fault's oracle rule (`fault_rules.RULES`, one per row of `faults.FAULTS`): what the
+oracle is told when the fault is injected, through the campaign's witness, on a robot armed and
+driving in CAN at 1 s. Every row's rule is decided here: a new fault fails
+`test_every_fault_has_a_decided_rule` until it has one."""
 
 from __future__ import annotations
 
@@ -17,7 +17,8 @@ from bywire.model import ControlMode
 from bywire.sim.faults import BY_NAME
 from bywire.sim.scenario import Event
 from bywire.sim.verify.fault_rules import IMPOSTOR_PERIOD_S, nothing
-from bywire.sim.verify.oracle import Cause, HazardOracle, OracleTiming
+from bywire.sim.verify.fault_rules import RULES as FAULT_RULES
+from bywire.sim.verify.oracle import HazardOracle, OracleCause, OracleTiming
 from bywire.sim.verify.witness import OracleWitness
 
 AT_S = 1.0
@@ -40,7 +41,7 @@ def _inject(witness: OracleWitness, name: str, **values: Any) -> HazardOracle:
     return witness.oracle
 
 
-def _in_force(cause: Cause) -> Callable[[HazardOracle], bool]:
+def _in_force(cause: OracleCause) -> Callable[[HazardOracle], bool]:
     return lambda oracle: cause in oracle.faults and not oracle.ledger.armed
 
 
@@ -53,30 +54,33 @@ def _can_blind_for_2_frames(oracle: HazardOracle) -> bool:
 
 
 RULES: dict[str, tuple[dict[str, Any], Callable[[HazardOracle], bool]] | None] = {
-    "rc_link_lost": ({}, _in_force(Cause.RC_LINK_LOST)),
-    "rc_failsafe": ({}, _in_force(Cause.RC_FAILSAFE)),
+    "rc_link_lost": ({}, _in_force(OracleCause.RC_LINK_LOST)),
+    "rc_failsafe": ({}, _in_force(OracleCause.RC_FAILSAFE)),
     "ibus_garbage": ({"count": 64}, _rc_blind_for_4_frames),  # two IBUS frames' worth, and two more
     "ibus_corrupt": ({"count": 3}, _rc_blind_for_4_frames),  # three, and the one in flight
-    "can_silence": ({}, _in_force(Cause.CAN_LOST)),
-    "can_unplug": ({}, _in_force(Cause.CAN_UNPLUGGED)),
+    "can_silence": ({}, _in_force(OracleCause.CAN_LOST)),
+    "can_unplug": ({}, _in_force(OracleCause.CAN_UNPLUGGED)),
     "can_corrupt_crc": ({}, _can_blind_for_2_frames),
     "can_corrupt_length": ({}, _can_blind_for_2_frames),
     "can_corrupt_counter": ({}, _can_blind_for_2_frames),
     "can_corrupt_range": ({}, _can_blind_for_2_frames),
-    "dac_fail": ({}, lambda o: _in_force(Cause.DAC_FAIL)(o) and not o.faults.dac_every_other),
-    "dac_nak_alternate": ({}, lambda o: _in_force(Cause.DAC_FAIL)(o) and o.faults.dac_every_other),
+    "dac_fail": ({}, lambda o: _in_force(OracleCause.DAC_FAIL)(o) and not o.faults.dac_every_other),
+    "dac_nak_alternate": (
+        {},
+        lambda o: _in_force(OracleCause.DAC_FAIL)(o) and o.faults.dac_every_other,
+    ),
     "hydrobrake_fail": ({}, lambda o: o.plant.hydrobrake_failed and o.ledger.armed),
     "ebrake_fail": ({}, lambda o: o.plant.ebrake_failed and o.ledger.armed),
     "dac_stall": (
         {"stall_s": 0.3},
         lambda o: o.ledger.tripped_at is not None and o.faults.dac_writes_from == float("inf"),
     ),
-    "switch_chatter": ({"count": 10}, lambda o: Cause.SWITCH_STOP in o.ledger.stopped_by),
-    "rc_implausible": ({"count": 2}, lambda o: Cause.RC_IMPLAUSIBLE in o.ledger.stopped_by),
-    "can_impostor": ({"count": 5}, _in_force(Cause.CAN_IMPOSTOR)),
-    "can_forgery": ({"count": 5}, _in_force(Cause.CAN_IMPOSTOR)),
-    "can_skip_forgery": ({"count": 5}, _in_force(Cause.CAN_IMPOSTOR)),
-    "dac_slow": ({"stall_s": 0.08}, _in_force(Cause.DAC_SLOW)),
+    "switch_chatter": ({"count": 10}, lambda o: OracleCause.SWITCH_STOP in o.ledger.stopped_by),
+    "rc_implausible": ({"count": 2}, lambda o: OracleCause.RC_IMPLAUSIBLE in o.ledger.stopped_by),
+    "can_impostor": ({"count": 5}, _in_force(OracleCause.CAN_IMPOSTOR)),
+    "can_forgery": ({"count": 5}, _in_force(OracleCause.CAN_IMPOSTOR)),
+    "can_skip_forgery": ({"count": 5}, _in_force(OracleCause.CAN_IMPOSTOR)),
+    "dac_slow": ({"stall_s": 0.08}, _in_force(OracleCause.DAC_SLOW)),
     "line_dead": ({"line": "brake_light"}, lambda o: o.plant.dead_lines == {"brake_light"}),
     "wheel_sensor_dead": ({}, lambda o: o.plant.sensor_dead and o.ledger.armed),
     # Endings, each after its beginning a second before (`test_an_ending_ends_its_beginning`).
@@ -100,11 +104,11 @@ RULES: dict[str, tuple[dict[str, Any], Callable[[HazardOracle], bool]] | None] =
     "can_impostor_lights": None,
 }
 ENDINGS = {
-    "rc_link_restored": ("rc_link_lost", Cause.RC_LINK_LOST),
-    "rc_failsafe_off": ("rc_failsafe", Cause.RC_FAILSAFE),
-    "can_resume": ("can_silence", Cause.CAN_LOST),
-    "can_plug": ("can_unplug", Cause.CAN_UNPLUGGED),
-    "dac_restore": ("dac_fail", Cause.DAC_FAIL),
+    "rc_link_restored": ("rc_link_lost", OracleCause.RC_LINK_LOST),
+    "rc_failsafe_off": ("rc_failsafe", OracleCause.RC_FAILSAFE),
+    "can_resume": ("can_silence", OracleCause.CAN_LOST),
+    "can_plug": ("can_unplug", OracleCause.CAN_UNPLUGGED),
+    "dac_restore": ("dac_fail", OracleCause.DAC_FAIL),
 }
 MENDED = {
     "hydrobrake_restore": "hydrobrake_fail",
@@ -118,6 +122,12 @@ def test_every_fault_has_a_decided_rule() -> None:
     assert set(RULES) == set(BY_NAME)
 
 
+def test_verify_has_a_rule_for_exactly_the_faults_of_the_scenario_language() -> None:
+    """The scenario language does not know of the oracle: this keeps its table and verify's
+    rules in step (a fault without a rule would stop a campaign with a KeyError)."""
+    assert list(FAULT_RULES) == list(BY_NAME)
+
+
 @pytest.mark.parametrize("name", [name for name, rule in RULES.items() if rule is not None])
 def test_a_fault_tells_the_oracle_what_it_must_expect(name: str) -> None:
     rule = RULES[name]
@@ -128,7 +138,7 @@ def test_a_fault_tells_the_oracle_what_it_must_expect(name: str) -> None:
 
 @pytest.mark.parametrize("name", NOTHING)
 def test_a_fault_the_oracle_need_not_know_of_changes_nothing(name: str) -> None:
-    assert BY_NAME[name].expect is nothing
+    assert FAULT_RULES[name] is nothing
     witness = _witness()
     oracle = witness.oracle
     before = repr((oracle.arming, oracle.plant))  # the arming holds the ledger, faults, delays
@@ -158,23 +168,23 @@ def test_a_mending_undoes_its_breaking(name: str) -> None:
 
 def test_a_can_bound_fault_away_from_can_refuses_can_and_lets_rc_drive() -> None:
     oracle = _inject(_witness(switch=ControlMode.RC), "can_silence")
-    assert Cause.CAN_LOST in oracle.faults
+    assert OracleCause.CAN_LOST in oracle.faults
     assert oracle.ledger.armed
 
 
 def test_a_second_sender_without_the_key_is_harmless_with_authentication() -> None:
     assert _inject(_witness(authenticated=True), "can_impostor", count=5).ledger.armed
     keyed = _inject(_witness(authenticated=True), "can_impostor", count=5, keyed=True)
-    assert Cause.CAN_IMPOSTOR in keyed.faults
+    assert OracleCause.CAN_IMPOSTOR in keyed.faults
 
 
 def test_a_second_sender_is_over_when_its_last_frame_is_sent() -> None:
     witness = _witness()
     _inject(witness, "can_impostor", count=5)
     witness.clock.advance(AT_S + 5 * IMPOSTOR_PERIOD_S - witness.clock.now() - 0.001)
-    assert Cause.CAN_IMPOSTOR in witness.oracle.faults
+    assert OracleCause.CAN_IMPOSTOR in witness.oracle.faults
     witness.clock.advance(0.002)
-    assert Cause.CAN_IMPOSTOR not in witness.oracle.faults
+    assert OracleCause.CAN_IMPOSTOR not in witness.oracle.faults
 
 
 def test_ordinary_and_short_stalls_and_crawls_only_delay_the_loop() -> None:

@@ -1,6 +1,6 @@
 """The campaign's witness: tells the oracle what each event applied to the simulated robot means
 for the outputs: where the switch went, what each source asks for, which faults began or ended
-(each fault by its own row's rule, `faults.Fault.expect`)."""
+(each fault by its own rule, `fault_rules.RULES`)."""
 
 from __future__ import annotations
 
@@ -14,10 +14,9 @@ from bywire.model import ControlMode
 from bywire.ros2.bridge import Decision
 from bywire.ros2.link import Snapshot
 from bywire.runtime.watchdog import POLL_S as WATCHDOG_POLL_S
-from bywire.sim.faults import BY_NAME
 from bywire.sim.scenario import Event
-from bywire.sim.verify.fault_rules import IMPOSTOR_PERIOD_S
-from bywire.sim.verify.oracle import Cause, HazardOracle
+from bywire.sim.verify.fault_rules import IMPOSTOR_PERIOD_S, RULES
+from bywire.sim.verify.oracle import HazardOracle, OracleCause
 from bywire.sim.verify.oracle.causes import CAN_ONLY, CAN_SILENT
 from bywire.sim.verify.oracle.requirements import SLOW_TRANSFER_S
 
@@ -54,7 +53,7 @@ class OracleWitness:
             case "hlc_lights" | "planner" | "bridge_service":
                 return  # the lights demand nothing of the drive; the bridge's periods tell
             case "fault":
-                BY_NAME[str(values["fault"])].expect(self, values, now)
+                RULES[str(values["fault"])](self, values, now)
             case _:
                 raise ValueError(f"an event the oracle does not know: {event.kind!r}")
 
@@ -71,7 +70,7 @@ class OracleWitness:
             mode = ControlMode[str(values["mode"]).upper()]
             oracle.set_switch(mode, now)
             if mode is CAN and oracle.faults.any_of(CAN_ONLY):
-                oracle.stop_event(Cause.CAN_LOST, now)
+                oracle.stop_event(OracleCause.CAN_LOST, now)
 
     def _mode_raw(self, raw: int, now: float) -> None:
         """The mode switch's pulse set to `raw`: in a position's band, that position; between
@@ -128,7 +127,7 @@ class OracleWitness:
         if remote_stop != self.remote_stop:
             self.remote_stop = remote_stop
             if not remote_stop or not oracle.faults.any_of(CAN_SILENT):
-                oracle.fault(Cause.REMOTE_STOP, remote_stop, now)  # arriving: every mode
+                oracle.fault(OracleCause.REMOTE_STOP, remote_stop, now)  # arriving: every mode
         if re_enable and not self.re_enable:
             oracle.re_enable(now)
         self.re_enable = re_enable
@@ -146,7 +145,7 @@ class OracleWitness:
 
     # --- what the fault rules ask of it (`fault_rules.py`) ---------------------------------------
 
-    def can_fault(self, cause: Cause, active: bool, now: float) -> None:
+    def can_fault(self, cause: OracleCause, active: bool, now: float) -> None:
         """A CAN-bound fault begins or ends: beginning away from CAN, it refuses an arming into
         CAN and RC drives on."""
         if self.oracle.switch is CAN or not active:
@@ -154,10 +153,12 @@ class OracleWitness:
         else:
             self.oracle.fault_elsewhere(cause, now)
 
-    def can_back(self, cause: Cause, now: float) -> None:
+    def can_back(self, cause: OracleCause, now: float) -> None:
         self.can_fault(cause, False, now)
         if self.remote_stop and not self.oracle.faults.any_of(CAN_SILENT):
-            self.oracle.fault(Cause.REMOTE_STOP, True, now)  # a request made while silent arrives
+            self.oracle.fault(
+                OracleCause.REMOTE_STOP, True, now
+            )  # a request made while silent arrives
 
     def second_sender(self, frames: int, keyed: bool, now: float) -> None:
         """A second sender on the movement id. The id has one (`SimWorld.impostors`): a new
@@ -166,10 +167,10 @@ class OracleWitness:
         if self.authenticated and not keyed:  # its frames never verify: no effect of its own
             if self.harmful_sender:
                 self.harmful_sender = False
-                self.can_fault(Cause.CAN_IMPOSTOR, False, now)
+                self.can_fault(OracleCause.CAN_IMPOSTOR, False, now)
             return
         self.harmful_sender = True
-        self.can_fault(Cause.CAN_IMPOSTOR, True, now)
+        self.can_fault(OracleCause.CAN_IMPOSTOR, True, now)
         # Over when its last frame is sent: the controller may trust the id again soon after
         # (a window of good frames), and the oracle must never think a fault lasts longer.
         end_s = now + frames * IMPOSTOR_PERIOD_S
@@ -177,13 +178,13 @@ class OracleWitness:
         def over() -> None:
             if self.sender_started_s == now:  # not taken over since: these were its last frames
                 self.harmful_sender = False
-                self.can_fault(Cause.CAN_IMPOSTOR, False, end_s)
+                self.can_fault(OracleCause.CAN_IMPOSTOR, False, end_s)
 
         self.clock.call_at(end_s, over)
 
     def dac_restored(self, now: float) -> None:
-        self.oracle.fault(Cause.DAC_FAIL, False, now)
-        self.oracle.fault(Cause.DAC_SLOW, False, now)
+        self.oracle.fault(OracleCause.DAC_FAIL, False, now)
+        self.oracle.fault(OracleCause.DAC_SLOW, False, now)
         self.oracle.slow_writes(0.0)
 
     def slow_dac(self, transfer_s: float, now: float) -> None:
@@ -196,9 +197,9 @@ class OracleWitness:
         oracle.slow_writes(0.0 if legal else DAC_TRANSFERS_PER_PASS * transfer_s)
         if transfer_s > SLOW_TRANSFER_S:
             oracle.hang(now, now + oracle.timing.driving_period_s + transfer_s)
-            oracle.fault(Cause.DAC_SLOW, True, now)
+            oracle.fault(OracleCause.DAC_SLOW, True, now)
         else:  # ordinary transfers again: a crawl before is over (its latch is the switch's)
-            oracle.fault(Cause.DAC_SLOW, False, now)
+            oracle.fault(OracleCause.DAC_SLOW, False, now)
 
     def stall(self, stall_s: float, now: float) -> None:
         """The next DAC write (within one control period) hangs for `stall_s`: past the

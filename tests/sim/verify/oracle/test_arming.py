@@ -5,7 +5,7 @@ takes over the steering."""
 from __future__ import annotations
 
 from bywire.model import ControlMode
-from bywire.sim.verify.oracle.causes import Cause
+from bywire.sim.verify.oracle.causes import OracleCause
 from bywire.sim.verify.oracle.checks.h9 import TakeOver
 from tests.sim.verify.oracle.parts import TIMING, Parts, parts
 
@@ -40,7 +40,7 @@ def test_a_source_with_its_throttle_pushed_is_not_armed() -> None:
 def test_a_stop_too_short_for_the_debounce_s_frames_arms_nothing() -> None:
     p = _left_stop_for(RC)
     p.arming.resolve(1.0)
-    p.ledger.request(Cause.REMOTE_STOP, 1.0)
+    p.ledger.request(OracleCause.REMOTE_STOP, 1.0)
     p.arming.set_switch(STOP, 1.5)
     p.arming.set_switch(RC, 1.5 + TIMING.stop_hold_s - 0.001)
     assert p.arming.pending is None
@@ -48,14 +48,14 @@ def test_a_stop_too_short_for_the_debounce_s_frames_arms_nothing() -> None:
 
 def test_a_fault_in_force_a_while_refuses_an_arming_and_a_can_bound_one_only_into_can() -> None:
     dac = parts()
-    dac.faults.note(Cause.DAC_FAIL, 0.0)
+    dac.faults.note(OracleCause.DAC_FAIL, 0.0)
     dac.arming.arm_now(0.3, RC)  # just begun: whether it refuses is timing
     assert dac.ledger.armed
     dac.ledger.armed = False
     dac.arming.arm_now(0.31, RC)
     assert not dac.ledger.armed
     can = parts()
-    can.faults.note(Cause.CAN_LOST, 0.0)
+    can.faults.note(OracleCause.CAN_LOST, 0.0)
     can.arming.arm_now(1.0, CAN)
     assert not can.ledger.armed
     can.arming.arm_now(1.0, RC)
@@ -69,8 +69,8 @@ def test_a_re_enable_arms_at_can_unless_something_is_owed_to_the_switch() -> Non
     p.arming.re_enable(1.0)
     assert p.ledger.armed
     assert p.arming.taking == TakeOver(CAN, 1.0 + TIMING.settle_s)
-    p.ledger.request(Cause.REMOTE_STOP, 1.5)
-    p.ledger.owed[Cause.WATCHDOG] = 1.6
+    p.ledger.request(OracleCause.REMOTE_STOP, 1.5)
+    p.ledger.owed[OracleCause.WATCHDOG] = 1.6
     p.arming.re_enable(2.0)
     assert not p.ledger.armed
 
@@ -132,7 +132,7 @@ def test_a_link_lost_before_the_move_showed_hides_it_until_the_link_is_back() ->
 
 def test_leaving_stop_clears_what_the_switch_acknowledged() -> None:
     p = parts()
-    p.ledger.owed[Cause.RC_LINK_LOST] = 0.1
+    p.ledger.owed[OracleCause.RC_LINK_LOST] = 0.1
     p.arming.set_switch(RC, 0.5)
     assert p.ledger.owed == {}
 
@@ -148,7 +148,7 @@ def test_a_bouncing_switch_s_stop_is_due_from_its_first_stop_frame() -> None:
         return p.ledger.deadline_s
 
     odd, even = deadline_after(7), deadline_after(8)
-    assert odd == 2.0 + TIMING.deadline_s(Cause.SWITCH_STOP)
+    assert odd == 2.0 + TIMING.deadline_s(OracleCause.SWITCH_STOP)
     assert even is not None
     assert odd is not None
     assert abs(even - (odd + TIMING.frame_s)) < 1e-12

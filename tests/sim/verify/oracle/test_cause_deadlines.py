@@ -17,7 +17,7 @@ from bywire.model import ControlMode
 from bywire.sim.runner import SimRun
 from bywire.sim.verify.campaign import Campaign, Step, compile_steps
 from bywire.sim.verify.engine import run_campaign
-from bywire.sim.verify.oracle import Cause, OracleTiming
+from bywire.sim.verify.oracle import OracleCause, OracleTiming
 from bywire.sim.verify.oracle.invariants import Invariant, Violation
 from bywire.sim.verify.oracle.outputs import Outputs
 from bywire.sim.verify.oracle.requirements import (
@@ -56,7 +56,7 @@ the requirements' defaults (R-TIMEOUT 100 ms, R-WATCHDOG 200 ms)."""
 def test_a_robot_file_is_held_to_its_own_timeouts_within_the_loader_s_limits() -> None:
     lax = OracleTiming.for_robot(parse_config(LAX, "<lax>"))
     assert (lax.rc_timeout_s, lax.can_timeout_s, lax.watchdog_s) == (0.3, 0.3, 0.5)
-    lost = Cause.RC_LINK_LOST
+    lost = OracleCause.RC_LINK_LOST
     assert lax.deadline_s(lost) - OracleTiming().deadline_s(lost) == pytest.approx(0.2)
 
 
@@ -78,7 +78,7 @@ def test_a_robot_file_with_slow_tasks_gets_the_requirement_s_period() -> None:
 
 def test_a_tighter_timeout_tightens_the_deadline_it_is_held_to() -> None:
     quick = parse_config(BASE + "[timeouts]\nrc_timeout_s = 0.05\n", "<quick link>")
-    lost = Cause.RC_LINK_LOST
+    lost = OracleCause.RC_LINK_LOST
     shift_s = OracleTiming.for_robot(quick).deadline_s(lost) - OracleTiming().deadline_s(lost)
     assert shift_s == pytest.approx(-0.05)
 
@@ -100,14 +100,14 @@ def test_a_stop_a_frame_carries_is_judged_at_the_promise_whatever_the_file_decla
     # Issue 41: the frame, one control period, and the drive's two transfers (a controlled
     # stop's throttle and regeneration), the transfers bounded by what the promise leaves.
     default = OracleTiming.for_robot(default_sim_config())
-    assert default.deadline_s(Cause.SWITCH_STOP) == pytest.approx(0.0077 + 0.010 + 2 * 0.0035)
+    assert default.deadline_s(OracleCause.SWITCH_STOP) == pytest.approx(0.0077 + 0.010 + 2 * 0.0035)
     bench = parse_config(
         "[timeouts]\nstop_response_s = 0.06\npass_budget_s = 0.05\ndac_transfer_budget_s = 0.02",
         "bench.toml",
     )
     judged = OracleTiming.for_robot(bench)
     assert judged.dac_transfer_s == pytest.approx(0.0072 / 2, abs=1e-4)
-    assert judged.deadline_s(Cause.SWITCH_STOP) < 0.0077 + 0.010 + 0.008
+    assert judged.deadline_s(OracleCause.SWITCH_STOP) < 0.0077 + 0.010 + 0.008
 
 
 # --- the RC sticks' deadbands (docs/SAFETY.md row 65) --------------------------------------------

@@ -22,7 +22,7 @@ from bywire.sim.scenario import parse_scenario
 from bywire.sim.verify.campaign import Campaign, CampaignResult, Step
 from bywire.sim.verify.draw import draw_campaign
 from bywire.sim.verify.engine import run_campaign
-from bywire.sim.verify.oracle import Cause, HazardOracle, Invariant, OracleTiming
+from bywire.sim.verify.oracle import HazardOracle, Invariant, OracleCause, OracleTiming
 from bywire.sim.verify.oracle.outputs import Outputs
 
 RC, CAN = ControlMode.RC, ControlMode.CAN
@@ -115,7 +115,7 @@ def _armed_in_can(oracle: HazardOracle) -> None:
 def test_h1_still_flags_rc_driving_after_a_can_stop_the_controller_must_have_taken() -> None:
     oracle = _oracle()
     _armed_in_can(oracle)
-    oracle.fault(Cause.CAN_IMPOSTOR, True, 1.0)
+    oracle.fault(OracleCause.CAN_IMPOSTOR, True, 1.0)
     deadline_s = oracle.ledger.deadline_s
     assert deadline_s is not None
     oracle.set_switch(RC, deadline_s + 0.001)  # too late: the controller had stopped by then
@@ -126,8 +126,8 @@ def test_h1_still_flags_rc_driving_after_a_can_stop_the_controller_must_have_tak
 def test_h1_still_flags_a_handover_that_an_rc_bound_stop_forbids() -> None:
     oracle = _oracle()
     _armed_in_can(oracle)
-    oracle.fault(Cause.CAN_IMPOSTOR, True, 1.0)
-    oracle.fault(Cause.DAC_FAIL, True, 1.01)  # stops every source, not only CAN
+    oracle.fault(OracleCause.CAN_IMPOSTOR, True, 1.0)
+    oracle.fault(OracleCause.DAC_FAIL, True, 1.01)  # stops every source, not only CAN
     oracle.set_switch(RC, 1.02)
     _only(oracle, H1, 1.5, enable=True, released=True, throttle_volts=0.0)
     assert [v.invariant for v in oracle.violations] == ["H1"]
@@ -224,15 +224,15 @@ def _moved_to_can_at_speed() -> HazardOracle:
 
 def test_h2_judges_a_move_the_lost_link_hid_once_the_link_is_back() -> None:
     oracle = _moved_to_can_at_speed()
-    oracle.fault(Cause.RC_LINK_LOST, True, 1.01)
+    oracle.fault(OracleCause.RC_LINK_LOST, True, 1.01)
     _only(oracle, H2, 1.3, enable=True, throttle_volts=1.0)
-    oracle.fault(Cause.RC_LINK_LOST, False, 1.5)
+    oracle.fault(OracleCause.RC_LINK_LOST, False, 1.5)
     _h2_flags_from(oracle, 1.5 + oracle.timing.settle_s)
 
 
 def test_h2_judges_a_move_the_frames_showed_before_the_link_was_lost() -> None:
     oracle = _moved_to_can_at_speed()
-    oracle.fault(Cause.RC_LINK_LOST, True, 1.0 + oracle.timing.settle_s + 0.001)
+    oracle.fault(OracleCause.RC_LINK_LOST, True, 1.0 + oracle.timing.settle_s + 0.001)
     _only(oracle, H2, 1.0 + oracle.timing.settle_s + 0.002, enable=True, throttle_volts=1.0)
     assert [v.invariant for v in oracle.violations] == ["H2"]
 
@@ -240,7 +240,7 @@ def test_h2_judges_a_move_the_frames_showed_before_the_link_was_lost() -> None:
 # --- H1: a CAN re-enable re-arms only what CAN may clear (S8) -----------------------------------
 
 
-def _stopped_by(kind: Cause, began_s: float, ended_s: float) -> HazardOracle:
+def _stopped_by(kind: OracleCause, began_s: float, ended_s: float) -> HazardOracle:
     """Armed in CAN, then `kind` from `began_s` to `ended_s`, the switch left at CAN."""
     oracle = _oracle()
     _armed_in_can(oracle)
@@ -256,31 +256,33 @@ def _drives_after_re_enable(oracle: HazardOracle, at_s: float) -> list[str]:
 
 
 def test_a_re_enable_after_a_lost_rc_link_is_no_arming_act() -> None:
-    oracle = _stopped_by(Cause.RC_LINK_LOST, 1.0, 1.5)  # RC_LOST latched: only the switch clears it
+    oracle = _stopped_by(
+        OracleCause.RC_LINK_LOST, 1.0, 1.5
+    )  # RC_LOST latched: only the switch clears it
     assert _drives_after_re_enable(oracle, 2.0) == ["H1"]
 
 
 def test_a_re_enable_after_a_lost_can_link_arms() -> None:
-    oracle = _stopped_by(Cause.CAN_LOST, 1.0, 1.5)  # CAN_LOST: what a re-enable is for
+    oracle = _stopped_by(OracleCause.CAN_LOST, 1.0, 1.5)  # CAN_LOST: what a re-enable is for
     assert _drives_after_re_enable(oracle, 2.0) == []
 
 
 def test_an_rc_link_lost_shorter_than_its_deadline_may_never_have_latched() -> None:
-    deadline_s = _oracle().timing.deadline_s(Cause.RC_LINK_LOST)
-    oracle = _stopped_by(Cause.RC_LINK_LOST, 1.0, 1.0 + deadline_s - 0.001)
+    deadline_s = _oracle().timing.deadline_s(OracleCause.RC_LINK_LOST)
+    oracle = _stopped_by(OracleCause.RC_LINK_LOST, 1.0, 1.0 + deadline_s - 0.001)
     assert _drives_after_re_enable(oracle, 2.0) == []
 
 
 def test_failing_dac_writes_still_in_force_refuse_a_re_enable_once_surely_latched() -> None:
     oracle = _oracle()
     _armed_in_can(oracle)
-    oracle.fault(Cause.DAC_FAIL, True, 1.0)
+    oracle.fault(OracleCause.DAC_FAIL, True, 1.0)
     assert oracle.ledger.owed_now(1.1) == set()  # not yet for sure: a re-enable may still arm
-    assert oracle.ledger.owed_now(1.3) == {Cause.DAC_FAIL}
+    assert oracle.ledger.owed_now(1.3) == {OracleCause.DAC_FAIL}
 
 
 def test_after_a_visit_to_stop_a_re_enable_arms_again() -> None:
-    oracle = _stopped_by(Cause.RC_LINK_LOST, 1.0, 1.5)
+    oracle = _stopped_by(OracleCause.RC_LINK_LOST, 1.0, 1.5)
     oracle.set_switch(ControlMode.STOP, 1.6)
     oracle.set_switch(CAN, 1.7)  # the switch's own arming may be refused (throttle): then…
     oracle.ledger.armed = False
@@ -292,7 +294,7 @@ def test_a_watchdog_trip_is_owed_to_the_switch_unless_it_came_at_stop() -> None:
     _armed_in_can(oracle)
     oracle.stall(1.0, 1.25)
     assert oracle.ledger.owed_now(1.2) == set()
-    assert oracle.ledger.owed_now(1.3) == {Cause.WATCHDOG}
+    assert oracle.ledger.owed_now(1.3) == {OracleCause.WATCHDOG}
     at_stop = _oracle()
     at_stop.set_switch(ControlMode.STOP, 0.5)
     at_stop.stall(1.0, 1.25)
@@ -302,11 +304,11 @@ def test_a_watchdog_trip_is_owed_to_the_switch_unless_it_came_at_stop() -> None:
 def test_implausible_frames_that_corruption_may_have_hidden_refuse_no_re_enable() -> None:
     seen = _oracle()
     _armed_in_can(seen)
-    seen.stop_event(Cause.RC_IMPLAUSIBLE, 1.0)
-    assert seen.ledger.owed_now(1.1) == {Cause.RC_IMPLAUSIBLE}
+    seen.stop_event(OracleCause.RC_IMPLAUSIBLE, 1.0)
+    assert seen.ledger.owed_now(1.1) == {OracleCause.RC_IMPLAUSIBLE}
     hidden = _oracle()
     _armed_in_can(hidden)
-    hidden.stop_event(Cause.RC_IMPLAUSIBLE, 1.0)
+    hidden.stop_event(OracleCause.RC_IMPLAUSIBLE, 1.0)
     hidden.blind(RC, 1.005, 1.05)  # the frames were still to be sent
     assert hidden.ledger.owed_now(1.1) == set()
 
@@ -314,10 +316,10 @@ def test_implausible_frames_that_corruption_may_have_hidden_refuse_no_re_enable(
 def test_failsafe_frames_sent_while_the_link_was_lost_are_not_held_against_a_re_enable() -> None:
     oracle = _oracle()
     _armed_in_can(oracle)
-    oracle.fault(Cause.RC_LINK_LOST, True, 1.0)
-    oracle.fault(Cause.RC_FAILSAFE, True, 1.01)
-    assert Cause.RC_FAILSAFE not in oracle.ledger.owed_now(1.5)
-    assert Cause.RC_LINK_LOST in oracle.ledger.owed_now(1.5)
+    oracle.fault(OracleCause.RC_LINK_LOST, True, 1.0)
+    oracle.fault(OracleCause.RC_FAILSAFE, True, 1.01)
+    assert OracleCause.RC_FAILSAFE not in oracle.ledger.owed_now(1.5)
+    assert OracleCause.RC_LINK_LOST in oracle.ledger.owed_now(1.5)
 
 
 # --- H5: STOP brakes with the hydraulic brake and holds the steering ---------------------------
@@ -359,7 +361,7 @@ def test_h5_holds_the_steering_from_when_the_drive_must_be_cut_not_from_the_stop
     oracle.arming.arm_now(1.0, CAN)
     oracle.world.pwm.steering.set_pulse(0.0017)
     oracle.observe(1.5)
-    oracle.stop_event(Cause.REMOTE_STOP, 2.0)
+    oracle.stop_event(OracleCause.REMOTE_STOP, 2.0)
     oracle.world.pwm.steering.set_pulse(0.0018)
     oracle.observe(2.01)  # before the deadline: the controller may not have acted yet
     oracle.observe(2.5)
@@ -392,9 +394,9 @@ def test_a_stop_that_comes_while_a_write_hangs_is_judged_after_the_loop_runs_aga
     oracle = _oracle()
     _armed_in_can(oracle)
     oracle.hang(1.0, 1.06)
-    oracle.stop_event(Cause.REMOTE_STOP, 1.01)
+    oracle.stop_event(OracleCause.REMOTE_STOP, 1.01)
     after_s = 1.06 + 2 * oracle.timing.control_period_s
-    assert 1.01 + oracle.timing.deadline_s(Cause.REMOTE_STOP) < after_s
+    assert 1.01 + oracle.timing.deadline_s(OracleCause.REMOTE_STOP) < after_s
     _only(oracle, H1, after_s - 0.001, enable=True, released=True, throttle_volts=0.0)
     assert oracle.violations == []
     _only(oracle, H1, after_s + 0.001, enable=True, released=True, throttle_volts=0.0)
@@ -404,7 +406,7 @@ def test_a_stop_that_comes_while_a_write_hangs_is_judged_after_the_loop_runs_aga
 def test_a_stop_whose_deadline_had_passed_before_the_hang_is_not_extended() -> None:
     oracle = _oracle()
     _armed_in_can(oracle)
-    oracle.stop_event(Cause.REMOTE_STOP, 1.0)
+    oracle.stop_event(OracleCause.REMOTE_STOP, 1.0)
     oracle.hang(1.2, 1.25)
     _only(oracle, H1, 1.21, enable=True, released=True, throttle_volts=0.0)
     assert [v.invariant for v in oracle.violations] == ["H1"]
@@ -440,7 +442,7 @@ def test_h6_flags_throttle_with_the_brake_for_longer_than_a_control_period() -> 
 def test_h6_leaves_a_dac_whose_writes_fail_to_the_enable_line() -> None:
     oracle = _oracle()
     _driving_with(oracle, 128, 1.0)
-    oracle.fault(Cause.DAC_FAIL, True, 0.5)
+    oracle.fault(OracleCause.DAC_FAIL, True, 0.5)
     assert _h6_after(oracle, 1.0, 1.1, 1.2) == []
     assert _h6_after(oracle, 1.0, 1.1, 1.2) == []
 
@@ -508,8 +510,8 @@ def test_with_slower_control_tasks_failing_dac_writes_get_a_longer_deadline() ->
     )
     slower = replace(robot, tasks=replace(robot.tasks, rates_hz=rates))
     timing = OracleTiming.for_robot(slower)
-    at_100_hz_s = OracleTiming().deadline_s(Cause.DAC_FAIL)
-    assert timing.deadline_s(Cause.DAC_FAIL) == pytest.approx(2 * at_100_hz_s)
+    at_100_hz_s = OracleTiming().deadline_s(OracleCause.DAC_FAIL)
+    assert timing.deadline_s(OracleCause.DAC_FAIL) == pytest.approx(2 * at_100_hz_s)
     # verify --config (50 Hz) seed 0, campaign 1, shrunk: H1 at the old 60 ms deadline.
     outcome = run_campaign(slower, [Step(3.1, "arm", RC), Step(3.1, "dac", "alternate")])
     assert outcome.checks > 0
@@ -649,7 +651,7 @@ def test_a_dac_failure_long_enough_to_latch_its_pattern_is_still_judged(
     oracle.set_switch(RC, 0.5)
     oracle.arming.resolve(0.7)
     oracle.dac_failing(1.0, every_other=every_other)
-    oracle.fault(Cause.DAC_FAIL, False, 1.07)  # 3.5 periods: latched if every write failed
+    oracle.fault(OracleCause.DAC_FAIL, False, 1.07)  # 3.5 periods: latched if every write failed
     _only(oracle, H1, 1.2, enable=True, released=True, throttle_volts=0.0)
     assert [violation.invariant for violation in oracle.violations] == flagged
 
@@ -694,7 +696,7 @@ def test_an_implausible_stop_stands_unless_the_corruption_may_have_taken_it(then
     oracle.arming.resolve(0.7)
     oracle.implausible(1, 1.0)
     if then == "a stop meanwhile":
-        oracle.fault(Cause.DAC_FAIL, True, 1.002)
+        oracle.fault(OracleCause.DAC_FAIL, True, 1.002)
         oracle.blind(RC, 1.003, 1.03)  # would have taken the frame, but the DAC stops it too
     else:
         oracle.blind(RC, 1.02, 1.05)  # the frame went out by 1.0077
@@ -708,7 +710,7 @@ def test_a_re_enable_after_the_switch_left_can_for_good_arms_nothing(moved_to: C
     oracle = _oracle()
     oracle.set_switch(CAN, 0.5)  # held at STOP since power-up: arms into CAN…
     oracle.arming.resolve(0.7)
-    oracle.stop_event(Cause.REMOTE_STOP, 1.0)  # …then stopped
+    oracle.stop_event(OracleCause.REMOTE_STOP, 1.0)  # …then stopped
     oracle.set_switch(moved_to, 1.5)
     oracle.re_enable(1.502 if moved_to is ControlMode.STOP else 1.8)  # STOP: at once; RC: settled
     _only(oracle, H1, 2.0, enable=True, released=True, throttle_volts=0.0)
@@ -725,37 +727,37 @@ def _second_sender(lasting_s: float, motors_enabled: bool = True) -> HazardOracl
     _armed_in_can(oracle)
     oracle.world.gpio["motors_enable"].set(motors_enabled)
     oracle.world.gpio["ebrake_release"].set(motors_enabled)
-    oracle.fault(Cause.CAN_IMPOSTOR, True, 1.0)
-    oracle.fault(Cause.CAN_IMPOSTOR, False, 1.0 + lasting_s)
+    oracle.fault(OracleCause.CAN_IMPOSTOR, True, 1.0)
+    oracle.fault(OracleCause.CAN_IMPOSTOR, False, 1.0 + lasting_s)
     return oracle
 
 
 def test_a_second_sender_that_surely_latched_refuses_a_re_enable_after_it_is_over() -> None:
-    deadline_s = _oracle().timing.deadline_s(Cause.CAN_IMPOSTOR)
+    deadline_s = _oracle().timing.deadline_s(OracleCause.CAN_IMPOSTOR)
     assert _drives_after_re_enable(_second_sender(deadline_s + 0.1), 2.0) == ["H1"]
 
 
 def test_a_second_sender_too_short_to_latch_for_sure_leaves_a_re_enable_alone() -> None:
-    deadline_s = _oracle().timing.deadline_s(Cause.CAN_IMPOSTOR)
+    deadline_s = _oracle().timing.deadline_s(OracleCause.CAN_IMPOSTOR)
     assert _drives_after_re_enable(_second_sender(deadline_s - 0.05), 2.0) == []
 
 
 def test_a_second_sender_met_in_a_controlled_stop_may_never_have_latched() -> None:
     # verify seed 29, campaign 72: the robot braking with its drive powered (category 1, the
     # enable line high, the e-brake engaged) is in STOP, not CAN mode: nothing latched.
-    deadline_s = _oracle().timing.deadline_s(Cause.CAN_IMPOSTOR)
+    deadline_s = _oracle().timing.deadline_s(OracleCause.CAN_IMPOSTOR)
     oracle = _oracle()
     _armed_in_can(oracle)
     oracle.world.gpio["motors_enable"].set(True)
-    oracle.fault(Cause.CAN_IMPOSTOR, True, 1.0)
-    oracle.fault(Cause.CAN_IMPOSTOR, False, 1.0 + deadline_s + 0.1)
+    oracle.fault(OracleCause.CAN_IMPOSTOR, True, 1.0)
+    oracle.fault(OracleCause.CAN_IMPOSTOR, False, 1.0 + deadline_s + 0.1)
     assert _drives_after_re_enable(oracle, 2.0) == []
 
 
 def test_a_second_sender_met_with_the_motors_off_may_never_have_latched() -> None:
     # verify seed 0, campaign 204: a 5 ms glimpse of STOP left the robot standing while the
     # oracle allowed it to drive; CAN_UNTRUSTED latches only in CAN mode.
-    deadline_s = _oracle().timing.deadline_s(Cause.CAN_IMPOSTOR)
+    deadline_s = _oracle().timing.deadline_s(OracleCause.CAN_IMPOSTOR)
     oracle = _second_sender(deadline_s + 0.1, motors_enabled=False)
     assert _drives_after_re_enable(oracle, 2.0) == []
 
@@ -765,10 +767,10 @@ def test_a_second_sender_after_another_stop_may_never_have_latched() -> None:
     # CAN_UNTRUSTED latches only in CAN mode.
     oracle = _oracle()
     _armed_in_can(oracle)
-    oracle.fault(Cause.REMOTE_STOP, True, 1.0)
-    oracle.fault(Cause.CAN_IMPOSTOR, True, 1.01)
-    oracle.fault(Cause.CAN_IMPOSTOR, False, 1.5)
-    oracle.fault(Cause.REMOTE_STOP, False, 1.6)
+    oracle.fault(OracleCause.REMOTE_STOP, True, 1.0)
+    oracle.fault(OracleCause.CAN_IMPOSTOR, True, 1.01)
+    oracle.fault(OracleCause.CAN_IMPOSTOR, False, 1.5)
+    oracle.fault(OracleCause.REMOTE_STOP, False, 1.6)
     assert _drives_after_re_enable(oracle, 2.0) == []
 
 
@@ -822,7 +824,7 @@ def test_a_glimpse_of_stop_no_frame_showed_does_not_bring_on_a_stop_already_pend
 def test_a_pending_stop_keeps_its_deadline_across_an_unseen_glimpse_but_not_a_seen_stop() -> None:
     oracle = _oracle()
     _armed_in_can(oracle)
-    oracle.fault(Cause.CAN_LOST, True, 1.0)
+    oracle.fault(OracleCause.CAN_LOST, True, 1.0)
     can_deadline_s = oracle.ledger.deadline_s
     assert can_deadline_s is not None
     oracle.set_switch(ControlMode.STOP, 1.05)
@@ -830,7 +832,7 @@ def test_a_pending_stop_keeps_its_deadline_across_an_unseen_glimpse_but_not_a_se
     assert oracle.ledger.deadline_s == can_deadline_s
     oracle.set_switch(ControlMode.STOP, 1.06)
     oracle.set_switch(CAN, 1.09)  # 30 ms at STOP: the frames showed it
-    assert oracle.ledger.deadline_s == 1.06 + oracle.timing.deadline_s(Cause.SWITCH_STOP)
+    assert oracle.ledger.deadline_s == 1.06 + oracle.timing.deadline_s(OracleCause.SWITCH_STOP)
 
 
 def test_a_robot_without_a_wheel_sensor_is_judged_as_one_whose_sensor_died_at_power_up() -> None:

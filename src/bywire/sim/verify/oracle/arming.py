@@ -13,7 +13,7 @@ from dataclasses import dataclass, field
 
 from bywire.model import ControlMode
 from bywire.sim.verify.oracle.cause_deadlines import OracleTiming
-from bywire.sim.verify.oracle.causes import Cause
+from bywire.sim.verify.oracle.causes import OracleCause
 from bywire.sim.verify.oracle.checks.h9 import TakeOver
 from bywire.sim.verify.oracle.delays import Delays
 from bywire.sim.verify.oracle.faults_in_force import FaultsInForce
@@ -138,7 +138,7 @@ class ArmingTracker:
             # The last of them reads STOP: an even count starts with a frame at the switch's own
             # position, so the first STOP goes out a frame later (a 19.6 ms frame showed it).
             first_stop_s = now + self.timing.frame_s * (frames % 2 == 0)
-            self.ledger.request(Cause.SWITCH_STOP, first_stop_s)
+            self.ledger.request(OracleCause.SWITCH_STOP, first_stop_s)
 
     def link(self, lost: bool, now: float) -> None:
         """A link lost before the debounce's frames showed the switch's last move hides the
@@ -170,7 +170,7 @@ class ArmingTracker:
         was, entered_s = self.switch, self.switch_at
         held_s = now - (self.stop_since if was is STOP else entered_s)
         self.switch, self.switch_at = mode, now
-        self.switch_shown_s = float("inf") if Cause.RC_LINK_LOST in self.faults else now
+        self.switch_shown_s = float("inf") if OracleCause.RC_LINK_LOST in self.faults else now
         self.left_at[was] = now  # via STOP too: a glimpse of STOP may have gone unseen
         if was is STOP:
             # Held at STOP, the switch cleared whatever was over (leaning to allowing: even a
@@ -195,7 +195,7 @@ class ArmingTracker:
             self.arm_now(now, self.pending.mode)
             self.pending = None
         self.before_stop = BeforeStop(self.ledger.demand(), was)
-        self.ledger.request(Cause.SWITCH_STOP, now)
+        self.ledger.request(OracleCause.SWITCH_STOP, now)
         self.ledger.tripped_at = None  # the operator's acknowledgement begins
 
     def _to_source(

@@ -22,7 +22,7 @@ from bywire.control.dac_health import DAC_TRANSFERS_PER_PASS
 from bywire.control.rc_mapping import AxisCalibration
 from bywire.control.steering import SteeringConfig
 from bywire.model import MovementCommand
-from bywire.sim.verify.oracle.causes import Cause
+from bywire.sim.verify.oracle.causes import OracleCause
 from bywire.sim.verify.oracle.requirements import CAN_PERIOD_S, REQUIRED, Figure
 
 
@@ -157,37 +157,37 @@ class OracleTiming:
         controlled stop's throttle at 0 V and its regenerative brake), each within its budget."""
         return self.frame_s + STOP_RESPONSE_S + DAC_TRANSFERS_PER_PASS * self.dac_transfer_s
 
-    def deadline_s(self, cause: Cause) -> float:
+    def deadline_s(self, cause: OracleCause) -> float:
         """How long after `cause` the outputs may still drive: detection, then a frame or
         command period, then the control periods that act on it."""
         frame, period = self.frame_s, self.control_period_s
         return {
-            Cause.SWITCH_STOP: self.frame_stop_s,
-            Cause.RC_FAILSAFE: self.frame_stop_s,
-            Cause.RC_IMPLAUSIBLE: self.frame_stop_s,
-            Cause.RC_LINK_LOST: self.rc_timeout_s + frame + period + 0.0073,
-            Cause.REMOTE_STOP: CAN_PERIOD_S + 2 * period + 0.005,
-            Cause.CAN_LOST: self.can_timeout_s + 2 * CAN_PERIOD_S + period,
-            Cause.CAN_UNPLUGGED: self.can_timeout_s + 2 * CAN_PERIOD_S + period,
-            Cause.CAN_IMPOSTOR: 0.200,  # its frames are judged over a window of 16 counters
+            OracleCause.SWITCH_STOP: self.frame_stop_s,
+            OracleCause.RC_FAILSAFE: self.frame_stop_s,
+            OracleCause.RC_IMPLAUSIBLE: self.frame_stop_s,
+            OracleCause.RC_LINK_LOST: self.rc_timeout_s + frame + period + 0.0073,
+            OracleCause.REMOTE_STOP: CAN_PERIOD_S + 2 * period + 0.005,
+            OracleCause.CAN_LOST: self.can_timeout_s + 2 * CAN_PERIOD_S + period,
+            OracleCause.CAN_UNPLUGGED: self.can_timeout_s + 2 * CAN_PERIOD_S + period,
+            OracleCause.CAN_IMPOSTOR: 0.200,  # its frames are judged over a window of 16 counters
             # Three failed writes (the leaky count), a period to act, and two of margin.
-            Cause.DAC_FAIL: 6 * self.driving_period_s,
+            OracleCause.DAC_FAIL: 6 * self.driving_period_s,
             # The next transfer (within a driving period) crawls; enable low as it returns.
-            Cause.DAC_SLOW: self.driving_period_s + 2 * period + 0.005,
-            Cause.WATCHDOG: self.watchdog_s + 3 * period,
+            OracleCause.DAC_SLOW: self.driving_period_s + 2 * period + 0.005,
+            OracleCause.WATCHDOG: self.watchdog_s + 3 * period,
         }[cause]
 
-    def unnoticed_s(self, cause: Cause) -> float:
+    def unnoticed_s(self, cause: OracleCause) -> float:
         """How long a fault must last before the controller can have noticed it at all: one
         that ends sooner may have passed unseen (a link back before its timeout)."""
         return {
-            Cause.RC_LINK_LOST: self.rc_timeout_s + 0.010,
-            Cause.RC_FAILSAFE: 0.010,
-            Cause.REMOTE_STOP: 0.025,
-            Cause.CAN_LOST: self.can_timeout_s + 0.025,
-            Cause.CAN_UNPLUGGED: self.can_timeout_s + 0.025,
-            Cause.CAN_IMPOSTOR: 0.080,
-            Cause.DAC_FAIL: 3 * self.driving_period_s,
+            OracleCause.RC_LINK_LOST: self.rc_timeout_s + 0.010,
+            OracleCause.RC_FAILSAFE: 0.010,
+            OracleCause.REMOTE_STOP: 0.025,
+            OracleCause.CAN_LOST: self.can_timeout_s + 0.025,
+            OracleCause.CAN_UNPLUGGED: self.can_timeout_s + 0.025,
+            OracleCause.CAN_IMPOSTOR: 0.080,
+            OracleCause.DAC_FAIL: 3 * self.driving_period_s,
         }.get(cause, 0.0)
 
 

@@ -1,11 +1,16 @@
-"""What demands STOP, as the oracle is told it: one enum, and the groups the rules need."""
+"""What demands STOP, as the oracle is told it: one enum, and the groups the rules need.
+
+`OracleCause` is the oracle's own model, kept independent of the controller's latched causes
+(`bywire.control.supervisor.Cause`): it names what was done to the robot, not what the
+controller concluded. `tests/sim/verify/oracle/test_causes.py` names every controller cause
+it does not model."""
 
 from __future__ import annotations
 
 from enum import Enum
 
 
-class Cause(Enum):
+class OracleCause(Enum):
     """Something done to the robot that demands STOP (an act, or a fault while in force)."""
 
     SWITCH_STOP = "switch_stop"  # the mode switch moved to STOP (or bounced through it)
@@ -21,15 +26,17 @@ class Cause(Enum):
     WATCHDOG = "watchdog"  # the loop stalled past the watchdog's limit
 
 
-RC_BORNE = frozenset({Cause.SWITCH_STOP, Cause.RC_IMPLAUSIBLE, Cause.RC_FAILSAFE})
+RC_BORNE = frozenset({OracleCause.SWITCH_STOP, OracleCause.RC_IMPLAUSIBLE, OracleCause.RC_FAILSAFE})
 """Causes the IBUS frames carry: corrupted frames may delay them."""
-CAN_SILENT = frozenset({Cause.CAN_LOST, Cause.CAN_UNPLUGGED})
+CAN_SILENT = frozenset({OracleCause.CAN_LOST, OracleCause.CAN_UNPLUGGED})
 """Faults in which nothing the computer sends arrives."""
-CAN_ONLY = frozenset({*CAN_SILENT, Cause.CAN_IMPOSTOR, Cause.REMOTE_STOP})
+CAN_ONLY = frozenset({*CAN_SILENT, OracleCause.CAN_IMPOSTOR, OracleCause.REMOTE_STOP})
 """Causes that stop CAN mode and refuse arming into CAN, never RC."""
-SWITCH_ONLY = frozenset({Cause.RC_LINK_LOST, Cause.RC_FAILSAFE, Cause.DAC_FAIL, Cause.DAC_SLOW})
+SWITCH_ONLY = frozenset(
+    {OracleCause.RC_LINK_LOST, OracleCause.RC_FAILSAFE, OracleCause.DAC_FAIL, OracleCause.DAC_SLOW}
+)
 """Faults whose latched cause only the operator's switch clears, never a CAN re-enable (S8);
 implausible frames and the watchdog's trip are such too, and so is a second sender once it has
 surely latched (`StopLedger.latched_from`)."""
-POWER_OFF = frozenset({Cause.DAC_FAIL, Cause.DAC_SLOW, Cause.WATCHDOG})
+POWER_OFF = frozenset({OracleCause.DAC_FAIL, OracleCause.DAC_SLOW, OracleCause.WATCHDOG})
 """Causes that make the drive suspect: category 0, the enable line low."""

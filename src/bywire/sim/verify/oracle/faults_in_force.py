@@ -7,7 +7,7 @@ from collections.abc import Set
 from dataclasses import dataclass, field
 
 from bywire.sim.verify.oracle.cause_deadlines import OracleTiming
-from bywire.sim.verify.oracle.causes import CAN_ONLY, Cause
+from bywire.sim.verify.oracle.causes import CAN_ONLY, OracleCause
 
 
 @dataclass(slots=True)
@@ -15,21 +15,21 @@ class FaultsInForce:
     """Every fault in force, and what its beginning found."""
 
     timing: OracleTiming
-    causes: set[Cause] = field(default_factory=set)
+    causes: set[OracleCause] = field(default_factory=set)
     changed_at: float = -1.0  # when a fault last began or ended
-    began: dict[Cause, tuple[float, bool]] = field(default_factory=dict)  # (at, armed then)
+    began: dict[OracleCause, tuple[float, bool]] = field(default_factory=dict)  # (at, armed then)
     impostor_met_drive: bool = False  # the motors were enabled when a second sender began
     dac_every_other: bool = False  # the failing DAC NAKs every other write: slower to latch
     dac_back_at: float = -1.0  # when DAC writes last began to succeed again
     dac_writes_from: float = -1.0  # the loop writes the DAC (no watchdog trip holds the gate)
 
-    def __contains__(self, cause: Cause) -> bool:
+    def __contains__(self, cause: OracleCause) -> bool:
         return cause in self.causes
 
-    def any_of(self, group: Set[Cause]) -> bool:
+    def any_of(self, group: Set[OracleCause]) -> bool:
         return bool(self.causes & group)
 
-    def note(self, cause: Cause, now: float) -> None:
+    def note(self, cause: OracleCause, now: float) -> None:
         """`cause` is in force without stopping the robot (a CAN-bound fault while RC drives:
         it refuses an arming into CAN)."""
         self.causes.add(cause)
@@ -41,9 +41,9 @@ class FaultsInForce:
         blocking = self.causes - CAN_ONLY if target_rc else self.causes
         return bool(blocking) and now - self.changed_at > 0.3
 
-    def unnoticed_s(self, cause: Cause) -> float:
+    def unnoticed_s(self, cause: OracleCause) -> float:
         """How long `cause` must last before the controller can have noticed it."""
-        if cause is Cause.DAC_FAIL and self.dac_every_other:
+        if cause is OracleCause.DAC_FAIL and self.dac_every_other:
             # four failing writes, each a driving period apart, and a period for the first
             return 5 * self.timing.driving_period_s
         return self.timing.unnoticed_s(cause)
@@ -51,4 +51,4 @@ class FaultsInForce:
     def dac_unsure(self, now: float) -> bool:
         """A DAC whose writes fail may hold an old voltage until a period after they work."""
         rewrite_s = self.dac_back_at + 2 * self.timing.control_period_s
-        return Cause.DAC_FAIL in self.causes or now <= rewrite_s
+        return OracleCause.DAC_FAIL in self.causes or now <= rewrite_s

@@ -24,7 +24,7 @@ from bywire.hal.sim.world import SimWorld
 from bywire.model import ControlMode
 from bywire.sim.verify.oracle.arming import ArmingTracker
 from bywire.sim.verify.oracle.cause_deadlines import OracleTiming
-from bywire.sim.verify.oracle.causes import Cause
+from bywire.sim.verify.oracle.causes import OracleCause
 from bywire.sim.verify.oracle.checks.h1 import StopFacts, StopWatch, check_h1
 from bywire.sim.verify.oracle.checks.h2 import HandoverFacts, check_h2
 from bywire.sim.verify.oracle.checks.h3 import TripFacts, check_h3
@@ -116,28 +116,28 @@ class HazardOracle:
     def re_enable(self, now: float) -> None:
         self.arming.re_enable(now)
 
-    def stop_event(self, cause: Cause, now: float) -> None:
+    def stop_event(self, cause: OracleCause, now: float) -> None:
         """Something that demands STOP happened at `now`."""
         self.ledger.request(cause, now)
 
     # --- what was done: faults -------------------------------------------------------------------
 
-    def fault(self, cause: Cause, active: bool, now: float) -> None:
+    def fault(self, cause: OracleCause, active: bool, now: float) -> None:
         """A fault condition begins (and stops the robot) or ends; saying it again changes
         nothing (a remote stop already requested does not arrive again)."""
         if active == (cause in self.faults):
             return
         self.faults.changed_at = now
-        if cause is Cause.RC_LINK_LOST:
+        if cause is OracleCause.RC_LINK_LOST:
             self.arming.link(active, now)
         if active:
             self._begins(cause, now)
         else:
             self._ends(cause, now)
 
-    def _begins(self, cause: Cause, now: float) -> None:
+    def _begins(self, cause: OracleCause, now: float) -> None:
         faults, ledger = self.faults, self.ledger
-        if cause is Cause.CAN_IMPOSTOR:
+        if cause is OracleCause.CAN_IMPOSTOR:
             # Driving, not stopping: a controlled stop keeps the enable line high too, but the
             # e-brake engaged says STOP.
             gpio = self.world.gpio
@@ -146,16 +146,16 @@ class HazardOracle:
         faults.began[cause] = (now, ledger.armed)
         ledger.request(cause, now)
         unseen = now - ledger.rc_borne_at < self.timing.unseen_s
-        if cause is Cause.RC_LINK_LOST and unseen and ledger.deadline_s is not None:
+        if cause is OracleCause.RC_LINK_LOST and unseen and ledger.deadline_s is not None:
             # No frame may have carried what the link said just before it died: only the
             # link's own timeout stops the robot then.
             lost_s = now + self.timing.deadline_s(cause)
             ledger.deadline_s = max(ledger.deadline_s, lost_s)
 
-    def _ends(self, cause: Cause, now: float) -> None:
+    def _ends(self, cause: OracleCause, now: float) -> None:
         faults = self.faults
         faults.causes.discard(cause)
-        if cause is Cause.DAC_FAIL:
+        if cause is OracleCause.DAC_FAIL:
             faults.dac_back_at = now
         self.ledger.ended(cause, now)
         began_s, armed_before = faults.began.pop(cause, (now, False))
@@ -165,7 +165,7 @@ class HazardOracle:
             else:
                 self.ledger.passed_unseen(cause)
 
-    def fault_elsewhere(self, cause: Cause, now: float) -> None:
+    def fault_elsewhere(self, cause: OracleCause, now: float) -> None:
         """A CAN-bound fault begins while the switch is not at CAN: it refuses arming into
         CAN; RC drives on."""
         self.faults.note(cause, now)
@@ -189,11 +189,11 @@ class HazardOracle:
         """The DAC NAKs every write, or every other one (which latches later: the leaky count
         reaches its limit at the fourth failure, where failing pairs reach it at the second)."""
         faults = self.faults
-        if Cause.DAC_FAIL not in faults:
+        if OracleCause.DAC_FAIL not in faults:
             faults.dac_every_other = every_other
         else:
             faults.dac_every_other |= every_other  # a failure under way: the later latch counts
-        self.fault(Cause.DAC_FAIL, True, now)
+        self.fault(OracleCause.DAC_FAIL, True, now)
 
     def slow_writes(self, lag_s: float) -> None:
         """Every pass that writes the DAC may end `lag_s` later (0: transfers are ordinary)."""
@@ -213,7 +213,7 @@ class HazardOracle:
             self.ledger.tripped(trips_at_s)
             self.memory.trip_hold = SteeringHold()
             self.faults.dac_writes_from = float("inf")  # the gate refuses them until STOP
-        self.ledger.request(Cause.WATCHDOG, started_s)
+        self.ledger.request(OracleCause.WATCHDOG, started_s)
 
     def sensor_dies(self) -> None:
         self.plant.sensor_dies(self.world.vehicle.state.speed_mps)

@@ -16,15 +16,15 @@ from bywire.sim.verify.oracle.causes import (
     POWER_OFF,
     RC_BORNE,
     SWITCH_ONLY,
-    Cause,
+    OracleCause,
 )
 from bywire.sim.verify.oracle.delays import Delays
 from bywire.sim.verify.oracle.faults_in_force import FaultsInForce
 from bywire.sim.verify.oracle.requirements import DAC_LATCH_WRITES
 
-LINK_SILENCES = frozenset({Cause.RC_LINK_LOST})
+LINK_SILENCES = frozenset({OracleCause.RC_LINK_LOST})
 """A lost link carries no frames: no RC-borne cause arrives while it is lost…"""
-LINK_AND_FAILSAFE_SILENCE = frozenset({Cause.RC_LINK_LOST, Cause.RC_FAILSAFE})
+LINK_AND_FAILSAFE_SILENCE = frozenset({OracleCause.RC_LINK_LOST, OracleCause.RC_FAILSAFE})
 """…and failsafe frames carry no switch position either."""
 
 
@@ -34,7 +34,7 @@ class Demand:
 
     armed: bool
     deadline_s: float | None
-    stopped_by: frozenset[Cause]
+    stopped_by: frozenset[OracleCause]
 
 
 @dataclass(frozen=True, slots=True)
@@ -57,24 +57,24 @@ class StopLedger:
     delays: Delays
     armed: bool = False
     deadline_s: float | None = None  # the outputs may drive until then (None: not at all)
-    stopped_by: set[Cause] = field(default_factory=set)  # what set `deadline_s`
-    power_off_by: dict[Cause, float] = field(default_factory=dict)  # a cause that makes the
+    stopped_by: set[OracleCause] = field(default_factory=set)  # what set `deadline_s`
+    power_off_by: dict[OracleCause, float] = field(default_factory=dict)  # a cause that makes the
     # drive suspect, and when it has surely been acted on (until the next arming)
     tripped_at: float | None = None  # the watchdog tripped then, not yet acknowledged at STOP
-    owed: dict[Cause, float] = field(default_factory=dict)  # the switch's to clear, from then
+    owed: dict[OracleCause, float] = field(default_factory=dict)  # the switch's to clear, from then
     passing: PassingStop | None = None  # the latest implausible frames' stop
     rc_borne_at: float = -1.0  # when a cause the IBUS frames carry last happened
 
     # --- requests and armings ----------------------------------------------------------------
 
-    def request(self, cause: Cause, now: float) -> None:
+    def request(self, cause: OracleCause, now: float) -> None:
         """Something that demands STOP happened at `now` (what IBUS frames carry only counts
         while frames arrive: a lost link has its own, longer deadline)."""
-        silenced = LINK_AND_FAILSAFE_SILENCE if cause is Cause.SWITCH_STOP else LINK_SILENCES
+        silenced = LINK_AND_FAILSAFE_SILENCE if cause is OracleCause.SWITCH_STOP else LINK_SILENCES
         if cause in RC_BORNE and self.faults.any_of(silenced):
             return
         rc_blind_until = self.delays.rc_blind_until
-        if cause is Cause.RC_IMPLAUSIBLE and now > rc_blind_until:
+        if cause is OracleCause.RC_IMPLAUSIBLE and now > rc_blind_until:
             self.owed[cause] = now + self.timing.deadline_s(cause)
         # Frames being corrupted may hide the cause until they are over.
         blind_until = rc_blind_until if cause in RC_BORNE else now
@@ -104,7 +104,7 @@ class StopLedger:
         self.armed, self.deadline_s = demand.armed, demand.deadline_s
         self.stopped_by = set(demand.stopped_by)
 
-    def reinstate(self, deadline_s: float, stopped_by: frozenset[Cause]) -> None:
+    def reinstate(self, deadline_s: float, stopped_by: frozenset[OracleCause]) -> None:
         """A stop already on its way keeps its own deadline (a glimpse of STOP no frame showed
         did not bring it on)."""
         self.deadline_s, self.stopped_by = deadline_s, set(stopped_by)
@@ -141,15 +141,15 @@ class StopLedger:
         if self.delays.all_may_be_lost(frames, now):
             return
         before = self.demand()
-        self.request(Cause.RC_IMPLAUSIBLE, now)
+        self.request(OracleCause.RC_IMPLAUSIBLE, now)
         last_sent_s = now + frames * self.timing.frame_s
         self.passing = PassingStop(now, last_sent_s, before, self.demand())
 
     def rc_blind(self, from_s: float, until_s: float) -> None:
         """IBUS frames may be lost from `from_s` to `until_s`: implausible frames not yet sent
         when the corruption began may never be seen, nor may every frame of the passing stop."""
-        if self.owed.get(Cause.RC_IMPLAUSIBLE, -1.0) >= from_s:
-            del self.owed[Cause.RC_IMPLAUSIBLE]
+        if self.owed.get(OracleCause.RC_IMPLAUSIBLE, -1.0) >= from_s:
+            del self.owed[OracleCause.RC_IMPLAUSIBLE]
         passing, self.passing = self.passing, None
         if passing is None:
             return
@@ -159,20 +159,22 @@ class StopLedger:
 
     # --- what only the switch may clear ------------------------------------------------------
 
-    def latched_from(self, cause: Cause) -> float | None:
+    def latched_from(self, cause: OracleCause) -> float | None:
         """From when the fault `cause`, if it lasts, has latched its cause whatever the
         controller's timing (None: not one that only the switch clears, or never for sure)."""
         began = self.faults.began
-        if cause is Cause.CAN_IMPOSTOR and cause in began:
+        if cause is OracleCause.CAN_IMPOSTOR and cause in began:
             return self._impostor_latched_from()
         if cause not in SWITCH_ONLY or cause not in began:
             return None
         began_s = began[cause][0]
-        if cause is Cause.DAC_FAIL:  # counted only while the loop's writes reach the DAC
+        if cause is OracleCause.DAC_FAIL:  # counted only while the loop's writes reach the DAC
             latch_s = DAC_LATCH_WRITES * self.timing.driving_period_s
             return max(began_s, self.faults.dac_writes_from) + latch_s
-        if cause is Cause.RC_FAILSAFE:  # carried by frames: none while lost, late if corrupted
-            if Cause.RC_LINK_LOST in self.faults:
+        if (
+            cause is OracleCause.RC_FAILSAFE
+        ):  # carried by frames: none while lost, late if corrupted
+            if OracleCause.RC_LINK_LOST in self.faults:
                 return None
             began_s = max(began_s, self.delays.rc_blind_until)
         return began_s + self.timing.deadline_s(cause)
@@ -186,28 +188,28 @@ class StopLedger:
         mode is still CAN. (Begun at STOP, the cause never latches; with the computer silent,
         nothing repeats; with another stop first, the robot may have left CAN mode before the
         id was distrusted.)"""
-        began_s, armed = self.faults.began[Cause.CAN_IMPOSTOR]
+        began_s, armed = self.faults.began[OracleCause.CAN_IMPOSTOR]
         if not (armed and self.faults.impostor_met_drive):
             return None
-        if self.stopped_by != {Cause.CAN_IMPOSTOR}:
+        if self.stopped_by != {OracleCause.CAN_IMPOSTOR}:
             return None
-        latched_s = began_s + self.timing.deadline_s(Cause.CAN_IMPOSTOR)
+        latched_s = began_s + self.timing.deadline_s(OracleCause.CAN_IMPOSTOR)
         return self.delays.past_hang(began_s, latched_s)
 
-    def passed_unseen(self, cause: Cause) -> None:
+    def passed_unseen(self, cause: OracleCause) -> None:
         """The fault `cause` ended before the controller could have noticed it: what it demanded
         of the drive's power is withdrawn (a DAC failing for two writes latches nothing, and a
         controlled stop under way may keep the drive powered)."""
         self.power_off_by.pop(cause, None)
 
-    def ended(self, cause: Cause, now: float) -> None:
+    def ended(self, cause: OracleCause, now: float) -> None:
         """The fault `cause` ended at `now` (before `faults.began` forgets it): what it surely
         latched is the switch's to clear."""
         latched_s = self.latched_from(cause)
         if latched_s is not None and latched_s < now:
             self.owed[cause] = latched_s
 
-    def owed_now(self, now: float) -> set[Cause]:
+    def owed_now(self, now: float) -> set[OracleCause]:
         """What only the switch may clear now: latched for sure since the switch's last visit
         to STOP, whether over or still in force."""
         owed = {cause for cause, since_s in self.owed.items() if since_s < now}
@@ -220,4 +222,4 @@ class StopLedger:
     def tripped(self, trips_at_s: float) -> None:
         """The watchdog trips at `trips_at_s`: only the switch acknowledges it."""
         self.tripped_at = trips_at_s
-        self.owed[Cause.WATCHDOG] = trips_at_s
+        self.owed[OracleCause.WATCHDOG] = trips_at_s
