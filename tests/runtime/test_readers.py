@@ -139,12 +139,12 @@ def test_a_second_sender_taking_over_the_sequence_is_caught_by_the_computers_nex
             CanFrame(MOVEMENT_ID, dbc.encode_command(replace(own, counter=counter))[1])
         )
         link.clock.advance(0.01)
-        taken += [c.value.throttle_norm for c in link.reader.poll(link.clock.now())]  # type: ignore[union-attr]
+        taken += [c.value.throttle_norm for c in link.reader.poll(link.clock.now())]  # type: ignore[attr-defined]
         if counter >= 5:  # the impostor, half a period later, with the computer's next counter
             forged = replace(own, throttle_norm=0.8, counter=counter + 1)
             link.sender.send(CanFrame(MOVEMENT_ID, dbc.encode_command(forged)[1]))
         link.clock.advance(0.01)
-        taken += [c.value.throttle_norm for c in link.reader.poll(link.clock.now())]  # type: ignore[union-attr]
+        taken += [c.value.throttle_norm for c in link.reader.poll(link.clock.now())]  # type: ignore[attr-defined]
     assert taken.count(0.8) == 1  # one period of its request, then nothing
     assert link.reader.verdicts[Verdict.CONFLICT] >= 1
     assert link.reader.untrusted

@@ -8,8 +8,9 @@ import cantools
 import pytest
 
 import bywire.protocol
+from bywire.command_table import COMMAND_TYPES
 from bywire.config import TimeoutsSection, parse_config
-from bywire.model import COMMAND_TYPES, ControlCommand, LightsCommand, MovementCommand
+from bywire.model import ControlCommand, LightsCommand, MovementCommand
 from bywire.runtime.rx_checks import MIN_PERIODS_PER_TIMEOUT, rx_check, rx_checks
 from bywire.runtime.settings import RuntimeConfig
 

@@ -166,7 +166,7 @@ class CanReader:
     steps the stage with the frame's arrival stamp, and counts and flags what it refused.
 
     Trust is proportionate, by the row: an untrusted id of a command that moves the robot
-    (`untrusted`; movement, control, and any command not named in `model.MOVES_NOTHING`) stops
+    (`untrusted`; movement, control, and any command whose row moves the robot, `command_table.COMMANDS`) stops
     CAN mode (CAN_UNTRUSTED); an untrusted lights id (`lights_untrusted`) affects the lights
     alone.
 

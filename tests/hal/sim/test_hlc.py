@@ -202,4 +202,4 @@ def test_set_movement_refuses_values_the_codec_cannot_send(
     _, _, hlc, _ = hlc_on_bus()
     with pytest.raises(FrameError):
         hlc.set_movement(steering_norm, throttle_norm, 0.0, Gear.FORWARD)
-    assert hlc.movement.brake_norm == 1.0  # the previous set-points stay
+    assert hlc.current(MovementCommand).brake_norm == 1.0  # the previous set-points stay
