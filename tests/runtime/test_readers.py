@@ -400,7 +400,7 @@ def _two_senders_on_the_lights_id(link: Link) -> None:
 def test_an_untrusted_lights_id_affects_the_lights_alone() -> None:
     link = Link()
     _two_senders_on_the_lights_id(link)
-    assert link.reader.lights_untrusted
+    assert link.reader.untrusted_kinds == {LightsCommand}
     assert not link.reader.untrusted
 
 
