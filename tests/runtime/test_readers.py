@@ -408,7 +408,12 @@ def test_whether_an_untrusted_id_stops_can_driving_is_its_rows_not_a_list_of_ids
     """A new command message stops CAN driving when a second sender takes its id, unless its row
     says it moves nothing (a horn, added by hand, once stopped the robot as the lamps did)."""
     rows = rx_checks(TimeoutsSection())
-    assert [row.moves_the_robot for row in rows] == [True, True, False]  # control, movement, lights
+    moving = {row.kind: row.moves_the_robot for row in rows}
+    assert (moving[ControlCommand], moving[MovementCommand], moving[LightsCommand]) == (
+        True,
+        True,
+        False,
+    )
     moving_lights = tuple(
         replace(row, moves_the_robot=True) if row.kind is LightsCommand else row for row in rows
     )
