@@ -15,13 +15,17 @@ from __future__ import annotations
 
 import importlib.util
 import json
+import re
 import sys
 from functools import cache, partial
 from pathlib import Path
 
 from cantools.database.can import Database
 
-HORN_ID = 0x103
+PACKAGED_DBC = Path(__file__).resolve().parent.parent / "src" / "bywire" / "protocol" / "albert.dbc"
+HORN_ID = 1 + max(  # the next free command id, after those of the packaged DBC
+    int(match) for match in re.findall(r"^BO_ (\d+) \w+Command:", PACKAGED_DBC.read_text(), re.M)
+)
 HORN_MESSAGE = f"""BO_ {HORN_ID} HornCommand: 3 HLC
  SG_ sound : 0|1@1+ (1,0) [0|1] "" BYWIRE
  SG_ counter : 8|4@1+ (1,0) [0|15] "" BYWIRE

@@ -85,7 +85,7 @@ def test_silence_stops_the_commands_and_start_resumes_the_sequence() -> None:
     hlc.start()
     clock.advance(0.05)
     frames = controller.receive()
-    assert len(frames) == 9
+    assert len(frames) == 3 * len(COMMANDS)
     counters = [f.data[-2] & 0x0F for f in frames if f.arbitration_id == 0x101]
     assert counters == [5, 6, 7]
 
