@@ -11,14 +11,17 @@ import pytest
 from hypothesis import assume, event, given, settings
 from hypothesis import strategies as st
 
+from bywire.command_table import COMMANDS, Use, command_row
 from bywire.control.command_edges import CommandEdges, command_edges
 from bywire.control.command_slots import received
 from bywire.control.controller import (
+    RULES,
     ControlConfig,
     ControlInputs,
     ControlOutputs,
     ControlState,
     changes_decision,
+    check_rules,
     controller_step,
 )
 from bywire.control.drive import SAFE_DRIVE
@@ -693,3 +696,18 @@ def test_a_decision_cannot_tell_frames_that_repeat_a_request_from_the_ones_it_sa
     assert replace(after_repeats, rc_frames_seen=0, control_frames_seen=0) == replace(
         after_seen, rc_frames_seen=0, control_frames_seen=0
     )
+
+
+# --- the command table's rules --------------------------------------------------------------------
+
+
+def test_each_of_the_decisions_own_rules_is_its_own_messages_row_alone() -> None:
+    """A row that names a rule of the decision for another message, or a second row of one,
+    would be ignored: the table is refused when the controller is imported."""
+    check_rules(COMMANDS)
+    control, movement, lights = (command_row(kind) for kind in RULES.values())
+    stray = replace(lights, use=Use.SET_POINTS)
+    with pytest.raises(TypeError, match="SET_POINTS is MovementCommand's rule, not Movement"):
+        check_rules((control, movement, stray))
+    with pytest.raises(TypeError, match="LIGHT_REQUESTS is LightsCommand's rule, not no row's"):
+        check_rules((control, movement))

@@ -74,6 +74,25 @@ MONITOR_CAUSES = (
     (ErrorFlag.HYDRO_PRESSURE_FAULT, Cause.HYDRO_PRESSURE),
     (ErrorFlag.STEERING_ENCODER_FAULT, Cause.STEERING_ENCODER),
 )
+RULES: dict[Use, type[Command]] = {
+    Use.STOP_AND_RE_ENABLE: ControlCommand,
+    Use.SET_POINTS: MovementCommand,
+    Use.LIGHT_REQUESTS: LightsCommand,
+}
+"""The message each of the decision's own rules reads; `Use.REQUEST` rows are the tasks'."""
+
+
+def check_rules(commands: tuple[CommandSpec, ...]) -> None:
+    """TypeError unless each of the decision's own rules is the use of exactly its own message's
+    row: a second set-point row, or set-points read from another message, would be ignored."""
+    for use, kind in RULES.items():
+        rows = [spec.kind for spec in commands if spec.use is use]
+        if rows != [kind]:
+            named = ", ".join(row.__name__ for row in rows) or "no row"
+            raise TypeError(f"command table: {use.name} is {kind.__name__}'s rule, not {named}'s")
+
+
+check_rules(COMMANDS)
 
 
 @dataclass(frozen=True, slots=True)
