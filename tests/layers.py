@@ -21,6 +21,7 @@ LAYERS: tuple[frozenset[str], ...] = tuple(
         "atomic_file quit_keys priority accepting textfile loopback",
         "error_flags can_frame plot_page",  # values and constants every layer may name
         "model",  # commands, reports and their values
+        "command_table",  # the command messages the controller obeys, one row each
         "control protocol",  # the pure core; the codecs
         "task_table security",  # the schedule's rows; SecOC sessions
         "config",  # the robot file, read into the core's configurations

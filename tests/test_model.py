@@ -8,8 +8,8 @@ from typing import Any, get_type_hints
 
 import pytest
 
+from bywire.command_table import COMMAND_TYPES
 from bywire.model import (
-    COMMAND_TYPES,
     REPORT_TYPES,
     Command,
     ControlCommand,

@@ -10,9 +10,11 @@ Units in names: ``_norm`` is a normalised set-point (steering −1…1, throttle
 
 from __future__ import annotations
 
-from dataclasses import dataclass, fields
+from collections.abc import Callable
+from dataclasses import Field, dataclass, fields
 from enum import IntEnum
 from operator import attrgetter
+from typing import TYPE_CHECKING, Any, ClassVar
 
 from bywire.error_flags import ErrorFlag
 
@@ -37,11 +39,22 @@ class ControlMode(IntEnum):
 
 
 # Commands: higher-level computer -> controller. Each carries its 4-bit rolling counter (0…15);
-# the CRC is computed and checked by the codec and never appears here.
+# the CRC is computed and checked by the codec and never appears here. The messages the
+# controller obeys are the rows of `bywire.command_table`; a new one is a class there.
+
+
+class Command:
+    """Any command frame's content: every command message is a frozen dataclass deriving from
+    this, with its signals as fields and its rolling counter as `counter`."""
+
+    __slots__ = ()
+    if TYPE_CHECKING:  # each message's own; said here for the type checker alone
+        __dataclass_fields__: ClassVar[dict[str, Field[Any]]]
+    counter: int
 
 
 @dataclass(frozen=True, slots=True)
-class ControlCommand:
+class ControlCommand(Command):
     """Remote stop and re-enable request; re-enable acts on its rising edge only."""
 
     remote_stop: bool
@@ -50,7 +63,7 @@ class ControlCommand:
 
 
 @dataclass(frozen=True, slots=True)
-class MovementCommand:
+class MovementCommand(Command):
     """Movement set-points: steering −1 (left)…1 (right), throttle and brake 0…1, gear."""
 
     steering_norm: float
@@ -61,7 +74,7 @@ class MovementCommand:
 
 
 @dataclass(frozen=True, slots=True)
-class LightsCommand:
+class LightsCommand(Command):
     """Light requests; brake, reverse and error lights follow the robot's state instead."""
 
     turn_left: bool
@@ -69,15 +82,6 @@ class LightsCommand:
     hazard: bool
     low_beam: bool
     counter: int
-
-
-Command = ControlCommand | MovementCommand | LightsCommand
-"""Any command frame's content."""
-COMMAND_TYPES: tuple[type[Command], ...] = (ControlCommand, MovementCommand, LightsCommand)
-MOVES_NOTHING: frozenset[type[Command]] = frozenset({LightsCommand})
-"""Commands that move nothing: a second sender on one of their ids holds that function's last
-trusted request. Losing trust in any other command, a new one included unless it is named
-here, stops CAN driving (CAN_UNTRUSTED): the safe default (hazard row 39)."""
 
 
 def request_fields(kind: type[Command]) -> tuple[str, ...]:
@@ -90,13 +94,20 @@ LIGHT_REQUESTS = request_fields(LightsCommand)
 """What a LightsCommand can ask for, by signal name."""
 LIGHTS_OFF = LightsCommand(**dict.fromkeys(LIGHT_REQUESTS, False), counter=0)
 """Nothing requested: every request of a LightsCommand off."""
-_REQUESTS = {kind: attrgetter(*request_fields(kind)) for kind in COMMAND_TYPES}
+
+
+_REQUESTS: dict[type[Command], Callable[[Command], object]] = {}
 
 
 def same_request(a: Command, b: Command) -> bool:
     """Whether two commands ask for the same thing: equal in every `request_fields`."""
     kind = type(a)
-    return kind is type(b) and _REQUESTS[kind](a) == _REQUESTS[kind](b)
+    if kind is not type(b):
+        return False
+    requests = _REQUESTS.get(kind)
+    if requests is None:
+        requests = _REQUESTS[kind] = attrgetter(*request_fields(kind))
+    return requests(a) == requests(b)
 
 
 # Reports: controller -> higher-level computer, 50 Hz. Values outside a signal's range are

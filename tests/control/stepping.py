@@ -15,6 +15,7 @@ from bywire.control.command_edges import command_edges
 from bywire.control.controller import ControlConfig, ControlInputs, ControlOutputs, ControlState
 from bywire.control.controller import controller_step as step
 from bywire.control.supervisor import SupervisorConfig
+from bywire.model import ControlCommand
 
 CONFIG = ControlConfig(supervisor=SupervisorConfig(debounce_frames=1))
 
@@ -31,12 +32,10 @@ def framed(steps: Steps) -> Steps:
             previous.rc is None or inputs.rc.received_at != previous.rc.received_at
         ):
             rc_frames += 1
-        if inputs.control is not None and (
-            previous.control is None or inputs.control.received_at != previous.control.received_at
-        ):
+        control, before = inputs.commands.get(ControlCommand), previous.commands.get(ControlCommand)
+        if control is not None and (before is None or control.received_at != before.received_at):
             control_frames += 1
-            before = None if previous.control is None else previous.control.value
-            edges = command_edges(before, inputs.control.value)
+            edges = command_edges(None if before is None else before.value, control.value)
             stop_requests += edges.remote_stop
         counted = replace(
             inputs,

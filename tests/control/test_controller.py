@@ -11,13 +11,17 @@ import pytest
 from hypothesis import assume, event, given, settings
 from hypothesis import strategies as st
 
+from bywire.command_table import COMMANDS, Use, command_row
 from bywire.control.command_edges import CommandEdges, command_edges
+from bywire.control.command_slots import received
 from bywire.control.controller import (
+    RULES,
     ControlConfig,
     ControlInputs,
     ControlOutputs,
     ControlState,
     changes_decision,
+    check_rules,
     controller_step,
 )
 from bywire.control.drive import SAFE_DRIVE
@@ -127,11 +131,15 @@ def test_can_drives_in_can_mode() -> None:
     movement = MovementCommand(-0.4, 0.6, 0.0, Gear.REVERSE, counter=3)
 
     def driving(now: float) -> ControlInputs:
-        return ControlInputs(rc=rc_at(now, mode=ControlMode.CAN), movement=Stamped(movement, now))
+        return ControlInputs(
+            rc=rc_at(now, mode=ControlMode.CAN), commands=received(Stamped(movement, now))
+        )
 
     def handed_over(now: float) -> ControlInputs:
         idle = replace(movement, throttle_norm=0.0)
-        return ControlInputs(rc=rc_at(now, mode=ControlMode.CAN), movement=Stamped(idle, now))
+        return ControlInputs(
+            rc=rc_at(now, mode=ControlMode.CAN), commands=received(Stamped(idle, now))
+        )
 
     # armed with the gear switch in reverse: RC's gear was reverse already, no direction change;
     # the computer is seen at zero throttle before it may apply any (bumpless transfer)
@@ -159,8 +167,8 @@ def test_can_timeout_in_can_mode_is_stop_not_rc() -> None:
     can_mode = rc_at(0.15, mode=ControlMode.CAN)
     steps = [
         *armed_rc(0.0, mode=ControlMode.RC),
-        (0.02, ControlInputs(rc=rc_at(0.02, mode=ControlMode.CAN), movement=movement)),
-        (0.15, ControlInputs(rc=can_mode, movement=movement)),
+        (0.02, ControlInputs(rc=rc_at(0.02, mode=ControlMode.CAN), commands=received(movement))),
+        (0.15, ControlInputs(rc=can_mode, commands=received(movement))),
     ]
     last = run(steps)[-1]
     assert_safe(last)
@@ -181,7 +189,7 @@ def test_remote_stop_over_can() -> None:
     stop = Stamped(ControlCommand(remote_stop=True, re_enable=False, counter=0), 0.02)
     steps = [
         *armed_rc(0.0, mode=ControlMode.RC),
-        (0.02, ControlInputs(rc=rc_at(0.02, mode=ControlMode.RC), control=stop)),
+        (0.02, ControlInputs(rc=rc_at(0.02, mode=ControlMode.RC), commands=received(stop))),
     ]
     last = run(steps)[-1]
     assert_safe(last)
@@ -215,14 +223,16 @@ def test_can_lights_apply_in_can_mode_only() -> None:
         *armed_rc(0.0, mode=ControlMode.RC),
         (
             0.02,
-            ControlInputs(rc=rc_at(0.02, mode=ControlMode.CAN), movement=movement, lights=lights),
+            ControlInputs(
+                rc=rc_at(0.02, mode=ControlMode.CAN), commands=received(movement, lights)
+            ),
         ),
     ]
     assert run(can_steps)[-1].lights.low_beam
     assert run(can_steps)[-1].lights.turn_left  # blink phase is on at t = 0.02 s
     rc_steps = [
         *armed_rc(0.0, mode=ControlMode.RC),
-        (0.02, ControlInputs(rc=rc_at(0.02, mode=ControlMode.RC), lights=lights)),
+        (0.02, ControlInputs(rc=rc_at(0.02, mode=ControlMode.RC), commands=received(lights))),
     ]
     assert not run(rc_steps)[-1].lights.low_beam
 
@@ -238,11 +248,15 @@ def test_each_can_command_is_judged_against_its_own_timeout(
 
     def can(now: float) -> ControlInputs:
         return ControlInputs(
-            rc=rc_at(now, mode=ControlMode.CAN), movement=Stamped(movement, now), lights=lights
+            rc=rc_at(now, mode=ControlMode.CAN), commands=received(Stamped(movement, now), lights)
         )
 
     steps = [*armed_rc(0.0, mode=ControlMode.RC), *held(0.02, 0.3, can)]
-    config = replace(CONFIG, lights_timeout_s=lights_timeout_s)
+    timeouts_s = tuple(
+        (kind, lights_timeout_s if kind is LightsCommand else timeout_s)
+        for kind, timeout_s in CONFIG.command_timeouts_s
+    )
+    config = replace(CONFIG, command_timeouts_s=timeouts_s)
     last = run(steps, config)[-1]
     assert last.mode is ControlMode.CAN
     assert last.lights.low_beam is low_beam
@@ -287,8 +301,11 @@ def test_can_timeout_boundary_in_can_mode(age_s: float, mode: ControlMode) -> No
     sent = Stamped(movement, 0.02)
     steps = [
         *armed_rc(0.0, mode=ControlMode.RC),
-        (0.02, ControlInputs(rc=rc_at(0.02, mode=ControlMode.CAN), movement=sent)),
-        (0.02 + age_s, ControlInputs(rc=rc_at(0.02 + age_s, mode=ControlMode.CAN), movement=sent)),
+        (0.02, ControlInputs(rc=rc_at(0.02, mode=ControlMode.CAN), commands=received(sent))),
+        (
+            0.02 + age_s,
+            ControlInputs(rc=rc_at(0.02 + age_s, mode=ControlMode.CAN), commands=received(sent)),
+        ),
     ]
     assert run(steps)[-1].mode is mode
 
@@ -393,15 +410,19 @@ def test_a_can_re_enable_edge_clears_a_can_timeout_latch() -> None:
     re_enable = Stamped(ControlCommand(remote_stop=False, re_enable=True, counter=1), 0.30)
     steps = [
         *armed_rc(0.0, mode=ControlMode.RC),
-        (0.02, ControlInputs(rc=rc_at(0.02, mode=ControlMode.CAN), movement=sent)),
-        (0.25, ControlInputs(rc=rc_at(0.25, mode=ControlMode.CAN), movement=sent)),
+        (0.02, ControlInputs(rc=rc_at(0.02, mode=ControlMode.CAN), commands=received(sent))),
+        (0.25, ControlInputs(rc=rc_at(0.25, mode=ControlMode.CAN), commands=received(sent))),
         (
             0.29,
-            ControlInputs(rc=rc_at(0.29, mode=ControlMode.CAN), movement=again, control=no_request),
+            ControlInputs(
+                rc=rc_at(0.29, mode=ControlMode.CAN), commands=received(again, no_request)
+            ),
         ),
         (
             0.30,
-            ControlInputs(rc=rc_at(0.30, mode=ControlMode.CAN), movement=again, control=re_enable),
+            ControlInputs(
+                rc=rc_at(0.30, mode=ControlMode.CAN), commands=received(again, re_enable)
+            ),
         ),
     ]
     outputs = run(steps)
@@ -414,7 +435,7 @@ def test_a_can_re_enable_edge_clears_a_can_timeout_latch() -> None:
 
 def test_remote_stop_is_flagged_alongside_an_rc_timeout() -> None:
     stop = Stamped(ControlCommand(remote_stop=True, re_enable=False, counter=0), 0.0)
-    (outputs,) = run([(0.0, ControlInputs(control=stop))])
+    (outputs,) = run([(0.0, ControlInputs(commands=received(stop)))])
     assert outputs.error_flags & ErrorFlag.REMOTE_STOP
     assert outputs.error_flags & ErrorFlag.RC_TIMEOUT
 
@@ -429,7 +450,10 @@ def test_rc_light_switches_are_ignored_in_can_mode() -> None:
     can_mode: RcChanges = {"mode": ControlMode.CAN, "low_beam": True, "hazard": True}
     steps = [
         (0.0, ControlInputs(rc=rc_at(0.0))),
-        (0.01, ControlInputs(rc=rc_at(0.01, **can_mode), movement=Stamped(CAN_IDLE, 0.01))),
+        (
+            0.01,
+            ControlInputs(rc=rc_at(0.01, **can_mode), commands=received(Stamped(CAN_IDLE, 0.01))),
+        ),
     ]
     last = run(steps)[-1]
     assert last.mode is ControlMode.CAN
@@ -456,7 +480,10 @@ def _rc_driving() -> tuple[ControlState, ControlInputs, float]:
     """Armed on RC at 10 ms, a CAN movement command and a lights command seen fresh."""
     movement, lights = Stamped(CAN_IDLE, 0.005), Stamped(LIGHTS_OFF, 0.005)
     steps = armed_rc(0.0, mode=ControlMode.RC)
-    steps[-1] = (0.01, replace(steps[-1][1], movement=movement, lights=lights))
+    steps[-1] = (
+        0.01,
+        replace(steps[-1][1], commands=steps[-1][1].commands.with_frames(movement, lights)),
+    )
     return _last_decision(steps)
 
 
@@ -464,14 +491,17 @@ def test_a_frame_that_repeats_a_request_with_a_new_counter_does_not_change_the_d
     state, seen, decided_at = _rc_driving()
     assert state.supervisor.mode is ControlMode.RC
     assert not changes_decision(state, seen, decided_at, seen, CONFIG)  # nothing arrived
-    assert seen.movement is not None
+    movement = seen.commands.get(MovementCommand)
+    assert movement is not None
     assert seen.rc is not None
     repeats = replace(
         seen,
         rc=Stamped(seen.rc.value, 0.017),
         rc_frames=seen.rc_frames + 2,
-        movement=Stamped(replace(seen.movement.value, counter=9), 0.015),
-        lights=Stamped(replace(LIGHTS_OFF, counter=3), 0.015),
+        commands=seen.commands.with_frames(
+            Stamped(replace(movement.value, counter=9), 0.015),
+            Stamped(replace(LIGHTS_OFF, counter=3), 0.015),
+        ),
     )
     assert not changes_decision(state, seen, decided_at, repeats, CONFIG)
 
@@ -499,16 +529,23 @@ def test_a_frame_that_repeats_a_request_with_a_new_counter_does_not_change_the_d
 )
 def test_a_frame_that_asks_for_something_new_changes_the_decision(news: dict[str, Any]) -> None:
     state, seen, decided_at = _rc_driving()
-    arrivals = replace(seen, **news, rc_frames=seen.rc_frames + ("rc" in news))
+    frames = [news.pop(slot) for slot in ("movement", "lights", "control") if slot in news]
+    arrivals = replace(
+        seen,
+        **news,
+        rc_frames=seen.rc_frames + ("rc" in news),
+        commands=seen.commands.with_frames(*frames),
+    )
     assert changes_decision(state, seen, decided_at, arrivals, CONFIG)
 
 
 def test_a_repeat_of_a_request_the_decision_saw_stale_changes_it() -> None:
     """A source coming back after its timeout: the decision must see it fresh at once."""
     state, seen, _ = _rc_driving()
-    assert seen.movement is not None
-    back = Stamped(replace(seen.movement.value, counter=5), 0.2)
-    arrivals = replace(seen, movement=back)
+    movement = seen.commands.get(MovementCommand)
+    assert movement is not None
+    back = Stamped(replace(movement.value, counter=5), 0.2)
+    arrivals = replace(seen, commands=seen.commands.with_frames(back))
     assert changes_decision(state, seen, 0.19, arrivals, CONFIG)  # seen at 5 ms: stale at 190
     assert not changes_decision(state, seen, 0.01, arrivals, CONFIG)
 
@@ -542,7 +579,7 @@ def _arming(mode: ControlMode) -> list[tuple[float, ControlInputs]]:
     """The switch held at STOP, then at `mode`, three frames each, throttle idle, CAN fresh."""
     movement = Stamped(CAN_IDLE, 0.0)
     return [
-        (0.007 * n, ControlInputs(rc=rc_at(0.007 * n, mode=position), movement=movement))
+        (0.007 * n, ControlInputs(rc=rc_at(0.007 * n, mode=position), commands=received(movement)))
         for n, position in enumerate([ControlMode.STOP] * 3 + [mode] * 3)
     ]
 
@@ -593,8 +630,7 @@ def histories(draw: st.DrawFn) -> list[tuple[float, ControlInputs]]:
                 now,
                 ControlInputs(
                     rc=rc or previous.rc,
-                    movement=movement or previous.movement,
-                    control=control or previous.control,
+                    commands=previous.commands.with_frames(movement, control),
                 ),
             )
         )
@@ -627,29 +663,32 @@ def test_a_decision_cannot_tell_frames_that_repeat_a_request_from_the_ones_it_sa
         return None if slot is None else Stamped(slot.value, at)
 
     edges = seen.control_edges
-    control = seen.control
-    if control_repeats and control is not None:
-        control = Stamped(replace(control.value, counter=(control.value.counter + 1) % 16), at)
-        edges = command_edges(seen.control.value if seen.control else None, control.value)
-    movement = seen.movement
+    seen_control = control = seen.commands.get(ControlCommand)
+    if control_repeats and seen_control is not None:
+        control = Stamped(
+            replace(seen_control.value, counter=(seen_control.value.counter + 1) % 16), at
+        )
+        edges = command_edges(seen_control.value, control.value)
+    seen_movement = movement = seen.commands.get(MovementCommand)
     if movement is not None:
         movement = Stamped(replace(movement.value, counter=counter), at)
     arrivals = replace(
         seen,
         rc=restamped(seen.rc) if rc_repeats else seen.rc,
         rc_frames=seen.rc_frames + rc_repeats,
-        movement=movement,
-        control=control,
+        commands=seen.commands.with_frames(movement, control),
         control_edges=edges,
-        control_frames=seen.control_frames + (control is not seen.control),
+        control_frames=seen.control_frames + (control is not seen_control),
     )
     assume(not changes_decision(state, seen, decided_at, arrivals, COUNTED))
-    event(f"{state.supervisor.mode.name} rc+{rc_repeats} ctl{control is not seen.control}")
+    event(f"{state.supervisor.mode.name} rc+{rc_repeats} ctl{control is not seen_control}")
     as_seen = replace(
         seen,
         rc=restamped(seen.rc) if rc_repeats else seen.rc,
-        movement=restamped(seen.movement),
-        control=restamped(seen.control) if control is not seen.control else seen.control,
+        commands=seen.commands.with_frames(
+            restamped(seen_movement),
+            restamped(seen_control) if control is not seen_control else seen_control,
+        ),
     )
     after_repeats, outputs = controller_step(state, arrivals, now, COUNTED)
     after_seen, expected = controller_step(state, as_seen, now, COUNTED)
@@ -657,3 +696,18 @@ def test_a_decision_cannot_tell_frames_that_repeat_a_request_from_the_ones_it_sa
     assert replace(after_repeats, rc_frames_seen=0, control_frames_seen=0) == replace(
         after_seen, rc_frames_seen=0, control_frames_seen=0
     )
+
+
+# --- the command table's rules --------------------------------------------------------------------
+
+
+def test_each_of_the_decisions_own_rules_is_its_own_messages_row_alone() -> None:
+    """A row that names a rule of the decision for another message, or a second row of one,
+    would be ignored: the table is refused when the controller is imported."""
+    check_rules(COMMANDS)
+    control, movement, lights = (command_row(kind) for kind in RULES.values())
+    stray = replace(lights, use=Use.SET_POINTS)
+    with pytest.raises(TypeError, match="SET_POINTS is MovementCommand's rule, not Movement"):
+        check_rules((control, movement, stray))
+    with pytest.raises(TypeError, match="LIGHT_REQUESTS is LightsCommand's rule, not no row's"):
+        check_rules((control, movement))

@@ -312,7 +312,7 @@ def test_rejection_is_a_frame_error_and_a_bywire_error() -> None:
     )
 
 
-@pytest.mark.parametrize("frame", [0x000, 0x0FF, 0x103, 0x200, 0x205, 0x7FF])
+@pytest.mark.parametrize("frame", [0x000, 0x0FF, 0x1FF, 0x200, 0x205, 0x7FF])
 def test_unknown_and_report_ids_are_not_commands(frame: int) -> None:
     assert _rejection(frame, bytes(8)).reason is RejectReason.UNKNOWN_ID
 

@@ -117,7 +117,7 @@ def test_a_command_that_ages_past_its_stamp_limit_stops_being_sent() -> None:
         frame.time_s
         for frame in rig.sent
         if frame.arbitration_id == movement_id
-        and dbc.decode_command(movement_id, frame.data, None).throttle_norm > 0.0  # type: ignore[union-attr]
+        and dbc.decode_command(movement_id, frame.data, None).throttle_norm > 0.0  # type: ignore[attr-defined]
     ]
     assert driving_s  # each message drives while its stamp is young enough ...
     life_s = settings.max_stamp_age_s - lag_s

@@ -139,12 +139,12 @@ def test_a_second_sender_taking_over_the_sequence_is_caught_by_the_computers_nex
             CanFrame(MOVEMENT_ID, dbc.encode_command(replace(own, counter=counter))[1])
         )
         link.clock.advance(0.01)
-        taken += [c.value.throttle_norm for c in link.reader.poll(link.clock.now())]  # type: ignore[union-attr]
+        taken += [c.value.throttle_norm for c in link.reader.poll(link.clock.now())]  # type: ignore[attr-defined]
         if counter >= 5:  # the impostor, half a period later, with the computer's next counter
             forged = replace(own, throttle_norm=0.8, counter=counter + 1)
             link.sender.send(CanFrame(MOVEMENT_ID, dbc.encode_command(forged)[1]))
         link.clock.advance(0.01)
-        taken += [c.value.throttle_norm for c in link.reader.poll(link.clock.now())]  # type: ignore[union-attr]
+        taken += [c.value.throttle_norm for c in link.reader.poll(link.clock.now())]  # type: ignore[attr-defined]
     assert taken.count(0.8) == 1  # one period of its request, then nothing
     assert link.reader.verdicts[Verdict.CONFLICT] >= 1
     assert link.reader.untrusted
@@ -400,7 +400,7 @@ def _two_senders_on_the_lights_id(link: Link) -> None:
 def test_an_untrusted_lights_id_affects_the_lights_alone() -> None:
     link = Link()
     _two_senders_on_the_lights_id(link)
-    assert link.reader.lights_untrusted
+    assert link.reader.untrusted_kinds == {LightsCommand}
     assert not link.reader.untrusted
 
 
@@ -408,7 +408,12 @@ def test_whether_an_untrusted_id_stops_can_driving_is_its_rows_not_a_list_of_ids
     """A new command message stops CAN driving when a second sender takes its id, unless its row
     says it moves nothing (a horn, added by hand, once stopped the robot as the lamps did)."""
     rows = rx_checks(TimeoutsSection())
-    assert [row.moves_the_robot for row in rows] == [True, True, False]  # control, movement, lights
+    moving = {row.kind: row.moves_the_robot for row in rows}
+    assert (moving[ControlCommand], moving[MovementCommand], moving[LightsCommand]) == (
+        True,
+        True,
+        False,
+    )
     moving_lights = tuple(
         replace(row, moves_the_robot=True) if row.kind is LightsCommand else row for row in rows
     )

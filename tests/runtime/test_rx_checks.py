@@ -8,8 +8,9 @@ import cantools
 import pytest
 
 import bywire.protocol
+from bywire.command_table import COMMAND_TYPES
 from bywire.config import TimeoutsSection, parse_config
-from bywire.model import COMMAND_TYPES, ControlCommand, LightsCommand, MovementCommand
+from bywire.model import ControlCommand, LightsCommand, MovementCommand
 from bywire.runtime.rx_checks import MIN_PERIODS_PER_TIMEOUT, rx_check, rx_checks
 from bywire.runtime.settings import RuntimeConfig
 
@@ -48,11 +49,8 @@ def test_the_runtime_judges_each_command_by_its_own_row() -> None:
     text = "[timeouts.can_message_timeout_s]\nControlCommand = 0.06\nLightsCommand = 0.5"
     runtime = RuntimeConfig.from_robot(parse_config(text))
     control = runtime.control
-    assert (control.movement_timeout_s, control.control_timeout_s, control.lights_timeout_s) == (
-        0.1,
-        0.06,
-        0.5,
-    )
+    timeouts_s = (MovementCommand, ControlCommand, LightsCommand)
+    assert [control.command_timeout_s(kind) for kind in timeouts_s] == [0.1, 0.06, 0.5]
     assert runtime.rx_checks == rx_checks(parse_config(text).timeouts)
 
 

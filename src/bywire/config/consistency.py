@@ -183,7 +183,7 @@ def _report_rate(config: RobotConfig, problems: Problems) -> None:
 def _can_timeouts(config: RobotConfig, problems: Problems) -> None:
     """Each CAN command's timeout spans CAN_TIMEOUT_PERIODS of its period in the DBC. A message
     on the section's default is reported under `can_command_timeout_s`, the key to change."""
-    from bywire.model import COMMAND_TYPES  # noqa: PLC0415 (cantools only when a file is checked)
+    from bywire.command_table import COMMAND_TYPES  # noqa: PLC0415 (cantools when checked)
     from bywire.protocol import dbc  # noqa: PLC0415
 
     timeouts = config.timeouts

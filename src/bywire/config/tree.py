@@ -10,6 +10,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field, fields
 from typing import Literal
 
+from bywire.command_table import COMMAND_TYPES
 from bywire.config.security import SecuritySection
 from bywire.config.vehicle import VehicleSection
 from bywire.control.drive import DriveConfig
@@ -20,7 +21,6 @@ from bywire.control.rc_mapping import RcMapping
 from bywire.control.sensor_checks import MonitorConfig
 from bywire.control.steering import SteeringConfig
 from bywire.control.supervisor import SupervisorConfig
-from bywire.model import COMMAND_TYPES
 from bywire.task_table import SCHEDULE, TASK_LINES
 
 Backend = Literal["sim", "linux"]

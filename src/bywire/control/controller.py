@@ -10,9 +10,18 @@ from __future__ import annotations
 import operator
 from collections.abc import Callable
 from dataclasses import dataclass, field
-from typing import Protocol, TypeVar
+from typing import Protocol, TypeVar, cast
 
+from bywire.command_table import (
+    COMMANDS,
+    MOVES_NOTHING,
+    REQUESTS,
+    CommandSpec,
+    Use,
+    command_row,
+)
 from bywire.control.command_edges import NO_EDGES, CommandEdges
+from bywire.control.command_slots import NO_COMMANDS, CommandSlots
 from bywire.control.drive import SAFE_DRIVE, DriveConfig, DriveOutputs, braking_drive, drive_outputs
 from bywire.control.hydrobrake import DEFAULT_THRESHOLD_NORM, hydrobrake_duty
 from bywire.control.interlocks import (
@@ -52,6 +61,7 @@ from bywire.control.validity import Stamped, fresh, is_fresh
 from bywire.control.values import value
 from bywire.error_flags import ErrorFlag
 from bywire.model import (
+    Command,
     ControlCommand,
     ControlMode,
     Gear,
@@ -64,6 +74,25 @@ MONITOR_CAUSES = (
     (ErrorFlag.HYDRO_PRESSURE_FAULT, Cause.HYDRO_PRESSURE),
     (ErrorFlag.STEERING_ENCODER_FAULT, Cause.STEERING_ENCODER),
 )
+RULES: dict[Use, type[Command]] = {
+    Use.STOP_AND_RE_ENABLE: ControlCommand,
+    Use.SET_POINTS: MovementCommand,
+    Use.LIGHT_REQUESTS: LightsCommand,
+}
+"""The message each of the decision's own rules reads; `Use.REQUEST` rows are the tasks'."""
+
+
+def check_rules(commands: tuple[CommandSpec, ...]) -> None:
+    """TypeError unless each of the decision's own rules is the use of exactly its own message's
+    row: a second set-point row, or set-points read from another message, would be ignored."""
+    for use, kind in RULES.items():
+        rows = [spec.kind for spec in commands if spec.use is use]
+        if rows != [kind]:
+            named = ", ".join(row.__name__ for row in rows) or "no row"
+            raise TypeError(f"command table: {use.name} is {kind.__name__}'s rule, not {named}'s")
+
+
+check_rules(COMMANDS)
 
 
 @dataclass(frozen=True, slots=True)
@@ -75,14 +104,22 @@ class ControlConfig:
     rc_mapping: RcMapping = field(default_factory=RcMapping)
     hydrobrake_threshold_norm: float = DEFAULT_THRESHOLD_NORM
     rc_timeout_s: float = 0.100
-    movement_timeout_s: float = 0.100  # each CAN command's own age limit (its receive check)
-    control_timeout_s: float = 0.100
-    lights_timeout_s: float = 0.100
+    # Each CAN command's own age limit (its receive check), by command row.
+    command_timeouts_s: tuple[tuple[type[Command], float], ...] = tuple(
+        (spec.kind, 0.100) for spec in COMMANDS
+    )
     blink_rate_hz: float = BLINK_RATE_HZ
     interlocks: InterlockConfig = field(default_factory=InterlockConfig)
     monitors: MonitorConfig = field(default_factory=MonitorConfig)
     supervisor: SupervisorConfig = field(default_factory=SupervisorConfig)
     stop: StopConfig = field(default_factory=StopConfig)
+
+    def command_timeout_s(self, kind: type[Command]) -> float:
+        """The age limit of the CAN command `kind` (LookupError for a command without one)."""
+        for timed, timeout_s in self.command_timeouts_s:
+            if timed is kind:
+                return timeout_s
+        raise LookupError(f"no timeout for {kind.__name__}")
 
 
 @value
@@ -91,19 +128,19 @@ class ControlInputs:
 
     `rc` holds None as its value when the last frame was intact but implausible (failsafe flags,
     a channel out of range): that counts as a lost link at once, not after the timeout.
+    `commands` holds each CAN command message's newest frame, one slot per command row.
     `rc_frames` and `control_frames` count arrivals, so the decision sees which frame is new;
     `control_edges` are the edges the newest ControlCommand frame made (see `command_edges`);
     `stop_requests` counts remote stop requests that arrived, from any intact frame (the reader
     passes them whatever the counter or trust): a change is a remote stop arriving.
     `fault_flags` are the conditions only the shell can see (DAC writes, CAN transmit, overruns);
-    `dac_failing`, `watchdog_tripped`, `timing_fault` and `can_untrusted` (a movement or control
-    id) are the shell's conditions that stop; `lights_untrusted` affects the lights alone.
+    `dac_failing`, `watchdog_tripped` and `timing_fault` are the shell's conditions that stop;
+    `untrusted` names the command messages whose id is not trusted now: one whose row moves the
+    robot stops CAN driving (CAN_UNTRUSTED), another costs its own function its requests.
     """
 
     rc: Stamped[RcRequest | None] | None = None
-    movement: Stamped[MovementCommand] | None = None
-    lights: Stamped[LightsCommand] | None = None
-    control: Stamped[ControlCommand] | None = None
+    commands: CommandSlots = NO_COMMANDS
     control_edges: CommandEdges = NO_EDGES
     rc_frames: int = 0
     control_frames: int = 0
@@ -111,8 +148,7 @@ class ControlInputs:
     fault_flags: int = 0
     dac_failing: bool = False
     watchdog_tripped: bool = False
-    can_untrusted: bool = False
-    lights_untrusted: bool = False
+    untrusted: frozenset[type[Command]] = frozenset()
     timing_fault: bool = False
     speed_mps: float | None = None  # signed, positive forward; None without a speed sensor
     hydrobrake_pressure_bar: float | None = None  # None without a pressure sensor
@@ -154,6 +190,15 @@ class ControlOutputs:
     lights: LightOutputs
     light_request: LightRequest
     error_flags: int
+    # Each `Use.REQUEST` row's request, fresh and trusted, in CAN mode (else None), for its task.
+    requests: tuple[tuple[type[Command], Command | None], ...] = ()
+
+    def request(self, kind: type[C]) -> C | None:
+        """What the command `kind` (a `Use.REQUEST` row) asks of its task now; None: nothing."""
+        for requested, command in self.requests:
+            if requested is kind:
+                return cast(C | None, command)
+        raise LookupError(f"{kind.__name__} is no request row")
 
 
 @value
@@ -164,23 +209,57 @@ class _Sources:
     can_movement: MovementCommand | None
     control: ControlCommand | None
     lights: LightsCommand | None
+    usable: dict[type[Command], Command | None]  # every command row's, by its `use`
 
 
 def _sources(inputs: ControlInputs, now: float, config: ControlConfig) -> _Sources:
+    usable = {spec.kind: _usable(spec, inputs, now, config) for spec in COMMANDS}
     return _Sources(
         rc=fresh(inputs.rc, now, config.rc_timeout_s),
-        can_movement=fresh(inputs.movement, now, config.movement_timeout_s),
-        control=fresh(inputs.control, now, config.control_timeout_s),
-        lights=_lights(inputs, now, config),
+        can_movement=cast(MovementCommand | None, usable.get(MovementCommand)),
+        control=cast(ControlCommand | None, usable.get(ControlCommand)),
+        lights=cast(LightsCommand | None, usable.get(LightsCommand)),
+        usable=usable,
     )
 
 
-def _lights(inputs: ControlInputs, now: float, config: ControlConfig) -> LightsCommand | None:
-    """The lights asked for: while the id is untrusted (another sender), the last trusted
-    request is held whatever its age, and the lights alone are affected."""
-    if inputs.lights_untrusted and inputs.lights is not None:
-        return inputs.lights.value
-    return fresh(inputs.lights, now, config.lights_timeout_s)
+def _usable(
+    spec: CommandSpec, inputs: ControlInputs, now: float, config: ControlConfig
+) -> Command | None:
+    """A command row's request as its `use` takes it: fresh, within the row's timeout. While its
+    id is untrusted (another sender), light requests hold the last trusted one whatever its age
+    (the lights alone are affected), and a task's request (`Use.REQUEST`) is dropped; set-points
+    and stop requests keep their own rules (CAN_UNTRUSTED stops CAN driving)."""
+    slot = inputs.commands.get(spec.kind)
+    if spec.kind in inputs.untrusted:
+        if spec.use is Use.LIGHT_REQUESTS and slot is not None:
+            return slot.value
+        if spec.use is Use.REQUEST:
+            return None
+    return fresh(slot, now, config.command_timeout_s(spec.kind))
+
+
+def _requests(
+    mode: ControlMode, sources: _Sources
+) -> tuple[tuple[type[Command], Command | None], ...]:
+    """Each request row's request for its task: in CAN mode alone."""
+    can = mode is ControlMode.CAN
+    return tuple((spec.kind, sources.usable[spec.kind] if can else None) for spec in REQUESTS)
+
+
+def _untrusted_moves(untrusted: frozenset[type[Command]]) -> bool:
+    """Among these untrusted ids, one of a command that moves the robot (CAN_UNTRUSTED)."""
+    return any(command_row(kind).moves_the_robot for kind in untrusted)
+
+
+def trust_changed(seen: ControlInputs, untrusted: frozenset[type[Command]]) -> bool:
+    """Whether the ids not trusted now (`untrusted`) differ from those the decision saw in a
+    way it tells apart: whether any that moves the robot is among them, and which others."""
+    if untrusted == seen.untrusted:
+        return False
+    return _untrusted_moves(untrusted) != _untrusted_moves(seen.untrusted) or (
+        untrusted & MOVES_NOTHING
+    ) != (seen.untrusted & MOVES_NOTHING)
 
 
 def _conditions(
@@ -195,7 +274,7 @@ def _conditions(
             Cause.RC_IMPLAUSIBLE,
         ),
         (sources.can_movement is None, Cause.CAN_LOST),
-        (inputs.can_untrusted, Cause.CAN_UNTRUSTED),
+        (_untrusted_moves(inputs.untrusted), Cause.CAN_UNTRUSTED),
         (sources.control is not None and sources.control.remote_stop, Cause.REMOTE_STOP),
         (inputs.dac_failing, Cause.DAC_FAULT),
         (inputs.watchdog_tripped, Cause.WATCHDOG),
@@ -251,10 +330,8 @@ def _input_flags(
         flags |= ErrorFlag.CAN_COMMAND_TIMEOUT
     if sources.control is not None and sources.control.remote_stop:
         flags |= ErrorFlag.REMOTE_STOP
-    if inputs.can_untrusted:
-        flags |= ErrorFlag.CAN_UNTRUSTED
-    if inputs.lights_untrusted:
-        flags |= ErrorFlag.LIGHTS_UNTRUSTED
+    for kind in inputs.untrusted:
+        flags |= command_row(kind).untrusted_flag
     return flags
 
 
@@ -364,6 +441,7 @@ def controller_step(
         lights=light_outputs(light_request, now, config.blink_rate_hz),
         light_request=light_request,
         error_flags=int(flags),
+        requests=_requests(supervisor.mode, sources) if REQUESTS else (),
     )
     new_state = ControlState(
         supervisor,
@@ -388,11 +466,7 @@ class Arrivals(Protocol):
     @property
     def rc(self) -> Stamped[RcRequest | None] | None: ...
     @property
-    def movement(self) -> Stamped[MovementCommand] | None: ...
-    @property
-    def lights(self) -> Stamped[LightsCommand] | None: ...
-    @property
-    def control(self) -> Stamped[ControlCommand] | None: ...
+    def commands(self) -> CommandSlots: ...
     @property
     def control_edges(self) -> CommandEdges: ...
     @property
@@ -402,6 +476,7 @@ class Arrivals(Protocol):
 
 
 T = TypeVar("T")
+C = TypeVar("C", bound=Command)
 
 
 def changes_decision(
@@ -425,17 +500,15 @@ def changes_decision(
         return True
     if arrivals.stop_requests != seen.stop_requests:
         return True
+    if arrivals.commands is not seen.commands:
+        for spec in COMMANDS:
+            kind = spec.kind
+            timeout_s = config.command_timeout_s(kind)
+            newest, before = arrivals.commands.get(kind), seen.commands.get(kind)
+            if not _repeats(newest, before, decided_at, timeout_s, same_request):
+                return True
     return not (
         _repeats(arrivals.rc, seen.rc, decided_at, config.rc_timeout_s, operator.eq)
-        and _repeats(
-            arrivals.movement, seen.movement, decided_at, config.movement_timeout_s, same_request
-        )
-        and _repeats(
-            arrivals.lights, seen.lights, decided_at, config.lights_timeout_s, same_request
-        )
-        and _repeats(
-            arrivals.control, seen.control, decided_at, config.control_timeout_s, same_request
-        )
         and arrivals.control_edges == seen.control_edges
     )
 

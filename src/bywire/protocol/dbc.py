@@ -36,8 +36,9 @@ from typing import cast
 import cantools
 from cantools.database.can import Database, Message
 
+from bywire.command_table import COMMAND_TYPES
 from bywire.errors import BywireError, FrameError
-from bywire.model import COMMAND_TYPES, REPORT_TYPES, Command, Report
+from bywire.model import REPORT_TYPES, Command, Report
 from bywire.protocol import dbc_values
 from bywire.protocol.crc8 import crc8
 

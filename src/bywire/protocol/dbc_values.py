@@ -13,16 +13,25 @@ from __future__ import annotations
 import dataclasses
 import enum
 import math
+from dataclasses import fields
 from typing import Any, get_type_hints
 
 from cantools.database.can import Message, Signal
 
+from bywire.command_table import COMMAND_TYPES
 from bywire.errors import FrameError
-from bywire.model import COMMAND_TYPES, REPORT_TYPES, Command, Report
+from bywire.model import REPORT_TYPES, Command, Report
+
+
+def _field_types(kind: type[Command] | type[Report]) -> dict[str, Any]:
+    """Each field's annotated type, in the fields' order (not the base `Command`'s names)."""
+    hints = get_type_hints(kind)
+    return {field.name: hints[field.name] for field in fields(kind)}
+
 
 # Field name -> annotated type, resolved once (the model uses postponed annotations).
 _FIELD_TYPES: dict[type[Command] | type[Report], dict[str, Any]] = {
-    kind: get_type_hints(kind) for kind in (*COMMAND_TYPES, *REPORT_TYPES)
+    kind: _field_types(kind) for kind in (*COMMAND_TYPES, *REPORT_TYPES)
 }
 
 

@@ -29,19 +29,21 @@ from dataclasses import dataclass
 
 from bywire.can_frame import CanFrame
 from bywire.control.command_edges import NO_EDGES, CommandEdges
+from bywire.control.command_slots import NO_COMMANDS, CommandSlots
 from bywire.control.controller import (
     ControlInputs,
     ControlOutputs,
     ControlState,
     changes_decision,
     controller_step,
+    trust_changed,
 )
 from bywire.control.rc_mapping import RcRequest
 from bywire.control.supervisor import Cause
 from bywire.control.validity import Stamped, age_s
 from bywire.error_flags import ErrorFlag
 from bywire.hal.hardware import Hardware
-from bywire.model import Command, ControlCommand, ControlMode, LightsCommand, MovementCommand
+from bywire.model import Command, ControlCommand, ControlMode, MovementCommand
 from bywire.protocol import dbc
 from bywire.runtime.actuators import Actuators
 from bywire.runtime.readers import CanReader, IbusReader
@@ -62,13 +64,12 @@ log = logging.getLogger(__name__)
 
 @dataclass(slots=True)
 class _InputSlots:
-    """The newest stamped input of each kind as the readers deliver it, and arrival counts: the
-    shell's own, updated in place; each decision copies them into one frozen ControlInputs."""
+    """The newest stamped input of each kind as the readers deliver it (the CAN commands' in
+    one slot per command row), and arrival counts: the shell's own, updated in place; each
+    decision copies them into one frozen ControlInputs."""
 
     rc: Stamped[RcRequest | None] | None = None
-    movement: Stamped[MovementCommand] | None = None
-    lights: Stamped[LightsCommand] | None = None
-    control: Stamped[ControlCommand] | None = None
+    commands: CommandSlots = NO_COMMANDS
     control_edges: CommandEdges = NO_EDGES
     rc_frames: int = 0
     control_frames: int = 0
@@ -290,22 +291,14 @@ class Runtime:
     def _news(self) -> bool:
         """Whether what arrived can change the latest decision (`changes_decision`): a frame that
         only repeats a request waits for the next periodic decision, as time alone does."""
-        trust = (self.can.untrusted, self.can.lights_untrusted)
-        return trust != (
-            self.inputs.can_untrusted,
-            self.inputs.lights_untrusted,
-        ) or changes_decision(
+        return trust_changed(self.inputs, self.can.untrusted_kinds) or changes_decision(
             self.state, self.inputs, self.decided_at, self._slots, self.config.control
         )
 
     def _store(self, command: Stamped[Command]) -> None:
-        value, slots = command.value, self._slots
-        if isinstance(value, MovementCommand):
-            slots.movement = Stamped(value, command.received_at)
-        elif isinstance(value, LightsCommand):
-            slots.lights = Stamped(value, command.received_at)
-        elif isinstance(value, ControlCommand):
-            slots.control = Stamped(value, command.received_at)
+        slots = self._slots
+        slots.commands = slots.commands.with_frames(command)
+        if isinstance(command.value, ControlCommand):
             slots.control_edges = self.can.control_edges
             slots.control_frames += 1
 
@@ -318,9 +311,7 @@ class Runtime:
         slots = self._slots
         self.inputs = ControlInputs(
             rc=slots.rc,
-            movement=slots.movement,
-            lights=slots.lights,
-            control=slots.control,
+            commands=slots.commands,
             control_edges=slots.control_edges,
             rc_frames=slots.rc_frames,
             control_frames=slots.control_frames,
@@ -328,8 +319,7 @@ class Runtime:
             fault_flags=active_flags(self._flag_sources, now),
             dac_failing=self.actuators.dac_failing,
             watchdog_tripped=watchdog_tripped,
-            can_untrusted=self.can.untrusted,
-            lights_untrusted=self.can.lights_untrusted,
+            untrusted=self.can.untrusted_kinds,
             timing_fault=self.overruns.active(),
             speed_mps=sensors.checked_speed_mps,
             hydrobrake_pressure_bar=sensors.checked_pressure_bar,
@@ -360,7 +350,7 @@ class Runtime:
             uptime_s=now - self.started_at,
             overrun_count=self.overrun_count,
             rc_age_s=age_s(self.inputs.rc, now),
-            can_age_s=age_s(self.inputs.movement, now),
+            can_age_s=age_s(self.inputs.commands.get(MovementCommand), now),
             wheel_speeds_mps=self.sensors.wheel_speeds_mps,
             steering_setpoint_norm=self.state.steering.setpoint_norm,
             steering_measured_norm=self.sensors.steering_measured_norm,

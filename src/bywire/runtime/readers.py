@@ -33,7 +33,7 @@ from bywire.control.input_stage import (
 from bywire.control.rc_mapping import RcMapping, RcRequest, RcStage, rc_step
 from bywire.control.validity import Stamped
 from bywire.hal.ports import LINK_UP, ByteStream, CanPort, LinkState
-from bywire.model import Command, ControlCommand, ControlMode, LightsCommand
+from bywire.model import Command, ControlCommand, ControlMode
 from bywire.protocol import dbc
 from bywire.protocol.ibus import IbusParser
 from bywire.runtime.recent_fault import RecentFault
@@ -165,10 +165,9 @@ class CanReader:
     filter (R-STOP-PASS). This class only reads the port, decodes each frame with the codec,
     steps the stage with the frame's arrival stamp, and counts and flags what it refused.
 
-    Trust is proportionate, by the row: an untrusted id of a command that moves the robot
-    (`untrusted`; movement, control, and any command not named in `model.MOVES_NOTHING`) stops
-    CAN mode (CAN_UNTRUSTED); an untrusted lights id (`lights_untrusted`) affects the lights
-    alone.
+    Trust is proportionate, by the command row (`bywire.command_table`): `untrusted_kinds` names
+    the messages whose id is not trusted now; one whose row moves the robot (`untrusted`) stops
+    CAN mode (CAN_UNTRUSTED), another (the lights) affects its own function alone.
 
     With `secoc` (authentication on), a command frame counts only once its cryptographic PDU
     has arrived and verified (`bywire.security.session`), the two paired by their arrival stamps;
@@ -193,7 +192,6 @@ class CanReader:
         self._rows = {check.frame_id: check for check in checks}
         self._gap_s = rx_check(checks, ControlCommand).timeout_s
         self._control_id = dbc.frame_id(ControlCommand)
-        self._lights_id = dbc.frame_id(LightsCommand)
         self.states = {frame_id: MessageState() for frame_id in self._rows}
         """Each command message's input-stage state, by frame id."""
         self.rejected: Counter[dbc.RejectReason] = Counter()
@@ -221,10 +219,13 @@ class CanReader:
         )
 
     @property
-    def lights_untrusted(self) -> bool:
-        """The lights command is not trusted now: it affects the lights alone."""
-        state = self.states.get(self._lights_id)
-        return state is not None and state.untrusted
+    def untrusted_kinds(self) -> frozenset[type[Command]]:
+        """The command messages whose id is not trusted now."""
+        if not any(state.untrusted for state in self.states.values()):
+            return frozenset()
+        return frozenset(
+            self._rows[frame_id].kind for frame_id, state in self.states.items() if state.untrusted
+        )
 
     @property
     def untrusted_frames(self) -> int:

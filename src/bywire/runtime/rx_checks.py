@@ -13,9 +13,10 @@ from __future__ import annotations
 from collections.abc import Sequence
 from dataclasses import dataclass
 
+from bywire.command_table import COMMANDS, CommandSpec
 from bywire.config import TimeoutsSection
 from bywire.config.consistency import CAN_TIMEOUT_PERIODS
-from bywire.model import COMMAND_TYPES, MOVES_NOTHING, Command
+from bywire.model import Command
 from bywire.protocol import dbc
 
 MIN_PERIODS_PER_TIMEOUT = CAN_TIMEOUT_PERIODS
@@ -33,7 +34,7 @@ class RxCheck:
     counter_modulus: int  # the rolling counter in the low nibble before the CRC byte
     period_s: float  # how often the sender sends it (DBC GenMsgCycleTime)
     timeout_s: float  # older than this, the message counts as lost
-    moves_the_robot: bool = True  # losing trust in it stops CAN driving (`MOVES_NOTHING`)
+    moves_the_robot: bool = True  # losing trust in it stops CAN driving (its command row's)
 
     @property
     def name(self) -> str:
@@ -50,8 +51,8 @@ class RxCheck:
 
 
 def rx_checks(timeouts: TimeoutsSection) -> tuple[RxCheck, ...]:
-    """The receive check of every CAN command message, in `COMMAND_TYPES` order."""
-    return tuple(_row(kind, timeouts.can_timeout_s(kind.__name__)) for kind in COMMAND_TYPES)
+    """The receive check of every CAN command message, in the command table's order."""
+    return tuple(_row(spec, timeouts.can_timeout_s(spec.name)) for spec in COMMANDS)
 
 
 def rx_check(checks: Sequence[RxCheck], kind: type[Command]) -> RxCheck:
@@ -62,14 +63,14 @@ def rx_check(checks: Sequence[RxCheck], kind: type[Command]) -> RxCheck:
     raise LookupError(f"no receive check for {kind.__name__}")
 
 
-def _row(kind: type[Command], timeout_s: float) -> RxCheck:
-    frame_id = dbc.frame_id(kind)
+def _row(spec: CommandSpec, timeout_s: float) -> RxCheck:
+    frame_id = dbc.frame_id(spec.kind)
     return RxCheck(
-        kind=kind,
+        kind=spec.kind,
         frame_id=frame_id,
         length_bytes=dbc.length_bytes(frame_id),
         counter_modulus=dbc.COUNTER_MODULUS,
         period_s=dbc.period_s(frame_id),
         timeout_s=timeout_s,
-        moves_the_robot=kind not in MOVES_NOTHING,
+        moves_the_robot=spec.moves_the_robot,
     )

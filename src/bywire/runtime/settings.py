@@ -7,7 +7,6 @@ from dataclasses import dataclass, field, replace
 from bywire.config import RobotConfig, TimeoutsSection
 from bywire.control.controller import ControlConfig
 from bywire.control.stop import STANDSTILL_LIMIT_MPS, StopConfig
-from bywire.model import ControlCommand, LightsCommand, MovementCommand
 from bywire.runtime.actuators import ActuatorConfig
 from bywire.runtime.rx_checks import RxCheck, rx_checks
 from bywire.runtime.timing import Budgets
@@ -32,16 +31,13 @@ class RuntimeConfig:
         """The runtime's view of a robot's validated configuration."""
         servo = robot.steering.servo
         checks = rx_checks(robot.timeouts)
-        timeout_s = {check.kind: check.timeout_s for check in checks}
         control = ControlConfig(
             steering=servo,
             drive=robot.drive.limits,
             rc_mapping=robot.rc.mapping,
             hydrobrake_threshold_norm=robot.hydrobrake.threshold_norm,
             rc_timeout_s=robot.timeouts.rc_timeout_s,
-            movement_timeout_s=timeout_s[MovementCommand],
-            control_timeout_s=timeout_s[ControlCommand],
-            lights_timeout_s=timeout_s[LightsCommand],
+            command_timeouts_s=tuple((check.kind, check.timeout_s) for check in checks),
             blink_rate_hz=robot.lights.blink_rate_hz,
             interlocks=robot.interlocks,
             monitors=robot.monitors,

@@ -18,6 +18,7 @@ from typing import TYPE_CHECKING, NamedTuple
 
 from bywire.control.validity import age_s
 from bywire.error_flags import flag_names
+from bywire.model import ControlCommand, LightsCommand, MovementCommand
 from bywire.telemetry.outbox import Outbox
 from bywire.telemetry.schemas import LIGHTS
 
@@ -192,7 +193,7 @@ class TelemetryTap:
         watchdog = runtime.watchdog
         inputs, sensors = runtime.inputs, runtime.sensors
         drive, lights = outputs.drive, outputs.lights
-        rc, movement = inputs.rc, inputs.movement
+        rc, movement = inputs.rc, inputs.commands.get(MovementCommand)
         rc_request = None if rc is None else rc.value
         wheels = sensors.wheel_speeds_mps
         return StateCapture(
@@ -216,8 +217,8 @@ class TelemetryTap:
             outputs.error_flags,
             age_s(rc, now),
             age_s(movement, now),
-            age_s(inputs.lights, now),
-            age_s(inputs.control, now),
+            age_s(inputs.commands.get(LightsCommand), now),
+            age_s(inputs.commands.get(ControlCommand), now),
             inputs.rc_frames,
             inputs.control_frames,
             None if rc_request is None else movement_values(rc_request),

@@ -8,6 +8,7 @@ from dataclasses import replace
 import pytest
 
 from bywire.can_frame import CanFrame
+from bywire.command_table import COMMANDS
 from bywire.errors import FrameError
 from bywire.hal.sim.can_bus import SimCanBus
 from bywire.hal.sim.can_port import SimCanPort
@@ -69,14 +70,14 @@ def test_three_commands_every_20_ms_with_consecutive_counters() -> None:
     movement_times = [f.timestamp_s for f in frames if f.arbitration_id == 0x101]
     periods = [later - earlier for earlier, later in itertools.pairwise(movement_times)]
     assert periods == pytest.approx([0.02] * 49)
-    assert hlc.frames_sent == 150
+    assert hlc.frames_sent == 50 * len(COMMANDS)  # every row, every period
 
 
 def test_silence_stops_the_commands_and_start_resumes_the_sequence() -> None:
     clock, _, hlc, controller = hlc_on_bus()
     hlc.start()
     clock.advance(0.09)
-    assert len(controller.receive()) == 15
+    assert len(controller.receive()) == 5 * len(COMMANDS)
     hlc.silence()
     assert not hlc.sending
     clock.advance(0.5)
@@ -84,7 +85,7 @@ def test_silence_stops_the_commands_and_start_resumes_the_sequence() -> None:
     hlc.start()
     clock.advance(0.05)
     frames = controller.receive()
-    assert len(frames) == 9
+    assert len(frames) == 3 * len(COMMANDS)
     counters = [f.data[-2] & 0x0F for f in frames if f.arbitration_id == 0x101]
     assert counters == [5, 6, 7]
 
@@ -202,4 +203,4 @@ def test_set_movement_refuses_values_the_codec_cannot_send(
     _, _, hlc, _ = hlc_on_bus()
     with pytest.raises(FrameError):
         hlc.set_movement(steering_norm, throttle_norm, 0.0, Gear.FORWARD)
-    assert hlc.movement.brake_norm == 1.0  # the previous set-points stay
+    assert hlc.current(MovementCommand).brake_norm == 1.0  # the previous set-points stay

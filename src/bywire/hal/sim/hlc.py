@@ -1,4 +1,9 @@
-"""Simulated higher-level computer: sends the three commands every 20 ms, collects the reports.
+"""Simulated higher-level computer: sends every command row each period, collects the reports.
+
+It sends each row of the command table (`bywire.command_table.COMMANDS`) every period, in the
+table's order: the row's `neutral` frame until told otherwise (`set_command`). Its transmit
+mailboxes are sized from the table (`mailboxes_needed`), so a new row goes out like the others;
+a frame the port still refuses is counted by message (`refused`), never dropped unseen.
 
 Commands are built with the real codec (``dbc.encode_command``), each with its own rolling
 counter, which advances only when the frame was queued (a refused frame never reached the bus,
@@ -10,16 +15,15 @@ from __future__ import annotations
 
 import dataclasses
 import enum
-from collections import deque
-from typing import TypeVar
+from collections import Counter, deque
+from typing import TypeVar, cast
 
 from bywire.can_frame import CanFrame
+from bywire.command_table import COMMANDS, command_row
 from bywire.errors import FrameError
 from bywire.hal.sim.can_port import SimCanPort
 from bywire.hal.sim.timers import PeriodicTimer, SimClock
 from bywire.model import (
-    COMMAND_TYPES,
-    LIGHTS_OFF,
     Command,
     ControlCommand,
     Gear,
@@ -32,6 +36,13 @@ from bywire.security.session import TRIP_IDS, SecocSigner
 
 COMMAND_PERIOD_S = dbc.command_period_s()
 ARRIVAL_HISTORY = 1000  # report arrival times kept per report type
+C = TypeVar("C", bound=Command)
+
+
+def mailboxes_needed(signing: bool = False) -> int:
+    """Transmit mailboxes for one period's commands queued at once: one per command row, two
+    when each frame is followed by its SecOC authenticator."""
+    return (2 if signing else 1) * len(COMMANDS)
 
 
 class Corruption(enum.Enum):
@@ -68,16 +79,19 @@ class SimHigherLevelComputer:
         self, clock: SimClock, port: SimCanPort, period_s: float = COMMAND_PERIOD_S
     ) -> None:
         self._port = port
+        port.set_tx_mailboxes(mailboxes_needed())
         self._timer = PeriodicTimer(clock, period_s, self._send_commands)
-        self.movement = MovementCommand(0.0, 0.0, 1.0, Gear.NEUTRAL, 0)
-        self.lights = LIGHTS_OFF
-        self.control = ControlCommand(remote_stop=False, re_enable=False, counter=0)
-        self._counters: dict[type[Command], int] = dict.fromkeys(COMMAND_TYPES, 0)
+        self._commands: dict[type[Command], Command] = {
+            spec.kind: spec.neutral for spec in COMMANDS
+        }
+        self._counters: dict[type[Command], int] = {spec.kind: 0 for spec in COMMANDS}
         self._corruptions: dict[type[Command], deque[Corruption]] = {
-            kind: deque() for kind in COMMAND_TYPES
+            spec.kind: deque() for spec in COMMANDS
         }
         self.frames_sent = 0
         self.send_refused = 0
+        self.refused: Counter[str] = Counter()
+        """Frames refused (not signed, or the port full or bus-off), by DBC message name."""
         self.report_errors = 0
         self._latest: dict[type[Report], tuple[float, Report]] = {}
         self._arrivals: dict[type[Report], deque[float]] = {}
@@ -91,7 +105,7 @@ class SimHigherLevelComputer:
         """Authenticated commands: each frame is followed by its SecOC cryptographic PDU, signed
         in the trip the controller announces (no command goes out before it is heard)."""
         self.signer = signer
-        self._port.set_tx_mailboxes(2 * len(COMMAND_TYPES))
+        self._port.set_tx_mailboxes(mailboxes_needed(signing=True))
         if self._port.accept_ids is not None:  # its filter lets the trip counter through too
             self._port.set_filter(self._port.accept_ids | TRIP_IDS)
 
@@ -117,15 +131,28 @@ class SimHigherLevelComputer:
 
         FrameError at once for a value outside its DBC range (``corrupt_next`` sends those).
         """
-        self.movement = _checked(MovementCommand(steering_norm, throttle_norm, brake_norm, gear, 0))
+        self.set_command(MovementCommand(steering_norm, throttle_norm, brake_norm, gear, 0))
 
     def set_lights(self, lights: LightsCommand) -> None:
         """The light requests of the next frames (their counter is this sender's own)."""
-        self.lights = _checked(lights)
+        self.set_command(lights)
 
     def set_control(self, remote_stop: bool, re_enable: bool) -> None:
         """Remote stop and re-enable (acted on at its rising edge) of the next frames."""
-        self.control = _checked(ControlCommand(remote_stop, re_enable, 0))
+        self.set_command(ControlCommand(remote_stop, re_enable, 0))
+
+    def set_command(self, command: Command) -> None:
+        """What the next frames of this command's row carry (their counter is this sender's own).
+
+        FrameError at once for a value outside its DBC range (``corrupt_next`` sends those);
+        LookupError for a command without a row.
+        """
+        command_row(type(command))
+        self._commands[type(command)] = _checked(command)
+
+    def current(self, kind: type[C]) -> C:
+        """What the next frame of `kind` carries (its row's `neutral` until set)."""
+        return cast(C, self._commands[kind])  # keyed by its own type (`set_command`)
 
     def corrupt_next(
         self, count: int, kind: Corruption, message: type[Command] = MovementCommand
@@ -135,16 +162,8 @@ class SimHigherLevelComputer:
         ValueError for OUT_OF_RANGE on a message whose signals all fill their bits.
         """
         if kind is Corruption.OUT_OF_RANGE:
-            out_of_range_payload(self._current(message))
+            out_of_range_payload(self._commands[message])
         self._corruptions[message].extend([kind] * count)
-
-    def _current(self, message: type[Command]) -> Command:
-        current: dict[type[Command], Command] = {
-            MovementCommand: self.movement,
-            LightsCommand: self.lights,
-            ControlCommand: self.control,
-        }
-        return current[message]
 
     def next_counter(self, message: type[Command]) -> int:
         """The counter the next frame of ``message`` will carry."""
@@ -154,7 +173,7 @@ class SimHigherLevelComputer:
         if self.signer is not None and not self.signer.ready:
             self.unsigned_periods += 1  # no trip counter heard yet: nothing it could sign
             return
-        for command in (self.control, self.movement, self.lights):
+        for command in self._commands.values():  # the table's order
             self._send(command)
 
     def _send(self, template: Command) -> None:
@@ -171,11 +190,11 @@ class SimHigherLevelComputer:
         authenticator = (
             None if self.signer is None else self.signer.authenticator(frame_id, payload)
         )
-        if self.signer is not None and authenticator is None:
+        if (self.signer is not None and authenticator is None) or not self._port.send(
+            CanFrame(frame_id, payload)
+        ):
             self.send_refused += 1
-            return
-        if not self._port.send(CanFrame(frame_id, payload)):
-            self.send_refused += 1
+            self.refused[kind.__name__] += 1
             return
         self.frames_sent += 1
         if authenticator is not None:
@@ -231,10 +250,7 @@ class SimHigherLevelComputer:
         self._arrivals.setdefault(kind, deque(maxlen=ARRIVAL_HISTORY)).append(frame.timestamp_s)
 
 
-_C = TypeVar("_C", MovementCommand, LightsCommand, ControlCommand)
-
-
-def _checked(command: _C) -> _C:
+def _checked(command: C) -> C:
     """The command, once the codec has accepted its values (raises FrameError otherwise)."""
     dbc.encode_command(command)
     return command

@@ -3,8 +3,9 @@
 It sends between the real computer's frames, each time with the counter the real sender will use
 next, so every frame it sends is intact and in sequence, and the real sender's next frame then
 repeats it: half the frames on the id are accepted, all of them the impostor's (hazard 10). On
-the movement id it asks for throttle; on the control id it is an idle `bywire teleop` (neither a
-stop nor a re-enable); on the lights id it asks for the hazard lights.
+the movement id it asks for throttle; on the lights id it asks for the hazard lights; on any
+other (the control id: an idle `bywire teleop`, neither a stop nor a re-enable) it sends its
+command row's neutral frame (`bywire.command_table`).
 
 With authentication on it has no key and guesses a MAC (`forge_authenticator`), unless it is
 `keyed`: a compromised node that signs with the computer's own key and freshness.
@@ -19,11 +20,14 @@ counter, a miss, not a second sender (issue 41).
 
 from __future__ import annotations
 
+import dataclasses
+
 from bywire.can_frame import CanFrame
+from bywire.command_table import command_row
 from bywire.hal.sim.can_port import SimCanPort
 from bywire.hal.sim.hlc import COMMAND_PERIOD_S, SimHigherLevelComputer
 from bywire.hal.sim.timers import PeriodicTimer, SimClock
-from bywire.model import Command, ControlCommand, Gear, LightsCommand, MovementCommand
+from bywire.model import Command, Gear, LightsCommand, MovementCommand
 from bywire.protocol import dbc, secoc
 
 IMPOSTOR_NODE = "impostor"
@@ -46,6 +50,7 @@ class SimImpostor:
         self._remaining = 0
         self.throttle_norm = 0.8
         self.kind: type[Command] = MovementCommand
+        self.asks: Command | None = None
         self.keyed = False
         self.forge = False
         self.skip = False
@@ -63,13 +68,16 @@ class SimImpostor:
         keyed: bool = False,
         forge: bool = False,
         skip: bool = False,
+        asks: Command | None = None,
     ) -> None:
         """Send `count` frames of `kind` (a movement frame asking for `throttle_norm`), the first
         half a period from now; `keyed`: signed with the computer's key and freshness; `forge`:
         each a bad-CRC frame and a forgery with the counter just used (full right lock); with
-        `skip`, with the counter after the computer's next."""
+        `skip`, with the counter after the computer's next; `asks`: what its frames ask for
+        (its counter replaced), instead of the kind's own request."""
         self._remaining, self.throttle_norm = count, throttle_norm
         self.kind, self.keyed, self.forge, self.skip = kind, keyed, forge, skip
+        self.asks = asks
         self._timer.start(self._clock.now() + COMMAND_PERIOD_S / 2)
 
     def stop(self) -> None:
@@ -77,11 +85,13 @@ class SimImpostor:
         self._timer.stop()
 
     def _command(self, counter: int) -> Command:
-        if self.kind is ControlCommand:
-            return ControlCommand(remote_stop=False, re_enable=False, counter=counter)
+        if self.asks is not None:
+            return dataclasses.replace(self.asks, counter=counter)
+        if self.kind is MovementCommand:
+            return MovementCommand(0.0, self.throttle_norm, 0.0, Gear.FORWARD, counter)
         if self.kind is LightsCommand:
             return LightsCommand(False, False, True, False, counter)
-        return MovementCommand(0.0, self.throttle_norm, 0.0, Gear.FORWARD, counter)
+        return dataclasses.replace(command_row(self.kind).neutral, counter=counter)
 
     def _send(self, _tick_s: float) -> None:
         if self._remaining <= 0:

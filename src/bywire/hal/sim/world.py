@@ -11,6 +11,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Protocol
 
+from bywire.command_table import COMMAND_TYPES
 from bywire.control.rc_mapping import RcMapping
 from bywire.hal.hardware import OUTPUT_NAMES, DigitalOutputs, Hardware, sensors_fitted
 from bywire.hal.ports import Clock
@@ -31,7 +32,7 @@ from bywire.hal.sim.vehicle import (
     VehicleWiring,
 )
 from bywire.hal.sim.vehicle_model import VehicleConfig
-from bywire.model import COMMAND_TYPES, Command, MovementCommand
+from bywire.model import Command, MovementCommand
 from bywire.protocol import dac6574, dbc, ibus
 
 if TYPE_CHECKING:
