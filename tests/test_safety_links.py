@@ -4,9 +4,9 @@ that `bywire verify` can inject.
 
 A hazard row names what it covers in one parenthesis after its hazard, which this test reads:
 `(links: `Cause.RC_LOST`, `MovementCommand`, `fault = "rc_link_lost"`)` — a latched cause of
-`control/supervisor.py`, a command message (`model.COMMAND_TYPES`), a fault as a scenario writes
-it (`sim/faults.py`). A new cause, command or fault fails here until a row names it; a row that
-names one that no longer exists fails too.
+`control/supervisor.py`, a command message (a row of `bywire.command_table`), a fault as a
+scenario writes it (`sim/faults.py`). A new cause, command or fault fails here until a row names
+it; a row that names one that no longer exists fails too.
 """
 
 from __future__ import annotations
@@ -17,9 +17,10 @@ from pathlib import Path
 
 import pytest
 
+from bywire.command_table import COMMANDS as COMMAND_ROWS
 from bywire.config import default_sim_config
 from bywire.control.supervisor import CAN_BOUND, Cause
-from bywire.model import COMMAND_TYPES, ControlMode
+from bywire.model import ControlMode
 from bywire.sim.faults import BY_NAME as FAULTS
 from bywire.sim.runner import SimRun
 from bywire.sim.verify.actions import ACTIONS, compile_steps
@@ -27,7 +28,7 @@ from bywire.sim.verify.actions import BY_NAME as VERIFY_ACTIONS
 from bywire.sim.verify.campaign import Step
 
 SAFETY = Path(__file__).resolve().parent.parent / "docs" / "SAFETY.md"
-COMMANDS = tuple(kind.__name__ for kind in COMMAND_TYPES)  # the command table's rows, later
+COMMANDS = tuple(row.name for row in COMMAND_ROWS)
 
 ROW = re.compile(r"^\| (\d+) \| .*$", re.M)
 LINKS = re.compile(r"\(links: ([^)]*)\)")
