@@ -10,3 +10,8 @@ settings.register_profile("ci", deadline=None, derandomize=True, print_blob=True
 # A search, not a gate: `pytest --hypothesis-profile=long tests/...`, ten times CI's examples.
 settings.register_profile("long", deadline=None, max_examples=1000, print_blob=True)
 settings.load_profile("ci" if os.environ.get("CI") else "default")
+
+# Every test: a thread or a child process it leaves running fails it, named (issue 42).
+from tests.leaks import no_leaks  # noqa: E402
+
+__all__ = ["no_leaks"]

@@ -1,0 +1,207 @@
+"""The one owner of every thread and child process bywire starts: each is started here, ended here.
+
+In the spirit of a Trio nursery. A starter names its work and says how it is asked to stop;
+`OWNER` keeps the list. `OWNER.scope()` (the `bywire` entry point holds one around every command)
+ends, on every way out of it (a return, an exception, Ctrl-C; SIGTERM and SIGHUP where a command
+turns them into a return), whatever was started inside it and still runs: in reverse order of
+start, each with a bounded wait. A thread: its stop callback, then a join with a timeout (a thread
+cannot be killed). A process: its stop callback (default SIGTERM), a grace, then SIGKILL. What did
+not end is named in one line on stderr: which, and where it was started.
+
+A starter still ends its own work first, as before (`close`, `stop`, with whatever semantics it
+had); the owner is the last word on the way out, not the first. Work that has ended is forgotten.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import os
+import subprocess
+import sys
+import threading
+import time
+from collections.abc import Callable, Iterator, Sequence
+from dataclasses import dataclass, field
+from typing import Any, Protocol
+
+THREAD_JOIN_S = 1.0  # how long an ended thread has to return after its stop callback
+PROCESS_GRACE_S = 1.0  # how long a process has after its stop callback (SIGTERM) before SIGKILL
+KILL_WAIT_S = 1.0  # after SIGKILL: only a process stuck in the kernel (state D) outlives this
+
+
+class _Child(Protocol):
+    """What the owner needs of a child process: subprocess.Popen and multiprocessing's both fit."""
+
+    @property
+    def pid(self) -> int | None: ...
+
+    def terminate(self) -> None: ...
+
+    def kill(self) -> None: ...
+
+
+@dataclass(eq=False)
+class Work:
+    """One thread or child process started through the owner."""
+
+    kind: str  # "thread" or "process"
+    name: str
+    started_at: str  # file:line of the starter, so that a leak names its source
+    alive: Callable[[], bool]
+    end: Callable[[float], bool]  # ask it to stop, wait at most the seconds given; ended?
+    handle: object = field(repr=False)  # the Thread, Popen or Process itself
+
+    def __str__(self) -> str:
+        return f"{self.kind} {self.name!r} (started at {self.started_at})"
+
+
+class Owner:
+    """Starts threads and child processes, and ends those still running when asked."""
+
+    def __init__(self) -> None:
+        self._lock = threading.Lock()
+        self._started: list[Work] = []
+        self._pid = os.getpid()
+
+    def thread(
+        self,
+        target: Callable[..., object],
+        *args: object,
+        name: str,
+        stop: Callable[[], None] | None = None,
+        join_s: float = THREAD_JOIN_S,
+    ) -> threading.Thread:
+        """Start `target(*args)` in a daemon thread named `name`; `stop` asks it to return."""
+        thread = threading.Thread(target=target, args=args, name=name, daemon=True)
+
+        def end(wait_s: float) -> bool:
+            if stop is not None:
+                stop()
+            if thread is not threading.current_thread():
+                thread.join(min(wait_s, join_s))
+            return not thread.is_alive()
+
+        self._add(Work("thread", name, _caller(), thread.is_alive, end, thread))
+        thread.start()
+        return thread
+
+    def popen(
+        self,
+        command: Sequence[str],
+        *,
+        name: str,
+        stop: Callable[[], None] | None = None,
+        grace_s: float = PROCESS_GRACE_S,
+        **options: Any,
+    ) -> subprocess.Popen[Any]:
+        """`subprocess.Popen(command, **options)`, owned: `stop` (default SIGTERM) ends it."""
+        process: subprocess.Popen[Any] = subprocess.Popen(command, **options)
+        self._add(self._process_work(name, process, lambda: process.poll() is None, stop, grace_s))
+        return process
+
+    def process(
+        self,
+        process: Any,
+        *,
+        stop: Callable[[], None] | None = None,
+        grace_s: float = PROCESS_GRACE_S,
+    ) -> Any:
+        """Start a `multiprocessing` process (made, not started), owned under its own name."""
+        process.start()
+        alive: Callable[[], bool] = process.is_alive
+        self._add(self._process_work(process.name, process, alive, stop, grace_s))
+        return process
+
+    def adopt(
+        self, kind: str, name: str, *, alive: Callable[[], bool], end: Callable[[float], bool]
+    ) -> Work:
+        """Own work started elsewhere (a library's pool): `end(wait_s)` ends it."""
+        work = Work(kind, name, _caller(), alive, end, None)
+        self._add(work)
+        return work
+
+    def forget(self, work: Work) -> None:
+        with self._lock:
+            if work in self._started:
+                self._started.remove(work)
+
+    def running(self) -> list[Work]:
+        """What was started here, in this process, and still runs, oldest first."""
+        with self._lock:
+            if os.getpid() != self._pid:  # a forked child: its parent's work is not its own
+                self._started.clear()
+                self._pid = os.getpid()
+            self._started = [work for work in self._started if work.alive()]
+            return list(self._started)
+
+    def end_all(self, since: int = 0, wait_s: float = PROCESS_GRACE_S) -> list[Work]:
+        """End what runs, started after the first `since`, newest first; those that did not end,
+        each also named in one line on stderr."""
+        left: list[Work] = []
+        for work in reversed(self.running()[since:]):
+            try:
+                ended = work.end(wait_s)
+            except Exception as error:  # one refusal must not keep the rest running
+                print(f"bywire: ending {work} failed: {error}", file=sys.stderr)
+                ended = False
+            if not ended:
+                left.append(work)
+                print(f"bywire: {work} did not end", file=sys.stderr)
+        return left
+
+    @contextlib.contextmanager
+    def scope(self) -> Iterator[None]:
+        """End, on every way out, the work started inside that still runs."""
+        since = len(self.running())
+        try:
+            yield
+        finally:
+            self.end_all(since)
+
+    def _add(self, work: Work) -> None:
+        self.running()  # forget the ended, so that the list stays as short as the work
+        with self._lock:
+            self._started.append(work)
+
+    @staticmethod
+    def _process_work(
+        name: str,
+        process: _Child,
+        is_alive: Callable[[], bool],
+        stop: Callable[[], None] | None,
+        grace_s: float,
+    ) -> Work:
+        def end(wait_s: float) -> bool:
+            with contextlib.suppress(OSError):
+                (stop or process.terminate)()
+            if _wait(is_alive, min(wait_s, grace_s) if stop is None else grace_s):
+                return True
+            with contextlib.suppress(OSError):
+                process.kill()
+            return _wait(is_alive, KILL_WAIT_S)
+
+        return Work("process", name, _caller(3), is_alive, end, process)
+
+
+def _wait(alive: Callable[[], bool], timeout_s: float) -> bool:
+    """Whether `alive()` turned False within `timeout_s` (polled: both kinds of child fit)."""
+    deadline = time.monotonic() + timeout_s
+    while alive():
+        if time.monotonic() >= deadline:
+            return False
+        time.sleep(0.005)
+    return True
+
+
+def _caller(depth: int = 2) -> str:
+    """file:line of the code that called the owner's starter, inside the package if it can."""
+    frame = sys._getframe(depth)  # the cheapest way to the caller's line
+    path = frame.f_code.co_filename
+    marker = f"{os.sep}bywire{os.sep}"
+    if marker in path:
+        path = "bywire" + os.sep + path.rsplit(marker, 1)[1]
+    return f"{path}:{frame.f_lineno}"
+
+
+OWNER = Owner()
+"""The process' one owner."""
