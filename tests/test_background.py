@@ -3,6 +3,7 @@ out of a scope, within a bounded wait, and names what did not end."""
 
 from __future__ import annotations
 
+import functools
 import subprocess
 import sys
 import threading
@@ -34,7 +35,7 @@ def test_a_scope_ends_its_work_newest_first_on_an_exception() -> None:
     def command() -> None:
         with owner.scope():
             for name, stop in stops.items():
-                owner.thread(stop.wait, name=name, stop=lambda name=name: stopper(name))
+                owner.thread(stop.wait, name=name, stop=functools.partial(stopper, name))
             started.append(owner.popen(SLEEPER, name="sleeper"))
             raise RuntimeError("the command failed")
 
