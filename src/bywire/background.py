@@ -59,7 +59,9 @@ class Owner:
     """Starts threads and child processes, and ends those still running when asked."""
 
     def __init__(self) -> None:
-        self._lock = threading.Lock()
+        # Re-entrant: a signal handler may start work (`bywire dashboard`'s SIGTERM closes its
+        # client in a thread) while the main thread it interrupted holds the lock.
+        self._lock = threading.RLock()
         self._started: list[Work] = []
         self._pid = os.getpid()
 
@@ -138,15 +140,20 @@ class Owner:
         """End what runs, started after the first `since`, newest first; those that did not end,
         each also named in one line on stderr."""
         left: list[Work] = []
+        interrupted: KeyboardInterrupt | None = None
         for work in reversed(self.running()[since:]):
             try:
                 ended = work.end(wait_s)
+            except KeyboardInterrupt as again:  # a second Ctrl-C: the rest still get ended
+                interrupted, ended = again, False
             except Exception as error:  # one refusal must not keep the rest running
                 print(f"bywire: ending {work} failed: {error}", file=sys.stderr)
                 ended = False
             if not ended:
                 left.append(work)
                 print(f"bywire: {work} did not end", file=sys.stderr)
+        if interrupted is not None:
+            raise interrupted
         return left
 
     @contextlib.contextmanager
