@@ -3,7 +3,9 @@ out of a scope, within a bounded wait, and names what did not end."""
 
 from __future__ import annotations
 
+import ast
 import functools
+import re
 import subprocess
 import sys
 import threading
@@ -11,6 +13,7 @@ import threading
 import pytest
 
 from bywire.background import Owner
+from tests.layers import SOURCE
 
 SLEEPER = [sys.executable, "-c", "import time; time.sleep(60)"]
 DEAF = [
@@ -101,3 +104,48 @@ def test_ended_work_is_forgotten() -> None:
     thread = owner.thread(lambda: None, name="short")
     thread.join()
     assert owner.running() == []
+
+
+STARTERS = re.compile(
+    r"threading\.Thread\(|subprocess\.(Popen|run|call|check_call|check_output)\(|\.Pool\(|"
+    r"\bProcess\(|os\.fork\(|_thread\.start_new"
+)
+HANDED_TO_THE_OWNER = {
+    ("ros2/link_process.py", "Process("),  # made here, started by OWNER.process
+    ("sim/verify/engine.py", ".Pool("),  # a library's pool: adopted, terminated by the owner
+}
+
+
+def test_nothing_in_bywire_starts_a_thread_or_a_process_but_the_owner() -> None:
+    """Issue 42: one owner; a new starter anywhere else fails here, naming its line."""
+    elsewhere = [
+        f"{path.relative_to(SOURCE)}:{number}: {line.strip()}"
+        for path in sorted(SOURCE.rglob("*.py"))
+        if path.name != "background.py" or path.parent != SOURCE
+        for number, line in enumerate(path.read_text().splitlines(), 1)
+        if (found := STARTERS.search(line)) is not None
+        and not line.lstrip().startswith("#")
+        and (str(path.relative_to(SOURCE)), found.group(0)) not in HANDED_TO_THE_OWNER
+    ]
+    assert elsewhere == []
+
+
+def test_every_owned_thread_and_process_is_named_as_bywire_s() -> None:
+    """A leak's line, `ps -T` and py-spy say whose it is: every name given to the owner starts
+    with `bywire-`."""
+    unnamed = []
+    for path in sorted(SOURCE.rglob("*.py")):
+        for node in ast.walk(ast.parse(path.read_text())):
+            if not (
+                isinstance(node, ast.Call)
+                and isinstance(node.func, ast.Attribute)
+                and isinstance(node.func.value, ast.Name)
+                and node.func.value.id == "OWNER"
+                and node.func.attr in ("thread", "popen")
+            ):
+                continue
+            name = next((k.value for k in node.keywords if k.arg == "name"), None)
+            text = ast.unparse(name) if name is not None else ""
+            if not text.lstrip("f").strip("'\"").startswith("bywire-"):
+                unnamed.append(f"{path.relative_to(SOURCE)}:{node.lineno}: {text or 'no name'}")
+    assert unnamed == []
