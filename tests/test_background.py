@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import ast
 import functools
+import multiprocessing
 import re
 import subprocess
 import sys
@@ -12,7 +13,7 @@ import threading
 
 import pytest
 
-from bywire.background import Owner
+from bywire.background import OWNER, Owner
 from tests.layers import SOURCE
 
 SLEEPER = [sys.executable, "-c", "import time; time.sleep(60)"]
@@ -149,3 +150,29 @@ def test_every_owned_thread_and_process_is_named_as_bywire_s() -> None:
             if not text.lstrip("f").strip("'\"").startswith("bywire-"):
                 unnamed.append(f"{path.relative_to(SOURCE)}:{node.lineno}: {text or 'no name'}")
     assert unnamed == []
+
+
+def test_work_that_ends_before_the_scope_does_hides_nothing_started_inside() -> None:
+    owner = Owner()
+    done = threading.Event()
+    earlier = owner.thread(done.wait, name="earlier", stop=done.set)
+    with owner.scope():
+        inner = owner.popen(SLEEPER, name="inner")
+        done.set()
+        earlier.join()  # the owner's list shrinks while the scope is open
+    assert inner.poll() is not None
+
+
+def _owned_here() -> int:
+    return len(OWNER.running())
+
+
+def test_a_forked_child_owns_none_of_its_parent_s_work() -> None:
+    """A forked worker (verify's pool) must not end, or wait on, its parent's threads."""
+    release = threading.Event()
+    OWNER.thread(release.wait, name="bywire-test-parent", stop=release.set)
+    try:
+        with multiprocessing.get_context("fork").Pool(1) as pool:
+            assert pool.apply(_owned_here) == 0
+    finally:
+        assert OWNER.end_all(OWNER.mark() - 1) == []

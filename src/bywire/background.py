@@ -50,6 +50,7 @@ class Work:
     alive: Callable[[], bool]
     end: Callable[[float], bool]  # ask it to stop, wait at most the seconds given; ended?
     handle: object = field(repr=False)  # the Thread, Popen or Process itself
+    number: int = 0  # in order of start, from 1: what a scope ends is numbered after its mark
 
     def __str__(self) -> str:
         return f"{self.kind} {self.name!r} (started at {self.started_at})"
@@ -63,7 +64,12 @@ class Owner:
         # client in a thread) while the main thread it interrupted holds the lock.
         self._lock = threading.RLock()
         self._started: list[Work] = []
-        self._pid = os.getpid()
+        self._count = 0
+
+    def forget_all(self) -> None:
+        """In a forked child: its parent's work is not its own."""
+        self._lock = threading.RLock()  # another thread may have held it at the fork
+        self._started = []
 
     def thread(
         self,
@@ -130,18 +136,20 @@ class Owner:
     def running(self) -> list[Work]:
         """What was started here, in this process, and still runs, oldest first."""
         with self._lock:
-            if os.getpid() != self._pid:  # a forked child: its parent's work is not its own
-                self._started.clear()
-                self._pid = os.getpid()
             self._started = [work for work in self._started if work.alive()]
             return list(self._started)
 
+    def mark(self) -> int:
+        """A mark for `end_all`: work started from now on is after it."""
+        with self._lock:
+            return self._count
+
     def end_all(self, since: int = 0, wait_s: float = PROCESS_GRACE_S) -> list[Work]:
-        """End what runs, started after the first `since`, newest first; those that did not end,
+        """End what runs, started after the mark `since`, newest first; those that did not end,
         each also named in one line on stderr."""
         left: list[Work] = []
         interrupted: KeyboardInterrupt | None = None
-        for work in reversed(self.running()[since:]):
+        for work in reversed([work for work in self.running() if work.number > since]):
             try:
                 ended = work.end(wait_s)
             except KeyboardInterrupt as again:  # a second Ctrl-C: the rest still get ended
@@ -159,7 +167,7 @@ class Owner:
     @contextlib.contextmanager
     def scope(self) -> Iterator[None]:
         """End, on every way out, the work started inside that still runs."""
-        since = len(self.running())
+        since = self.mark()
         try:
             yield
         finally:
@@ -168,6 +176,8 @@ class Owner:
     def _add(self, work: Work) -> None:
         self.running()  # forget the ended, so that the list stays as short as the work
         with self._lock:
+            self._count += 1
+            work.number = self._count
             self._started.append(work)
 
     @staticmethod
@@ -212,3 +222,6 @@ def _caller(depth: int = 2) -> str:
 
 OWNER = Owner()
 """The process' one owner."""
+
+if hasattr(os, "register_at_fork"):  # not on every platform
+    os.register_at_fork(after_in_child=OWNER.forget_all)
