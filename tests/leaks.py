@@ -51,15 +51,17 @@ def snapshot() -> Snapshot:
     )
 
 
-def children() -> set[int]:
-    """The live (not zombie) children of this process, as the kernel lists them."""
+def children(pid: int | str = "self") -> set[int]:
+    """The live (not zombie) descendants of a process (this one by default), as the kernel
+    lists them: a grandchild counts while its parent lives (once orphaned it is init's)."""
     found: set[int] = set()
-    for listing in Path("/proc/self/task").glob("*/children"):
+    for listing in Path(f"/proc/{pid}/task").glob("*/children"):
         try:
-            found |= {int(pid) for pid in listing.read_text().split()}
+            found |= {int(child) for child in listing.read_text().split()}
         except OSError:  # the thread ended while we read
             continue
-    return {pid for pid in found if _state(pid) not in ("Z", "X", None)}
+    live = {child for child in found if _state(child) not in ("Z", "X", None)}
+    return live.union(*(children(child) for child in live))
 
 
 def left_running(before: Snapshot) -> list[str]:
@@ -77,7 +79,7 @@ def left_running(before: Snapshot) -> list[str]:
     for work in reversed(owned):
         work.end(0.0)
         OWNER.forget(work)
-    for pid in pids:
+    for pid in sorted(pids, reverse=True):  # the newest first: grandchildren before parents
         _kill(pid)
     return named
 

@@ -22,9 +22,16 @@ HOLD = threading.Event()
 def test_leaks_a_thread():
     threading.Thread(target=HOLD.wait, name="leaky-thread", daemon=True).start()
 
-def test_leaks_a_process(tmp_path_factory):
-    child = subprocess.Popen([sys.executable, "-c", "import time; time.sleep(60)"])
-    (tmp_path_factory.getbasetemp() / "pid").write_text(str(child.pid))
+PARENT = (
+    "import subprocess, sys, time;"
+    " p = subprocess.Popen([sys.executable, '-c', 'import time; time.sleep(61)'],"
+    " start_new_session=True); print(p.pid, flush=True); time.sleep(60)"
+)
+
+def test_leaks_a_process_and_its_child(tmp_path_factory):
+    child = subprocess.Popen([sys.executable, "-c", PARENT], stdout=subprocess.PIPE, text=True)
+    grandchild = child.stdout.readline().strip()
+    (tmp_path_factory.getbasetemp() / "pids").write_text(f"{child.pid} {grandchild}")
 
 def test_leaks_owned_work():
     OWNER.thread(HOLD.wait, name="leaky-owned")
@@ -51,14 +58,14 @@ def test_a_leak_fails_the_test_names_it_and_kills_the_process(
         [
             "*ERROR at teardown of test_leaks_a_thread*",
             "*left running after the test: thread 'leaky-thread'*",
-            "*ERROR at teardown of test_leaks_a_process*",
-            "*left running after the test: process * (*time.sleep(60)*)*",
+            "*ERROR at teardown of test_leaks_a_process_and_its_child*",
+            "*left running after the test: process * (*Popen*); process * (*time.sleep(61))*",
             "*ERROR at teardown of test_leaks_owned_work*",
             "*left running after the test: thread 'leaky-owned' (started at *test_leaking.py:*)*",
         ]
     )
-    pid = int((base / "pid").read_text())
-    assert not Path(f"/proc/{pid}").exists() or _zombie(pid)  # killed, not left to live on
+    for pid in map(int, (base / "pids").read_text().split()):
+        assert not Path(f"/proc/{pid}").exists() or _zombie(pid)  # killed, not left to live on
 
 
 def _zombie(pid: int) -> bool:
