@@ -17,7 +17,10 @@ messages and owns foxglove-sdk: the MCAP file and the WebSocket server.
   the child's signal to write what it has, close the file and stop the server. The child ignores
   SIGINT, SIGTERM and SIGHUP (a Ctrl-C or a service stop reaches the whole group) and lives in its
   own session, so the controller decides when the feed ends; and when the controller dies, even by
-  SIGKILL, the kernel closes the pipe and the MCAP file is still finished.
+  SIGKILL, the kernel closes the pipe and the MCAP file is still finished. A child still finishing
+  after `close` is waited for at the end of the command by bywire's owner of background work
+  (`bywire.background`), which closes the pipe of one never closed, and kills one that has not
+  ended within the time the child gives itself to finish (`CHILD_CLOSE_S`), naming it.
 
 On virtual time there is no loop time to protect, and the writer stays a thread (`feed`), so that
 a recording is complete and the same on every machine.
