@@ -172,7 +172,7 @@ def test_a_forked_child_owns_none_of_its_parent_s_work() -> None:
     liveness a child cannot tell (adopted, its own `alive`) is forgotten at the fork."""
     ended = threading.Event()
 
-    def end(_wait_s: float) -> bool:
+    def end(_wait_s: float | None) -> bool:
         ended.set()
         return True
 
@@ -183,3 +183,20 @@ def test_a_forked_child_owns_none_of_its_parent_s_work() -> None:
     finally:
         ended.set()
         OWNER.forget(work)
+
+
+def test_each_work_is_waited_for_its_own_bound_unless_capped() -> None:
+    """A child that finishes a file (the telemetry writer) gets its own grace at a command's
+    end, not a shorter common one; the leak check caps it."""
+    owner = Owner()
+    waits: list[float | None] = []
+
+    def end(wait_s: float | None) -> bool:
+        waits.append(wait_s)
+        return True
+
+    for cap in (None, 0.0):
+        owner.adopt("process", "bywire-test", alive=lambda: True, end=end)
+        owner.end_all(owner.mark() - 1, cap)
+        owner.forget(owner.running()[-1])
+    assert waits == [None, 0.0]

@@ -48,7 +48,7 @@ class Work:
     name: str
     started_at: str  # file:line of the starter, so that a leak names its source
     alive: Callable[[], bool]
-    end: Callable[[float], bool]  # ask it to stop, wait at most the seconds given; ended?
+    end: Callable[[float | None], bool]  # ask it to stop, wait its own bound or less; ended?
     handle: object = field(repr=False)  # the Thread, Popen or Process itself
     number: int = 0  # in order of start, from 1: what a scope ends is numbered after its mark
 
@@ -82,11 +82,11 @@ class Owner:
         """Start `target(*args)` in a daemon thread named `name`; `stop` asks it to return."""
         thread = threading.Thread(target=target, args=args, name=name, daemon=True)
 
-        def end(wait_s: float) -> bool:
+        def end(wait_s: float | None) -> bool:
             if stop is not None:
                 stop()
             if thread is not threading.current_thread():
-                thread.join(min(wait_s, join_s))
+                thread.join(_bound(join_s, wait_s))
             return not thread.is_alive()
 
         self._add(Work("thread", name, _caller(), thread.is_alive, end, thread))
@@ -121,9 +121,15 @@ class Owner:
         return process
 
     def adopt(
-        self, kind: str, name: str, *, alive: Callable[[], bool], end: Callable[[float], bool]
+        self,
+        kind: str,
+        name: str,
+        *,
+        alive: Callable[[], bool],
+        end: Callable[[float | None], bool],
     ) -> Work:
-        """Own work started elsewhere (a library's pool): `end(wait_s)` ends it."""
+        """Own work started elsewhere (a library's pool): `end(wait_s)` ends it, waiting its
+        own bound (`wait_s` None) or at most `wait_s`."""
         work = Work(kind, name, _caller(), alive, end, None)
         self._add(work)
         return work
@@ -144,9 +150,10 @@ class Owner:
         with self._lock:
             return self._count
 
-    def end_all(self, since: int = 0, wait_s: float = PROCESS_GRACE_S) -> list[Work]:
-        """End what runs, started after the mark `since`, newest first; those that did not end,
-        each also named in one line on stderr."""
+    def end_all(self, since: int = 0, wait_s: float | None = None) -> list[Work]:
+        """End what runs, started after the mark `since`, newest first, each waited for its own
+        bound (or at most `wait_s`); those that did not end, each also named in one line on
+        stderr."""
         left: list[Work] = []
         interrupted: KeyboardInterrupt | None = None
         for work in reversed([work for work in self.running() if work.number > since]):
@@ -188,16 +195,20 @@ class Owner:
         stop: Callable[[], None] | None,
         grace_s: float,
     ) -> Work:
-        def end(wait_s: float) -> bool:
+        def end(wait_s: float | None) -> bool:
             with contextlib.suppress(OSError):
                 (stop or process.terminate)()
-            if _wait(is_alive, min(wait_s, grace_s) if stop is None else grace_s):
+            if _wait(is_alive, _bound(grace_s, wait_s)):
                 return True
             with contextlib.suppress(OSError):
                 process.kill()
             return _wait(is_alive, KILL_WAIT_S)
 
         return Work("process", name, _caller(3), is_alive, end, process)
+
+
+def _bound(own_s: float, cap_s: float | None) -> float:
+    return own_s if cap_s is None else min(own_s, cap_s)
 
 
 def _wait(alive: Callable[[], bool], timeout_s: float) -> bool:

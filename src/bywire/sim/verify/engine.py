@@ -120,7 +120,7 @@ def _workers(jobs: int) -> Iterator[multiprocessing.pool.Pool]:
     pool = multiprocessing.get_context("fork").Pool(jobs, initializer=_ignore_interrupt)
     ended = threading.Event()
 
-    def end(_wait_s: float) -> bool:
+    def end(_wait_s: float | None) -> bool:
         pool.terminate()
         pool.join()
         ended.set()
