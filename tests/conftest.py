@@ -1,8 +1,13 @@
-"""Shared test settings: hypothesis runs derandomised on CI and never fails on wall-clock time."""
+"""Shared test settings: hypothesis runs derandomised on CI and never fails on wall-clock time;
+every test fails that leaves a thread or a child process of ours running (`tests/leaks.py`)."""
 
 import os
 
 from hypothesis import settings
+
+from tests.leaks import no_leaks
+
+__all__ = ["no_leaks"]  # autouse: every test runs under the leak check (issue 42)
 
 # The machines are shared and noisy: a property must fail on its logic, never on a slow example.
 settings.register_profile("default", deadline=None)
@@ -10,8 +15,3 @@ settings.register_profile("ci", deadline=None, derandomize=True, print_blob=True
 # A search, not a gate: `pytest --hypothesis-profile=long tests/...`, ten times CI's examples.
 settings.register_profile("long", deadline=None, max_examples=1000, print_blob=True)
 settings.load_profile("ci" if os.environ.get("CI") else "default")
-
-# Every test: a thread or a child process it leaves running fails it, named (issue 42).
-from tests.leaks import no_leaks  # noqa: E402
-
-__all__ = ["no_leaks"]
