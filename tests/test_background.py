@@ -200,3 +200,21 @@ def test_each_work_is_waited_for_its_own_bound_unless_capped() -> None:
         owner.end_all(owner.mark() - 1, cap)
         owner.forget(owner.running()[-1])
     assert waits == [None, 0.0]
+
+
+def test_a_stop_that_fails_is_named_and_the_rest_still_end(
+    capsys: pytest.CaptureFixture[str],
+) -> None:
+    owner = Owner()
+    process = owner.popen(SLEEPER, name="older")
+    release = threading.Event()
+
+    def refuse() -> None:
+        raise OSError("the port is gone")
+
+    owner.thread(release.wait, name="refusing", stop=refuse, join_s=0.01)
+    left = owner.end_all()
+    release.set()
+    assert [work.name for work in left] == ["refusing"]
+    assert process.poll() is not None  # ended all the same
+    assert "ending thread 'refusing'" in capsys.readouterr().err
