@@ -1,8 +1,13 @@
-"""Shared test settings: hypothesis runs derandomised on CI and never fails on wall-clock time."""
+"""Shared test settings: hypothesis runs derandomised on CI and never fails on wall-clock time;
+every test fails that leaves a thread or a child process of ours running (`tests/leaks.py`)."""
 
 import os
 
 from hypothesis import settings
+
+from tests.leaks import no_leaks
+
+__all__ = ["no_leaks"]  # autouse: every test runs under the leak check (issue 42)
 
 # The machines are shared and noisy: a property must fail on its logic, never on a slow example.
 settings.register_profile("default", deadline=None)

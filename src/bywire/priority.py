@@ -15,9 +15,10 @@ a library starts there (foxglove-sdk's runtime) are born under the normal policy
 from __future__ import annotations
 
 import os
-import threading
 from collections.abc import Callable
 from typing import TypeVar
+
+from bywire.background import OWNER
 
 T = TypeVar("T")
 
@@ -52,8 +53,7 @@ def outside_realtime(work: Callable[[], T]) -> T:
         except BaseException as error:  # handed to the caller's thread
             failure.append(error)
 
-    thread = threading.Thread(target=run, name="bywire-outside-realtime", daemon=True)
-    thread.start()
+    thread = OWNER.thread(run, name="bywire-outside-realtime")
     thread.join()
     if failure:
         raise failure[0]

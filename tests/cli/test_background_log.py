@@ -25,6 +25,15 @@ def pipe() -> Iterator[tuple[int, int]]:
             os.close(fd)
 
 
+@pytest.fixture
+def opened() -> Iterator[list[BackgroundLog]]:
+    """The handlers a test makes, closed after it: their writer threads end."""
+    handlers: list[BackgroundLog] = []
+    yield handlers
+    for handler in handlers:
+        handler.close()
+
+
 def _logger(handler: logging.Handler, name: str) -> logging.Logger:
     logger = logging.getLogger(name)
     logger.propagate = False
@@ -41,10 +50,11 @@ def _read_lines(fd: int, count: int) -> list[str]:
 
 
 def test_lines_from_several_threads_all_arrive_and_the_handler_lock_is_free(
-    pipe: tuple[int, int],
+    pipe: tuple[int, int], opened: list[BackgroundLog]
 ) -> None:
     read_fd, write_fd = pipe
     handler = BackgroundLog(write_fd)
+    opened.append(handler)
     logger = _logger(handler, "bywire.test.threads")
 
     def write_lines(n: int) -> None:
@@ -66,9 +76,12 @@ def test_lines_from_several_threads_all_arrive_and_the_handler_lock_is_free(
     handler.lock.release()
 
 
-def test_held_lines_wait_for_resume_and_keep_their_order(pipe: tuple[int, int]) -> None:
+def test_held_lines_wait_for_resume_and_keep_their_order(
+    pipe: tuple[int, int], opened: list[BackgroundLog]
+) -> None:
     read_fd, write_fd = pipe
     handler = BackgroundLog(write_fd)
+    opened.append(handler)
     logger = _logger(handler, "bywire.test.hold")
     handler.hold()
     logger.info("first")
@@ -84,9 +97,12 @@ def test_held_lines_wait_for_resume_and_keep_their_order(pipe: tuple[int, int]) 
     assert _read_lines(read_fd, 3) == ["first", "raw", "second"]
 
 
-def test_a_reader_that_never_reads_never_blocks_the_caller(pipe: tuple[int, int]) -> None:
+def test_a_reader_that_never_reads_never_blocks_the_caller(
+    pipe: tuple[int, int], opened: list[BackgroundLog]
+) -> None:
     _read_fd, write_fd = pipe
     handler = BackgroundLog(write_fd, capacity=100)
+    opened.append(handler)
     logger = _logger(handler, "bywire.test.frozen")
     line = "x" * 1000
     done = threading.Event()

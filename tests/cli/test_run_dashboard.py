@@ -158,14 +158,23 @@ class Notifications:
         self.messages: list[str] = []
         self._sock = socket.socket(socket.AF_UNIX, socket.SOCK_DGRAM)
         self._sock.bind(str(path))
-        threading.Thread(target=self._read, daemon=True).start()
+        self._sock.settimeout(0.05)  # how soon the reader sees `close`: a close of the socket
+        self._closing = threading.Event()  # does not wake a thread blocked reading it
+        self._reader = threading.Thread(target=self._read, name="test-notify-socket", daemon=True)
+        self._reader.start()
 
     def _read(self) -> None:
-        with contextlib.suppress(OSError):
-            while True:
+        while not self._closing.is_set():
+            try:
                 self.messages.append(self._sock.recv(256).decode())
+            except TimeoutError:
+                continue
+            except OSError:
+                return
 
     def close(self) -> None:
+        self._closing.set()
+        self._reader.join(LIMIT_S)
         self._sock.close()
 
 

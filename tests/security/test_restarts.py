@@ -13,8 +13,11 @@ from __future__ import annotations
 
 import datetime
 import random
+from collections.abc import Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
+
+import pytest
 
 from bywire.can_frame import CanFrame
 from bywire.hal.sim.can_bus import LoggedFrame, SimCanBus
@@ -49,6 +52,7 @@ class Link:
     receiver: SecocReceiver | None = None  # set by start_controller; None while it is down
 
     def __post_init__(self) -> None:
+        MADE.append(self)
         self.bus = SimCanBus(self.clock)
         self.sender_port = self.bus.attach("hlc", accept_ids=TRIP_IDS, tx_mailboxes=8)
         self.sender_port.set_listener(self._hear)
@@ -130,6 +134,18 @@ class Link:
             stamped = self.reader.poll(self.clock.now())
             accepted += [s.value for s in stamped if isinstance(s.value, MovementCommand)]
         return accepted
+
+
+MADE: list[Link] = []
+
+
+@pytest.fixture(autouse=True)
+def _end_the_last_senders() -> Iterator[None]:
+    """The test over, each link's last sender goes as the others did (a crash): its store's
+    writer thread ends."""
+    yield
+    while MADE:
+        MADE.pop().signer.store.halt()
 
 
 def _frames_until_accepted(link: Link, limit: int) -> int:

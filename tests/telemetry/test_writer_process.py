@@ -17,6 +17,7 @@ from pathlib import Path
 import pytest
 from mcap.reader import make_reader
 
+from bywire.background import OWNER
 from bywire.errors import ConfigError
 from bywire.loopback import Endpoint
 from bywire.telemetry.capture import CanCapture, Capture
@@ -219,3 +220,25 @@ def test_a_corrupt_stream_ends_the_feed_with_what_came_before(
     assert "not a frame of captures" in capsys.readouterr().err
     assert writer.written == 3  # what came before the corruption was written, then it closed
     assert outbox.closed
+
+
+def test_the_owner_ends_a_writer_left_open_and_its_file_is_finished(tmp_path: Path) -> None:
+    """Issue 42: a run that ends without closing the feed (an exception past its `finally`, a
+    test that failed midway) leaves the writer to the owner, which closes its pipe (the writer
+    ignores the stop signals): the child ends, with every shipped capture in a finished file."""
+    path = tmp_path / "left.mcap"
+    outbox: Outbox[Capture] = Outbox(1000)
+    since = OWNER.mark()
+    process = WriterProcess(outbox, mcap_path=path, foxglove=None, log_offset_s=0.0)
+    now = 0.0
+    for capture in _frames(500):
+        outbox.put(capture)
+    while len(outbox) or process.unsent_bytes:
+        now += 1.0
+        process.ship(now)
+    assert [work.name for work in OWNER.running() if work.number > since] == [
+        "bywire-telemetry-writer"
+    ]
+    assert OWNER.end_all(since) == []
+    assert _gone(process.pid)
+    assert len(read_mcap(path)) == 500

@@ -17,6 +17,7 @@ import subprocess
 import sys
 import threading
 
+from bywire.background import OWNER
 from bywire.hal.sim.can_bus import LoggedFrame
 from bywire.hal.sim.world import SimWorld
 from bywire.loopback import Endpoint
@@ -51,15 +52,14 @@ class Onlookers:
         """From the loop (a clock callback): attach the tap, start the onlooker elsewhere."""
         self.tap.attach()
         self._active = True
-        self._helper = threading.Thread(target=self._spawn, args=(phase,), daemon=True)
-        self._helper.start()
+        self._helper = OWNER.thread(self._spawn, phase, name=f"bywire-bench-onlooker-start {phase}")
 
     def stop(self, phase: str) -> None:
         """From the loop: detach the tap; the onlooker is stopped by a helper thread."""
         self._active = False
         self.tap.detach()
         helper = self._helper
-        threading.Thread(target=self._end, args=(phase, helper), daemon=True).start()
+        OWNER.thread(self._end, phase, helper, name=f"bywire-bench-onlooker-end {phase}")
 
     def close(self) -> None:
         """After the run: the last onlooker gone, the server stopped."""
@@ -74,11 +74,14 @@ class Onlookers:
         leave_realtime()  # the harness's helpers run as `bywire run --dashboard`'s do
         if phase == "feed":
             command = [sys.executable, "-m", "bywire.bench.onlooker", self.url]
-            self._process = subprocess.Popen(command, stdout=subprocess.PIPE, text=True)
+            self._process = OWNER.popen(
+                command, name="bywire-bench-onlooker", stdout=subprocess.PIPE, text=True
+            )
             return
         master, slave = pty.openpty()
-        self._process = subprocess.Popen(
+        self._process = OWNER.popen(
             [sys.executable, "-m", "bywire", "dashboard", "--attach", self.url],
+            name="bywire-bench-dashboard",
             stdin=slave,
             stdout=slave,
             stderr=slave,
@@ -88,7 +91,7 @@ class Onlookers:
         )
         os.close(slave)
         self._terminal = master
-        threading.Thread(target=_discard, args=(master,), daemon=True).start()
+        OWNER.thread(_discard, master, name="bywire-bench-terminal")  # ends when the pty closes
 
     def _end(self, phase: str, helper: threading.Thread | None) -> None:
         leave_realtime()

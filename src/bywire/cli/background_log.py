@@ -17,6 +17,7 @@ import os
 import threading
 import time
 
+from bywire.background import OWNER
 from bywire.priority import leave_realtime
 
 HELD_LINES = 1000  # the newest ones are kept when more come while the terminal is held
@@ -32,8 +33,8 @@ class BackgroundLog(logging.Handler):
         self._ready = threading.Condition(threading.Lock())
         self._held = False
         self._writing = False
-        self._thread = threading.Thread(target=self._write, name="bywire-log", daemon=True)
-        self._thread.start()
+        self._closing = False
+        self._thread = OWNER.thread(self._write, name="bywire-log", stop=self.close)
 
     def emit(self, record: logging.LogRecord) -> None:
         try:
@@ -73,12 +74,22 @@ class BackgroundLog(logging.Handler):
                 self._ready.wait(min(left_s, 0.01))
         return True
 
+    def close(self) -> None:
+        """The writer thread writes what is queued (unless held) and ends; later lines are
+        dropped (logging's own shutdown calls this too)."""
+        with self._ready:
+            self._closing = True
+            self._ready.notify_all()
+        super().close()
+
     def _write(self) -> None:
         leave_realtime()  # a log line never competes with the loop at its priority
         while True:
             with self._ready:
-                while self._held or not self._pending:
+                while (self._held or not self._pending) and not self._closing:
                     self._ready.wait()
+                if self._closing and (self._held or not self._pending):
+                    return
                 chunk = b"".join(self._pending)
                 self._pending.clear()
                 self._writing = True

@@ -7,13 +7,13 @@ import contextlib
 import os
 import signal
 import subprocess
-import threading
 import time
 from collections.abc import Callable
 from pathlib import Path
 from types import FrameType
 from typing import TYPE_CHECKING
 
+from bywire.background import OWNER
 from bywire.cli.arguments import positive_seconds
 from bywire.config import load_config
 from bywire.errors import ConfigError, HardwareError
@@ -190,8 +190,7 @@ class _Ending:
             with contextlib.suppress(OSError):
                 os.kill(robot_pid, signal.SIGINT)
         if client is not None:
-            closing = threading.Thread(target=client.close, daemon=True)
-            closing.start()
+            closing = OWNER.thread(client.close, name="bywire-dashboard-closing")
             closing.join(CLOSE_WAIT_S)
         if robot_pid is not None:
             _reap(robot_pid, ROBOT_STOP_S)

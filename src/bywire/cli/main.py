@@ -11,6 +11,7 @@ from collections.abc import Callable, Sequence
 from typing import NoReturn, Protocol
 
 from bywire import __version__
+from bywire.background import OWNER
 from bywire.errors import BywireError
 
 # name -> (module, one-line help). Modules are imported only when their command runs, so that
@@ -146,7 +147,8 @@ def main(argv: Sequence[str] | None = None) -> int:
         return 2
     runner: Callable[[argparse.Namespace], int] = _load(args.command).run
     try:
-        return runner(args)
+        with OWNER.scope():  # every thread and child the command started ends with it
+            return runner(args)
     except BywireError as error:
         print(f"bywire {args.command}: error: {error}", file=sys.stderr)
         return 2

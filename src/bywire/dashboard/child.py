@@ -26,6 +26,7 @@ import time
 from collections.abc import Callable, Sequence
 from typing import Any
 
+from bywire.background import OWNER
 from bywire.errors import BywireError
 from bywire.priority import leave_realtime
 
@@ -59,13 +60,17 @@ class ViewProcess:
         self._modes: list[int | list[bytes | int]] | None = None
         self._stopping = False
         self.process: subprocess.Popen[bytes] | None = None
-        self._watcher = threading.Thread(target=self._watch, name="bywire-view", daemon=True)
+        self._watcher: threading.Thread | None = None
 
     def start(self) -> ViewProcess:
         with contextlib.suppress(termios.error, OSError):
             self._modes = termios.tcgetattr(self._terminal_fd)
-        self.process = subprocess.Popen(bywire_command("dashboard", "--attach", self.url))
-        self._watcher.start()
+        self.process = OWNER.popen(
+            bywire_command("dashboard", "--attach", self.url),
+            name="bywire-dashboard-view",
+            stop=self.stop,
+        )
+        self._watcher = OWNER.thread(self._watch, name="bywire-dashboard-watch", stop=self.stop)
         return self
 
     @property
@@ -110,6 +115,7 @@ class ViewProcess:
             log.warning("the dashboard ended (exit status %s); the controller runs on", status)
 
 
+ROBOT_STOP_S = 5.0  # how long the simulated robot has to stop safe and summarise on Ctrl-C
 SUMMARY_WAIT_S = 2.0  # how long the verdict waits for the ended run's summary to be read
 
 
@@ -142,8 +148,11 @@ class SimFeed:
         command = bywire_command(
             "sim", "--realtime", "--json", "--foxglove", "127.0.0.1:0", *arguments
         )
-        self.process = subprocess.Popen(
+        self.process: subprocess.Popen[str] = OWNER.popen(
             command,
+            name="bywire-dashboard-robot",
+            stop=self._interrupt,
+            grace_s=ROBOT_STOP_S,
             stdin=subprocess.DEVNULL,
             stdout=subprocess.PIPE,
             stderr=subprocess.PIPE,
@@ -153,11 +162,20 @@ class SimFeed:
             on_started(self.process)
         self.lines: list[str] = []
         self._summary: list[str] = []  # the run's summary, as JSON, once it has ended
-        self._summary_read = threading.Thread(target=self._read_summary, daemon=True)
-        self._summary_read.start()
+        # Both readers end when the robot does: asked to end, they stop it (Ctrl-C) and wait.
+        self._summary_read = OWNER.thread(
+            self._read_summary,
+            name="bywire-dashboard-robot-summary",
+            stop=self._interrupt,
+            join_s=ROBOT_STOP_S,
+        )
         self.url = self._wait_for_url()
-        self._drain = threading.Thread(target=self._keep_reading, daemon=True)
-        self._drain.start()
+        self._drain = OWNER.thread(
+            self._keep_reading,
+            name="bywire-dashboard-robot-log",
+            stop=self._interrupt,
+            join_s=ROBOT_STOP_S,
+        )
 
     def _read_summary(self) -> None:
         leave_realtime()
@@ -196,7 +214,11 @@ class SimFeed:
         for line in self.process.stderr:
             self.lines.append(line.rstrip("\n"))
 
-    def stop(self, timeout_s: float = 5.0) -> int:
+    def _interrupt(self) -> None:
+        if self.process.poll() is None:
+            self.process.send_signal(signal.SIGINT)
+
+    def stop(self, timeout_s: float = ROBOT_STOP_S) -> int:
         """Ctrl-C for the simulated robot (it stops safe and summarises); its exit status."""
         if self.process.poll() is None:
             self.process.send_signal(signal.SIGINT)

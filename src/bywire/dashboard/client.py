@@ -18,6 +18,7 @@ from websockets.exceptions import ConnectionClosed, InvalidHandshake, InvalidURI
 from websockets.sync.client import ClientConnection, connect
 from websockets.typing import Subprotocol
 
+from bywire.background import OWNER
 from bywire.telemetry.schemas import EVENTS_TOPIC, STATE_TOPIC
 
 # The SDK's server speaks protocol v1 under the first name; older servers under the second.
@@ -46,10 +47,10 @@ class FeedClient:
         self.received = 0
         self._connection: ClientConnection | None = None
         self._closing = threading.Event()
-        self._thread = threading.Thread(target=self._follow, name="bywire-feed", daemon=True)
+        self._thread: threading.Thread | None = None
 
     def start(self) -> FeedClient:
-        self._thread.start()
+        self._thread = OWNER.thread(self._follow, name="bywire-feed", stop=self.close)
         return self
 
     def close(self) -> None:
@@ -58,7 +59,8 @@ class FeedClient:
         connection = self._connection
         if connection is not None:
             connection.close()
-        self._thread.join(OPEN_TIMEOUT_S)
+        if self._thread is not None:
+            self._thread.join(OPEN_TIMEOUT_S)
 
     def latest(self) -> dict[str, Any] | None:
         with self._lock:

@@ -19,6 +19,7 @@ from typing import Any
 
 import can
 
+from bywire.background import OWNER
 from bywire.canlog.write import WRITERS, check_log_path
 from bywire.errors import ConfigError, HardwareError
 from bywire.hal.linux.can_open import check_socketcan, open_error
@@ -83,16 +84,16 @@ class CanFeed:
                 self._writer = WRITERS[record.suffix.lower()](record)
             except OSError as error:
                 raise ConfigError(f"cannot write {record}: {error.strerror}") from error
-        self._thread = threading.Thread(target=self._read, name="can-feed", daemon=True)
+        self._thread: threading.Thread | None = None
 
     def start(self) -> None:
         """Start reading."""
-        self._thread.start()
+        self._thread = OWNER.thread(self._read, name="bywire-monitor-can", stop=self._stopping.set)
 
     def stop(self) -> None:
         """Stop reading, close the recording and the bus."""
         self._stopping.set()
-        if self._thread.is_alive():
+        if self._thread is not None and self._thread.is_alive():
             self._thread.join()
         if self._writer is not None:
             self._writer.stop()

@@ -20,6 +20,7 @@ from collections.abc import Iterator
 
 import can
 
+from bywire.background import OWNER
 from bywire.can_frame import CanFrame
 from bywire.errors import FrameError
 from bywire.hal.sim.can_bus import LoggedFrame, SimCanBus
@@ -39,20 +40,23 @@ class SimBusOnInterface:
         self._port = bus.attach(NODE, accept_ids=(), tx_mailboxes=NODE_TX_QUEUE)
         self._inbox: queue.SimpleQueue[can.Message] = queue.SimpleQueue()
         self._closing = threading.Event()
-        self._thread = threading.Thread(target=self._receive, name="can interface", daemon=True)
+        self._thread: threading.Thread | None = None
         self._poll = PeriodicTimer(bus.clock, POLL_PERIOD_S, self._take)
         self.sent = self.send_refused = self.received = self.receive_refused = 0
         bus.add_monitor(self._forward)
 
     def start(self) -> None:
-        self._thread.start()
+        self._thread = OWNER.thread(
+            self._receive, name="bywire-netbus-interface", stop=self._closing.set
+        )
         self._poll.start()
 
     def stop(self) -> None:
         """Stop taking the interface's frames (the bus's frames go out until it shuts down)."""
         self._poll.stop()
         self._closing.set()
-        self._thread.join(timeout=RECEIVE_TIMEOUT_S * 20)
+        if self._thread is not None:
+            self._thread.join(timeout=RECEIVE_TIMEOUT_S * 20)
 
     def _forward(self, frame: LoggedFrame) -> None:
         if frame.sender == NODE:

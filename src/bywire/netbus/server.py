@@ -27,6 +27,7 @@ from collections.abc import Callable
 from dataclasses import dataclass, field
 
 from bywire.accepting import Slots, accepted
+from bywire.background import OWNER
 from bywire.errors import ConfigError, FrameError
 from bywire.loopback import Endpoint
 from bywire.netbus import socketcand
@@ -137,10 +138,9 @@ class SocketcandServer:
     # --- threads ------------------------------------------------------------------------------
 
     def _spawn(self, target: Callable[..., None], name: str, *args: object) -> None:
-        thread = threading.Thread(target=target, args=args, name=name, daemon=True)
+        thread = OWNER.thread(target, *args, name=f"bywire-{name}", stop=self.close)
         with self._lock:  # the ended ones go: a long run serves many short connections
             self._threads = [*(t for t in self._threads if t.is_alive()), thread]
-        thread.start()
 
     def _accept_loop(self) -> None:
         for sock in accepted(self._listener, self._stopping):

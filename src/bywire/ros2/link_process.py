@@ -26,6 +26,7 @@ from typing import Any
 
 import can
 
+from bywire.background import OWNER
 from bywire.errors import BywireError, HardwareError
 from bywire.ros2.bridge import Decision
 from bywire.ros2.enabling import Answer
@@ -82,7 +83,7 @@ def _child(connection: Connection, opener: Opener, options: LinkOptions) -> None
             pass  # the node is gone
         stop.set()
 
-    threading.Thread(target=obey, name="link-pipe", daemon=True).start()
+    OWNER.thread(obey, name="bywire-link-pipe")  # ends with the pipe, or with this child
     connection.send(("ready",))
     try:
         link.run(stop, after_tick=report)
@@ -111,14 +112,19 @@ class LinkProcess:
         self._changed = threading.Condition(self._lock)
         context = multiprocessing.get_context("spawn")
         self._connection, child_end = context.Pipe()
-        self._process = context.Process(
-            target=_child, args=(child_end, opener, options), name="bywire-can-link", daemon=True
+        self._process = OWNER.process(
+            context.Process(
+                target=_child,
+                args=(child_end, opener, options),
+                name="bywire-can-link",
+                daemon=True,
+            ),
+            stop=lambda: self._send("stop"),  # one period of full brake goes out
+            grace_s=STOP_TIMEOUT_S,
         )
-        self._process.start()
         child_end.close()
         self._await_ready()
-        self._reader = threading.Thread(target=self._read, name="link-reader", daemon=True)
-        self._reader.start()
+        self._reader = OWNER.thread(self._read, name="bywire-link-reader", stop=self.close)
 
     def _await_ready(self) -> None:
         if not self._connection.poll(START_TIMEOUT_S):

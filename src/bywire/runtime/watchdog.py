@@ -14,6 +14,8 @@ import threading
 import time
 from collections.abc import Callable
 
+from bywire.background import OWNER
+
 DEFAULT_LIMIT_S = 0.200
 POLL_S = 0.005  # half a control period: the trip lands within limit + one period
 NOTIFY_PERIOD_S = 0.100  # systemd needs a ping well within WatchdogSec, not every poll
@@ -72,8 +74,7 @@ class Watchdog:
     def start(self) -> None:
         """Run `check` from a daemon thread every control period (or faster for short limits)."""
         self._stop.clear()
-        self._thread = threading.Thread(target=self._watch, name="bywire-watchdog", daemon=True)
-        self._thread.start()
+        self._thread = OWNER.thread(self._watch, name="bywire-watchdog", stop=self._stop.set)
 
     def stop(self) -> None:
         self._stop.set()

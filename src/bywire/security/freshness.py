@@ -22,6 +22,7 @@ import enum
 import threading
 from pathlib import Path
 
+from bywire.background import OWNER
 from bywire.errors import ConfigError
 from bywire.priority import leave_realtime
 from bywire.protocol.secoc import MAX_COUNTER, MAX_TRIP, SecocKey
@@ -149,8 +150,9 @@ class FreshnessStore:
 
     def _wake_writer(self) -> None:
         if self._writer is None and not self._closed:
-            self._writer = threading.Thread(target=self._write_loop, name="freshness", daemon=True)
-            self._writer.start()
+            self._writer = OWNER.thread(
+                self._write_loop, name="bywire-freshness-writer", stop=self.close
+            )
         self._pending.set()
 
     def _write_loop(self) -> None:

@@ -23,6 +23,7 @@ import time
 from collections.abc import Iterable
 
 from bywire.accepting import Slots, accepted
+from bywire.background import OWNER
 from bywire.telemetry.subprotocols import rename_choice, rename_offer
 
 HEAD_LIMIT_BYTES = 16 << 10
@@ -66,8 +67,9 @@ class OriginGate:
         self._lock = threading.Lock()
         self._sockets: set[socket.socket] = set()
         self._slots = Slots(MAX_CONNECTIONS)
-        self._thread = threading.Thread(target=self._accept_loop, name="origin-gate", daemon=True)
-        self._thread.start()
+        self._thread = OWNER.thread(
+            self._accept_loop, name="bywire-origin-gate", stop=self._stopping.set
+        )
 
     @property
     def port(self) -> int:
@@ -88,7 +90,7 @@ class OriginGate:
             if not self._slots.take():
                 self._answer(sock, 503, "too many connections")
                 continue
-            threading.Thread(target=self._pass, args=(sock,), daemon=True).start()
+            OWNER.thread(self._pass, sock, name="bywire-origin-gate-pass", stop=self.close)
 
     def _pass(self, client: socket.socket) -> None:
         upstream = None
@@ -108,8 +110,9 @@ class OriginGate:
             upstream.sendall(head)
             if renamed:
                 client.sendall(rename_choice(_read_head(upstream)))
-            back = threading.Thread(target=_relay, args=(upstream, client), daemon=True)
-            back.start()
+            back = OWNER.thread(
+                _relay, upstream, client, name="bywire-origin-gate-relay", stop=self.close
+            )
             _relay(client, upstream)
             back.join()
         except OSError:

@@ -22,6 +22,7 @@ from pathlib import Path
 import foxglove
 from foxglove.websocket import WebSocketServer
 
+from bywire.background import OWNER
 from bywire.errors import ConfigError
 from bywire.loopback import Endpoint, ListenAddress
 from bywire.priority import leave_realtime
@@ -61,7 +62,7 @@ class TelemetryWriter:
         """Why the recording stopped early (a full disk, a failed write), once it has."""
         self._server: WebSocketServer | None = None
         self._gate: OriginGate | None = None
-        self._thread = threading.Thread(target=self._drain, name="bywire-telemetry", daemon=True)
+        self._thread: threading.Thread | None = None
         self.written = 0
         """Captures written."""
         self.messages = 0
@@ -100,13 +101,13 @@ class TelemetryWriter:
         return self._gate.port
 
     def start(self) -> TelemetryWriter:
-        self._thread.start()
+        self._thread = OWNER.thread(self._drain, name="bywire-telemetry", stop=self._outbox.close)
         return self
 
     def close(self, timeout_s: float = 5.0) -> None:
         """Write what is queued, then close the file and stop the server."""
         self._outbox.close()
-        if self._thread.is_alive():
+        if self._thread is not None and self._thread.is_alive():
             self._thread.join(timeout_s)
         if self._mcap is not None:
             self._mcap.close()

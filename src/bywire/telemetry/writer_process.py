@@ -17,7 +17,10 @@ messages and owns foxglove-sdk: the MCAP file and the WebSocket server.
   the child's signal to write what it has, close the file and stop the server. The child ignores
   SIGINT, SIGTERM and SIGHUP (a Ctrl-C or a service stop reaches the whole group) and lives in its
   own session, so the controller decides when the feed ends; and when the controller dies, even by
-  SIGKILL, the kernel closes the pipe and the MCAP file is still finished.
+  SIGKILL, the kernel closes the pipe and the MCAP file is still finished. A child still finishing
+  after `close` is waited for at the end of the command by bywire's owner of background work
+  (`bywire.background`), which closes the pipe of one never closed, and kills one that has not
+  ended within the time the child gives itself to finish (`CHILD_CLOSE_S`), naming it.
 
 On virtual time there is no loop time to protect, and the writer stays a thread (`feed`), so that
 a recording is complete and the same on every machine.
@@ -38,6 +41,7 @@ import time
 from pathlib import Path
 from typing import IO, TYPE_CHECKING
 
+from bywire.background import OWNER
 from bywire.errors import ConfigError
 from bywire.loopback import Endpoint, ListenAddress
 from bywire.priority import leave_realtime
@@ -83,8 +87,16 @@ class WriterProcess:
         if foxglove is not None:
             command += ["--host", foxglove.host, "--port", str(foxglove.port)]
             command += [f"--origin={origin}" for origin in origins]
-        self._process = subprocess.Popen(
-            command, stdin=subprocess.PIPE, stdout=subprocess.PIPE, start_new_session=True
+        # Ended by closing its pipe (it ignores the stop signals), then killed if it has not
+        # finished its file within the time it gives itself to.
+        self._process = OWNER.popen(
+            command,
+            name="bywire-telemetry-writer",
+            stop=self._close_pipe,
+            grace_s=CHILD_CLOSE_S + 1.0,
+            stdin=subprocess.PIPE,
+            stdout=subprocess.PIPE,
+            start_new_session=True,
         )
         assert self._process.stdin is not None
         assert self._process.stdout is not None
@@ -129,10 +141,14 @@ class WriterProcess:
         while not self.broken and time.monotonic() < deadline and self._frame_to_send():
             select.select([], [self._fd], [], max(deadline - time.monotonic(), 0.0))
             self._write()
-        with contextlib.suppress(OSError):  # a broken pipe has nothing left to flush
-            self._pipe.close()
+        self._close_pipe()
         with contextlib.suppress(subprocess.TimeoutExpired):
             self._process.wait(max(deadline - time.monotonic(), 0.0))
+
+    def _close_pipe(self) -> None:
+        with contextlib.suppress(OSError):  # a broken pipe has nothing left to flush
+            if self._process.stdin is not None:
+                self._process.stdin.close()
 
     def _frame_to_send(self) -> bool:
         """Whether a frame waits to be written: the rest of the last one, or a new one packed

@@ -15,6 +15,8 @@ import time
 from collections import deque
 from collections.abc import Callable
 
+from bywire.background import OWNER
+
 GAPS_KEPT = 500  # ten seconds at 50 Hz
 
 
@@ -70,15 +72,15 @@ class PeriodicSender:
         self._period_s = period_s
         self._monotonic = monotonic
         self._stop = threading.Event()
-        self._thread = threading.Thread(target=self._run, name="bywire-teleop-send", daemon=True)
+        self._thread: threading.Thread | None = None
 
     def start(self) -> PeriodicSender:
-        self._thread.start()
+        self._thread = OWNER.thread(self._run, name="bywire-teleop-send", stop=self._stop.set)
         return self
 
     def stop(self) -> None:
         self._stop.set()
-        if self._thread.is_alive():
+        if self._thread is not None and self._thread.is_alive():
             self._thread.join()
 
     def _run(self) -> None:

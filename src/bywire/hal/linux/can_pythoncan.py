@@ -20,6 +20,7 @@ from typing import Any
 
 import can
 
+from bywire.background import OWNER
 from bywire.can_frame import CanFrame, check_can_frame
 from bywire.errors import HardwareError
 from bywire.hal.linux.can_open import BusSettings, open_bus
@@ -70,8 +71,7 @@ class PythonCanPort:
         self.rx_overflows = self.reopens = self.bus_off_count = 0
         self.receive_failures = self.reopen_failures = 0
         self._bus: can.BusABC | None = self._factory(settings)
-        self._thread = threading.Thread(target=self._run, name=f"can {settings}", daemon=True)
-        self._thread.start()
+        self._thread = OWNER.thread(self._run, name=f"bywire-can-rx {settings}", stop=self.close)
 
     def send(self, frame: CanFrame) -> bool:
         check_can_frame(frame)

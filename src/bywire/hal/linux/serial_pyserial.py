@@ -19,6 +19,7 @@ from collections.abc import Callable
 
 import serial
 
+from bywire.background import OWNER
 from bywire.errors import HardwareError
 from bywire.hal.linux.device_errors import device_error, reason
 from bywire.hal.ports import LinkState
@@ -61,8 +62,7 @@ class PyserialStream:
         self.reopen_failures = 0
         self.bytes_received = 0
         self._serial: serial.Serial | None = self._open()
-        self._thread = threading.Thread(target=self._run, name=f"rc-uart {port}", daemon=True)
-        self._thread.start()
+        self._thread = OWNER.thread(self._run, name=f"bywire-rc-uart {port}", stop=self.close)
 
     def read_available(self) -> bytes:
         with self._lock:

@@ -9,13 +9,17 @@ alone (`sim/verify/draw.py` and `draw_bridge.py` say how campaigns are drawn).
 
 from __future__ import annotations
 
+import contextlib
 import multiprocessing
+import multiprocessing.pool
 import signal
+import threading
 import time
 from collections.abc import Callable, Iterator
 from dataclasses import dataclass, field, replace
 from typing import Any
 
+from bywire.background import OWNER
 from bywire.config import RobotConfig, default_sim_config
 from bywire.sim.scenario import Expectation, Scenario
 from bywire.sim.verify.campaign import TAIL_S, VOCABULARY, Campaign, Step, compile_steps
@@ -99,7 +103,7 @@ def campaign_outcomes(
     if jobs == 1:
         yield from _serial(job, budget, until)
         return
-    with multiprocessing.get_context("fork").Pool(jobs, initializer=_ignore_interrupt) as pool:
+    with _workers(jobs) as pool:
         if budget is not None:
             yield from pool.imap_unordered(_run_index, ((job, i) for i in range(budget)), 2)
             return
@@ -108,6 +112,29 @@ def campaign_outcomes(
             batch = range(start, start + jobs * BATCH_PER_JOB)
             yield from pool.imap_unordered(_run_index, ((job, i) for i in batch))
             start = batch.stop
+
+
+@contextlib.contextmanager
+def _workers(jobs: int) -> Iterator[multiprocessing.pool.Pool]:
+    """A pool of `jobs` forked workers, owned: a run that ends any way ends them too."""
+    pool = multiprocessing.get_context("fork").Pool(jobs, initializer=_ignore_interrupt)
+    ended = threading.Event()
+
+    def end(_wait_s: float | None) -> bool:
+        pool.terminate()
+        pool.join()
+        ended.set()
+        return True
+
+    work = OWNER.adopt(
+        "process", f"bywire-verify-workers ({jobs})", alive=lambda: not ended.is_set(), end=end
+    )
+    try:
+        with pool:  # its exit terminates the workers
+            yield pool
+    finally:
+        ended.set()
+        OWNER.forget(work)
 
 
 def _ignore_interrupt() -> None:
