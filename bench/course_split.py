@@ -33,7 +33,7 @@ from typing import Any
 
 from bywire.bench.virtual import measure_speedup
 from bywire.config import RobotConfig, default_sim_config, load_config
-from bywire.hal.sim.clock import VirtualClock
+from bywire.hal.simulated.clock import VirtualClock
 from bywire.runtime.loop import Runtime
 from bywire.sim.runner import SimRun
 from bywire.sim.verify.campaign import TransitionLog

@@ -39,7 +39,7 @@ from typing import Any
 from bywire.canlog.write import CanLog
 from bywire.cli.sim import attach_feed
 from bywire.config import RobotConfig, default_sim_config
-from bywire.hal.sim.can_bus import LoggedFrame
+from bywire.hal.simulated.can_bus import LoggedFrame
 from bywire.hal.tape.run_record import read_record
 from bywire.replay.recorder import SimRunRecorder
 from bywire.replay.runner import replay

@@ -34,7 +34,7 @@ from tests.sim.verify.test_verify import OTHER_ROBOTS
 from tests.system.old_bugs import OLD_BUGS
 
 from bywire.config import RobotConfig, default_sim_config, load_config, parse_config
-from bywire.hal.sim.clock import VirtualClock
+from bywire.hal.simulated.clock import VirtualClock
 from bywire.sim.runner import SimRun
 from bywire.sim.verify.actions import compile_steps
 from bywire.sim.verify.campaign import _quiet_runtime

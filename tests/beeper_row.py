@@ -47,8 +47,8 @@ def observe() -> dict[str, object]:
     """What the beeper did on the simulated robot and in the loader."""
     from bywire.config import describe, output_lines, parse_config  # noqa: PLC0415
     from bywire.errors import ConfigError  # noqa: PLC0415
-    from bywire.hal.sim.clock import VirtualClock  # noqa: PLC0415
-    from bywire.hal.sim.world import SimWorld  # noqa: PLC0415
+    from bywire.hal.simulated.clock import VirtualClock  # noqa: PLC0415
+    from bywire.hal.simulated.world import SimWorld  # noqa: PLC0415
     from bywire.model import ControlMode, Gear  # noqa: PLC0415
     from bywire.runtime.actuators import ActuatorConfig, Actuators  # noqa: PLC0415
     from bywire.runtime.settings import RuntimeConfig  # noqa: PLC0415

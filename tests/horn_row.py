@@ -116,7 +116,7 @@ def observe() -> dict[str, object]:
     from bywire.config import parse_config  # noqa: PLC0415
     from bywire.error_flags import ErrorFlag  # noqa: PLC0415
     from bywire.errors import ConfigError  # noqa: PLC0415
-    from bywire.hal.sim.hlc import Corruption  # noqa: PLC0415
+    from bywire.hal.simulated.hlc import Corruption  # noqa: PLC0415
     from bywire.model import ControlMode, Gear  # noqa: PLC0415
     from bywire.protocol import dbc  # noqa: PLC0415
     from bywire.runtime.settings import RuntimeConfig  # noqa: PLC0415

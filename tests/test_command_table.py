@@ -19,9 +19,9 @@ import pytest
 
 from bywire.command_table import COMMAND_TYPES, COMMANDS, MOVES_NOTHING, Use, command_row
 from bywire.config import TimeoutsSection
-from bywire.hal.sim.clock import VirtualClock
-from bywire.hal.sim.hlc import SimHigherLevelComputer, mailboxes_needed
-from bywire.hal.sim.world import SimWorld
+from bywire.hal.simulated.clock import VirtualClock
+from bywire.hal.simulated.hlc import SimHigherLevelComputer, mailboxes_needed
+from bywire.hal.simulated.world import SimWorld
 from bywire.model import ControlCommand, LightsCommand, MovementCommand
 from bywire.protocol import dbc
 from bywire.runtime.rx_checks import rx_checks

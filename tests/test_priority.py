@@ -104,7 +104,7 @@ def test_outside_realtime_hands_back_the_result_and_the_exception() -> None:
 CHILD = """
 import json, os, sys, threading
 from pathlib import Path
-from bywire.hal.sim.clock import VirtualClock
+from bywire.hal.simulated.clock import VirtualClock
 from bywire.loopback import Endpoint
 from bywire.telemetry.feed import FeedOptions, open_sinks
 

@@ -15,7 +15,7 @@ from types import ModuleType
 import pytest
 
 from bywire.config import default_sim_config
-from bywire.hal.sim.clock import VirtualClock
+from bywire.hal.simulated.clock import VirtualClock
 from bywire.runtime.loop import Runtime
 from bywire.sim.runner import SimRun
 

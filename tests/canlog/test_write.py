@@ -11,7 +11,7 @@ import pytest
 
 from bywire.canlog.write import BusTally, CanLog, check_log_path
 from bywire.errors import ConfigError
-from bywire.hal.sim.can_bus import LoggedFrame
+from bywire.hal.simulated.can_bus import LoggedFrame
 
 WALL_START_S = 1_750_000_000.0  # June 2025: what the log's reader should show as the date
 FRAMES = [

@@ -18,7 +18,7 @@ import pytest
 from bywire.cli.main import main
 from bywire.config import load_config
 from bywire.control.rc_mapping import RcMapping
-from bywire.hal.sim.rc_transmitter import idle_channels
+from bywire.hal.simulated.rc_transmitter import idle_channels
 from bywire.protocol import ibus
 
 ROOT = Path(__file__).resolve().parents[2]

@@ -24,8 +24,8 @@ from websockets.typing import Subprotocol
 
 from bywire.cli import sim as sim_command
 from bywire.cli.main import main
-from bywire.hal.sim.can_bus import LoggedFrame
-from bywire.hal.sim.world import SimWorld
+from bywire.hal.simulated.can_bus import LoggedFrame
+from bywire.hal.simulated.world import SimWorld
 from bywire.protocol import dbc
 from bywire.sim.runner import SimRun
 from bywire.telemetry.schemas import CAN_TOPIC, EVENTS_TOPIC, SCHEMAS, STATE_TOPIC, VEHICLE_TOPIC

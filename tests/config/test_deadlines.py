@@ -23,7 +23,7 @@ from bywire.config.deadlines import (
 )
 from bywire.config.security import PAIRING_WINDOW_S
 from bywire.errors import ConfigError
-from bywire.hal.sim.vehicle_model import VehicleConfig
+from bywire.hal.simulated.vehicle_model import VehicleConfig
 from bywire.sim.runner import SimRun
 from bywire.sim.scenario import parse_scenario
 from tests.system.harness import volts_at

@@ -29,8 +29,8 @@ from bywire.hal.hardware import Hardware
 from bywire.hal.linux import dac_smbus2, gpio_gpiod
 from bywire.hal.opening import LinuxPaths, de_energise, open_hardware
 from bywire.hal.ports import LINK_UP, ByteStream, CanPort, I2cDevice, LinkState
-from bywire.hal.sim.clock import VirtualClock
-from bywire.hal.sim.world import SimWorld
+from bywire.hal.simulated.clock import VirtualClock
+from bywire.hal.simulated.world import SimWorld
 from bywire.hal.tape.playback import replay_hardware
 from bywire.hal.tape.run_record import Event, RecordedRun, RecordHeader, link_of
 from bywire.hal.tape.taped import Tape, taped_hardware

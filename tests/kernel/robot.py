@@ -26,7 +26,7 @@ import can
 
 from bywire.config import RobotConfig, output_lines, parse_config
 from bywire.control.lights import LIGHT_LINES, LightOutputs
-from bywire.hal.sim.rc_transmitter import idle_channels, raw_for_axis, raw_for_switch
+from bywire.hal.simulated.rc_transmitter import idle_channels, raw_for_axis, raw_for_switch
 from bywire.model import (
     ControlCommand,
     ControlMode,

@@ -11,8 +11,8 @@ import pytest
 from textual.widgets import DataTable
 
 from bywire.config import default_sim_config
-from bywire.hal.sim.can_bus import SimCanBus
-from bywire.hal.sim.clock import VirtualClock
+from bywire.hal.simulated.can_bus import SimCanBus
+from bywire.hal.simulated.clock import VirtualClock
 from bywire.loopback import Endpoint
 from bywire.monitor.app import MonitorApp
 from bywire.monitor.bus_reader import CanFeed, open_bus

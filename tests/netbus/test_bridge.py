@@ -7,8 +7,8 @@ import time
 import can
 
 from bywire.can_frame import CanFrame
-from bywire.hal.sim.can_bus import SimCanBus
-from bywire.hal.sim.clock import VirtualClock
+from bywire.hal.simulated.can_bus import SimCanBus
+from bywire.hal.simulated.clock import VirtualClock
 from bywire.loopback import Endpoint
 from bywire.netbus.bridge import serve_bus
 from tests.netbus.test_server import TIMEOUT_S, receive, wait_for

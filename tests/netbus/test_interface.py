@@ -8,8 +8,8 @@ import uuid
 import can
 
 from bywire.can_frame import CanFrame
-from bywire.hal.sim.clock import VirtualClock
-from bywire.hal.sim.world import SimWorld
+from bywire.hal.simulated.clock import VirtualClock
+from bywire.hal.simulated.world import SimWorld
 from bywire.netbus.interface import NODE, on_interface
 
 LIMIT_S = 5.0

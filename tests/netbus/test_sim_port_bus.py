@@ -6,8 +6,8 @@ import can
 import pytest
 
 from bywire.can_frame import CanFrame
-from bywire.hal.sim.can_bus import SimCanBus
-from bywire.hal.sim.clock import VirtualClock
+from bywire.hal.simulated.can_bus import SimCanBus
+from bywire.hal.simulated.clock import VirtualClock
 from tests.netbus.sim_port_bus import SimPortBus
 
 

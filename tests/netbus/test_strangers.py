@@ -16,8 +16,8 @@ from collections.abc import Iterator
 
 import pytest
 
-from bywire.hal.sim.can_bus import SimCanBus
-from bywire.hal.sim.clock import VirtualClock
+from bywire.hal.simulated.can_bus import SimCanBus
+from bywire.hal.simulated.clock import VirtualClock
 from bywire.loopback import Endpoint
 from bywire.netbus.bridge import serve_bus
 from bywire.netbus.server import MAX_CONNECTIONS, SocketcandServer

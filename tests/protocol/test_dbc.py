@@ -12,7 +12,7 @@ from hypothesis import strategies as st
 
 from bywire.error_flags import DESCRIPTIONS, ErrorFlag
 from bywire.errors import BywireError, FrameError
-from bywire.hal.sim.hlc import COMMAND_PERIOD_S
+from bywire.hal.simulated.hlc import COMMAND_PERIOD_S
 from bywire.model import (
     Command,
     ControlCommand,

@@ -6,7 +6,7 @@ from __future__ import annotations
 from collections.abc import Iterable, Iterator
 
 from bywire.control.rc_mapping import RcMapping
-from bywire.hal.sim.rc_transmitter import idle_channels
+from bywire.hal.simulated.rc_transmitter import idle_channels
 from bywire.rc.observations import REST_FRAMES, Observations, observe
 
 MAPPING = RcMapping()

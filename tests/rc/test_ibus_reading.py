@@ -7,7 +7,7 @@ from hypothesis import strategies as st
 
 from bywire.config import RobotConfig
 from bywire.control.rc_mapping import RcMapping
-from bywire.hal.sim.rc_transmitter import idle_channels
+from bywire.hal.simulated.rc_transmitter import idle_channels
 from bywire.protocol import ibus
 from bywire.rc.ibus_reading import RcSession
 from bywire.rc.view import reads_as, rows, status

@@ -9,7 +9,7 @@ import pytest
 
 from bywire.config import RobotConfig
 from bywire.control.rc_mapping import RcMapping, switch_position
-from bywire.hal.sim.rc_transmitter import idle_channels
+from bywire.hal.simulated.rc_transmitter import idle_channels
 from bywire.protocol import ibus
 from bywire.rc.ibus_reading import RcSession
 from bywire.rc.suggestion import SwitchSuggestion

@@ -14,7 +14,7 @@ from typing import Any
 import pytest
 
 from bywire.config import default_sim_config
-from bywire.hal.sim.can_bus import LoggedFrame
+from bywire.hal.simulated.can_bus import LoggedFrame
 from bywire.hal.tape.run_record import read_record
 from bywire.replay.recorder import SimRunRecorder
 from bywire.replay.runner import replay

@@ -8,10 +8,10 @@ from collections.abc import Callable
 from dataclasses import dataclass, field
 
 from bywire.config.vehicle import VehicleSection
-from bywire.hal.sim.can_bus import LoggedFrame
-from bywire.hal.sim.clock import VirtualClock
-from bywire.hal.sim.timers import PeriodicTimer
-from bywire.hal.sim.world import SimWorld
+from bywire.hal.simulated.can_bus import LoggedFrame
+from bywire.hal.simulated.clock import VirtualClock
+from bywire.hal.simulated.timers import PeriodicTimer
+from bywire.hal.simulated.world import SimWorld
 from bywire.model import ControlMode, Gear, MovementCommand
 from bywire.protocol import dbc
 from bywire.protocol.secoc import SecocKey

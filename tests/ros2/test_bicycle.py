@@ -8,8 +8,8 @@ import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
-from bywire.hal.sim.vehicle_model import VehicleConfig
-from bywire.hal.sim.vehicle_model import yaw_rate_radps as simulated_yaw_rate
+from bywire.hal.simulated.vehicle_model import VehicleConfig
+from bywire.hal.simulated.vehicle_model import yaw_rate_radps as simulated_yaw_rate
 from bywire.ros2.bicycle import steering_from_angle, steering_from_twist, yaw_rate_radps
 from bywire.ros2.settings import Geometry
 

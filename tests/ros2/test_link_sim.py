@@ -10,7 +10,7 @@ import can
 import pytest
 
 from bywire.error_flags import ErrorFlag
-from bywire.hal.sim.can_bus import LoggedFrame
+from bywire.hal.simulated.can_bus import LoggedFrame
 from bywire.model import ControlMode, Gear, MovementCommand, WheelSpeedReport
 from bywire.protocol import dbc
 from bywire.protocol.secoc import SecocKey

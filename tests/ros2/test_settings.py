@@ -9,7 +9,7 @@ from pathlib import Path
 import pytest
 
 from bywire.errors import ConfigError
-from bywire.hal.sim.vehicle_model import (
+from bywire.hal.simulated.vehicle_model import (
     ActuatorInputs,
     VehicleConfig,
     drive_accel_mps2,

@@ -9,8 +9,8 @@ import pytest
 from bywire.control.dac_health import DAC_LEAK
 from bywire.control.drive import DriveOutputs
 from bywire.control.lights import LIGHT_LINES, LightOutputs
-from bywire.hal.sim.clock import VirtualClock
-from bywire.hal.sim.world import SimWorld
+from bywire.hal.simulated.clock import VirtualClock
+from bywire.hal.simulated.world import SimWorld
 from bywire.runtime.actuators import ActuatorConfig, Actuators
 from bywire.task_table import TaskSpec
 

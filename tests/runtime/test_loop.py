@@ -14,8 +14,8 @@ from bywire.config import default_sim_config, parse_config
 from bywire.control import controller
 from bywire.control.controller import ControlConfig, ControlInputs, ControlOutputs, ControlState
 from bywire.error_flags import ErrorFlag
-from bywire.hal.sim.clock import VirtualClock
-from bywire.hal.sim.world import SimWorld
+from bywire.hal.simulated.clock import VirtualClock
+from bywire.hal.simulated.world import SimWorld
 from bywire.model import ControlMode, ErrorReport, Gear, SteeringReport, WheelSpeedReport
 from bywire.runtime import loop
 from bywire.runtime.loop import MODE_LOG_LENGTH, Runtime

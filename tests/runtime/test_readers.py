@@ -15,9 +15,9 @@ from bywire.control.input_stage import Verdict
 from bywire.control.rc_mapping import RcMapping
 from bywire.control.validity import is_fresh
 from bywire.hal.ports import LINK_UP, LinkState
-from bywire.hal.sim.can_bus import SimCanBus
-from bywire.hal.sim.clock import VirtualClock
-from bywire.hal.sim.uart import SimUart
+from bywire.hal.simulated.can_bus import SimCanBus
+from bywire.hal.simulated.clock import VirtualClock
+from bywire.hal.simulated.uart import SimUart
 from bywire.model import ControlCommand, ControlMode, Gear, LightsCommand, MovementCommand
 from bywire.protocol import dbc, ibus
 from bywire.runtime.readers import (

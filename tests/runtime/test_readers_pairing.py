@@ -10,8 +10,8 @@ stamps and offers a poll's frames before expiring what waits.
 from __future__ import annotations
 
 from bywire.can_frame import CanFrame
-from bywire.hal.sim.can_bus import SimCanBus
-from bywire.hal.sim.clock import VirtualClock
+from bywire.hal.simulated.can_bus import SimCanBus
+from bywire.hal.simulated.clock import VirtualClock
 from bywire.model import Gear, MovementCommand
 from bywire.protocol import dbc
 from bywire.protocol.secoc import SecocKey

@@ -22,8 +22,8 @@ from pathlib import Path
 import pytest
 
 from bywire.config import RealtimeSection, default_sim_config
-from bywire.hal.sim.clock import VirtualClock
-from bywire.hal.sim.world import SimWorld
+from bywire.hal.simulated.clock import VirtualClock
+from bywire.hal.simulated.world import SimWorld
 from bywire.runtime.loop import Runtime
 from bywire.runtime.realtime import (
     CAP_IPC_LOCK,

@@ -5,8 +5,8 @@ from __future__ import annotations
 import math
 
 from bywire.config import default_sim_config
-from bywire.hal.sim.clock import VirtualClock
-from bywire.hal.sim.world import SimWorld
+from bywire.hal.simulated.clock import VirtualClock
+from bywire.hal.simulated.world import SimWorld
 from bywire.model import ControlMode
 from bywire.runtime.sensors import SensorReadings, read_sensors
 from bywire.sim.verify.campaign import Campaign, Step

@@ -5,8 +5,8 @@ from __future__ import annotations
 from bywire.control.dac_health import DAC_TRANSFERS_PER_PASS
 from bywire.control.drive import DriveOutputs
 from bywire.control.lights import LightOutputs
-from bywire.hal.sim.clock import VirtualClock
-from bywire.hal.sim.world import SimWorld
+from bywire.hal.simulated.clock import VirtualClock
+from bywire.hal.simulated.world import SimWorld
 from bywire.runtime.actuators import ActuatorConfig, Actuators
 from bywire.runtime.timing import Budgets, Overruns
 

@@ -7,9 +7,9 @@ import functools
 
 from bywire.can_frame import CanFrame
 from bywire.error_flags import ErrorFlag
-from bywire.hal.sim.can_bus import LoggedFrame
-from bywire.hal.sim.clock import VirtualClock
-from bywire.hal.sim.world import SimWorld
+from bywire.hal.simulated.can_bus import LoggedFrame
+from bywire.hal.simulated.clock import VirtualClock
+from bywire.hal.simulated.world import SimWorld
 from bywire.model import ControlMode, Gear
 from bywire.protocol import dbc
 from bywire.protocol.secoc import SecocKey

@@ -20,8 +20,8 @@ from pathlib import Path
 import pytest
 
 from bywire.can_frame import CanFrame
-from bywire.hal.sim.can_bus import LoggedFrame, SimCanBus
-from bywire.hal.sim.clock import VirtualClock
+from bywire.hal.simulated.can_bus import LoggedFrame, SimCanBus
+from bywire.hal.simulated.clock import VirtualClock
 from bywire.model import Gear, MovementCommand
 from bywire.protocol import dbc
 from bywire.protocol.secoc import SecocKey

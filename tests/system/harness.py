@@ -5,8 +5,8 @@ from __future__ import annotations
 from collections.abc import Callable
 from dataclasses import dataclass
 
-from bywire.hal.sim.clock import VirtualClock
-from bywire.hal.sim.world import SimWorld
+from bywire.hal.simulated.clock import VirtualClock
+from bywire.hal.simulated.world import SimWorld
 from bywire.model import ControlMode, Gear
 from bywire.runtime.loop import Runtime
 from bywire.runtime.settings import RuntimeConfig

@@ -16,8 +16,8 @@ import pytest
 
 from bywire.config import default_sim_config
 from bywire.errors import HardwareError
-from bywire.hal.sim.clock import RealtimeClock
-from bywire.hal.sim.world import SimWorld
+from bywire.hal.simulated.clock import RealtimeClock
+from bywire.hal.simulated.world import SimWorld
 from bywire.model import ControlMode, Gear
 from bywire.runtime.loop import Runtime
 from bywire.runtime.settings import RuntimeConfig

@@ -14,8 +14,8 @@ import time
 
 from bywire.control.supervisor import Cause
 from bywire.error_flags import ErrorFlag
-from bywire.hal.sim.clock import VirtualClock
-from bywire.hal.sim.world import SimWorld
+from bywire.hal.simulated.clock import VirtualClock
+from bywire.hal.simulated.world import SimWorld
 from bywire.model import ControlMode, Gear
 from bywire.runtime.loop import Runtime
 from bywire.runtime.settings import RuntimeConfig

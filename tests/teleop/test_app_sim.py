@@ -8,9 +8,9 @@ from dataclasses import dataclass
 from textual.pilot import Pilot
 from textual.widgets import Static
 
-from bywire.hal.sim.clock import VirtualClock
-from bywire.hal.sim.timers import PeriodicTimer
-from bywire.hal.sim.world import SimWorld
+from bywire.hal.simulated.clock import VirtualClock
+from bywire.hal.simulated.timers import PeriodicTimer
+from bywire.hal.simulated.world import SimWorld
 from bywire.model import ControlMode, Gear
 from bywire.protocol import dbc
 from bywire.protocol.secoc import SecocKey

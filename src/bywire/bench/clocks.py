@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import time
 
-from bywire.hal.sim.clock import RealtimeClock, VirtualClock
+from bywire.hal.simulated.clock import RealtimeClock, VirtualClock
 
 
 class _CpuMeter(VirtualClock):

@@ -18,8 +18,8 @@ import sys
 import threading
 
 from bywire.background import OWNER
-from bywire.hal.sim.can_bus import LoggedFrame
-from bywire.hal.sim.world import SimWorld
+from bywire.hal.simulated.can_bus import LoggedFrame
+from bywire.hal.simulated.world import SimWorld
 from bywire.loopback import Endpoint
 from bywire.priority import leave_realtime
 from bywire.runtime.loop import Runtime

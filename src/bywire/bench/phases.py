@@ -15,7 +15,7 @@ from bywire.bench.clocks import MeteredClock
 from bywire.bench.latency import DacWrite, Pairing, SentCommand, pair_writes
 from bywire.bench.machine import cpu_pressure_s, steal_s
 from bywire.bench.stats import LatencySummary, summarise
-from bywire.hal.sim.can_bus import SimCanBus
+from bywire.hal.simulated.can_bus import SimCanBus
 from bywire.model import ControlMode
 from bywire.runtime.schedule import PeriodicTask, TaskStats
 

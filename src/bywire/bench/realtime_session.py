@@ -50,8 +50,8 @@ from bywire.bench.sweeps import CanSweep, MovementLog, RcSweep
 from bywire.bench.tail import PhaseTail, ProbedClock, explain_tail, gc_figures
 from bywire.config import RobotConfig
 from bywire.config.security_setup import controller_receiver, sender_signer, simulated_run_key
-from bywire.hal.sim.hlc import COMMAND_PERIOD_S
-from bywire.hal.sim.world import SimWorld
+from bywire.hal.simulated.hlc import COMMAND_PERIOD_S
+from bywire.hal.simulated.world import SimWorld
 from bywire.model import ControlMode, Gear
 from bywire.protocol import ibus
 from bywire.runtime.loop import Runtime

@@ -9,10 +9,10 @@ A listen-only node on the bus keeps every movement command frame, stamped with i
 from __future__ import annotations
 
 from bywire.can_frame import CanFrame
-from bywire.hal.sim.can_bus import SimCanBus
-from bywire.hal.sim.hlc import COMMAND_PERIOD_S
-from bywire.hal.sim.timers import PeriodicTimer
-from bywire.hal.sim.world import SimWorld
+from bywire.hal.simulated.can_bus import SimCanBus
+from bywire.hal.simulated.hlc import COMMAND_PERIOD_S
+from bywire.hal.simulated.timers import PeriodicTimer
+from bywire.hal.simulated.world import SimWorld
 from bywire.model import Gear, MovementCommand
 from bywire.protocol import dbc, ibus
 

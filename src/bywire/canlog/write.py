@@ -18,8 +18,8 @@ from typing import Any
 import can
 
 from bywire.errors import ConfigError
-from bywire.hal.sim.can_bus import LoggedFrame
-from bywire.hal.sim.world import CONTROLLER_NODE
+from bywire.hal.simulated.can_bus import LoggedFrame
+from bywire.hal.simulated.world import CONTROLLER_NODE
 
 WRITERS: dict[str, Any] = {
     ".blf": can.BLFWriter,

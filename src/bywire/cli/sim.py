@@ -32,7 +32,7 @@ from bywire.cli.console import stdout_console
 from bywire.config import RobotConfig, default_sim_config, load_config
 from bywire.config.sections import ORIGIN
 from bywire.errors import ConfigError
-from bywire.hal.sim.clock import RealtimeClock
+from bywire.hal.simulated.clock import RealtimeClock
 from bywire.loopback import Endpoint, parse_endpoint
 from bywire.netbus.bridge import serve_bus
 from bywire.netbus.interface import on_interface

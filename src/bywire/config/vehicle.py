@@ -17,7 +17,7 @@ STEERING_ANGLE_DEG = Interval(1.0, 60.0, "°")
 class VehicleSection:
     """Front-to-rear axle distance, wheel track, and the road-wheel angle at full steering (±1).
 
-    The defaults are the simulated robot's (`bywire.hal.sim.vehicle_model.VehicleConfig`).
+    The defaults are the simulated robot's (`bywire.hal.simulated.vehicle_model.VehicleConfig`).
     """
 
     wheelbase_m: float = 0.8

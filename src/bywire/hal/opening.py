@@ -80,8 +80,8 @@ def _try(action: Callable[[T], None], value: T) -> None:
 
 
 def _open_sim(config: RobotConfig, _paths: LinuxPaths, stack: contextlib.ExitStack) -> Hardware:
-    from bywire.hal.sim.clock import RealtimeClock  # noqa: PLC0415 -- only the chosen backend
-    from bywire.hal.sim.world import SimWorld  # noqa: PLC0415
+    from bywire.hal.simulated.clock import RealtimeClock  # noqa: PLC0415 -- only the chosen backend
+    from bywire.hal.simulated.world import SimWorld  # noqa: PLC0415
 
     world = SimWorld.from_robot(RealtimeClock(), config)
     world.start()

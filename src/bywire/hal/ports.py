@@ -1,9 +1,9 @@
 """The hardware seam: every port the controller uses, identical on the robot and in the simulator.
 
 Everything above this module (control, runtime) sees only these protocols. Backends live in
-`bywire.hal.sim` (in-memory, virtual time) and `bywire.hal.linux` (python-can, pyserial, smbus2,
-sysfs, libgpiod); `bywire.hal.tape` wraps either in taped ports and plays recorded runs back.
-Reads never block: the runtime waits on the `Clock`, which wakes it when an input port has
+`bywire.hal.simulated` (in-memory, virtual time) and `bywire.hal.linux` (python-can, pyserial,
+smbus2, sysfs, libgpiod); `bywire.hal.tape` wraps either in taped ports and plays recorded runs
+back. Reads never block: the runtime waits on the `Clock`, which wakes it when an input port has
 something to read or a deadline has come. The two input ports also say how their own link is
 (`LinkState`): the runtime reports it (CAN_BUS_OFF, CAN_OPEN_FAILED, CAN_RX_FAILED,
 IBUS_PORT_FAILED); the input timeouts, not this, are what stop the robot.

@@ -20,9 +20,9 @@ from collections.abc import Iterator
 
 from bywire.can_frame import CanFrame
 from bywire.errors import FrameError
-from bywire.hal.sim.can_bus import LoggedFrame, SimCanBus
-from bywire.hal.sim.can_port import SimCanPort
-from bywire.hal.sim.timers import PeriodicTimer
+from bywire.hal.simulated.can_bus import LoggedFrame, SimCanBus
+from bywire.hal.simulated.can_port import SimCanPort
+from bywire.hal.simulated.timers import PeriodicTimer
 from bywire.loopback import Endpoint
 from bywire.netbus.server import SocketcandServer
 

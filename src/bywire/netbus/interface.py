@@ -23,8 +23,8 @@ import can
 from bywire.background import OWNER
 from bywire.can_frame import CanFrame
 from bywire.errors import FrameError
-from bywire.hal.sim.can_bus import LoggedFrame, SimCanBus
-from bywire.hal.sim.timers import PeriodicTimer
+from bywire.hal.simulated.can_bus import LoggedFrame, SimCanBus
+from bywire.hal.simulated.timers import PeriodicTimer
 
 POLL_PERIOD_S = 0.002
 NODE = "outside"

@@ -1,8 +1,8 @@
 """A simulated operator calibrating: every stick to both ends, every switch through its positions.
 
 `bywire rc --sim` shows the simulated FlySky transmitter and receiver of `bywire sim`
-(`hal.sim.rc_transmitter`: real IBUS frames every 7.7 ms on a simulated 115200-baud line) moved
-by this script, over and over (one sweep takes `SWEEP_S`): at rest, the steering stick to full
+(`hal.simulated.rc_transmitter`: real IBUS frames every 7.7 ms on a simulated 115200-baud line)
+moved by this script, over and over (one sweep takes `SWEEP_S`): at rest, the steering stick to full
 left, full right and back, the same with the throttle stick, the mode switch low → middle → high
 → middle → low, the gear switch through its positions, each light switch on and off; each
 position held `HOLD_S`. The transmitter knows nothing of the robot file but which channel does
@@ -19,10 +19,10 @@ from collections.abc import Sequence
 from itertools import pairwise
 
 from bywire.control.rc_mapping import RcMapping, SwitchCalibration
-from bywire.hal.sim.clock import VirtualClock
-from bywire.hal.sim.rc_transmitter import CENTRE_RAW, SimRcTransmitter
-from bywire.hal.sim.timers import PeriodicTimer
-from bywire.hal.sim.uart import SimUart
+from bywire.hal.simulated.clock import VirtualClock
+from bywire.hal.simulated.rc_transmitter import CENTRE_RAW, SimRcTransmitter
+from bywire.hal.simulated.timers import PeriodicTimer
+from bywire.hal.simulated.uart import SimUart
 from bywire.model import ControlMode, Gear
 from bywire.protocol import ibus
 

@@ -12,7 +12,7 @@ from pathlib import Path
 
 from bywire.config import describe
 from bywire.errors import ConfigError
-from bywire.hal.sim.clock import RealtimeClock
+from bywire.hal.simulated.clock import RealtimeClock
 from bywire.hal.tape.run_record import SENSOR_NAMES, RecordHeader, write_record
 from bywire.hal.tape.taped import Tape, taped_hardware
 from bywire.sim.runner import SimRun

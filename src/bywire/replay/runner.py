@@ -12,8 +12,8 @@ from dataclasses import dataclass
 
 from bywire.config import RobotConfig, parse_config
 from bywire.config.security_setup import controller_receiver, simulated_run_key
-from bywire.hal.sim.clock import VirtualClock
-from bywire.hal.sim.timers import PeriodicTimer
+from bywire.hal.simulated.clock import VirtualClock
+from bywire.hal.simulated.timers import PeriodicTimer
 from bywire.hal.tape.playback import replay_hardware
 from bywire.hal.tape.run_record import Output, RecordedRun, outputs_of
 from bywire.hal.tape.taped import Tape, taped_hardware

@@ -32,7 +32,7 @@ from bywire.canlog.read import read_log
 from bywire.config import RobotConfig
 from bywire.error_flags import flag_names
 from bywire.errors import ConfigError, FrameError
-from bywire.hal.sim.can_bus import LoggedFrame
+from bywire.hal.simulated.can_bus import LoggedFrame
 from bywire.model import REPORT_TYPES, Report, StatusReport, SteeringReport, WheelSpeedReport
 from bywire.protocol import dbc
 from bywire.ros2 import diagnostics, odometry

@@ -4,7 +4,7 @@
 builds it from parameter values and refuses a bad one with the parameter's name, the value and
 the allowed range (a `ConfigError`, exit 2). The defaults fit the simulated robot: the
 feed-forward map is the throttle that holds each speed on flat ground, and the brake map the
-brake that gives each deceleration, both read off `bywire.hal.sim.vehicle_model` (a test holds
+brake that gives each deceleration, both read off `bywire.hal.simulated.vehicle_model` (a test holds
 them to it). A real robot measures its own: drive at a steady throttle, note the speed.
 """
 

@@ -2,7 +2,7 @@
 speed loop, the stop ramp, enabling) on a node of the simulated bus, ticked every 20 ms by the
 world's clock, and a simulated planner that offers it `cmd_vel`-style set-points as the rclpy
 node would (arrival on the same clock, a header stamp that may lag). No rclpy, no threads: a
-scenario with `computer = "bridge"` runs it in place of `hal.sim.hlc`.
+scenario with `computer = "bridge"` runs it in place of `hal.simulated.hlc`.
 
 The planner publishes at `rate_hz` while `publishing`: each message asks for `speed_mps` and a
 curvature (1/m, left > 0; converted to the steering command as the node converts a twist), and
@@ -21,9 +21,9 @@ from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field, replace
 
 from bywire.config import RobotConfig
-from bywire.hal.sim.port_bus import SimPortBus
-from bywire.hal.sim.timers import PeriodicTimer
-from bywire.hal.sim.world import SimWorld
+from bywire.hal.simulated.port_bus import SimPortBus
+from bywire.hal.simulated.timers import PeriodicTimer
+from bywire.hal.simulated.world import SimWorld
 from bywire.protocol import dbc
 from bywire.ros2.bicycle import steering_from_twist
 from bywire.ros2.bridge import Activity, Decision

@@ -20,8 +20,8 @@ from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from typing import Any, Protocol
 
-from bywire.hal.sim.hlc import Corruption
-from bywire.hal.sim.world import SimWorld
+from bywire.hal.simulated.hlc import Corruption
+from bywire.hal.simulated.world import SimWorld
 from bywire.model import Command, ControlCommand, LightsCommand, MovementCommand
 
 FaultValues = Mapping[str, Any]

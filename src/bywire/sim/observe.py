@@ -10,7 +10,7 @@ from __future__ import annotations
 from bywire.control.controller import ControlOutputs
 from bywire.control.lights import LIGHT_LINES, LightOutputs
 from bywire.control.values import value
-from bywire.hal.sim.world import SimWorld
+from bywire.hal.simulated.world import SimWorld
 from bywire.model import ControlMode, Gear
 
 

@@ -19,10 +19,10 @@ from bywire.config.security_setup import controller_receiver, sender_signer, sim
 from bywire.control.supervisor import Cause
 from bywire.errors import ConfigError, HardwareError
 from bywire.hal.hardware import Hardware
-from bywire.hal.sim.can_bus import LoggedFrame
-from bywire.hal.sim.clock import RealtimeClock, ScaledRealtimeClock, VirtualClock
-from bywire.hal.sim.timers import PeriodicTimer
-from bywire.hal.sim.world import SimWorld
+from bywire.hal.simulated.can_bus import LoggedFrame
+from bywire.hal.simulated.clock import RealtimeClock, ScaledRealtimeClock, VirtualClock
+from bywire.hal.simulated.timers import PeriodicTimer
+from bywire.hal.simulated.world import SimWorld
 from bywire.model import LIGHTS_OFF, ControlMode, Gear
 from bywire.ros2.settings import settings_from
 from bywire.runtime.loop import Runtime

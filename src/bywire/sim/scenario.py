@@ -77,7 +77,7 @@ EVENT_KEYS = {"at_s", "label", "fault", "count", "load", "stall_s", "line", "key
 EXPECT_KEYS = {"after", "within_s", "during_s", "at_s", "label", *CONDITIONS}
 DEFAULT_DURATION_S = 30.0
 COMPUTERS = ("hlc", "bridge")
-"""Which simulated higher-level computer sends the commands: `hal.sim.hlc`, or the bridge."""
+"""Which simulated higher-level computer sends the commands: `hal.simulated.hlc`, or the bridge."""
 BRIDGE_ACTIONS = frozenset({"planner", "bridge_service"})
 
 

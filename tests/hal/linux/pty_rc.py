@@ -16,9 +16,9 @@ import time
 import tty
 from pathlib import Path
 
-from bywire.hal.sim.clock import RealtimeClock
-from bywire.hal.sim.rc_transmitter import SimRcTransmitter
-from bywire.hal.sim.uart import BITS_PER_BYTE_8N1
+from bywire.hal.simulated.clock import RealtimeClock
+from bywire.hal.simulated.rc_transmitter import SimRcTransmitter
+from bywire.hal.simulated.uart import BITS_PER_BYTE_8N1
 from bywire.model import ControlMode, Gear
 from bywire.protocol import ibus
 

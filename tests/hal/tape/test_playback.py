@@ -6,7 +6,7 @@ import pytest
 
 from bywire.can_frame import CanFrame
 from bywire.errors import HardwareError
-from bywire.hal.sim.clock import VirtualClock
+from bywire.hal.simulated.clock import VirtualClock
 from bywire.hal.tape.playback import ReplayByteStream, ReplayCanPort, ReplayDac
 
 

@@ -5,12 +5,12 @@ from __future__ import annotations
 
 from bywire.can_frame import CanFrame
 from bywire.hal.ports import LINK_UP, LinkState
-from bywire.hal.sim.can_bus import SimCanBus
-from bywire.hal.sim.clock import VirtualClock
-from bywire.hal.sim.dac import SimDac6574
-from bywire.hal.sim.gpio_pwm import SimPwmChannel
-from bywire.hal.sim.timers import PeriodicTimer
-from bywire.hal.sim.uart import SimUart
+from bywire.hal.simulated.can_bus import SimCanBus
+from bywire.hal.simulated.clock import VirtualClock
+from bywire.hal.simulated.dac import SimDac6574
+from bywire.hal.simulated.gpio_pwm import SimPwmChannel
+from bywire.hal.simulated.timers import PeriodicTimer
+from bywire.hal.simulated.uart import SimUart
 from bywire.hal.tape.playback import ReplayByteStream, ReplayCanPort, ReplayDac, ReplayWheelSpeeds
 from bywire.hal.tape.run_record import RecordedRun, RecordHeader, link_of
 from bywire.hal.tape.taped import (

@@ -11,8 +11,8 @@ from typing import Any
 import pytest
 
 from bywire.config import default_sim_config
-from bywire.hal.sim.clock import VirtualClock
-from bywire.hal.sim.world import SimWorld
+from bywire.hal.simulated.clock import VirtualClock
+from bywire.hal.simulated.world import SimWorld
 from bywire.model import ControlMode
 from bywire.sim.faults import BY_NAME
 from bywire.sim.scenario import Event

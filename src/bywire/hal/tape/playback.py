@@ -18,9 +18,9 @@ from bywire.can_frame import CanFrame, check_can_frame
 from bywire.errors import HardwareError
 from bywire.hal.hardware import OUTPUT_NAMES, DigitalOutputs, Hardware
 from bywire.hal.ports import LINK_UP, I2cDevice, LinkState
-from bywire.hal.sim.clock import VirtualClock
-from bywire.hal.sim.dac import SimDac6574
-from bywire.hal.sim.gpio_pwm import SimDigitalOut, SimPwmChannel
+from bywire.hal.simulated.clock import VirtualClock
+from bywire.hal.simulated.dac import SimDac6574
+from bywire.hal.simulated.gpio_pwm import SimDigitalOut, SimPwmChannel
 from bywire.hal.tape.run_record import RecordedRun, SensorValue
 
 T = TypeVar("T")

@@ -20,7 +20,7 @@ from typing import cast
 
 from bywire.config import RobotConfig, default_sim_config
 from bywire.control.supervisor import SupervisorState
-from bywire.hal.sim.clock import VirtualClock
+from bywire.hal.simulated.clock import VirtualClock
 from bywire.sim.runner import SimRun
 from bywire.sim.scenario import Scenario
 from bywire.sim.verify.actions import OPERATOR, TAIL_S, VOCABULARY, compile_steps

@@ -9,7 +9,7 @@ from typing import Any
 
 from bywire.control.dac_health import DAC_TRANSFERS_PER_PASS
 from bywire.control.rc_mapping import RcMapping
-from bywire.hal.sim.clock import VirtualClock
+from bywire.hal.simulated.clock import VirtualClock
 from bywire.model import ControlMode
 from bywire.ros2.bridge import Decision
 from bywire.ros2.link import Snapshot

@@ -14,8 +14,8 @@ from dataclasses import replace
 import pytest
 
 from bywire.config import RobotConfig, default_sim_config, parse_config
-from bywire.hal.sim.clock import VirtualClock
-from bywire.hal.sim.world import SimWorld
+from bywire.hal.simulated.clock import VirtualClock
+from bywire.hal.simulated.world import SimWorld
 from bywire.model import ControlMode
 from bywire.protocol import dac6574
 from bywire.sim.scenario import parse_scenario

@@ -20,7 +20,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 
-from bywire.hal.sim.world import SimWorld
+from bywire.hal.simulated.world import SimWorld
 from bywire.model import ControlMode
 from bywire.sim.verify.oracle.arming import ArmingTracker
 from bywire.sim.verify.oracle.cause_deadlines import OracleTiming

@@ -5,8 +5,8 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from bywire.hal.sim.vehicle_model import servo_target_norm
-from bywire.hal.sim.world import SimWorld
+from bywire.hal.simulated.vehicle_model import servo_target_norm
+from bywire.hal.simulated.world import SimWorld
 
 
 @dataclass(frozen=True, slots=True)

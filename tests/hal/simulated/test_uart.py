@@ -6,8 +6,8 @@ import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
-from bywire.hal.sim.clock import VirtualClock
-from bywire.hal.sim.uart import SimUart
+from bywire.hal.simulated.clock import VirtualClock
+from bywire.hal.simulated.uart import SimUart
 
 BYTE_S = 10 / 115_200
 FRAME = bytes(range(32))

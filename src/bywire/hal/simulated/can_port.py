@@ -16,7 +16,7 @@ from bywire.can_frame import CanFrame, check_can_frame
 from bywire.hal.ports import LINK_UP, LinkState
 
 if TYPE_CHECKING:
-    from bywire.hal.sim.can_bus import SimCanBus
+    from bywire.hal.simulated.can_bus import SimCanBus
 
 DEFAULT_RX_CAPACITY = 1024
 

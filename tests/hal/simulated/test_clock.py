@@ -6,7 +6,7 @@ import time
 
 import pytest
 
-from bywire.hal.sim.clock import RealtimeClock, ScaledRealtimeClock, VirtualClock
+from bywire.hal.simulated.clock import RealtimeClock, ScaledRealtimeClock, VirtualClock
 
 
 def test_wait_jumps_to_the_deadline_when_no_timer_is_due() -> None:

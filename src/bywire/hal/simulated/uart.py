@@ -15,7 +15,7 @@ from collections import deque
 from dataclasses import dataclass
 
 from bywire.hal.ports import LINK_UP, LinkState
-from bywire.hal.sim.timers import SimClock
+from bywire.hal.simulated.timers import SimClock
 from bywire.protocol import ibus
 
 BITS_PER_BYTE_8N1 = 10

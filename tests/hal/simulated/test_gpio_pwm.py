@@ -5,8 +5,8 @@ from __future__ import annotations
 import pytest
 
 from bywire.errors import HardwareError
-from bywire.hal.sim.clock import VirtualClock
-from bywire.hal.sim.gpio_pwm import SimDigitalOut, SimPwmChannel
+from bywire.hal.simulated.clock import VirtualClock
+from bywire.hal.simulated.gpio_pwm import SimDigitalOut, SimPwmChannel
 
 
 def test_digital_out_records_first_set_and_changes_only() -> None:

@@ -16,9 +16,9 @@ from collections.abc import Callable, Iterable
 
 from bywire.can_frame import CanFrame
 from bywire.control.values import value
-from bywire.hal.sim.can_port import DEFAULT_RX_CAPACITY, SimCanPort
-from bywire.hal.sim.flood import CanFlood
-from bywire.hal.sim.timers import SimClock
+from bywire.hal.simulated.can_port import DEFAULT_RX_CAPACITY, SimCanPort
+from bywire.hal.simulated.flood import CanFlood
+from bywire.hal.simulated.timers import SimClock
 from bywire.protocol.bittiming import frame_bits, frame_time_s
 
 DEFAULT_BITRATE_BPS = 500_000

@@ -7,8 +7,8 @@ from hypothesis import given
 from hypothesis import strategies as st
 
 from bywire.errors import HardwareError
-from bywire.hal.sim.clock import VirtualClock
-from bywire.hal.sim.dac import SimDac6574
+from bywire.hal.simulated.clock import VirtualClock
+from bywire.hal.simulated.dac import SimDac6574
 from bywire.protocol import dac6574
 
 

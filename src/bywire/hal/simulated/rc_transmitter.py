@@ -12,8 +12,8 @@ import random
 from collections.abc import Mapping, Sequence
 
 from bywire.control.rc_mapping import AxisCalibration, RcMapping, SwitchCalibration
-from bywire.hal.sim.timers import PeriodicTimer, SimClock
-from bywire.hal.sim.uart import SimUart
+from bywire.hal.simulated.timers import PeriodicTimer, SimClock
+from bywire.hal.simulated.uart import SimUart
 from bywire.model import ControlMode, Gear
 from bywire.protocol import ibus
 

@@ -4,8 +4,8 @@ from __future__ import annotations
 
 import pytest
 
-from bywire.hal.sim.clock import VirtualClock
-from bywire.hal.sim.timers import PeriodicTimer
+from bywire.hal.simulated.clock import VirtualClock
+from bywire.hal.simulated.timers import PeriodicTimer
 
 
 def test_ticks_land_on_absolute_deadlines_without_drift() -> None:

@@ -10,7 +10,7 @@ import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
-from bywire.hal.sim.vehicle_model import (
+from bywire.hal.simulated.vehicle_model import (
     ActuatorInputs,
     VehicleConfig,
     VehicleModel,

@@ -10,10 +10,15 @@ from __future__ import annotations
 from collections import deque
 from dataclasses import dataclass
 
-from bywire.hal.sim.dac import SimDac6574
-from bywire.hal.sim.gpio_pwm import SimDigitalOut, SimPwmChannel
-from bywire.hal.sim.timers import PeriodicTimer, SimClock
-from bywire.hal.sim.vehicle_model import ActuatorInputs, VehicleConfig, VehicleModel, VehicleState
+from bywire.hal.simulated.dac import SimDac6574
+from bywire.hal.simulated.gpio_pwm import SimDigitalOut, SimPwmChannel
+from bywire.hal.simulated.timers import PeriodicTimer, SimClock
+from bywire.hal.simulated.vehicle_model import (
+    ActuatorInputs,
+    VehicleConfig,
+    VehicleModel,
+    VehicleState,
+)
 
 DEFAULT_STEP_S = 0.005
 DEFAULT_HISTORY_LIMIT = 12_000  # one minute of states at 200 Hz

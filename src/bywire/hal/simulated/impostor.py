@@ -24,9 +24,9 @@ import dataclasses
 
 from bywire.can_frame import CanFrame
 from bywire.command_table import command_row
-from bywire.hal.sim.can_port import SimCanPort
-from bywire.hal.sim.hlc import COMMAND_PERIOD_S, SimHigherLevelComputer
-from bywire.hal.sim.timers import PeriodicTimer, SimClock
+from bywire.hal.simulated.can_port import SimCanPort
+from bywire.hal.simulated.hlc import COMMAND_PERIOD_S, SimHigherLevelComputer
+from bywire.hal.simulated.timers import PeriodicTimer, SimClock
 from bywire.model import Command, Gear, LightsCommand, MovementCommand
 from bywire.protocol import dbc, secoc
 

@@ -4,10 +4,10 @@ from __future__ import annotations
 
 import pytest
 
-from bywire.hal.sim.clock import VirtualClock
-from bywire.hal.sim.dac import SimDac6574
-from bywire.hal.sim.gpio_pwm import SimDigitalOut, SimPwmChannel
-from bywire.hal.sim.vehicle import (
+from bywire.hal.simulated.clock import VirtualClock
+from bywire.hal.simulated.dac import SimDac6574
+from bywire.hal.simulated.gpio_pwm import SimDigitalOut, SimPwmChannel
+from bywire.hal.simulated.vehicle import (
     SimPressureSensor,
     SimSteeringEncoder,
     SimVehicle,

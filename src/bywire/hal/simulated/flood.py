@@ -8,8 +8,8 @@ load never exceeds what the bus can carry and our higher-priority frames still w
 from __future__ import annotations
 
 from bywire.can_frame import MAX_STANDARD_ID, CanFrame
-from bywire.hal.sim.can_port import SimCanPort
-from bywire.hal.sim.timers import PeriodicTimer, SimClock
+from bywire.hal.simulated.can_port import SimCanPort
+from bywire.hal.simulated.timers import PeriodicTimer, SimClock
 
 FLOOD_ID_COUNT = 8
 """The flood cycles through this many consecutive ids, as a handful of other nodes would."""

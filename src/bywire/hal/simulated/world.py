@@ -15,23 +15,23 @@ from bywire.command_table import COMMAND_TYPES
 from bywire.control.rc_mapping import RcMapping
 from bywire.hal.hardware import OUTPUT_NAMES, DigitalOutputs, Hardware, sensors_fitted
 from bywire.hal.ports import Clock
-from bywire.hal.sim.can_bus import DEFAULT_BITRATE_BPS, SimCanBus
-from bywire.hal.sim.can_port import SimCanPort
-from bywire.hal.sim.dac import SimDac6574
-from bywire.hal.sim.gpio_pwm import SimDigitalOut, SimPwmChannel
-from bywire.hal.sim.hlc import SimHigherLevelComputer
-from bywire.hal.sim.impostor import SimImpostor, impostor_node
-from bywire.hal.sim.rc_transmitter import SimRcTransmitter
-from bywire.hal.sim.timers import SimClock
-from bywire.hal.sim.uart import SimUart
-from bywire.hal.sim.vehicle import (
+from bywire.hal.simulated.can_bus import DEFAULT_BITRATE_BPS, SimCanBus
+from bywire.hal.simulated.can_port import SimCanPort
+from bywire.hal.simulated.dac import SimDac6574
+from bywire.hal.simulated.gpio_pwm import SimDigitalOut, SimPwmChannel
+from bywire.hal.simulated.hlc import SimHigherLevelComputer
+from bywire.hal.simulated.impostor import SimImpostor, impostor_node
+from bywire.hal.simulated.rc_transmitter import SimRcTransmitter
+from bywire.hal.simulated.timers import SimClock
+from bywire.hal.simulated.uart import SimUart
+from bywire.hal.simulated.vehicle import (
     SimPressureSensor,
     SimSteeringEncoder,
     SimVehicle,
     SimWheelSpeedSensor,
     VehicleWiring,
 )
-from bywire.hal.sim.vehicle_model import VehicleConfig
+from bywire.hal.simulated.vehicle_model import VehicleConfig
 from bywire.model import Command, MovementCommand
 from bywire.protocol import dac6574, dbc, ibus
 

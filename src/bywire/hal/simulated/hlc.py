@@ -21,8 +21,8 @@ from typing import TypeVar, cast
 from bywire.can_frame import CanFrame
 from bywire.command_table import COMMANDS, command_row
 from bywire.errors import FrameError
-from bywire.hal.sim.can_port import SimCanPort
-from bywire.hal.sim.timers import PeriodicTimer, SimClock
+from bywire.hal.simulated.can_port import SimCanPort
+from bywire.hal.simulated.timers import PeriodicTimer, SimClock
 from bywire.model import (
     Command,
     ControlCommand,

@@ -15,7 +15,7 @@ from typing import Any
 import can
 
 from bywire.can_frame import CanFrame
-from bywire.hal.sim.can_port import SimCanPort
+from bywire.hal.simulated.can_port import SimCanPort
 
 
 class SimPortBus(can.BusABC):

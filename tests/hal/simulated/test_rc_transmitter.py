@@ -13,14 +13,14 @@ from bywire.control.rc_mapping import (
     axis_norm,
     rc_request,
 )
-from bywire.hal.sim.clock import VirtualClock
-from bywire.hal.sim.rc_transmitter import (
+from bywire.hal.simulated.clock import VirtualClock
+from bywire.hal.simulated.rc_transmitter import (
     SimRcTransmitter,
     idle_channels,
     raw_for_axis,
     raw_for_switch,
 )
-from bywire.hal.sim.uart import SimUart
+from bywire.hal.simulated.uart import SimUart
 from bywire.model import ControlMode, Gear
 from bywire.protocol import ibus
 

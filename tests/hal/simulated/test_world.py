@@ -9,8 +9,8 @@ import pytest
 from bywire.command_table import COMMAND_TYPES
 from bywire.config import default_sim_config
 from bywire.hal.hardware import OUTPUT_NAMES, Hardware
-from bywire.hal.sim.clock import RealtimeClock, VirtualClock
-from bywire.hal.sim.world import SimWorld
+from bywire.hal.simulated.clock import RealtimeClock, VirtualClock
+from bywire.hal.simulated.world import SimWorld
 from bywire.model import ControlMode, Gear, LightsCommand, MovementCommand
 from bywire.protocol import dac6574, dbc, ibus
 

@@ -11,7 +11,7 @@ from collections.abc import Callable
 from dataclasses import dataclass
 
 from bywire.errors import FrameError, HardwareError
-from bywire.hal.sim.timers import SimClock
+from bywire.hal.simulated.timers import SimClock
 from bywire.protocol import dac6574
 
 

@@ -10,10 +10,10 @@ import pytest
 from bywire.can_frame import CanFrame
 from bywire.command_table import COMMANDS
 from bywire.errors import FrameError
-from bywire.hal.sim.can_bus import SimCanBus
-from bywire.hal.sim.can_port import SimCanPort
-from bywire.hal.sim.clock import VirtualClock
-from bywire.hal.sim.hlc import Corruption, SimHigherLevelComputer, out_of_range_payload
+from bywire.hal.simulated.can_bus import SimCanBus
+from bywire.hal.simulated.can_port import SimCanPort
+from bywire.hal.simulated.clock import VirtualClock
+from bywire.hal.simulated.hlc import Corruption, SimHigherLevelComputer, out_of_range_payload
 from bywire.model import (
     LIGHTS_OFF,
     ControlCommand,

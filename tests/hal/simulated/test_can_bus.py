@@ -10,8 +10,8 @@ from hypothesis import strategies as st
 
 from bywire.can_frame import CanFrame
 from bywire.errors import FrameError
-from bywire.hal.sim.can_bus import LoggedFrame, SimCanBus
-from bywire.hal.sim.clock import VirtualClock
+from bywire.hal.simulated.can_bus import LoggedFrame, SimCanBus
+from bywire.hal.simulated.clock import VirtualClock
 from bywire.protocol.bittiming import frame_bits
 
 BIT_S = 1 / 500_000

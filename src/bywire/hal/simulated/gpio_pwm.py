@@ -14,7 +14,7 @@ import math
 from typing import Generic, TypeVar
 
 from bywire.errors import HardwareError
-from bywire.hal.sim.timers import SimClock
+from bywire.hal.simulated.timers import SimClock
 
 T = TypeVar("T", bool, float)
 DEFAULT_HISTORY_LIMIT = 100_000
