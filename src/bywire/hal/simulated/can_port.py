@@ -10,15 +10,23 @@ from __future__ import annotations
 
 from collections import deque
 from collections.abc import Callable, Iterable
-from typing import TYPE_CHECKING
+from typing import Protocol
 
 from bywire.can_frame import CanFrame, check_can_frame
 from bywire.hal.ports import LINK_UP, LinkState
-
-if TYPE_CHECKING:
-    from bywire.hal.simulated.can_bus import SimCanBus
+from bywire.hal.simulated.timers import SimClock
 
 DEFAULT_RX_CAPACITY = 1024
+
+
+class Wire(Protocol):
+    """What a port needs of the bus it is attached to (``SimCanBus`` is one): the port sits
+    below the bus, so the bus imports the port and never the other way."""
+
+    @property
+    def clock(self) -> SimClock: ...
+    def queue_order(self) -> int: ...
+    def request_arbitration(self) -> None: ...
 
 
 class SimCanPort:
@@ -26,7 +34,7 @@ class SimCanPort:
 
     def __init__(
         self,
-        bus: SimCanBus,
+        bus: Wire,
         name: str,
         wake_on_receive: bool,
         accept_ids: Iterable[int] | None,
