@@ -138,6 +138,8 @@ def cluster_client(address: str, workers: int) -> Iterator[Client]:
     try:
         import dask  # noqa: PLC0415 -- an optional extra, only with --cluster
         from distributed import Client, LocalCluster  # noqa: PLC0415
+
+        from bywire.sim.verify.cluster_worker import LeaveInterruptToTheParent  # noqa: PLC0415
     except ImportError:
         raise ClusterError(INSTALL) from None
     settings = {
@@ -154,6 +156,8 @@ def cluster_client(address: str, workers: int) -> Iterator[Client]:
                 host=LOOPBACK,
                 dashboard_address=None,
                 silence_logs=logging.ERROR,
+                # set up in each worker process before it joins, a replacement's too
+                plugins=(LeaveInterruptToTheParent(),),
             )
         try:
             try:
