@@ -5,6 +5,7 @@ before anything runs, and a failure is written where `bywire sim --scenario` rep
 from __future__ import annotations
 
 import json
+import logging
 import os
 import signal
 import subprocess
@@ -16,6 +17,7 @@ from typing import Any
 
 import psutil
 import pytest
+from distributed import LocalCluster
 
 from bywire.cli import verify
 from bywire.cli.main import main
@@ -438,3 +440,30 @@ def test_a_cluster_address_that_names_no_scheduler_is_refused(
         main(["verify", "--cluster", address])
     assert caught.value.code == 2
     assert "tcp://127.0.0.1:8786" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize("threads", [1, 2])
+def test_a_cluster_the_user_runs_is_used_with_one_thread_a_worker_and_refused_with_more(
+    threads: int, capsys: pytest.CaptureFixture[str], tmp_path: Path
+) -> None:
+    args = ("--budget", "2", "--campaign-s", "2", "--seed", "3", "--out", str(tmp_path))
+    with LocalCluster(  # type: ignore[no-untyped-call]
+        n_workers=1,
+        threads_per_worker=threads,
+        host="127.0.0.1",
+        dashboard_address=None,
+        silence_logs=logging.ERROR,
+    ) as cluster:
+        address = cluster.scheduler_address
+        assert address.startswith("tcp://127.0.0.1:")
+        if threads == 1:
+            here = _verify(capsys, *args, "--jobs", "1")
+            status, summary = _verify(capsys, *args, "--cluster", address)
+            assert (status, _what(summary)) == (here[0], _what(here[1]))
+            assert (summary["jobs"], summary["cluster"]) == (1, address)
+            return
+        assert main(["verify", *args, "--cluster", address]) == 2
+    error = capsys.readouterr().err
+    assert error.count("\n") == 1
+    assert "runs 2 threads" in error
+    assert "--nthreads 1" in error

@@ -423,7 +423,10 @@ def _summary(
             "cannot_happen_but_taken": [row for row in cannot_happen if row in tally.transitions],
         },
         # Campaigns that killed their worker twice (a crash of the process, not a violation).
-        "crashes": [{"seed": c.seed, "index": c.index} for c in sorted(tally.crashes, key=_at)],
+        "crashes": [
+            {"seed": c.seed, "index": c.index, "worker_deaths": c.deaths}
+            for c in sorted(tally.crashes, key=_at)
+        ],
         "failures": [
             {
                 "invariant": r.finding.invariant,
@@ -440,6 +443,10 @@ def _summary(
 
 def _at(crash: Crash) -> int:
     return crash.index
+
+
+def _times(deaths: int | None) -> str:
+    return "repeatedly" if deaths is None else "twice" if deaths == 2 else f"{deaths} times"
 
 
 def _where(summary: dict[str, Any]) -> str:
@@ -495,7 +502,8 @@ def _print_summary(console: Console, summary: dict[str, Any], robot: RobotConfig
     for crash in summary["crashes"]:
         console.print(
             f"[red]  campaign {crash['index']} of seed {crash['seed']} killed its worker"
-            " twice[/red] (a crash of the process: a finding of its own)",
+            f" {_times(crash['worker_deaths'])}[/red] (a crash of the process: a finding of its"
+            f" own; replay it alone: bywire verify --seed {crash['seed']} ... --jobs 1)",
             highlight=False,
         )
     broken = any(violations.values()) or summary["crashes"]
@@ -748,7 +756,7 @@ def _print_drawn(console: Console, result: dict[str, Any]) -> None:
         for crash in entry["crashes"]:
             console.print(
                 f"[red]    campaign {crash['index']} of seed {crash['seed']} killed its worker"
-                " twice[/red]",
+                f" {_times(crash['worker_deaths'])}[/red]",
                 highlight=False,
             )
         for failure in entry["failures"]:

@@ -82,7 +82,7 @@ def test_a_campaign_that_kills_its_worker_twice_is_reported_with_its_seed_and_in
 ) -> None:
     client.register_plugin(CrashAt(4), name="crash-always")  # batch [4, 6), first
     outcomes = _run(client)
-    assert outcomes[4] == Crash(seed=JOB.seed, index=4)
+    assert outcomes[4] == Crash(seed=JOB.seed, index=4, deaths=2)
     # The batch was split down to the campaign: the one beside it in the batch still ran.
     assert [o for o in outcomes if isinstance(o, Outcome)] == _here(range(4)) + _here(range(5, 6))
 

@@ -112,10 +112,13 @@ class BatchResult:
 
 @dataclass(frozen=True, slots=True)
 class Crash:
-    """A campaign that killed its worker twice: a finding of its own."""
+    """A campaign that killed its worker `deaths` times (twice on a local cluster; on a cluster
+    the user runs, its scheduler's allowed-failures + 1; None when it does not say): a finding of
+    its own."""
 
     seed: int
     index: int
+    deaths: int | None
 
 
 def run_batch(batch: Batch) -> BatchResult:
@@ -189,6 +192,23 @@ def _check_workers(client: Client, address: str) -> None:
         raise ClusterError(f"a worker of {address} cannot run bywire: {error}") from None
     for worker, (build, host) in sorted(builds.items()):
         _check_build(build, f"{worker} on {host}")
+    for worker, info in sorted(client.scheduler_info(n_workers=-1)["workers"].items()):
+        if info["nthreads"] != 1:
+            raise ClusterError(
+                f"worker {worker} runs {info['nthreads']} threads: a campaign needs a process"
+                " of its own; start workers with `dask worker --nthreads 1 --nworkers N`"
+            )
+
+
+def worker_deaths(client: Client) -> int | None:
+    """How often a batch's worker dies before the scheduler gives up on it (KilledWorker)."""
+    try:
+        allowed: int = client.run_on_scheduler(  # type: ignore[no-untyped-call]
+            lambda dask_scheduler: dask_scheduler.allowed_failures  # by value: no bywire there
+        )
+    except Exception:  # a scheduler that refuses pickled functions: it does not say
+        return None
+    return allowed + 1
 
 
 def _check_build(build: str, where: str) -> None:
@@ -211,6 +231,17 @@ def batch_size(budget: int | None, workers: int) -> int:
     return max(1, min(BATCH_MAX, math.ceil(budget / (2 * max(1, workers)))))
 
 
+def _checked(result: BatchResult, robot_file_hash: str) -> tuple[Outcome, ...]:
+    """A batch's outcomes, when this build ran them on the robot file being verified."""
+    _check_build(result.build, f"on {result.host}")
+    if result.robot_hash != robot_file_hash:
+        raise ClusterError(
+            f"a worker on {result.host} answered for robot file {result.robot_hash},"
+            f" not {robot_file_hash}: refused"
+        )
+    return result.outcomes
+
+
 def cluster_outcomes(
     client: Client,
     *,
@@ -226,6 +257,7 @@ def cluster_outcomes(
     from distributed.scheduler import KilledWorker  # noqa: PLC0415
 
     workers = worker_count(client)
+    deaths = worker_deaths(client)
     size = batch_size(budget, workers)
     stop = budget if budget is not None else None
     next_start = 0
@@ -264,15 +296,9 @@ def cluster_outcomes(
                     submit(batch.start, middle)
                     submit(middle, batch.stop)
                 else:
-                    ready[batch.start] = Crash(job.seed, batch.start)
+                    ready[batch.start] = Crash(job.seed, batch.start, deaths)
             else:
-                _check_build(result.build, f"on {result.host}")
-                if result.robot_hash != robot_file_hash:
-                    raise ClusterError(
-                        f"a worker on {result.host} answered for robot file"
-                        f" {result.robot_hash}, not {robot_file_hash}: refused"
-                    )
-                ready.update((outcome.index, outcome) for outcome in result.outcomes)
+                ready.update((o.index, o) for o in _checked(result, robot_file_hash))
             fill()
             while released in ready:
                 yield ready.pop(released)
