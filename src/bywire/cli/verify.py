@@ -16,6 +16,10 @@ bridge falling silent, a pulled cable, RC taking over); besides H1–H10 they ar
 bridge's own invariants B1–B3 (a flagged speed ends in a stop, the stop ramp brakes to
 standstill, every refused command shows in /diagnostics).
 
+With --cluster the campaigns run on a Dask distributed cluster instead (`local`: one started on
+127.0.0.1; tcp://HOST:PORT: a scheduler you run; README "Verifying on a cluster"), with the same
+result for the same seed and budget; a campaign that kills its worker twice is reported.
+
 A violation is shrunk to a short scenario written to --out; `bywire sim --scenario FILE` replays
 it and fails. Exit status: 0 clean, 1 a violation or an unsafe combination of numbers, 2 a bad
 configuration or argument.

@@ -165,7 +165,9 @@ def cluster_client(address: str, workers: int) -> Iterator[Client]:
         try:
             try:
                 client = Client(  # type: ignore[no-untyped-call]
-                    cluster if cluster is not None else address, timeout="30s"
+                    cluster if cluster is not None else address,
+                    timeout="30s",
+                    direct_to_workers=False,  # results through the scheduler: one tunnel
                 )
             except (OSError, ValueError, TypeError) as error:
                 raise ClusterError(f"cannot reach the cluster at {address}: {error}") from None
