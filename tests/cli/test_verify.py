@@ -15,9 +15,10 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
+import dask
 import psutil
 import pytest
-from distributed import LocalCluster
+from distributed import Client, LocalCluster
 
 from bywire.cli import verify
 from bywire.cli.main import main
@@ -27,6 +28,7 @@ from bywire.sim.verify.draw_bridge import is_bridge_campaign
 from bywire.sim.verify.oracle import INVARIANTS
 from bywire.sim.verify.robots import Schema, dotted, draw_robot, keys_needed
 from bywire.sim.verify.supervisor_check import MONITOR_CAUSES, TRANSITIONS, transitions_naming
+from tests.sim.verify.cluster_plugins import CrashAt
 from tests.system.old_bugs import OLD_BUGS
 
 SIM = Path(__file__).resolve().parents[2] / "src" / "bywire" / "defaults" / "sim.toml"
@@ -467,3 +469,27 @@ def test_a_cluster_the_user_runs_is_used_with_one_thread_a_worker_and_refused_wi
     assert error.count("\n") == 1
     assert "runs 2 threads" in error
     assert "--nthreads 1" in error
+
+
+def test_a_campaign_that_crashes_its_worker_twice_is_reported_with_its_seed_and_index(
+    capsys: pytest.CaptureFixture[str], tmp_path: Path
+) -> None:
+    args = ("--budget", "3", "--campaign-s", "1", "--seed", "4", "--out", str(tmp_path))
+    with (
+        dask.config.set({"distributed.scheduler.allowed-failures": 1}),
+        LocalCluster(  # type: ignore[no-untyped-call]
+            n_workers=1,
+            threads_per_worker=1,
+            host="127.0.0.1",
+            dashboard_address=None,
+            silence_logs=logging.ERROR,
+        ) as cluster,
+        Client(cluster) as client,  # type: ignore[no-untyped-call]
+    ):
+        client.register_plugin(CrashAt(1), name="crash-always")  # the test's own hook
+        status, summary = _verify(capsys, *args, "--cluster", cluster.scheduler_address)
+        assert main(["verify", *args, "--cluster", cluster.scheduler_address]) == 1
+    assert status == 1
+    assert summary["crashes"] == [{"seed": 4, "index": 1, "worker_deaths": 2}]
+    assert summary["campaigns"] == 2  # the others ran
+    assert "campaign 1 of seed 4 killed its worker twice" in capsys.readouterr().out

@@ -266,7 +266,7 @@ def cluster_outcomes(
     ready: dict[int, Outcome | Crash] = {}
     released = 0
     batches: dict[Future[BatchResult], Batch] = {}
-    pending = as_completed()  # type: ignore[no-untyped-call]
+    pending = as_completed(loop=client.loop)  # type: ignore[no-untyped-call] # not the default's
 
     def submit(start: int, end: int) -> None:
         batch = Batch(job, robot, robot_file_hash, start, end)
