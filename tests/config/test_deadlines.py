@@ -8,6 +8,7 @@ from dataclasses import replace
 
 import pytest
 
+from bywire.command_table import COMMANDS
 from bywire.config import default_sim_config, parse_config
 from bywire.config.deadlines import (
     CAN_LOSS,
@@ -24,7 +25,6 @@ from bywire.config.deadlines import (
     pairing_frames,
     pairing_window_needed_s,
 )
-from bywire.command_table import COMMANDS
 from bywire.config.security import PAIRING_WINDOW_S
 from bywire.errors import ConfigError
 from bywire.hal.sim.vehicle_model import VehicleConfig
