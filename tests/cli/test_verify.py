@@ -5,7 +5,7 @@ before anything runs, and a failure is written where `bywire sim --scenario` rep
 from __future__ import annotations
 
 import json
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
 from pathlib import Path
 from typing import Any
 
@@ -15,7 +15,9 @@ from bywire.cli import verify
 from bywire.cli.main import main
 from bywire.config import RobotConfig, parse_config, sections
 from bywire.config.reader import Interval, KeyRead
+from bywire.sim.verify.campaign import Step
 from bywire.sim.verify.draw_bridge import is_bridge_campaign
+from bywire.sim.verify.engine import Outcome, run_campaign
 from bywire.sim.verify.oracle import INVARIANTS
 from bywire.sim.verify.robots import Schema, dotted, draw_robot, keys_needed
 from bywire.sim.verify.supervisor_check import MONITOR_CAUSES, TRANSITIONS, transitions_naming
@@ -312,3 +314,38 @@ def test_the_same_seed_draws_and_runs_the_same_on_any_number_of_processes(
         verdicts = [(e["campaigns"], e["violations"], e["changed"]) for e in result["files"]]
         runs.append((files, verdicts))
     assert runs[0] == runs[1]
+
+
+def test_command_frames_the_simulated_computer_never_sent_are_a_run_problem_not_a_verdict(
+    capsys: pytest.CaptureFixture[str], monkeypatch: pytest.MonkeyPatch, tmp_path: Path
+) -> None:
+    """A campaign whose doubled movement frames cost five lights frames their mailbox (the
+    computer sent fewer commands than the campaign drew): the summary names the frames and the
+    campaign, in JSON and in text, and the verdict is the oracle's alone (clean: exit 0)."""
+    robot = parse_config("", "robot.toml")
+    outcome = run_campaign(robot, [Step(0.5, "doubles", 5), Step(1.0, "arm", "rc")], index=7)
+    assert outcome.hlc_refused == {"LightsCommand": 5}
+    assert outcome.findings == []
+
+    def one_campaign(*_args: object) -> Iterator[Outcome]:
+        yield outcome
+
+    monkeypatch.setattr(verify, "campaign_outcomes", one_campaign)
+    status, summary = _verify(capsys, "--budget", "1", "--jobs", "1", "--out", str(tmp_path))
+    assert status == 0
+    assert summary["hlc_refused"] == {"frames": {"LightsCommand": 5}, "campaigns": [7]}
+    assert main(["verify", "--budget", "1", "--jobs", "1", "--out", str(tmp_path)]) == 0
+    text = " ".join(capsys.readouterr().out.split())
+    assert "run problem: the simulated computer never sent 5 command frames" in text
+    assert "(LightsCommand 5) in 1 campaigns" in text
+    assert "result: clean" in text
+
+
+def test_a_run_whose_computer_sent_everything_names_no_run_problem(
+    capsys: pytest.CaptureFixture[str], tmp_path: Path
+) -> None:
+    status, summary = _verify(
+        capsys, "--budget", "1", "--campaign-s", "3", "--jobs", "1", "--out", str(tmp_path)
+    )
+    assert status == 0
+    assert summary["hlc_refused"] == {"frames": {}, "campaigns": []}

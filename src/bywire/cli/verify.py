@@ -164,9 +164,15 @@ class Tally:
     violations: Counter[str] = field(default_factory=Counter)
     transitions: set[str] = field(default_factory=set)
     failing: dict[str, Outcome] = field(default_factory=dict)  # the first campaign per invariant
+    # A run problem, not a verdict: command frames the simulated computer never sent.
+    hlc_refused: Counter[str] = field(default_factory=Counter)
+    campaigns_refused: list[int] = field(default_factory=list)
 
     def add(self, outcome: Outcome) -> None:
         self.campaigns += 1
+        if outcome.hlc_refused:
+            self.hlc_refused.update(outcome.hlc_refused)
+            self.campaigns_refused.append(outcome.index)
         if outcome.bridge:
             self.bridge_campaigns += 1
             self.bridge_checks += outcome.checks
@@ -332,6 +338,11 @@ def _summary(
             # A row taken that cannot happen is bywire's own bug (a monitor without its sensor).
             "cannot_happen_but_taken": [row for row in cannot_happen if row in tally.transitions],
         },
+        # Run problems: the campaigns tested less than they drew (no verdict changes with them).
+        "hlc_refused": {
+            "frames": dict(sorted(tally.hlc_refused.items())),
+            "campaigns": sorted(tally.campaigns_refused),
+        },
         "failures": [
             {
                 "invariant": r.finding.invariant,
@@ -381,6 +392,16 @@ def _print_summary(console: Console, summary: dict[str, Any], robot: RobotConfig
         console.print(
             f"[red]  taken though it cannot happen on this robot: {label}[/red]"
             " (a bug of bywire's: please report it)",
+            highlight=False,
+        )
+    refused = summary["hlc_refused"]
+    if refused["frames"]:
+        frames = ", ".join(f"{name} {n}" for name, n in refused["frames"].items())
+        console.print(
+            f"[yellow]  run problem: the simulated computer never sent"
+            f" {sum(refused['frames'].values())} command frames ({frames}) in"
+            f" {len(refused['campaigns'])} campaigns[/yellow] (its transmit mailboxes full, its"
+            " port bus-off, or nothing to sign with): those periods tested less than drawn",
             highlight=False,
         )
     for failure in summary["failures"]:
