@@ -144,7 +144,7 @@ class TelemetryTap:
         self._next_s = self._first_s
         self._last: ControlOutputs | None = None
         channels = runtime.config.actuators
-        self._dac_channels = (channels.dac_throttle_channel, channels.dac_regen_channel)
+        self._dac_channels = (channels.dac.throttle_channel, channels.dac.regen_channel)
         self._tasks = tuple(
             ((task.spec.name, task.spec.rate_hz), task.stats) for task in runtime.tasks
         )
