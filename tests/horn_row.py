@@ -13,6 +13,7 @@ drives the simulated robot and the configuration loader and prints what it saw a
 
 from __future__ import annotations
 
+import dataclasses
 import importlib.util
 import json
 import re
@@ -200,6 +201,7 @@ def observe() -> dict[str, object]:
         "rx_check_timeout_s": [c.timeout_s for c in configured.rx_checks if c.kind is horn_kind],
         "refusals": refusals,
         **telemetry(),
+        "frame_cli": frame_cli(),
     }
 
 
@@ -233,6 +235,25 @@ def tap_telemetry(runtime: Any) -> Callable[[], dict[str, object]]:
         }
 
     return seen
+
+
+def frame_cli() -> object:
+    """`bywire frame horn --sound`: the frames it prints, decoded (its options from the fields)."""
+    import contextlib  # noqa: PLC0415
+    import io  # noqa: PLC0415
+
+    from bywire.cli.main import main  # noqa: PLC0415
+    from bywire.protocol import dbc  # noqa: PLC0415
+
+    out = io.StringIO()
+    with contextlib.redirect_stdout(out):
+        status = main(["frame", "horn", "--sound", "--counter", "15", "--count", "2"])
+    decoded = []
+    for line in out.getvalue().split():
+        frame_id, _, data = line.partition("#")
+        command = dbc.decode_intact(int(frame_id, 16), bytes.fromhex(data))
+        decoded.append([type(command).__name__, *dataclasses.astuple(command)])
+    return {"status": status, "frames": decoded}
 
 
 def command_row_kind(name: str, kinds: tuple[type, ...]) -> type:

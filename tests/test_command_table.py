@@ -138,6 +138,15 @@ def test_the_telemetry_state_has_a_new_commands_age(horn: dict[str, object]) -> 
     assert 0.0 <= ages["0.90"] <= 0.04  # sent every 20 ms
 
 
+def test_bywire_frame_prints_a_new_commands_frames(horn: dict[str, object]) -> None:
+    """`bywire frame horn --sound`: a subcommand per row, its options from the message's fields;
+    the frames decode (CRC and all) to what was asked, the counter going on from 15 to 0."""
+    assert horn["frame_cli"] == {
+        "status": 0,
+        "frames": [["HornCommand", True, 15], ["HornCommand", True, 0]],
+    }
+
+
 def test_the_robot_file_names_a_new_commands_timeout(horn: dict[str, object]) -> None:
     assert horn["configured_timeout_s"] == 0.25
     assert horn["rx_check_timeout_s"] == [0.25]
