@@ -13,12 +13,15 @@ drives the simulated robot and the configuration loader and prints what it saw a
 
 from __future__ import annotations
 
+import dataclasses
 import importlib.util
 import json
 import re
 import sys
+from collections.abc import Callable
 from functools import cache, partial
 from pathlib import Path
+from typing import Any
 
 from cantools.database.can import Database
 
@@ -125,6 +128,7 @@ def observe() -> dict[str, object]:
     horn_kind = command_row_kind("HornCommand", COMMAND_TYPES)
     robot = Robot.build()
     world, runtime = robot.world, robot.runtime
+    telemetry = tap_telemetry(runtime)
     hlc, rc = world.hlc, world.rc
 
     def horn(sound: bool) -> None:
@@ -196,7 +200,60 @@ def observe() -> dict[str, object]:
         "configured_timeout_s": configured.control.command_timeout_s(horn_kind),
         "rx_check_timeout_s": [c.timeout_s for c in configured.rx_checks if c.kind is horn_kind],
         "refusals": refusals,
+        **telemetry(),
+        "frame_cli": frame_cli(),
     }
+
+
+def tap_telemetry(runtime: Any) -> Callable[[], dict[str, object]]:
+    """The telemetry feed's captures of the run, and then what its state messages said."""
+    from jsonschema import Draft202012Validator  # noqa: PLC0415
+
+    from bywire.telemetry.capture import Capture, StateCapture, TelemetryTap  # noqa: PLC0415
+    from bywire.telemetry.messages import message  # noqa: PLC0415
+    from bywire.telemetry.outbox import Outbox  # noqa: PLC0415
+    from bywire.telemetry.schemas import SCHEMAS, STATE_TOPIC  # noqa: PLC0415
+
+    outbox: Outbox[Capture] = Outbox(1_000_000)
+    TelemetryTap(runtime, outbox).attach()
+
+    def seen() -> dict[str, object]:
+        states = [message(c)[1] for c in outbox.take(0.0) if isinstance(c, StateCapture)]
+        validator = Draft202012Validator(SCHEMAS[STATE_TOPIC])
+        return {
+            "telemetry_state_errors": sorted(
+                {error.message for state in states for error in validator.iter_errors(state)}
+            ),
+            "telemetry_horn_age_s": {
+                label: next(
+                    s["inputs"].get("can_horn_age_s", "missing")
+                    for s in states
+                    if s["time_s"] >= at_s
+                )
+                for label, at_s in (("0.90", 0.9),)
+            },
+        }
+
+    return seen
+
+
+def frame_cli() -> object:
+    """`bywire frame horn --sound`: the frames it prints, decoded (its options from the fields)."""
+    import contextlib  # noqa: PLC0415
+    import io  # noqa: PLC0415
+
+    from bywire.cli.main import main  # noqa: PLC0415
+    from bywire.protocol import dbc  # noqa: PLC0415
+
+    out = io.StringIO()
+    with contextlib.redirect_stdout(out):
+        status = main(["frame", "horn", "--sound", "--counter", "15", "--count", "2"])
+    decoded = []
+    for line in out.getvalue().split():
+        frame_id, _, data = line.partition("#")
+        command = dbc.decode_intact(int(frame_id, 16), bytes.fromhex(data))
+        decoded.append([type(command).__name__, *dataclasses.astuple(command)])
+    return {"status": status, "frames": decoded}
 
 
 def command_row_kind(name: str, kinds: tuple[type, ...]) -> type:

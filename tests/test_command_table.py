@@ -128,6 +128,25 @@ def test_a_new_command_is_the_can_modes_alone(horn: dict[str, object]) -> None:
     assert horn["sounding_at_end"] is False
 
 
+def test_the_telemetry_state_has_a_new_commands_age(horn: dict[str, object]) -> None:
+    """The state topic's inputs carry one age per command row (`can_<slot>_age_s`), and the
+    schema with them: the horn's is fresh, its frames sent every period."""
+    assert horn["telemetry_state_errors"] == []
+    ages = horn["telemetry_horn_age_s"]
+    assert isinstance(ages, dict)
+    assert isinstance(ages["0.90"], float)
+    assert 0.0 <= ages["0.90"] <= 0.04  # sent every 20 ms
+
+
+def test_bywire_frame_prints_a_new_commands_frames(horn: dict[str, object]) -> None:
+    """`bywire frame horn --sound`: a subcommand per row, its options from the message's fields;
+    the frames decode (CRC and all) to what was asked, the counter going on from 15 to 0."""
+    assert horn["frame_cli"] == {
+        "status": 0,
+        "frames": [["HornCommand", True, 15], ["HornCommand", True, 0]],
+    }
+
+
 def test_the_robot_file_names_a_new_commands_timeout(horn: dict[str, object]) -> None:
     assert horn["configured_timeout_s"] == 0.25
     assert horn["rx_check_timeout_s"] == [0.25]

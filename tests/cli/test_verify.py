@@ -11,7 +11,7 @@ import signal
 import subprocess
 import sys
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
 from pathlib import Path
 from typing import Any
 
@@ -24,7 +24,9 @@ from bywire.cli import verify
 from bywire.cli.main import main
 from bywire.config import RobotConfig, parse_config, sections
 from bywire.config.reader import Interval, KeyRead
+from bywire.sim.verify.campaign import Step
 from bywire.sim.verify.draw_bridge import is_bridge_campaign
+from bywire.sim.verify.engine import Outcome, run_campaign
 from bywire.sim.verify.oracle import INVARIANTS
 from bywire.sim.verify.robots import Schema, dotted, draw_robot, keys_needed
 from bywire.sim.verify.supervisor_check import MONITOR_CAUSES, TRANSITIONS, transitions_naming
@@ -493,3 +495,38 @@ def test_a_campaign_that_crashes_its_worker_twice_is_reported_with_its_seed_and_
     assert summary["crashes"] == [{"seed": 4, "index": 1, "worker_deaths": 2}]
     assert summary["campaigns"] == 2  # the others ran
     assert "campaign 1 of seed 4 killed its worker twice" in capsys.readouterr().out
+
+
+def test_command_frames_the_simulated_computer_never_sent_are_a_run_problem_not_a_verdict(
+    capsys: pytest.CaptureFixture[str], monkeypatch: pytest.MonkeyPatch, tmp_path: Path
+) -> None:
+    """A campaign whose doubled movement frames cost five lights frames their mailbox (the
+    computer sent fewer commands than the campaign drew): the summary names the frames and the
+    campaign, in JSON and in text, and the verdict is the oracle's alone (clean: exit 0)."""
+    robot = parse_config("", "robot.toml")
+    outcome = run_campaign(robot, [Step(0.5, "doubles", 5), Step(1.0, "arm", "rc")], index=7)
+    assert outcome.hlc_refused == {"LightsCommand": 5}
+    assert outcome.findings == []
+
+    def one_campaign(*_args: object) -> Iterator[Outcome]:
+        yield outcome
+
+    monkeypatch.setattr(verify, "campaign_outcomes", one_campaign)
+    status, summary = _verify(capsys, "--budget", "1", "--jobs", "1", "--out", str(tmp_path))
+    assert status == 0
+    assert summary["hlc_refused"] == {"frames": {"LightsCommand": 5}, "campaigns": [7]}
+    assert main(["verify", "--budget", "1", "--jobs", "1", "--out", str(tmp_path)]) == 0
+    text = " ".join(capsys.readouterr().out.split())
+    assert "run problem: the simulated computer never sent 5 command frames" in text
+    assert "(LightsCommand 5) in 1 campaigns" in text
+    assert "result: clean" in text
+
+
+def test_a_run_whose_computer_sent_everything_names_no_run_problem(
+    capsys: pytest.CaptureFixture[str], tmp_path: Path
+) -> None:
+    status, summary = _verify(
+        capsys, "--budget", "1", "--campaign-s", "3", "--jobs", "1", "--out", str(tmp_path)
+    )
+    assert status == 0
+    assert summary["hlc_refused"] == {"frames": {}, "campaigns": []}

@@ -3,10 +3,12 @@ load, naming the deadline, every key involved and the nearest safe values."""
 
 from __future__ import annotations
 
+import math
 from dataclasses import replace
 
 import pytest
 
+from bywire.command_table import COMMANDS
 from bywire.config import default_sim_config, parse_config
 from bywire.config.deadlines import (
     CAN_LOSS,
@@ -20,6 +22,8 @@ from bywire.config.deadlines import (
     REGEN_DECEL_MPS2,
     STOP_PROMISES,
     breaches,
+    pairing_frames,
+    pairing_window_needed_s,
 )
 from bywire.config.security import PAIRING_WINDOW_S
 from bywire.errors import ConfigError
@@ -27,6 +31,32 @@ from bywire.hal.simulated.vehicle_model import VehicleConfig
 from bywire.sim.runner import SimRun
 from bywire.sim.scenario import parse_scenario
 from tests.system.harness import volts_at
+
+# The pairing window a period's commands need, by hand (docs/SECURITY.md): a command frame's
+# cryptographic PDU ends behind the period's other commands, one frame of another node and the PDU
+# itself, (rows + 1) frames, each at most 135 bits (8 bytes, worst-case stuffing; the PDU is 8
+# bytes). A new command row moves these figures, and the cases below move with them: only
+# `test_the_pairing_window_is_the_hand_computation` pins today's three commands.
+PAIRING_FRAMES = len(COMMANDS) + 1
+PAIRING_FRAME_BITS = 135
+PAIRING_STEP_S = 0.00001  # the suggestion's resolution
+
+
+def smallest_pairing_window_s(bitrate_bps: int) -> float:
+    """The least window a user may write (to PAIRING_STEP_S) at `bitrate_bps`."""
+    steps = math.ceil(PAIRING_FRAMES * PAIRING_FRAME_BITS / bitrate_bps / PAIRING_STEP_S - 1e-6)
+    return round(steps * PAIRING_STEP_S, 5)
+
+
+def least_pairing_bitrate_bps() -> int:
+    """The slowest bus on which the longest legal window pairs."""
+    return math.ceil(PAIRING_FRAMES * PAIRING_FRAME_BITS / PAIRING_WINDOW_S.high)
+
+
+def pairing_window_text(window_s: float, bitrate_bps: int | None = None) -> str:
+    bus = "" if bitrate_bps is None else f"[can]\nbitrate_bps = {bitrate_bps}\n"
+    return f"{bus}[security]\npairing_window_s = {window_s:.5f}"
+
 
 # (TOML, the deadline it breaks, the keys the refusal must name, the suggestion)
 UNSAFE = [
@@ -163,21 +193,35 @@ UNSAFE = [
         "[security]\npairing_window_s = 0.0005",
         "an authenticated command pairs",
         ("security.pairing_window_s", "can.bitrate_bps"),
-        "set security.pairing_window_s to 0.00108 or more",  # 4 frames of 135 bits
+        f"set security.pairing_window_s to {smallest_pairing_window_s(500_000)!r} or more",
     ),
     (  # the default window on a slower bus
         "[can]\nbitrate_bps = 100_000",
         "an authenticated command pairs",
         ("security.pairing_window_s", "can.bitrate_bps"),
-        "set security.pairing_window_s to 0.0054 or more",
+        f"set security.pairing_window_s to {smallest_pairing_window_s(100_000)!r} or more",
     ),
     (  # a bus so slow that no legal window pairs: only a faster bus helps
         "[can]\nbitrate_bps = 20_000\n[security]\npairing_window_s = 0.02",
         "an authenticated command pairs",
         ("security.pairing_window_s", "can.bitrate_bps"),
-        "set can.bitrate_bps to 27000 or more",
+        f"set can.bitrate_bps to {least_pairing_bitrate_bps()} or more",
     ),
 ]
+
+
+def test_the_pairing_window_is_the_hand_computation() -> None:
+    """Today's three commands: 4 frames of 135 bits, 1.08 ms at 500 kbit/s (issue 41's 0.5 ms
+    lost every command). The loader's figure follows the table's rows: a fourth command makes it
+    5 frames (1.35 ms), and this test's first line says so rather than every case below."""
+    assert pairing_frames() == (PAIRING_FRAMES, PAIRING_FRAME_BITS)
+    assert pairing_window_needed_s(500_000) == pytest.approx(
+        PAIRING_FRAMES * PAIRING_FRAME_BITS / 500_000
+    )
+    if len(COMMANDS) == 3:  # the shipped table, pinned against the hand figure
+        assert pairing_window_needed_s(500_000) == pytest.approx(0.00108)
+        assert smallest_pairing_window_s(100_000) == 0.0054
+        assert least_pairing_bitrate_bps() == 27_000
 
 
 def test_the_simulators_defaults_keep_every_deadline() -> None:
@@ -227,9 +271,9 @@ def test_the_limit_itself_is_safe() -> None:
         "[monitors]\nhydro_min_duty = 0.0",  # watching every duty: 0 bar expected at duty 0
         "[drive]\nmax_regen_volts = 5.5\n[drive.dac]\nvref_volts = 5.5\n[stop]\n"
         "controlled_min_decel_mps2 = 1.5",  # volts above the motors' full scale add nothing
-        "[security]\npairing_window_s = 0.00108",
-        "[can]\nbitrate_bps = 100_000\n[security]\npairing_window_s = 0.0054",
-        "[can]\nbitrate_bps = 27_000\n[security]\npairing_window_s = 0.02",
+        pairing_window_text(smallest_pairing_window_s(500_000)),
+        pairing_window_text(smallest_pairing_window_s(100_000), 100_000),
+        pairing_window_text(PAIRING_WINDOW_S.high, least_pairing_bitrate_bps()),
     ],
 )
 def test_the_nearest_safe_values_are_accepted(text: str) -> None:
@@ -248,8 +292,8 @@ def test_the_nearest_safe_values_are_accepted(text: str) -> None:
         "[monitors]\nhydro_min_duty = 0.201",
         "[monitors]\nhydro_response_s = 0.491",
         "[drive]\nmax_regen_volts = 0.0\n[stop]\ncontrolled_min_decel_mps2 = 0.1",
-        "[security]\npairing_window_s = 0.00107",
-        "[can]\nbitrate_bps = 26_999\n[security]\npairing_window_s = 0.02",
+        pairing_window_text(smallest_pairing_window_s(500_000) - PAIRING_STEP_S),
+        pairing_window_text(PAIRING_WINDOW_S.high, least_pairing_bitrate_bps() - 1),
     ],
 )
 def test_just_past_the_nearest_safe_values_is_refused(text: str) -> None:

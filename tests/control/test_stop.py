@@ -18,7 +18,7 @@ from bywire.control.stop import (
 )
 from bywire.control.supervisor import Cause, stop_category
 
-CONFIG = StopConfig(max_s=2.5, min_decel_mps2=0.5, standstill_mps=0.05)
+CONFIG = StopConfig(controlled_max_s=2.5, controlled_min_decel_mps2=0.5, standstill_mps=0.05)
 
 
 def _run(
@@ -62,7 +62,7 @@ def test_a_controlled_stop_brakes_powered_until_standstill_then_powers_off_for_g
 
 def test_without_a_speed_the_time_bound_ends_it() -> None:
     phases = _run([None] * 300)
-    assert phases.index(StopPhase.POWER_OFF) * 0.01 == CONFIG.max_s
+    assert phases.index(StopPhase.POWER_OFF) * 0.01 == CONFIG.controlled_max_s
 
 
 def test_a_robot_that_does_not_slow_is_switched_off_and_flagged() -> None:
@@ -112,7 +112,7 @@ def test_power_never_comes_back_within_a_stop_and_never_outlasts_the_bound(
     assert all(
         phase is StopPhase.POWER_OFF
         for tick, phase in enumerate(phases)
-        if tick * 0.01 >= CONFIG.max_s
+        if tick * 0.01 >= CONFIG.controlled_max_s
     )
     if category is StopCategory.POWER_OFF or not powered:
         assert set(phases) == {StopPhase.POWER_OFF}

@@ -56,7 +56,7 @@ def test_a_dac_write_is_shown_in_volts_beside_its_i2c_frame() -> None:
     assert divergence is not None
     text = divergence.describe()
     assert f"dac.0 recorded 1.250 V (I2C {frame}), replayed 2.500 V (I2C {other})" in text
-    assert "recorded 0.625 V" in divergence.describe(dac_vref_volts=2.5)  # the robot's Vref
+    assert "recorded 0.625 V" in divergence.describe(vref_volts=2.5)  # the robot's Vref
     assert dac_volts("not hex") is None
 
 

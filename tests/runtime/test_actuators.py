@@ -6,6 +6,7 @@ import math
 
 import pytest
 
+from bywire.config import DacOutput
 from bywire.control.dac_health import DAC_LEAK
 from bywire.control.drive import DriveOutputs
 from bywire.control.lights import LIGHT_LINES, LightOutputs
@@ -131,7 +132,7 @@ def test_a_clamped_dac_value_is_stamped_with_the_write_time() -> None:
 
 
 def test_dac_codes_are_computed_against_the_configured_reference() -> None:
-    world, actuators = rig(ActuatorConfig(dac_vref_volts=2.5))
+    world, actuators = rig(ActuatorConfig(dac=DacOutput(vref_volts=2.5)))
     actuators.write_drive(DriveOutputs(1.25, 0.0, True, True, False), 0.0)
     assert world.dac.code(0) == 512  # half of the 2.5 V reference, not a quarter of 5 V
 

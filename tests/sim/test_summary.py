@@ -225,6 +225,34 @@ def test_text_names_every_figure_and_keeps_brackets_in_labels(summary: Summary) 
         assert task in text
 
 
+DOUBLED = """
+name = "doubled"
+description = "the computer sends five movement frames twice"
+duration_s = 0.5
+
+[[event]]
+at_s = 0.1
+fault = "can_doubles"
+count = 5
+"""
+
+
+def test_frames_the_simulated_computer_could_not_send_are_shown_not_dropped(
+    summary: Summary,
+) -> None:
+    """A doubled movement frame takes the third of three mailboxes: that period's lights frame
+    is refused. The summary says so (text and JSON), and says nothing when none was."""
+    run, tally = _run(text=DOUBLED)
+    doubled = build_summary(run, WALL_S, tally)
+    assert doubled.inputs.hlc_refused == dict(run.world.hlc.refused) == {"LightsCommand": 5}
+    text = _text(doubled)
+    assert "Simulated computer: 5 command frames never sent (LightsCommand 5)" in text
+    data = json.loads(json.dumps(doubled.as_json()))
+    assert data["inputs"]["hlc_refused"] == {"LightsCommand": 5}
+    assert summary.inputs.hlc_refused == {}
+    assert "Simulated computer" not in _text(summary)
+
+
 def test_text_names_the_failed_expectation() -> None:
     run, tally = _run(text=SCENARIO.replace("speed_min_mps = 0.01", "speed_min_mps = 25.0"))
     text = _text(build_summary(run, WALL_S, tally))

@@ -284,7 +284,7 @@ def test_a_stop_for_a_failed_hydraulic_brake_keeps_the_drives_regenerative_brake
 def test_a_controlled_stop_that_does_not_slow_the_robot_removes_power() -> None:
     # Category 1 keeps the drive powered only while it brakes: a drive that keeps pushing (here
     # a throttle line the DAC holds high: the regenerative brake cannot win) is switched off.
-    config = StopConfig(max_s=2.5, min_decel_mps2=0.5, standstill_mps=0.05)
+    config = StopConfig(controlled_max_s=2.5, controlled_min_decel_mps2=0.5, standstill_mps=0.05)
     state, phases = StopState(), []
     for tick in range(100):
         now = tick * 0.01

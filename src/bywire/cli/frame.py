@@ -12,20 +12,22 @@ from __future__ import annotations
 
 import argparse
 import dataclasses
+import enum
+import typing
 from collections.abc import Iterator
 from pathlib import Path
 
 from bywire.cli.arguments import number_within, whole_number
+from bywire.command_table import COMMANDS, CommandSpec
 from bywire.config.security_setup import sender_signer
 from bywire.errors import ConfigError
-from bywire.model import ControlCommand, Gear, LightsCommand, MovementCommand
+from bywire.model import Command, ControlCommand, Gear, LightsCommand, MovementCommand
 from bywire.protocol import dbc
 from bywire.protocol.secoc import MAX_TRIP
 from bywire.security.freshness import Adoption
 from bywire.security.keys import read_key_file
 from bywire.security.session import SecocSigner
 
-Command = MovementCommand | LightsCommand | ControlCommand
 DEFAULT_FRESHNESS = Path.home() / ".local" / "state" / "bywire" / "frame-freshness.json"
 EXAMPLES = """examples:
   cansend vcan0 $(bywire frame control --re-enable)       # leave a latched STOP (CAN mode)
@@ -38,7 +40,13 @@ def configure(parser: argparse.ArgumentParser) -> None:
     parser.epilog = EXAMPLES
     parser.formatter_class = argparse.RawDescriptionHelpFormatter
     kinds = parser.add_subparsers(dest="message", metavar="MESSAGE", required=True)
-    movement = kinds.add_parser("movement", help="MovementCommand (0x101)")
+    for spec in COMMANDS:  # one subcommand per command row, named by its slot
+        sub = kinds.add_parser(spec.slot, help=f"{spec.name} (0x{dbc.frame_id(spec.kind):03X})")
+        _OPTIONS.get(spec.slot, _field_options)(sub, spec)
+        _common(sub)
+
+
+def _movement_options(movement: argparse.ArgumentParser, _spec: CommandSpec) -> None:
     unit = number_within(0.0, 1.0)
     movement.add_argument(
         "--steering", type=number_within(-1.0, 1.0), default=0.0, help="-1 (left) … 1 (right)"
@@ -46,16 +54,40 @@ def configure(parser: argparse.ArgumentParser) -> None:
     movement.add_argument("--throttle", type=unit, default=0.0, help="0 … 1")
     movement.add_argument("--brake", type=unit, default=0.0, help="0 … 1")
     movement.add_argument("--gear", choices=[gear.name.lower() for gear in Gear], default="neutral")
-    lights = kinds.add_parser("lights", help="LightsCommand (0x102)")
+
+
+def _lights_options(lights: argparse.ArgumentParser, _spec: CommandSpec) -> None:
     for name in ("turn-left", "turn-right", "hazard", "low-beam"):
         lights.add_argument(f"--{name}", action="store_true")
-    control = kinds.add_parser("control", help="ControlCommand (0x100)")
+
+
+def _control_options(control: argparse.ArgumentParser, _spec: CommandSpec) -> None:
     control.add_argument("--remote-stop", action="store_true", help="stop the robot (latched)")
     control.add_argument(
         "--re-enable", action="store_true", help="a re-enable request (acts on its rising edge)"
     )
-    for sub in (movement, lights, control):
-        _common(sub)
+
+
+def _field_options(parser: argparse.ArgumentParser, spec: CommandSpec) -> None:
+    """A row without options of its own: one per field of its message (`--name`), a flag for a
+    truth value, a member's name for an enum, a number otherwise (the codec checks its range)."""
+    hints = typing.get_type_hints(spec.kind)
+    for field in dataclasses.fields(spec.kind):
+        if field.name == "counter":
+            continue
+        option, kind = f"--{field.name.replace('_', '-')}", hints[field.name]
+        default = getattr(spec.neutral, field.name)
+        if kind is bool:
+            parser.add_argument(option, action="store_true")
+        elif isinstance(kind, type) and issubclass(kind, enum.Enum):
+            names = [member.name.lower() for member in kind]
+            parser.add_argument(option, choices=names, default=default.name.lower())
+        else:
+            parser.add_argument(option, type=kind, default=default)
+
+
+_OPTIONS = {"movement": _movement_options, "lights": _lights_options, "control": _control_options}
+"""The rows whose options say more than their fields (ranges, help): by slot."""
 
 
 def _common(parser: argparse.ArgumentParser) -> None:
@@ -110,7 +142,23 @@ def command_of(args: argparse.Namespace) -> Command:
         return LightsCommand(
             args.turn_left, args.turn_right, args.hazard, args.low_beam, args.counter
         )
-    return ControlCommand(args.remote_stop, args.re_enable, args.counter)
+    if args.message == "control":
+        return ControlCommand(args.remote_stop, args.re_enable, args.counter)
+    spec = next(spec for spec in COMMANDS if spec.slot == args.message)
+    hints = typing.get_type_hints(spec.kind)
+    values = {
+        field.name: _value(hints[field.name], getattr(args, field.name))
+        for field in dataclasses.fields(spec.kind)
+        if field.name != "counter"
+    }
+    values["counter"] = args.counter
+    return spec.kind(**values)
+
+
+def _value(kind: object, given: object) -> object:
+    if isinstance(kind, type) and issubclass(kind, enum.Enum) and isinstance(given, str):
+        return kind[given.upper()]
+    return given
 
 
 def frames(command: Command, count: int) -> Iterator[tuple[int, bytes]]:

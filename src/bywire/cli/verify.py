@@ -201,12 +201,18 @@ class Tally:
     transitions: set[str] = field(default_factory=set)
     failing: dict[str, Outcome] = field(default_factory=dict)  # the first campaign per invariant
     crashes: list[Crash] = field(default_factory=list)  # campaigns that killed a worker twice
+    # A run problem, not a verdict: command frames the simulated computer never sent.
+    hlc_refused: Counter[str] = field(default_factory=Counter)
+    campaigns_refused: list[int] = field(default_factory=list)
 
     def add(self, outcome: Outcome | Crash) -> None:
         if isinstance(outcome, Crash):
             self.crashes.append(outcome)
             return
         self.campaigns += 1
+        if outcome.hlc_refused:
+            self.hlc_refused.update(outcome.hlc_refused)
+            self.campaigns_refused.append(outcome.index)
         if outcome.bridge:
             self.bridge_campaigns += 1
             self.bridge_checks += outcome.checks
@@ -431,6 +437,11 @@ def _summary(
             {"seed": c.seed, "index": c.index, "worker_deaths": c.deaths}
             for c in sorted(tally.crashes, key=_at)
         ],
+        # Run problems: the campaigns tested less than they drew (no verdict changes with them).
+        "hlc_refused": {
+            "frames": dict(sorted(tally.hlc_refused.items())),
+            "campaigns": sorted(tally.campaigns_refused),
+        },
         "failures": [
             {
                 "invariant": r.finding.invariant,
@@ -494,6 +505,16 @@ def _print_summary(console: Console, summary: dict[str, Any], robot: RobotConfig
         console.print(
             f"[red]  taken though it cannot happen on this robot: {label}[/red]"
             " (a bug of bywire's: please report it)",
+            highlight=False,
+        )
+    refused = summary["hlc_refused"]
+    if refused["frames"]:
+        frames = ", ".join(f"{name} {n}" for name, n in refused["frames"].items())
+        console.print(
+            f"[yellow]  run problem: the simulated computer never sent"
+            f" {sum(refused['frames'].values())} command frames ({frames}) in"
+            f" {len(refused['campaigns'])} campaigns[/yellow] (its transmit mailboxes full, its"
+            " port bus-off, or nothing to sign with): those periods tested less than drawn",
             highlight=False,
         )
     for failure in summary["failures"]:

@@ -141,6 +141,9 @@ class ControlInputs:
 
     rc: Stamped[RcRequest | None] | None = None
     commands: CommandSlots = NO_COMMANDS
+    # ControlCommand's own rule (its row's `Use.STOP_AND_RE_ENABLE`), not a per-command list:
+    # edges, arrivals and remote stop requests are what that rule needs beyond the newest frame
+    # (a stop request counts even from a frame the slot would not keep). No other row has them.
     control_edges: CommandEdges = NO_EDGES
     rc_frames: int = 0
     control_frames: int = 0

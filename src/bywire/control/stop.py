@@ -8,11 +8,11 @@
 - **Category 1, `CONTROLLED`**: the drive stays powered to brake. Throttle 0 V at once, the
   regenerative brake at full, the hydraulic brake at full duty, the spring brake engaged; the
   enable line goes low at standstill (a trusted speed at or below the standstill threshold),
-  after `StopConfig.max_s` at the latest, or at once when the robot does not slow down as a
-  braking robot must (then category 0 after all: `escalated`, flag STOP_ESCALATED). For every
-  cause whose drive is healthy: with a spring brake that failed unnoticed and a hydraulic brake
-  that builds no pressure, regeneration is the only brake left, and cutting the drive's power
-  would throw it away.
+  after `StopConfig.controlled_max_s` at the latest, or at once when the robot does not slow
+  down as a braking robot must (then category 0 after all: `escalated`, flag STOP_ESCALATED).
+  For every cause whose drive is healthy: with a spring brake that failed unnoticed and a
+  hydraulic brake that builds no pressure, regeneration is the only brake left, and cutting the
+  drive's power would throw it away.
 
 A stop that begins with the drive already off (power-up, a stop after a stop) is category 0:
 there is nothing to keep powered. `stop_step` is pure: the controller calls it on every
@@ -61,8 +61,8 @@ class StopConfig:
     """How long a controlled stop may keep the drive powered, and the least deceleration it
     must show (judged after `GRACE_S`) before it gives up and removes power."""
 
-    max_s: float = 2.5
-    min_decel_mps2: float = 0.5
+    controlled_max_s: float = 2.5
+    controlled_min_decel_mps2: float = 0.5
     standstill_mps: float = 0.05
 
 
@@ -94,7 +94,7 @@ def stop_step(
 
     `stopping`: the mode is STOP; `category`: the latched causes' (`POWER_OFF` if any is);
     `powered`: the previous decision left the drive enabled; `speed_mps`: a speed the controller
-    trusts (None without one: then only `max_s` ends the stop).
+    trusts (None without one: then only `controlled_max_s` ends the stop).
     """
     if not stopping:
         return NOT_STOPPING, StopPhase.DRIVING
@@ -110,7 +110,7 @@ def _judged(
 ) -> StopState:
     """A controlled stop under way, judged at `now`: it goes on, or power goes off."""
     since_s = now if state.since_s is None else state.since_s
-    if category is StopCategory.POWER_OFF or now - since_s >= config.max_s:
+    if category is StopCategory.POWER_OFF or now - since_s >= config.controlled_max_s:
         return _off(state)
     if speed is None:  # no speed to judge by: the time bound alone
         return state
@@ -122,12 +122,13 @@ def _judged(
 
 
 def _allowed_speed_mps(state: StopState, now: float, config: StopConfig) -> float:
-    """The fastest a robot braking at `min_decel_mps2` since `GRACE_S` after the start can be."""
+    """The fastest a robot braking at `controlled_min_decel_mps2` since `GRACE_S` after the start
+    can be."""
     start = state.start_speed_mps
     if start is None or state.since_s is None:  # no trusted speed at the start: none to judge
         return math.inf
     braking_s = max(now - state.since_s - GRACE_S, 0.0)
-    return start + SPEED_MARGIN_MPS - config.min_decel_mps2 * braking_s
+    return start + SPEED_MARGIN_MPS - config.controlled_min_decel_mps2 * braking_s
 
 
 def _off(state: StopState, *, escalated: bool = False) -> StopState:

@@ -29,17 +29,17 @@ class Divergence:
     recorded_order: tuple[str, ...] = ()
     replayed_order: tuple[str, ...] = ()
 
-    def describe(self, start_s: float = 0.0, dac_vref_volts: float = DEFAULT_VREF_VOLTS) -> str:
-        recorded = show(self.recorded, self.name, dac_vref_volts)
-        replayed = show(self.replayed, self.name, dac_vref_volts)
+    def describe(self, start_s: float = 0.0, vref_volts: float = DEFAULT_VREF_VOLTS) -> str:
+        recorded = show(self.recorded, self.name, vref_volts)
+        replayed = show(self.replayed, self.name, vref_volts)
         head = f"first divergence at {self.time_s - start_s:.6f} s: {self.name}"
         if recorded != replayed:
             return f"{head} recorded {recorded}, replayed {replayed}"
         if self.recorded_writes != self.replayed_writes:
             return (
-                f"{head} written {_writes(self.recorded_writes, self.name, dac_vref_volts)} at"
+                f"{head} written {_writes(self.recorded_writes, self.name, vref_volts)} at"
                 " that instant in the record,"
-                f" {_writes(self.replayed_writes, self.name, dac_vref_volts)} on replay"
+                f" {_writes(self.replayed_writes, self.name, vref_volts)} on replay"
             )
         return (
             f"{head}: the same writes, in another order among that instant's outputs"
@@ -48,24 +48,22 @@ class Divergence:
         )
 
 
-def _writes(values: tuple[OutputValue, ...], name: str, dac_vref_volts: float) -> str:
+def _writes(values: tuple[OutputValue, ...], name: str, vref_volts: float) -> str:
     """'2 times (1104, 1104)', '1 time (1104)', 'never'."""
     if not values:
         return "never"
     times = "1 time" if len(values) == 1 else f"{len(values)} times"
-    return f"{times} ({', '.join(show(value, name, dac_vref_volts) for value in values)})"
+    return f"{times} ({', '.join(show(value, name, vref_volts) for value in values)})"
 
 
-def show(
-    value: OutputValue | None, name: str = "", dac_vref_volts: float = DEFAULT_VREF_VOLTS
-) -> str:
+def show(value: OutputValue | None, name: str = "", vref_volts: float = DEFAULT_VREF_VOLTS) -> str:
     """A value as the divergence message shows it: a DAC write (`dac.<channel>`, recorded as its
     I2C frame) in volts, with the frame beside it."""
     if value is None:
         return "(not written)"
     if isinstance(value, float):
         return f"{value:.9g}"
-    volts = dac_volts(value, dac_vref_volts) if name.startswith("dac.") else None
+    volts = dac_volts(value, vref_volts) if name.startswith("dac.") else None
     return str(value) if volts is None else f"{volts:.3f} V (I2C {value})"
 
 

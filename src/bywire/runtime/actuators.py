@@ -23,6 +23,7 @@ import logging
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 
+from bywire.config import DacOutput
 from bywire.control.dac_health import DAC_FAILURE_LIMIT, DacHealth, Transfer, dac_step
 from bywire.control.drive import DriveOutputs
 from bywire.control.lights import LIGHT_LINES, LightOutputs
@@ -41,9 +42,7 @@ log = logging.getLogger(__name__)
 class ActuatorConfig:
     """Where the analogue signals are and how faults escalate."""
 
-    dac_throttle_channel: int = 0
-    dac_regen_channel: int = 1
-    dac_vref_volts: float = 5.0
+    dac: DacOutput = field(default_factory=DacOutput)  # `[drive.dac]`: channels and Vref
     dac_failure_limit: int = DAC_FAILURE_LIMIT
     safe_hydrobrake_duty: float = 1.0
     safe_steering_pulse_s: float = 0.0015
@@ -155,7 +154,7 @@ class Actuators:
             ),
             *(
                 ("dac", f"DAC channel {channel}", self._safe_dac(channel, now))
-                for channel in (config.dac_throttle_channel, config.dac_regen_channel)
+                for channel in (config.dac.throttle_channel, config.dac.regen_channel)
             ),
             *(
                 ("motors_direction", name, write)
@@ -233,16 +232,16 @@ class Actuators:
 
     def _write_dac_pair(self, throttle_volts: float, regen_volts: float, now: float | None) -> None:
         self._slow_transfer = False
-        self._write_dac(self._config.dac_throttle_channel, throttle_volts, now)
+        self._write_dac(self._config.dac.throttle_channel, throttle_volts, now)
         if self._slow_transfer and now is not None:
             return  # the loop's write: no more crawling transfers in this pass
-        self._write_dac(self._config.dac_regen_channel, regen_volts, now)
+        self._write_dac(self._config.dac.regen_channel, regen_volts, now)
 
     def _write_dac(self, channel: int, volts: float, now: float | None) -> bool:
         """One channel; `now` None for the watchdog's safe writes, which only count towards
         health. True when the transfer was acknowledged within its budget."""
-        conversion = dac6574.code_from_volts(volts, self._config.dac_vref_volts)
-        wanted = dac6574.volts_from_code(conversion.code, self._config.dac_vref_volts)
+        conversion = dac6574.code_from_volts(volts, self._config.dac.vref_volts)
+        wanted = dac6574.volts_from_code(conversion.code, self._config.dac.vref_volts)
         if conversion.clamped and now is not None:
             self.dac_clamps.happened(now)
         started_s = self._now()
@@ -253,7 +252,7 @@ class Actuators:
             self._dac_went(channel, wanted, Transfer.FAILED, 1.0, now)
             return False
         ended_s = self._now()
-        budget_s = self._config.budgets.dac_transfer_s
+        budget_s = self._config.budgets.dac_transfer_budget_s
         if self.overruns.check("DAC transfer", ended_s - started_s, budget_s, ended_s):
             weight = overrun_weight(ended_s - started_s, budget_s)
             self._dac_went(channel, wanted, Transfer.SLOW, weight, now)

@@ -266,7 +266,7 @@ class Runtime:
             if task.stats.overruns > overruns_before:
                 self.overrun_faults.happened(now)
         ended_s = self.clock.now()
-        budget_s = self.overruns.budgets.pass_s
+        budget_s = self.overruns.budgets.pass_budget_s
         if self.overruns.check("pass", ended_s - now, budget_s, ended_s):
             return False
         self.overruns.on_time()

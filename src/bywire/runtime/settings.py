@@ -43,24 +43,21 @@ class RuntimeConfig:
             monitors=robot.monitors,
             supervisor=robot.supervisor,
             stop=StopConfig(
-                max_s=robot.stop.controlled_max_s,
-                min_decel_mps2=robot.stop.controlled_min_decel_mps2,
+                controlled_max_s=robot.stop.controlled_max_s,
+                controlled_min_decel_mps2=robot.stop.controlled_min_decel_mps2,
                 standstill_mps=min(robot.interlocks.standstill_speed_mps, STANDSTILL_LIMIT_MPS),
             ),
         )
         timeouts = robot.timeouts
-        dac = robot.drive.dac
         schedule = tuple(replace(spec, rate_hz=robot.tasks.rate_hz(spec.name)) for spec in SCHEDULE)
         actuators = ActuatorConfig(
             line_tasks=tuple(spec for spec in schedule if spec.lines),
-            dac_throttle_channel=dac.throttle_channel,
-            dac_regen_channel=dac.regen_channel,
-            dac_vref_volts=dac.vref_volts,
+            dac=robot.drive.dac,
             safe_steering_pulse_s=servo.center_pulse_s,
             budgets=Budgets(
-                pass_s=timeouts.pass_budget_s,
-                write_s=timeouts.write_budget_s,
-                dac_transfer_s=timeouts.dac_transfer_budget_s,
+                pass_budget_s=timeouts.pass_budget_s,
+                write_budget_s=timeouts.write_budget_s,
+                dac_transfer_budget_s=timeouts.dac_transfer_budget_s,
             ),
         )
         return cls(

@@ -28,18 +28,19 @@ from bywire.runtime.recent_fault import RecentFault
 
 @dataclass(frozen=True, slots=True)
 class Budgets:
-    """How long each kind of work may take (`[timeouts]` in the robot file).
+    """How long each kind of work may take (`[timeouts]` in the robot file, the same names).
 
-    `pass_s`: one pass of the loop, from its wake-up to its last write; also how late a pass may
-    start after its deadline and still count as on time. `write_s`: one port write (GPIO line,
-    PWM channel). `dac_transfer_s`: one I2C transfer to the DAC (a 3-byte write takes 0.3 ms at
-    100 kHz; 2 ms transfers are ordinary, 80 ms ones are not). The defaults are what the stop
-    promises leave (`bywire.config.deadlines.STOP_PROMISES`): a pass within its budget, and
-    its two transfers within theirs, never holds a stop back past its deadline."""
+    `pass_budget_s`: one pass of the loop, from its wake-up to its last write; also how late a
+    pass may start after its deadline and still count as on time. `write_budget_s`: one port
+    write (GPIO line, PWM channel). `dac_transfer_budget_s`: one I2C transfer to the DAC (a
+    3-byte write takes 0.3 ms at 100 kHz; 2 ms transfers are ordinary, 80 ms ones are not). The
+    defaults are what the stop promises leave (`bywire.config.deadlines.STOP_PROMISES`): a pass
+    within its budget, and its two transfers within theirs, never holds a stop back past its
+    deadline."""
 
-    pass_s: float = 0.007
-    write_s: float = 0.005
-    dac_transfer_s: float = 0.0035
+    pass_budget_s: float = 0.007
+    write_budget_s: float = 0.005
+    dac_transfer_budget_s: float = 0.0035
 
 
 LIMIT = 3.0

@@ -43,11 +43,11 @@ class WriteGate:
         untimed: Collection[str] = (),
     ) -> None:
         """`safe_actions` in order of importance; `now` and `overruns` time the loop's writes
-        (ports in `untimed` excepted) against `overruns.budgets.write_s`."""
+        (ports in `untimed` excepted) against `overruns.budgets.write_budget_s`."""
         self._safe = dict(safe_actions)
         self._now = now
         self._overruns = overruns
-        self._budget_s = math.inf if overruns is None else overruns.budgets.write_s
+        self._budget_s = math.inf if overruns is None else overruns.budgets.write_budget_s
         self._timed = frozenset(safe_actions) - frozenset(untimed)
         self.failures: list[tuple[str, str]] = []
         """(port, what went wrong) for every safe write that failed at a trip, oldest first."""

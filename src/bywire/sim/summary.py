@@ -53,6 +53,7 @@ class InputStats:
     reports_sent: int
     bus_frames: int | None
     bus_frames_by_sender: dict[str, int]
+    hlc_refused: dict[str, int]  # the simulated computer's frames its port refused, by message
 
 
 @dataclass(frozen=True, slots=True)
@@ -199,6 +200,7 @@ def _inputs(run: SimRun, bus: BusTally | None) -> InputStats:
         reports_sent=runtime.reports_sent,
         bus_frames=sum(by_sender.values()) if bus else None,
         bus_frames_by_sender=by_sender,
+        hlc_refused=dict(sorted(run.world.hlc.refused.items())),
     )
 
 
@@ -293,6 +295,13 @@ def _input_lines(inputs: InputStats) -> list[str]:
     if inputs.bus_frames is not None:
         senders = ", ".join(f"{name} {n}" for name, n in inputs.bus_frames_by_sender.items())
         lines.append(f"CAN bus: {inputs.bus_frames} frames ({senders})")
+    if inputs.hlc_refused:
+        refused = ", ".join(f"{name} {n}" for name, n in inputs.hlc_refused.items())
+        lines.append(
+            f"[yellow]Simulated computer: {sum(inputs.hlc_refused.values())} command frames"
+            f" never sent ({refused}): its transmit mailboxes full, its port bus-off, or"
+            " nothing to sign with[/]"
+        )
     return lines
 
 

@@ -16,9 +16,10 @@ from __future__ import annotations
 from collections.abc import Callable
 from typing import TYPE_CHECKING, NamedTuple
 
+from bywire.command_table import COMMANDS
 from bywire.control.validity import age_s
 from bywire.error_flags import flag_names
-from bywire.model import ControlCommand, LightsCommand, MovementCommand
+from bywire.model import MovementCommand
 from bywire.telemetry.outbox import Outbox
 from bywire.telemetry.schemas import LIGHTS
 
@@ -65,9 +66,7 @@ class StateCapture(NamedTuple):
     lights: tuple[bool, ...]  # in `LIGHTS` order
     error_flags: int
     rc_age_s: float | None
-    can_movement_age_s: float | None
-    can_lights_age_s: float | None
-    can_control_age_s: float | None
+    can_ages_s: tuple[float | None, ...]  # each command row's newest frame's, in `COMMANDS` order
     rc_frames: int
     can_control_frames: int
     rc_request: MovementValues | None
@@ -144,7 +143,7 @@ class TelemetryTap:
         self._next_s = self._first_s
         self._last: ControlOutputs | None = None
         channels = runtime.config.actuators
-        self._dac_channels = (channels.dac_throttle_channel, channels.dac_regen_channel)
+        self._dac_channels = (channels.dac.throttle_channel, channels.dac.regen_channel)
         self._tasks = tuple(
             ((task.spec.name, task.spec.rate_hz), task.stats) for task in runtime.tasks
         )
@@ -216,9 +215,7 @@ class TelemetryTap:
             tuple(getattr(lights, name) for name in LIGHTS),
             outputs.error_flags,
             age_s(rc, now),
-            age_s(movement, now),
-            age_s(inputs.commands.get(LightsCommand), now),
-            age_s(inputs.commands.get(ControlCommand), now),
+            tuple(age_s(inputs.commands.get(spec.kind), now) for spec in COMMANDS),
             inputs.rc_frames,
             inputs.control_frames,
             None if rc_request is None else movement_values(rc_request),

@@ -8,6 +8,7 @@ from __future__ import annotations
 
 from typing import Any
 
+from bywire.command_table import COMMANDS
 from bywire.error_flags import flag_names
 from bywire.telemetry.capture import (
     Capture,
@@ -17,7 +18,14 @@ from bywire.telemetry.capture import (
     StateCapture,
     TaskRow,
 )
-from bywire.telemetry.schemas import CAN_TOPIC, EVENTS_TOPIC, LIGHTS, STATE_TOPIC, VEHICLE_TOPIC
+from bywire.telemetry.schemas import (
+    CAN_TOPIC,
+    EVENTS_TOPIC,
+    LIGHTS,
+    STATE_TOPIC,
+    VEHICLE_TOPIC,
+    can_age_key,
+)
 
 Message = dict[str, Any]
 
@@ -110,9 +118,7 @@ def _outputs(capture: StateCapture) -> Message:
 def _inputs(capture: StateCapture) -> Message:
     return {
         "rc_age_s": capture.rc_age_s,
-        "can_movement_age_s": capture.can_movement_age_s,
-        "can_lights_age_s": capture.can_lights_age_s,
-        "can_control_age_s": capture.can_control_age_s,
+        **{can_age_key(spec): age for spec, age in zip(COMMANDS, capture.can_ages_s, strict=True)},
         "rc_frames": capture.rc_frames,
         "can_control_frames": capture.can_control_frames,
         "rc_request": _optional_movement(capture.rc_request),

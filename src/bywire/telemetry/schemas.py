@@ -9,6 +9,7 @@ from __future__ import annotations
 
 from typing import Any
 
+from bywire.command_table import COMMANDS, CommandSpec
 from bywire.control.lights import LIGHT_LINES
 
 STATE_TOPIC = "/bywire/state"
@@ -24,6 +25,12 @@ _INTEGER: Schema = {"type": "integer"}
 _BOOLEAN: Schema = {"type": "boolean"}
 _STRING: Schema = {"type": "string"}
 _NAMES: Schema = {"type": "array", "items": _STRING}
+
+
+def can_age_key(spec: CommandSpec) -> str:
+    """The state's field for the age of a command row's newest frame: one per row of
+    `bywire.command_table`, named by its slot (`can_movement_age_s`)."""
+    return f"can_{spec.slot}_age_s"
 
 
 def _object(properties: dict[str, Schema], title: str | None = None) -> Schema:
@@ -70,9 +77,7 @@ _OUTPUTS = _object(
 _INPUTS = _object(
     {
         "rc_age_s": _OPTIONAL_NUMBER,
-        "can_movement_age_s": _OPTIONAL_NUMBER,
-        "can_lights_age_s": _OPTIONAL_NUMBER,
-        "can_control_age_s": _OPTIONAL_NUMBER,
+        **{can_age_key(spec): _OPTIONAL_NUMBER for spec in COMMANDS},
         "rc_frames": _INTEGER,
         "can_control_frames": _INTEGER,
         "rc_request": _OPTIONAL_MOVEMENT,

@@ -58,7 +58,7 @@ class RunningRobot:
         config = RuntimeConfig.from_robot(robot)
         # Not a timing test: a busy machine's late passes must not latch STOP (TIMING_FAULT)
         # before the faults under test.
-        loose = Budgets(pass_s=0.5, write_s=0.25, dac_transfer_s=0.25)
+        loose = Budgets(pass_budget_s=0.5, write_budget_s=0.25, dac_transfer_budget_s=0.25)
         config = dataclasses.replace(
             config, actuators=dataclasses.replace(config.actuators, budgets=loose)
         )

@@ -7,7 +7,7 @@ from dataclasses import replace
 import pytest
 
 from bywire.command_table import COMMAND_TYPES
-from bywire.config import default_sim_config
+from bywire.config import DacOutput, default_sim_config
 from bywire.hal.hardware import OUTPUT_NAMES, Hardware
 from bywire.hal.simulated.clock import RealtimeClock, VirtualClock
 from bywire.hal.simulated.world import SimWorld
@@ -71,7 +71,7 @@ def test_the_controller_port_filters_out_other_nodes_traffic() -> None:
 
 def test_the_vehicle_moves_only_when_the_controller_drives_the_outputs() -> None:
     clock = VirtualClock()
-    world = SimWorld.create(clock, dac_throttle_channel=3, dac_regen_channel=2)
+    world = SimWorld.create(clock, drive_dac=DacOutput(throttle_channel=3, regen_channel=2))
     world.start()
     clock.advance(0.5)
     assert world.vehicle.state.speed_mps == 0.0

@@ -12,6 +12,7 @@ from dataclasses import dataclass
 from typing import TYPE_CHECKING, Protocol
 
 from bywire.command_table import COMMAND_TYPES
+from bywire.config import DacOutput
 from bywire.control.rc_mapping import RcMapping
 from bywire.hal.hardware import OUTPUT_NAMES, DigitalOutputs, Hardware, sensors_fitted
 from bywire.hal.ports import Clock
@@ -33,7 +34,7 @@ from bywire.hal.simulated.vehicle import (
 )
 from bywire.hal.simulated.vehicle_model import VehicleConfig
 from bywire.model import Command, MovementCommand
-from bywire.protocol import dac6574, dbc, ibus
+from bywire.protocol import dbc, ibus
 
 if TYPE_CHECKING:
     from bywire.config import RobotConfig
@@ -101,13 +102,11 @@ class SimWorld:
         cls,
         clock: WorldClock,
         *,
-        dac_throttle_channel: int = 0,
-        dac_regen_channel: int = 1,
+        drive_dac: DacOutput | None = None,
         hydrobrake_period_s: float = DEFAULT_HYDROBRAKE_PERIOD_S,
         seed: int = 0,
         rc_mapping: RcMapping | None = None,
         rc_frame_period_s: float = ibus.FRAME_PERIOD_S,
-        dac_vref_volts: float = dac6574.DEFAULT_VREF_VOLTS,
         can_bitrate_bps: int = DEFAULT_BITRATE_BPS,
         vehicle_config: VehicleConfig | None = None,
         bus_log_limit: int | None = 20_000,
@@ -136,7 +135,8 @@ class SimWorld:
         rc = SimRcTransmitter(
             clock, uart, period_s=rc_frame_period_s, mapping=rc_mapping, seed=seed
         )
-        dac = SimDac6574(clock, vref_volts=dac_vref_volts)
+        wired = DacOutput() if drive_dac is None else drive_dac  # `[drive.dac]`: Vref, channels
+        dac = SimDac6574(clock, vref_volts=wired.vref_volts)
         dac.on_stall = clock.advance  # the robot goes on while the controller hangs in a write
         pwm = SimPwm(
             SimPwmChannel(clock, STEERING_PERIOD_S, "steering"),
@@ -151,8 +151,8 @@ class SimWorld:
             gpio["ebrake_release"],
             pwm.steering,
             pwm.hydrobrake,
-            throttle_channel=dac_throttle_channel,
-            regen_channel=dac_regen_channel,
+            throttle_channel=wired.throttle_channel,
+            regen_channel=wired.regen_channel,
         )
         vehicle = SimVehicle(clock, wiring, vehicle_config)
         wheel_sensor = SimWheelSpeedSensor(vehicle)
@@ -196,16 +196,13 @@ class SimWorld:
         """The simulated robot wired as a robot configuration says (DAC channels, brake PWM
         period, DAC reference, CAN bit rate, RC mapping, the sensors its backend fits, and
         `[sim]`: seed, IBUS frame period, top speed; `[vehicle]`: its geometry)."""
-        dac = robot.drive.dac
         return cls.create(
             clock,
-            dac_throttle_channel=dac.throttle_channel,
-            dac_regen_channel=dac.regen_channel,
+            drive_dac=robot.drive.dac,
             hydrobrake_period_s=1.0 / robot.hydrobrake.pwm.frequency_hz,
             seed=robot.sim.seed,
             rc_mapping=robot.rc.mapping,
             rc_frame_period_s=robot.sim.rc_frame_period_s,
-            dac_vref_volts=dac.vref_volts,
             can_bitrate_bps=robot.can.bitrate_bps,
             vehicle_config=VehicleConfig(
                 top_speed_mps=robot.sim.top_speed_mps,

@@ -53,6 +53,9 @@ class CampaignResult:
     events: int
     transitions: set[str]
     scenario: Scenario
+    hlc_refused: dict[str, int] = field(default_factory=dict)
+    """Command frames the simulated computer never sent, by message (`hlc.refused`): periods
+    in which the campaign tested less than it drew."""
 
 
 class Campaign:
@@ -96,7 +99,14 @@ class Campaign:
         run.runtime.on_cycle.append(log.observe)
         with _quiet_runtime():  # a campaign's failing DAC at its end is no news: the oracle judges
             run.run()
-        return CampaignResult(oracle, run.duration_s, len(scenario.events), log.seen, scenario)
+        return CampaignResult(
+            oracle,
+            run.duration_s,
+            len(scenario.events),
+            log.seen,
+            scenario,
+            dict(sorted(run.world.hlc.refused.items())),
+        )
 
 
 @contextlib.contextmanager

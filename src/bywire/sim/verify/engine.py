@@ -50,6 +50,7 @@ class Outcome:
     findings: list[Finding]
     transitions: set[str]
     bridge: bool = False  # a bridge campaign: the ROS 2 bridge was the computer (B1..B3 judged)
+    hlc_refused: dict[str, int] = field(default_factory=dict)  # command frames never sent
 
 
 def run_campaign(robot: RobotConfig, steps: list[Step], index: int = 0) -> Outcome:
@@ -66,6 +67,7 @@ def run_campaign(robot: RobotConfig, steps: list[Step], index: int = 0) -> Outco
         findings,
         result.transitions,
         result.scenario.computer == "bridge",
+        result.hlc_refused,
     )
 
 
