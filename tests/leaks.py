@@ -30,6 +30,7 @@ POLL_S = 0.01
 ALLOWED_THREADS = re.compile(
     r"^("
     r"asyncio_\d+"  # asyncio's default executor: idle workers of a closed loop go on their own
+    r"|Dask-Offload_\d+"  # distributed's one module-wide executor, kept for the process's life
     r")$"
 )
 """Threads a library keeps for the session, by name."""

@@ -26,7 +26,9 @@ import functools
 import hashlib
 import logging
 import math
+import signal
 import socket
+import threading
 import time
 from collections.abc import Iterator
 from contextlib import contextmanager
@@ -151,18 +153,22 @@ def cluster_client(address: str, workers: int) -> Iterator[Client]:
     }
     with dask.config.set(settings):
         cluster = None
+        interrupted = _Deferred()
         if address == LOCAL:
-            cluster = LocalCluster(  # type: ignore[no-untyped-call]
-                n_workers=workers,
-                threads_per_worker=1,
-                processes=True,
-                host=LOOPBACK,
-                dashboard_address=None,
-                silence_logs=logging.ERROR,
-                # set up in each worker process before it joins, a replacement's too
-                plugins=(LeaveInterruptToTheParent(),),
-            )
+            with interrupted:  # a Ctrl-C while it starts is taken once it can be shut down
+                cluster = LocalCluster(  # type: ignore[no-untyped-call]
+                    n_workers=workers,
+                    threads_per_worker=1,
+                    processes=True,
+                    host=LOOPBACK,
+                    dashboard_address=None,
+                    silence_logs=logging.ERROR,
+                    # set up in each worker process before it joins, a replacement's too
+                    plugins=(LeaveInterruptToTheParent(),),
+                )
         try:
+            if interrupted.pending:
+                raise KeyboardInterrupt
             try:
                 client = Client(  # type: ignore[no-untyped-call]
                     cluster if cluster is not None else address,
@@ -179,6 +185,27 @@ def cluster_client(address: str, workers: int) -> Iterator[Client]:
         finally:
             if cluster is not None:
                 cluster.close()
+
+
+class _Deferred:
+    """Holds a Ctrl-C (SIGINT) back while a local cluster starts: interrupted half-way, the
+    cluster was left for distributed's exit hook, which failed on it with a traceback
+    ("Status.init"). Outside the main thread, where no handler can be set, nothing is held."""
+
+    def __init__(self) -> None:
+        self.pending = False
+        self._previous: object = None
+
+    def _hold(self, _signum: int, _frame: object) -> None:
+        self.pending = True
+
+    def __enter__(self) -> None:
+        if threading.current_thread() is threading.main_thread():
+            self._previous = signal.signal(signal.SIGINT, self._hold)
+
+    def __exit__(self, *_exc: object) -> None:
+        if self._previous is not None:
+            signal.signal(signal.SIGINT, self._previous)  # type: ignore[arg-type]
 
 
 def _check_workers(client: Client, address: str) -> None:
