@@ -53,8 +53,11 @@ ALLOWED_FAILURES = 1
 (Dask's KilledWorker), and it is split."""
 BATCH_MAX = 8
 """Campaigns in one batch at most; fewer when the budget is small for the workers."""
-IN_FLIGHT_PER_WORKER = 2
-"""Batches queued per worker while running for a duration."""
+IN_FLIGHT_PER_WORKER = 1
+"""Batches given out per worker at a time: one, so that no batch waits on a worker behind another
+(a scheduler the user runs may assign a second one at its default worker-saturation 1.1), where
+a crash of the first would count a death against it and could report an innocent campaign. The
+next batch goes out as one comes back: a round trip against a batch's seconds."""
 WORKERS_TIMEOUT_S = 60.0
 """How long a cluster the user runs may take to show its first worker."""
 BUILD_SUFFIXES = (".py", ".dbc", ".toml")
