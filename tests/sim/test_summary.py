@@ -10,6 +10,7 @@ import pytest
 from rich.console import Console
 
 from bywire.canlog.write import BusTally
+from bywire.command_table import COMMANDS
 from bywire.config import default_sim_config
 from bywire.sim.runner import SimRun
 from bywire.sim.scenario import parse_scenario
@@ -240,15 +241,17 @@ count = 5
 def test_frames_the_simulated_computer_could_not_send_are_shown_not_dropped(
     summary: Summary,
 ) -> None:
-    """A doubled movement frame takes the third of three mailboxes: that period's lights frame
-    is refused. The summary says so (text and JSON), and says nothing when none was."""
+    """A doubled movement frame takes one mailbox more than the rows need: that period's last
+    row's frame (LightsCommand today) is refused. The summary says so (text and JSON), and says
+    nothing when none was."""
+    last = COMMANDS[-1].name
     run, tally = _run(text=DOUBLED)
     doubled = build_summary(run, WALL_S, tally)
-    assert doubled.inputs.hlc_refused == dict(run.world.hlc.refused) == {"LightsCommand": 5}
+    assert doubled.inputs.hlc_refused == dict(run.world.hlc.refused) == {last: 5}
     text = _text(doubled)
-    assert "Simulated computer: 5 command frames never sent (LightsCommand 5)" in text
+    assert f"Simulated computer: 5 command frames never sent ({last} 5)" in text
     data = json.loads(json.dumps(doubled.as_json()))
-    assert data["inputs"]["hlc_refused"] == {"LightsCommand": 5}
+    assert data["inputs"]["hlc_refused"] == {last: 5}
     assert summary.inputs.hlc_refused == {}
     assert "Simulated computer" not in _text(summary)
 
