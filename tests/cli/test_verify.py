@@ -5,11 +5,20 @@ before anything runs, and a failure is written where `bywire sim --scenario` rep
 from __future__ import annotations
 
 import json
+import logging
+import os
+import signal
+import subprocess
+import sys
+import time
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
+import dask
+import psutil
 import pytest
+from distributed import Client, LocalCluster
 
 from bywire.cli import verify
 from bywire.cli.main import main
@@ -19,6 +28,7 @@ from bywire.sim.verify.draw_bridge import is_bridge_campaign
 from bywire.sim.verify.oracle import INVARIANTS
 from bywire.sim.verify.robots import Schema, dotted, draw_robot, keys_needed
 from bywire.sim.verify.supervisor_check import MONITOR_CAUSES, TRANSITIONS, transitions_naming
+from tests.sim.verify.cluster_plugins import CrashAt
 from tests.system.old_bugs import OLD_BUGS
 
 SIM = Path(__file__).resolve().parents[2] / "src" / "bywire" / "defaults" / "sim.toml"
@@ -312,3 +322,174 @@ def test_the_same_seed_draws_and_runs_the_same_on_any_number_of_processes(
         verdicts = [(e["campaigns"], e["violations"], e["changed"]) for e in result["files"]]
         runs.append((files, verdicts))
     assert runs[0] == runs[1]
+
+
+# --- --cluster: the campaigns on a Dask cluster (a local one, on 127.0.0.1) ---------------------
+
+WHERE = ("jobs", "cluster", "wall_s", "campaigns_per_minute", "speed_up")  # how, not what
+
+
+def _what(summary: dict[str, object]) -> dict[str, object]:
+    return {key: value for key, value in summary.items() if key not in WHERE}
+
+
+def _children() -> set[int]:
+    """This process's children but Python's own resource tracker (one per interpreter, it ends
+    with it)."""
+    return {
+        child.pid
+        for child in psutil.Process().children(recursive=True)
+        if "resource_tracker" not in " ".join(child.cmdline())
+    }
+
+
+def test_a_two_worker_local_cluster_gives_the_summary_of_one_process_and_leaves_nothing_running(
+    capsys: pytest.CaptureFixture[str], tmp_path: Path
+) -> None:
+    before = _children()
+    args = ("--budget", "4", "--campaign-s", "3", "--seed", "9", "--out", str(tmp_path))
+    here = _verify(capsys, *args, "--jobs", "1")
+    status, summary = _verify(capsys, *args, "--cluster", "local", "--jobs", "2")
+    assert (status, _what(summary)) == (here[0], _what(here[1]))
+    assert (summary["jobs"], summary["cluster"]) == (2, "local")
+    assert _children() <= before  # the workers and their nannies are gone
+
+
+def test_drawn_robot_files_go_out_on_the_cluster_and_give_the_result_of_one_process(
+    capsys: pytest.CaptureFixture[str], tmp_path: Path
+) -> None:
+    args = ("--draw-robots", "2", "--budget", "4", "--campaign-s", "2", "--out", str(tmp_path))
+    here = _verify(capsys, *args, "--jobs", "1")
+    status, result = _verify(capsys, *args, "--cluster", "local", "--jobs", "2")
+    assert (status, _what(result)) == (here[0], _what(here[1]))
+    assert result["campaigns"] == 4
+    assert result["cluster"] == "local"
+
+
+def test_a_cluster_runs_for_a_duration_too(capsys: pytest.CaptureFixture[str]) -> None:
+    status, summary = _verify(
+        capsys, "--duration", "1", "--campaign-s", "1", "--cluster", "local", "--jobs", "1"
+    )
+    assert status == 0
+    assert isinstance(summary["campaigns"], int)
+    assert summary["campaigns"] >= 1
+
+
+def test_ctrl_c_shuts_the_local_cluster_down_and_leaves_nothing_running(tmp_path: Path) -> None:
+    command = [sys.executable, "-m", "bywire.cli.main", "verify", "--budget", "400"]
+    command += ["--campaign-s", "5", "--cluster", "local", "--jobs", "1", "--out", str(tmp_path)]
+    process = subprocess.Popen(
+        command, start_new_session=True, stdout=subprocess.PIPE, stderr=subprocess.PIPE
+    )
+    try:
+        verify_process = psutil.Process(process.pid)
+        assert _until(lambda: any(_ignores_ctrl_c(p) for p in verify_process.children(True)))
+        os.killpg(process.pid, signal.SIGINT)  # as the terminal does: every process of the group
+        _, error = process.communicate(timeout=120)
+    finally:
+        if process.poll() is None:
+            process.kill()
+            process.wait()
+    assert process.returncode == 130
+    assert error.decode() == ""  # no worker's traceback either
+    assert _until(lambda: not _group_alive(process.pid))  # the workers end with the cluster
+
+
+def _until(condition: Callable[[], bool], tries: int = 600) -> bool:
+    """Polls `condition` (every 0.1 s, at most a minute by default): whether it came true."""
+    for _ in range(tries):
+        if condition():
+            return True
+        time.sleep(0.1)
+    return False
+
+
+def _ignores_ctrl_c(process: psutil.Process) -> bool:
+    """A worker of the local cluster, up and ignoring SIGINT (its `SigIgn` mask in /proc)."""
+    try:
+        status = Path(f"/proc/{process.pid}/status").read_text()
+        title = " ".join(process.cmdline())
+    except (OSError, psutil.Error):
+        return False
+    ignored = int(next(line for line in status.splitlines() if line.startswith("SigIgn:"))[7:], 16)
+    return "spawn_main" in title and bool(ignored & (1 << (signal.SIGINT - 1)))
+
+
+def _group_alive(group: int) -> bool:
+    try:
+        os.killpg(group, 0)
+    except ProcessLookupError:
+        return False
+    return True
+
+
+def test_without_dask_the_cluster_says_in_one_line_how_to_install_it(
+    capsys: pytest.CaptureFixture[str], monkeypatch: pytest.MonkeyPatch
+) -> None:
+    monkeypatch.setitem(sys.modules, "dask", None)  # import dask raises ImportError
+    monkeypatch.setitem(sys.modules, "distributed", None)
+    assert main(["verify", "--budget", "1", "--cluster", "local"]) == 2
+    error = capsys.readouterr().err
+    assert error.count("\n") == 1
+    assert "pip install 'bywire[cluster]'" in error
+
+
+@pytest.mark.parametrize("address", ["somewhere", "tcp://", ""])
+def test_a_cluster_address_that_names_no_scheduler_is_refused(
+    address: str, capsys: pytest.CaptureFixture[str]
+) -> None:
+    with pytest.raises(SystemExit) as caught:
+        main(["verify", "--cluster", address])
+    assert caught.value.code == 2
+    assert "tcp://127.0.0.1:8786" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize("threads", [1, 2])
+def test_a_cluster_the_user_runs_is_used_with_one_thread_a_worker_and_refused_with_more(
+    threads: int, capsys: pytest.CaptureFixture[str], tmp_path: Path
+) -> None:
+    args = ("--budget", "2", "--campaign-s", "2", "--seed", "3", "--out", str(tmp_path))
+    with LocalCluster(  # type: ignore[no-untyped-call]
+        n_workers=1,
+        threads_per_worker=threads,
+        host="127.0.0.1",
+        dashboard_address=None,
+        silence_logs=logging.ERROR,
+    ) as cluster:
+        address = cluster.scheduler_address
+        assert address.startswith("tcp://127.0.0.1:")
+        if threads == 1:
+            here = _verify(capsys, *args, "--jobs", "1")
+            status, summary = _verify(capsys, *args, "--cluster", address)
+            assert (status, _what(summary)) == (here[0], _what(here[1]))
+            assert (summary["jobs"], summary["cluster"]) == (1, address)
+            return
+        assert main(["verify", *args, "--cluster", address]) == 2
+    error = capsys.readouterr().err
+    assert error.count("\n") == 1
+    assert "runs 2 threads" in error
+    assert "--nthreads 1" in error
+
+
+def test_a_campaign_that_crashes_its_worker_twice_is_reported_with_its_seed_and_index(
+    capsys: pytest.CaptureFixture[str], tmp_path: Path
+) -> None:
+    args = ("--budget", "3", "--campaign-s", "1", "--seed", "4", "--out", str(tmp_path))
+    with (
+        dask.config.set({"distributed.scheduler.allowed-failures": 1}),
+        LocalCluster(  # type: ignore[no-untyped-call]
+            n_workers=1,
+            threads_per_worker=1,
+            host="127.0.0.1",
+            dashboard_address=None,
+            silence_logs=logging.ERROR,
+        ) as cluster,
+        Client(cluster) as client,  # type: ignore[no-untyped-call]
+    ):
+        client.register_plugin(CrashAt(1), name="crash-always")  # the test's own hook
+        status, summary = _verify(capsys, *args, "--cluster", cluster.scheduler_address)
+        assert main(["verify", *args, "--cluster", cluster.scheduler_address]) == 1
+    assert status == 1
+    assert summary["crashes"] == [{"seed": 4, "index": 1, "worker_deaths": 2}]
+    assert summary["campaigns"] == 2  # the others ran
+    assert "campaign 1 of seed 4 killed its worker twice" in capsys.readouterr().out

@@ -16,6 +16,10 @@ bridge falling silent, a pulled cable, RC taking over); besides H1–H10 they ar
 bridge's own invariants B1–B3 (a flagged speed ends in a stop, the stop ramp brakes to
 standstill, every refused command shows in /diagnostics).
 
+With --cluster the campaigns run on a Dask distributed cluster instead (`local`: one started on
+127.0.0.1; tcp://HOST:PORT: a scheduler you run; README "Verifying on a cluster"), with the same
+result for the same seed and budget; a campaign that kills its worker twice is reported.
+
 A violation is shrunk to a short scenario written to --out; `bywire sim --scenario FILE` replays
 it and fails. Exit status: 0 clean, 1 a violation or an unsafe combination of numbers, 2 a bad
 configuration or argument.
@@ -29,10 +33,12 @@ import os
 import sys
 import time
 from collections import Counter
+from collections.abc import Iterator
+from contextlib import contextmanager
 from dataclasses import dataclass, field
 from importlib import resources
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from rich.console import Console
 from rich.markup import escape
@@ -45,6 +51,14 @@ from bywire.config.loader import DEFAULT_SIM_RESOURCE
 from bywire.hal.hardware import sensors_fitted
 from bywire.sim.scenario import scenario_toml
 from bywire.sim.verify.campaign import Campaign
+from bywire.sim.verify.cluster import (
+    LOCAL,
+    Crash,
+    cluster_client,
+    cluster_outcomes,
+    robot_hash,
+    worker_count,
+)
 from bywire.sim.verify.draw import CAMPAIGN_S
 from bywire.sim.verify.engine import (
     CampaignJob,
@@ -66,12 +80,24 @@ from bywire.sim.verify.robots import (
 from bywire.sim.verify.supervisor_check import MONITOR_CAUSES, TRANSITIONS, transitions_naming
 from bywire.textfile import read_text
 
+if TYPE_CHECKING:
+    from distributed import Client
+
 DEFAULT_BUDGET = 200
 DEFAULT_OUT = Path("verify-failures")
 
 
 _positive_int = whole_number(1)
 _seed = whole_number(0)
+
+
+def _cluster_address(text: str) -> str:
+    """`local` or a scheduler's address (tcp://HOST:PORT, tls://…)."""
+    if text == LOCAL or ("://" in text and text.split("://", 1)[1]):
+        return text
+    raise argparse.ArgumentTypeError(
+        f"{text!r}: give `local` or a scheduler's address, e.g. tcp://127.0.0.1:8786"
+    )
 
 
 def configure(parser: argparse.ArgumentParser) -> None:
@@ -109,6 +135,16 @@ def configure(parser: argparse.ArgumentParser) -> None:
         metavar="N",
         default=os.cpu_count() or 1,
         help="processes to run campaigns in (default: every core, %(default)s here)",
+    )
+    parser.add_argument(
+        "--cluster",
+        type=_cluster_address,
+        metavar="ADDRESS",
+        help=(
+            "run the campaigns on a Dask distributed cluster: `local` starts one on 127.0.0.1"
+            " (--jobs worker processes), tcp://HOST:PORT uses a scheduler you run (README)."
+            " Needs pip install 'bywire[cluster]'"
+        ),
     )
     parser.add_argument(
         "--seed", type=_seed, default=0, metavar="S", help="random seed (default 0)"
@@ -164,8 +200,12 @@ class Tally:
     violations: Counter[str] = field(default_factory=Counter)
     transitions: set[str] = field(default_factory=set)
     failing: dict[str, Outcome] = field(default_factory=dict)  # the first campaign per invariant
+    crashes: list[Crash] = field(default_factory=list)  # campaigns that killed a worker twice
 
-    def add(self, outcome: Outcome) -> None:
+    def add(self, outcome: Outcome | Crash) -> None:
+        if isinstance(outcome, Crash):
+            self.crashes.append(outcome)
+            return
         self.campaigns += 1
         if outcome.bridge:
             self.bridge_campaigns += 1
@@ -194,6 +234,44 @@ def _progress(console: Console, show: bool) -> Progress:
     )
 
 
+@dataclass(frozen=True, slots=True)
+class Runner:
+    """Where the campaigns run: `jobs` processes here, or the workers of a Dask cluster."""
+
+    jobs: int
+    client: Client | None = None
+    cluster: str | None = None
+
+    def outcomes(
+        self,
+        robot: RobotConfig,
+        robot_text: str,
+        job: CampaignJob,
+        budget: int | None,
+        until: float | None,
+    ) -> Iterator[Outcome | Crash]:
+        if self.client is None:
+            return campaign_outcomes(robot, job, self.jobs, budget, until)
+        return cluster_outcomes(
+            self.client,
+            robot=robot,
+            robot_file_hash=robot_hash(robot_text),
+            job=job,
+            budget=budget,
+            until=until,
+        )
+
+
+@contextmanager
+def _runner(args: argparse.Namespace) -> Iterator[Runner]:
+    """`--jobs` processes, or `--cluster`'s workers (a local cluster shut down on the way out)."""
+    if args.cluster is None:
+        yield Runner(args.jobs)
+        return
+    with cluster_client(args.cluster, args.jobs) as client:
+        yield Runner(worker_count(client), client, args.cluster)
+
+
 def run(args: argparse.Namespace) -> int:
     if args.draw_robots is not None:
         return run_drawn(args)
@@ -202,21 +280,24 @@ def run(args: argparse.Namespace) -> int:
     console = Console(stderr=True)
     show = sys.stderr.isatty() and not args.json
     budget = args.budget if args.budget is not None or args.duration else DEFAULT_BUDGET
-    summary, _ = verify_robot(
-        robot,
-        source=source,
-        config=args.config,
-        out=args.out,
-        args=args,
-        budget=budget,
-        console=console,
-        show=show,
-    )
+    with _runner(args) as runner:
+        summary, _ = verify_robot(
+            robot,
+            source=source,
+            config=args.config,
+            out=args.out,
+            args=args,
+            budget=budget,
+            console=console,
+            show=show,
+            runner=runner,
+            robot_text=_robot_text(args.config),
+        )
     if args.json:
         print(json.dumps(summary, indent=2))
     else:
         _print_summary(Console(), summary, robot)
-    return 1 if any(summary["violations"].values()) else 0
+    return 1 if any(summary["violations"].values()) or summary["crashes"] else 0
 
 
 def verify_robot(
@@ -229,25 +310,36 @@ def verify_robot(
     budget: int | None,
     console: Console,
     show: bool,
+    runner: Runner,
+    robot_text: str,
 ) -> tuple[dict[str, Any], list[Reproduction]]:
-    """`budget` campaigns of `args.seed` on `robot` (or campaigns until `args.duration` is
-    up), every failure shrunk and written to `out`: the summary, and the shrunk failures."""
+    """`budget` campaigns of `args.seed` on `robot` (the file `robot_text`) (or campaigns until
+    `args.duration` is up), on `runner`, every failure shrunk and written to `out`: the summary,
+    and the shrunk failures."""
     until = None if args.duration is None else time.monotonic() + args.duration
     job = CampaignJob(args.seed, args.campaign_s)
     tally = Tally()
     started = time.perf_counter()
     with _progress(console, show) as progress:
         task = progress.add_task("campaigns", total=budget, status="")
-        for outcome in campaign_outcomes(robot, job, args.jobs, budget, until):
+        for outcome in runner.outcomes(robot, robot_text, job, budget, until):
             tally.add(outcome)
             status = ", ".join(f"{k} {n}" for k, n in sorted(tally.violations.items()))
+            if tally.crashes:
+                status += f", {len(tally.crashes)} crashed a worker"
             progress.update(task, advance=1, status=status or "0 violations")
     wall_s = time.perf_counter() - started
     reproductions = _shrink_all(
         robot, tally, seed=args.seed, config=config, out=out, console=console, show=show
     )
     summary = _summary(
-        source, args, tally, wall_s, reproductions, cannot_happen=_cannot_happen(robot)
+        source,
+        args,
+        tally,
+        wall_s,
+        reproductions,
+        runner=runner,
+        cannot_happen=_cannot_happen(robot),
     )
     summary["configuration"] = {"loss_distances": loss_rows(robot)}
     return summary, reproductions
@@ -305,6 +397,7 @@ def _summary(
     wall_s: float,
     reproductions: list[Reproduction],
     *,
+    runner: Runner,
     cannot_happen: tuple[str, ...],
 ) -> dict[str, Any]:
     possible = [label for label in TRANSITIONS if label not in cannot_happen]
@@ -312,7 +405,8 @@ def _summary(
     return {
         "config": source,
         "seed": args.seed,
-        "jobs": args.jobs,
+        "jobs": runner.jobs,
+        "cluster": runner.cluster,
         "campaigns": tally.campaigns,
         "bridge_campaigns": tally.bridge_campaigns,
         "simulated_s": round(tally.simulated_s, 3),
@@ -332,6 +426,11 @@ def _summary(
             # A row taken that cannot happen is bywire's own bug (a monitor without its sensor).
             "cannot_happen_but_taken": [row for row in cannot_happen if row in tally.transitions],
         },
+        # Campaigns that killed their worker twice (a crash of the process, not a violation).
+        "crashes": [
+            {"seed": c.seed, "index": c.index, "worker_deaths": c.deaths}
+            for c in sorted(tally.crashes, key=_at)
+        ],
         "failures": [
             {
                 "invariant": r.finding.invariant,
@@ -346,6 +445,20 @@ def _summary(
     }
 
 
+def _at(crash: Crash) -> int:
+    return crash.index
+
+
+def _times(deaths: int | None) -> str:
+    return "repeatedly" if deaths is None else "twice" if deaths == 2 else f"{deaths} times"
+
+
+def _where(summary: dict[str, Any]) -> str:
+    if summary["cluster"] is None:
+        return f"{summary['jobs']} processes"
+    return f"{summary['jobs']} workers of the cluster {summary['cluster']}"
+
+
 def _print_summary(console: Console, summary: dict[str, Any], robot: RobotConfig) -> None:
     violations = summary["violations"]
     transitions = summary["transitions"]
@@ -356,7 +469,7 @@ def _print_summary(console: Console, summary: dict[str, Any], robot: RobotConfig
     console.print(
         f"  {summary['campaigns']} campaigns ({summary['bridge_campaigns']} with the ROS 2"
         f" bridge as the computer), {summary['simulated_s']:.0f} s simulated in"
-        f" {summary['wall_s']:.1f} s on {summary['jobs']} processes"
+        f" {summary['wall_s']:.1f} s on {_where(summary)}"
         f" ({summary['campaigns_per_minute']} campaigns/min, {summary['speed_up']}x real time)"
     )
     console.print(
@@ -390,7 +503,15 @@ def _print_summary(console: Console, summary: dict[str, Any], robot: RobotConfig
             f" {failure['steps']}: {failure['scenario']}",
             highlight=False,
         )
-    verdict = "[red]VIOLATIONS[/red]" if any(violations.values()) else "[green]clean[/green]"
+    for crash in summary["crashes"]:
+        console.print(
+            f"[red]  campaign {crash['index']} of seed {crash['seed']} killed its worker"
+            f" {_times(crash['worker_deaths'])}[/red] (a crash of the process: a finding of its"
+            f" own; replay it alone: bywire verify --seed {crash['seed']} ... --jobs 1)",
+            highlight=False,
+        )
+    broken = any(violations.values()) or summary["crashes"]
+    verdict = "[red]VIOLATIONS[/red]" if broken else "[green]clean[/green]"
     console.print(f"  result: {verdict}")
 
 
@@ -416,49 +537,23 @@ def run_drawn(args: argparse.Namespace) -> int:
     refused = 0
     started = time.perf_counter()
     interrupted = False
-    try:
-        for drawn in draw_robots(schema, args.seed, count):
-            refusals.update(drawn.refusals)
-            refused += bool(drawn.refusals)
-            path = args.out / f"robot-{drawn.index:02d}.toml"
-            path.write_text(_drawn_text(drawn, args.seed, base_name), encoding="utf-8")
-            if show:
-                console.print(
-                    f"[{drawn.index}/{count}] {path}: {len(drawn.changed)} keys drawn,"
-                    f" {len(drawn.repairs)} put back",
-                    highlight=False,
+    with _runner(args) as runner:
+        try:
+            for drawn in draw_robots(schema, args.seed, count):
+                refusals.update(drawn.refusals)
+                refused += bool(drawn.refusals)
+                entry = _verify_drawn(
+                    drawn, schema, base_name, each, args, runner=runner, console=console, show=show
                 )
-            out = args.out / f"robot-{drawn.index:02d}-failures"
-            summary, found = verify_robot(
-                drawn.robot,
-                source=str(path),
-                config=path,
-                out=out,
-                args=args,
-                budget=each,
-                console=console,
-                show=show,
-            )
-            entry = _file_entry(drawn, path, summary)
-            for failure, reproduction in zip(entry["failures"], found, strict=True):
-                failure.update(
-                    _keys_needed(schema, drawn, reproduction, out, console=console, show=show)
-                )
-            files.append(entry)
-            if show:
-                found = sum(summary["violations"].values())
-                console.print(
-                    f"  {summary['campaigns']} campaigns: "
-                    + (f"[red]{found} violating[/red]" if found else "[green]clean[/green]"),
-                    highlight=False,
-                )
-    except KeyboardInterrupt:
-        interrupted = True
+                files.append(entry)
+        except KeyboardInterrupt:
+            interrupted = True
     result = {
         "draw_robots": count,
         "base": base_name,
         "seed": args.seed,
-        "jobs": args.jobs,
+        "jobs": runner.jobs,
+        "cluster": runner.cluster,
         "campaigns_per_file": each,
         "keys_drawn": len(schema.keys),
         "keys_kept": _kept(schema),
@@ -468,7 +563,7 @@ def run_drawn(args: argparse.Namespace) -> int:
         "campaigns": sum(f["campaigns"] for f in files),
         "files_refused": refused,
         "refusals_repaired": dict(refusals.most_common()),
-        "violating_files": [f["file"] for f in files if f["violations"]],
+        "violating_files": [f["file"] for f in files if f["violations"] or f["crashes"]],
         "files": files,
     }
     if args.json:
@@ -480,15 +575,69 @@ def run_drawn(args: argparse.Namespace) -> int:
     return 1 if result["violating_files"] else 0
 
 
+def _verify_drawn(
+    drawn: DrawnRobot,
+    schema: Schema,
+    base_name: str,
+    each: int,
+    args: argparse.Namespace,
+    *,
+    runner: Runner,
+    console: Console,
+    show: bool,
+) -> dict[str, Any]:
+    """One drawn file written to --out and verified on `runner`: its entry of the summary."""
+    path = args.out / f"robot-{drawn.index:02d}.toml"
+    text = _drawn_text(drawn, args.seed, base_name)
+    path.write_text(text, encoding="utf-8")
+    if show:
+        console.print(
+            f"[{drawn.index}/{args.draw_robots}] {path}: {len(drawn.changed)} keys drawn,"
+            f" {len(drawn.repairs)} put back",
+            highlight=False,
+        )
+    out = args.out / f"robot-{drawn.index:02d}-failures"
+    summary, found = verify_robot(
+        drawn.robot,
+        source=str(path),
+        config=path,
+        out=out,
+        args=args,
+        budget=each,
+        console=console,
+        show=show,
+        runner=runner,
+        robot_text=text,
+    )
+    entry = _file_entry(drawn, path, summary)
+    for failure, reproduction in zip(entry["failures"], found, strict=True):
+        failure.update(_keys_needed(schema, drawn, reproduction, out, console=console, show=show))
+    if show:
+        violating = sum(summary["violations"].values())
+        console.print(
+            f"  {summary['campaigns']} campaigns: "
+            + (f"[red]{violating} violating[/red]" if violating else "[green]clean[/green]"),
+            highlight=False,
+        )
+    return entry
+
+
+def _robot_text(config: Path | None) -> str:
+    """The robot file's text (--config, else the packaged simulator defaults), for its hash."""
+    if config is not None:
+        return read_text(config, "configuration file")
+    resource = resources.files("bywire")
+    for part in DEFAULT_SIM_RESOURCE:
+        resource = resource.joinpath(part)
+    return resource.read_text(encoding="utf-8")
+
+
 def _base_text(config: Path | None) -> tuple[str, str]:
     """The base file's text and name: --config, else the packaged simulator defaults."""
     if config is not None:
         load_config(config)  # refused with its reason (exit 2) before anything is drawn
-        return read_text(config, "configuration file"), str(config)
-    resource = resources.files("bywire")
-    for part in DEFAULT_SIM_RESOURCE:
-        resource = resource.joinpath(part)
-    return resource.read_text(encoding="utf-8"), "bywire/defaults/sim.toml"
+        return _robot_text(config), str(config)
+    return _robot_text(None), "bywire/defaults/sim.toml"
 
 
 def _kept(schema: Schema) -> list[str]:
@@ -523,6 +672,7 @@ def _file_entry(drawn: DrawnRobot, path: Path, summary: dict[str, Any]) -> dict[
         "campaigns": summary["campaigns"],
         "violations": {k: n for k, n in summary["violations"].items() if n},
         "failures": summary["failures"],
+        "crashes": summary["crashes"],
         "changed": {key: [_plain(old), _plain(new)] for key, (old, new) in drawn.changed.items()},
         "repaired": [
             {"key": r.key, "drawn": _plain(r.drawn), "base": _plain(r.base), "rule": r.rule}
@@ -602,11 +752,17 @@ def _print_drawn(console: Console, result: dict[str, Any]) -> None:
         for rule, count in refusals.items():
             console.print(f"    {count:4d}  {escape(rule)}", highlight=False, soft_wrap=True)
     for entry in result["files"]:
-        if not entry["violations"]:
+        if not entry["violations"] and not entry["crashes"]:
             console.print(f"  {entry['file']}: clean ({len(entry['changed'])} keys drawn)")
             continue
         broken = ", ".join(f"{k} {n}" for k, n in entry["violations"].items())
         console.print(f"[red]  {entry['file']}: {broken}[/red]", highlight=False)
+        for crash in entry["crashes"]:
+            console.print(
+                f"[red]    campaign {crash['index']} of seed {crash['seed']} killed its worker"
+                f" {_times(crash['worker_deaths'])}[/red]",
+                highlight=False,
+            )
         for failure in entry["failures"]:
             console.print(
                 f"    {failure['invariant']} at {failure['time_s']:.3f} s:"

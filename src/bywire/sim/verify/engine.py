@@ -84,9 +84,14 @@ class CampaignJob:
     campaign_s: float
 
 
-def _run_one(job: CampaignJob, index: int) -> Outcome:
-    robot = _ROBOT if _ROBOT is not None else default_sim_config()
+def run_indexed(robot: RobotConfig, job: CampaignJob, index: int) -> Outcome:
+    """Campaign `index` of `job` on `robot`, drawn from its seed and index alone: the same
+    outcome in whichever process, or on whichever machine, it runs."""
     return run_campaign(robot, draw_any(job.seed, index, job.campaign_s), index)
+
+
+def _run_one(job: CampaignJob, index: int) -> Outcome:
+    return run_indexed(_ROBOT if _ROBOT is not None else default_sim_config(), job, index)
 
 
 def _run_index(arguments: tuple[CampaignJob, int]) -> Outcome:

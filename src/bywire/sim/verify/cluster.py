@@ -1,0 +1,311 @@
+"""`bywire verify --cluster`: the campaigns on a Dask distributed cluster.
+
+`--cluster tcp://HOST:8786` uses a cluster the user runs (`dask scheduler`, `dask worker`);
+`--cluster local` starts one on 127.0.0.1 (worker processes, one thread each, no dashboard), and
+`cluster_client` is the one place a cluster is started and stopped.
+
+Campaigns go out in batches of consecutive indices of one seed (`Batch`); every campaign is
+drawn from its seed and index alone (`engine.run_indexed`), so which worker runs it changes
+nothing, and the outcomes are handed on in index order: the same `--seed` and `--budget` give the
+same summary on 1, 2 or 200 workers. Every batch's result carries the build of bywire that ran it
+and the hash of the robot file it ran on: a result of another build or another file is refused.
+
+A worker that dies is replaced by its nanny and the scheduler gives its batch to another worker;
+a batch whose worker died twice (`ALLOWED_FAILURES`) comes back as Dask's KilledWorker and is
+split in halves, down to the campaign, and a campaign that killed its worker twice is a finding
+of its own (`Crash`, with its seed and index).
+
+What stays on the user's machine: the robot file and its loading, drawing the robot files,
+shrinking a failure, finding the keys it needs and every file written; the workers only run
+campaigns and send back their outcomes.
+"""
+
+from __future__ import annotations
+
+import functools
+import hashlib
+import logging
+import math
+import socket
+import time
+from collections.abc import Iterator
+from contextlib import contextmanager
+from dataclasses import dataclass
+from importlib import resources
+from typing import TYPE_CHECKING
+
+from bywire import __version__
+from bywire.config import RobotConfig
+from bywire.errors import BywireError
+from bywire.sim.verify.engine import CampaignJob, Outcome, run_indexed
+
+if TYPE_CHECKING:
+    from distributed import Client, Future
+
+LOCAL = "local"
+"""`--cluster local`: a cluster of worker processes on this machine, on 127.0.0.1 only."""
+LOOPBACK = "127.0.0.1"
+INSTALL = "--cluster needs Dask distributed: pip install 'bywire[cluster]'"
+ALLOWED_FAILURES = 1
+"""A batch whose worker dies is given to another worker once; a second death makes it killed
+(Dask's KilledWorker), and it is split."""
+BATCH_MAX = 8
+"""Campaigns in one batch at most; fewer when the budget is small for the workers."""
+IN_FLIGHT_PER_WORKER = 2
+"""Batches queued per worker while running for a duration."""
+WORKERS_TIMEOUT_S = 60.0
+"""How long a cluster the user runs may take to show its first worker."""
+BUILD_SUFFIXES = (".py", ".dbc", ".toml")
+
+
+class ClusterError(BywireError):
+    """The cluster cannot be used: not installed, unreachable, or another build of bywire."""
+
+
+@functools.cache
+def build_id() -> str:
+    """This bywire's version and a digest of its files (the code, the DBC, the packaged
+    defaults and scenarios): two machines with the same id run the same campaigns the same way."""
+    digest = hashlib.sha256()
+    package = resources.files("bywire")
+    for path in sorted(_files(package), key=lambda p: p[0]):
+        digest.update(path[0].encode())
+        digest.update(path[1])
+    return f"{__version__}+{digest.hexdigest()[:12]}"
+
+
+def _files(folder: resources.abc.Traversable, prefix: str = "") -> Iterator[tuple[str, bytes]]:
+    for entry in folder.iterdir():
+        name = f"{prefix}{entry.name}"
+        if entry.is_dir():
+            if entry.name != "__pycache__":
+                yield from _files(entry, f"{name}/")
+        elif entry.name.endswith(BUILD_SUFFIXES):
+            yield name, entry.read_bytes()
+
+
+def robot_hash(text: str) -> str:
+    """The robot file's hash, as every result names it."""
+    return hashlib.sha256(text.encode()).hexdigest()[:16]
+
+
+@dataclass(frozen=True, slots=True)
+class Batch:
+    """Campaigns `start` .. `stop - 1` of `job` on `robot` (the file of hash `robot_hash`)."""
+
+    job: CampaignJob
+    robot: RobotConfig
+    robot_hash: str
+    start: int
+    stop: int
+
+
+@dataclass(frozen=True, slots=True)
+class BatchResult:
+    """A batch's outcomes, with the build that ran them, where, and on which robot file."""
+
+    build: str
+    host: str
+    robot_hash: str
+    outcomes: tuple[Outcome, ...]
+
+
+@dataclass(frozen=True, slots=True)
+class Crash:
+    """A campaign that killed its worker `deaths` times (twice on a local cluster; on a cluster
+    the user runs, its scheduler's allowed-failures + 1; None when it does not say): a finding of
+    its own."""
+
+    seed: int
+    index: int
+    deaths: int | None
+
+
+def run_batch(batch: Batch) -> BatchResult:
+    """On a worker: run the batch's campaigns."""
+    outcomes = tuple(
+        run_indexed(batch.robot, batch.job, index) for index in range(batch.start, batch.stop)
+    )
+    return BatchResult(build_id(), socket.gethostname(), batch.robot_hash, outcomes)
+
+
+def _worker_build() -> tuple[str, str]:
+    return build_id(), socket.gethostname()
+
+
+@contextmanager
+def cluster_client(address: str, workers: int) -> Iterator[Client]:
+    """A client of the cluster at `address` (`LOCAL`: a new cluster of `workers` processes on
+    127.0.0.1, shut down on the way out, Ctrl-C included); every worker checked to run this
+    build of bywire. The one place a cluster starts and stops."""
+    try:
+        import dask  # noqa: PLC0415 -- an optional extra, only with --cluster
+        from distributed import Client, LocalCluster  # noqa: PLC0415
+
+        from bywire.sim.verify.cluster_worker import LeaveInterruptToTheParent  # noqa: PLC0415
+    except ImportError:
+        raise ClusterError(INSTALL) from None
+    settings = {
+        "distributed.scheduler.allowed-failures": ALLOWED_FAILURES,
+        "distributed.scheduler.worker-saturation": 1.0,  # no batch waits behind another
+    }
+    with dask.config.set(settings):
+        cluster = None
+        if address == LOCAL:
+            cluster = LocalCluster(  # type: ignore[no-untyped-call]
+                n_workers=workers,
+                threads_per_worker=1,
+                processes=True,
+                host=LOOPBACK,
+                dashboard_address=None,
+                silence_logs=logging.ERROR,
+                # set up in each worker process before it joins, a replacement's too
+                plugins=(LeaveInterruptToTheParent(),),
+            )
+        try:
+            try:
+                client = Client(  # type: ignore[no-untyped-call]
+                    cluster if cluster is not None else address,
+                    timeout="30s",
+                    direct_to_workers=False,  # results through the scheduler: one tunnel
+                )
+            except (OSError, ValueError, TypeError) as error:
+                raise ClusterError(f"cannot reach the cluster at {address}: {error}") from None
+            try:
+                _check_workers(client, address)
+                yield client
+            finally:
+                client.close()  # type: ignore[no-untyped-call]
+        finally:
+            if cluster is not None:
+                cluster.close()
+
+
+def _check_workers(client: Client, address: str) -> None:
+    try:
+        client.wait_for_workers(1, timeout=WORKERS_TIMEOUT_S)
+    except TimeoutError:
+        raise ClusterError(
+            f"the cluster at {address} has no worker after {WORKERS_TIMEOUT_S:g} s"
+        ) from None
+    try:
+        builds: dict[str, tuple[str, str]] = client.run(_worker_build)
+    except Exception as error:  # a worker without bywire, or an older one
+        raise ClusterError(f"a worker of {address} cannot run bywire: {error}") from None
+    for worker, (build, host) in sorted(builds.items()):
+        _check_build(build, f"{worker} on {host}")
+    for worker, info in sorted(client.scheduler_info(n_workers=-1)["workers"].items()):
+        if info["nthreads"] != 1:
+            raise ClusterError(
+                f"worker {worker} runs {info['nthreads']} threads: a campaign needs a process"
+                " of its own; start workers with `dask worker --nthreads 1 --nworkers N`"
+            )
+
+
+def worker_deaths(client: Client) -> int | None:
+    """How often a batch's worker dies before the scheduler gives up on it (KilledWorker)."""
+    try:
+        allowed: int = client.run_on_scheduler(  # type: ignore[no-untyped-call]
+            lambda dask_scheduler: dask_scheduler.allowed_failures  # by value: no bywire there
+        )
+    except Exception:  # a scheduler that refuses pickled functions: it does not say
+        return None
+    return allowed + 1
+
+
+def _check_build(build: str, where: str) -> None:
+    if build != build_id():
+        raise ClusterError(
+            f"worker {where} runs bywire {build}, this machine {build_id()}: mixed versions"
+            " are refused; install the same bywire on every worker"
+        )
+
+
+def worker_count(client: Client) -> int:
+    return len(client.scheduler_info(n_workers=-1)["workers"])
+
+
+def batch_size(budget: int | None, workers: int) -> int:
+    """Campaigns a batch: enough batches to keep every worker busy twice over, at most
+    BATCH_MAX."""
+    if budget is None:
+        return BATCH_MAX
+    return max(1, min(BATCH_MAX, math.ceil(budget / (2 * max(1, workers)))))
+
+
+def _checked(result: BatchResult, robot_file_hash: str) -> tuple[Outcome, ...]:
+    """A batch's outcomes, when this build ran them on the robot file being verified."""
+    _check_build(result.build, f"on {result.host}")
+    if result.robot_hash != robot_file_hash:
+        raise ClusterError(
+            f"a worker on {result.host} answered for robot file {result.robot_hash},"
+            f" not {robot_file_hash}: refused"
+        )
+    return result.outcomes
+
+
+def cluster_outcomes(
+    client: Client,
+    *,
+    robot: RobotConfig,
+    robot_file_hash: str,
+    job: CampaignJob,
+    budget: int | None,
+    until: float | None,
+) -> Iterator[Outcome | Crash]:
+    """Every campaign's outcome (or its crash) in index order: `budget` of them, or as many
+    batches as start before the wall-clock time `until`."""
+    from distributed import as_completed  # noqa: PLC0415 -- an optional extra
+    from distributed.scheduler import KilledWorker  # noqa: PLC0415
+
+    workers = worker_count(client)
+    deaths = worker_deaths(client)
+    size = batch_size(budget, workers)
+    stop = budget if budget is not None else None
+    next_start = 0
+    ready: dict[int, Outcome | Crash] = {}
+    released = 0
+    batches: dict[Future[BatchResult], Batch] = {}
+    pending = as_completed(loop=client.loop)  # type: ignore[no-untyped-call] # not the default's
+
+    def submit(start: int, end: int) -> None:
+        batch = Batch(job, robot, robot_file_hash, start, end)
+        key = f"bywire-verify-{robot_file_hash}-{job.seed}-{start}-{end}-{time.monotonic_ns()}"
+        future = client.submit(run_batch, batch, key=key, pure=False)
+        batches[future] = batch
+        pending.add(future)  # type: ignore[no-untyped-call]
+
+    def fill() -> None:
+        nonlocal next_start
+        while len(batches) < IN_FLIGHT_PER_WORKER * max(1, workers):
+            if stop is not None and next_start >= stop:
+                return
+            if stop is None and until is not None and time.monotonic() >= until:
+                return
+            end = next_start + size if stop is None else min(stop, next_start + size)
+            submit(next_start, end)
+            next_start = end
+
+    fill()
+    try:
+        for future in pending:
+            batch = batches.pop(future)
+            try:
+                result: BatchResult = future.result()
+            except KilledWorker:
+                if batch.stop - batch.start > 1:
+                    middle = (batch.start + batch.stop) // 2
+                    submit(batch.start, middle)
+                    submit(middle, batch.stop)
+                else:
+                    ready[batch.start] = Crash(job.seed, batch.start, deaths)
+            else:
+                ready.update((o.index, o) for o in _checked(result, robot_file_hash))
+            fill()
+            while released in ready:
+                yield ready.pop(released)
+                released += 1
+    finally:
+        for future in batches:
+            future.cancel()  # type: ignore[no-untyped-call]
+    yield from (ready[index] for index in sorted(ready))

@@ -1,0 +1,93 @@
+"""`bywire verify --cluster`'s engine on a local Dask cluster bound to 127.0.0.1: outcomes come
+back in index order, equal to the campaigns run here; a worker killed mid-batch costs nothing but
+a retry; a campaign that kills its worker twice is a finding with its seed and index, the rest of
+its batch still run; a worker of another build is refused."""
+
+from __future__ import annotations
+
+from collections.abc import Iterator
+from pathlib import Path
+
+import pytest
+from distributed import Client
+
+from bywire.config import default_sim_config
+from bywire.sim.verify.cluster import (
+    LOCAL,
+    LOOPBACK,
+    ClusterError,
+    Crash,
+    batch_size,
+    cluster_client,
+    cluster_outcomes,
+    robot_hash,
+)
+from bywire.sim.verify.engine import CampaignJob, Outcome, run_indexed
+from tests.sim.verify.cluster_plugins import CrashAt, OtherBuild
+
+JOB = CampaignJob(seed=5, campaign_s=2.0)
+BUDGET = 6  # 2 workers: batches of 2 campaigns, [0, 2), [2, 4), [4, 6)
+
+
+@pytest.fixture
+def client() -> Iterator[Client]:
+    """A fresh local cluster of 2 worker processes (a test's plugins stay in its workers)."""
+    with cluster_client(LOCAL, 2) as started:
+        yield started
+
+
+def _run(client: Client) -> list[Outcome | Crash]:
+    return list(
+        cluster_outcomes(
+            client,
+            robot=default_sim_config(),
+            robot_file_hash=robot_hash("sim"),
+            job=JOB,
+            budget=BUDGET,
+            until=None,
+        )
+    )
+
+
+def _here(indices: range) -> list[Outcome]:
+    robot = default_sim_config()
+    return [run_indexed(robot, JOB, index) for index in indices]
+
+
+def test_the_scheduler_and_every_worker_listen_on_loopback_only(client: Client) -> None:
+    info = client.scheduler_info(n_workers=-1)
+    addresses = [info["address"], *info["workers"]]
+    assert len(addresses) == 3
+    assert all(address.startswith(f"tcp://{LOOPBACK}:") for address in addresses)
+
+
+def test_the_outcomes_come_back_in_index_order_as_the_campaigns_run_here(client: Client) -> None:
+    assert batch_size(BUDGET, 2) == 2
+    assert _run(client) == _here(range(BUDGET))
+
+
+def test_a_worker_killed_mid_batch_is_replaced_and_its_batch_retried(
+    client: Client, tmp_path: Path
+) -> None:
+    killed = tmp_path / "killed"
+    client.register_plugin(CrashAt(3, once=killed), name="crash-once")  # batch [2, 4), second
+    outcomes = _run(client)
+    assert killed.exists()  # a worker did die running campaign 3
+    assert outcomes == _here(range(BUDGET))
+    assert len(client.scheduler_info(n_workers=-1)["workers"]) == 2  # replaced
+
+
+def test_a_campaign_that_kills_its_worker_twice_is_reported_with_its_seed_and_index(
+    client: Client,
+) -> None:
+    client.register_plugin(CrashAt(4), name="crash-always")  # batch [4, 6), first
+    outcomes = _run(client)
+    assert outcomes[4] == Crash(seed=JOB.seed, index=4, deaths=2)
+    # The batch was split down to the campaign: the one beside it in the batch still ran.
+    assert [o for o in outcomes if isinstance(o, Outcome)] == _here(range(4)) + _here(range(5, 6))
+
+
+def test_a_worker_of_another_build_is_refused(client: Client) -> None:
+    client.register_plugin(OtherBuild(), name="other-build")
+    with pytest.raises(ClusterError, match=r"runs bywire 0\.0\.9\+0123456789ab.*mixed versions"):
+        _run(client)
