@@ -18,11 +18,13 @@ standstill, every refused command shows in /diagnostics).
 
 With --cluster the campaigns run on a Dask distributed cluster instead (`local`: one started on
 127.0.0.1; tcp://HOST:PORT: a scheduler you run; README "Verifying on a cluster"), with the same
-result for the same seed and budget; a campaign that kills its worker twice is reported.
+result for the same seed and budget. Wherever they run, a campaign that kills its worker twice
+is reported (a crash), and with --jobs a campaign still running after --hang-s seconds of real
+time is killed with its worker and reported (a hang); the run goes on.
 
 A violation is shrunk to a short scenario written to --out; `bywire sim --scenario FILE` replays
-it and fails. Exit status: 0 clean, 1 a violation or an unsafe combination of numbers, 2 a bad
-configuration or argument.
+it and fails. Exit status: 0 clean, 1 a violation, a crash, a hang or an unsafe combination of
+numbers, 2 a bad configuration or argument.
 """
 
 from __future__ import annotations
@@ -53,7 +55,6 @@ from bywire.sim.scenario import scenario_toml
 from bywire.sim.verify.campaign import Campaign
 from bywire.sim.verify.cluster import (
     LOCAL,
-    Crash,
     cluster_client,
     cluster_outcomes,
     robot_hash,
@@ -61,9 +62,13 @@ from bywire.sim.verify.cluster import (
 )
 from bywire.sim.verify.draw import CAMPAIGN_S
 from bywire.sim.verify.engine import (
+    HANG_S,
     CampaignJob,
+    Crash,
+    Hang,
     Outcome,
     Reproduction,
+    Result,
     campaign_outcomes,
     shrink_failure,
 )
@@ -147,6 +152,17 @@ def configure(parser: argparse.ArgumentParser) -> None:
         ),
     )
     parser.add_argument(
+        "--hang-s",
+        type=positive_seconds,
+        default=HANG_S,
+        metavar="S",
+        help=(
+            "real (wall-clock) seconds a campaign may run before it is killed with its worker"
+            f" process and reported as a hang (default {HANG_S:g}); campaigns run in worker"
+            " processes then, with --jobs 1 too. Not applied with --cluster"
+        ),
+    )
+    parser.add_argument(
         "--seed", type=_seed, default=0, metavar="S", help="random seed (default 0)"
     )
     parser.add_argument(
@@ -201,10 +217,14 @@ class Tally:
     transitions: set[str] = field(default_factory=set)
     failing: dict[str, Outcome] = field(default_factory=dict)  # the first campaign per invariant
     crashes: list[Crash] = field(default_factory=list)  # campaigns that killed a worker twice
+    hangs: list[Hang] = field(default_factory=list)  # campaigns over --hang-s, killed
 
-    def add(self, outcome: Outcome | Crash) -> None:
+    def add(self, outcome: Result) -> None:
         if isinstance(outcome, Crash):
             self.crashes.append(outcome)
+            return
+        if isinstance(outcome, Hang):
+            self.hangs.append(outcome)
             return
         self.campaigns += 1
         if outcome.bridge:
@@ -241,6 +261,7 @@ class Runner:
     jobs: int
     client: Client | None = None
     cluster: str | None = None
+    hang_s: float | None = None  # --hang-s: the real time a campaign may run here
 
     def outcomes(
         self,
@@ -249,9 +270,9 @@ class Runner:
         job: CampaignJob,
         budget: int | None,
         until: float | None,
-    ) -> Iterator[Outcome | Crash]:
+    ) -> Iterator[Result]:
         if self.client is None:
-            return campaign_outcomes(robot, job, self.jobs, budget, until)
+            return campaign_outcomes(robot, job, self.jobs, budget, until, limit_s=self.hang_s)
         return cluster_outcomes(
             self.client,
             robot=robot,
@@ -266,7 +287,7 @@ class Runner:
 def _runner(args: argparse.Namespace) -> Iterator[Runner]:
     """`--jobs` processes, or `--cluster`'s workers (a local cluster shut down on the way out)."""
     if args.cluster is None:
-        yield Runner(args.jobs)
+        yield Runner(args.jobs, hang_s=args.hang_s)
         return
     with cluster_client(args.cluster, args.jobs) as client:
         yield Runner(worker_count(client), client, args.cluster)
@@ -297,7 +318,7 @@ def run(args: argparse.Namespace) -> int:
         print(json.dumps(summary, indent=2))
     else:
         _print_summary(Console(), summary, robot)
-    return 1 if any(summary["violations"].values()) or summary["crashes"] else 0
+    return 1 if _broken(summary) else 0
 
 
 def verify_robot(
@@ -327,6 +348,8 @@ def verify_robot(
             status = ", ".join(f"{k} {n}" for k, n in sorted(tally.violations.items()))
             if tally.crashes:
                 status += f", {len(tally.crashes)} crashed a worker"
+            if tally.hangs:
+                status += f", {len(tally.hangs)} hung"
             progress.update(task, advance=1, status=status or "0 violations")
     wall_s = time.perf_counter() - started
     reproductions = _shrink_all(
@@ -431,6 +454,11 @@ def _summary(
             {"seed": c.seed, "index": c.index, "worker_deaths": c.deaths}
             for c in sorted(tally.crashes, key=_at)
         ],
+        # Campaigns still running after --hang-s of real time, killed with their worker.
+        "hangs": [
+            {"seed": h.seed, "index": h.index, "limit_s": h.limit_s}
+            for h in sorted(tally.hangs, key=_at)
+        ],
         "failures": [
             {
                 "invariant": r.finding.invariant,
@@ -445,8 +473,13 @@ def _summary(
     }
 
 
-def _at(crash: Crash) -> int:
-    return crash.index
+def _at(finding: Crash | Hang) -> int:
+    return finding.index
+
+
+def _broken(summary: dict[str, Any]) -> bool:
+    """A violation, or a campaign that crashed or hung its worker."""
+    return bool(any(summary["violations"].values()) or summary["crashes"] or summary["hangs"])
 
 
 def _times(deaths: int | None) -> str:
@@ -510,7 +543,14 @@ def _print_summary(console: Console, summary: dict[str, Any], robot: RobotConfig
             f" own; replay it alone: bywire verify --seed {crash['seed']} ... --jobs 1)",
             highlight=False,
         )
-    broken = any(violations.values()) or summary["crashes"]
+    for hang in summary["hangs"]:
+        console.print(
+            f"[red]  campaign {hang['index']} of seed {hang['seed']} still ran after"
+            f" {hang['limit_s']:g} s of real time[/red] (a hang: killed with its worker, a finding"
+            f" of its own; replay it alone: bywire verify --seed {hang['seed']} ... --jobs 1)",
+            highlight=False,
+        )
+    broken = _broken(summary)
     verdict = "[red]VIOLATIONS[/red]" if broken else "[green]clean[/green]"
     console.print(f"  result: {verdict}")
 
@@ -563,7 +603,7 @@ def run_drawn(args: argparse.Namespace) -> int:
         "campaigns": sum(f["campaigns"] for f in files),
         "files_refused": refused,
         "refusals_repaired": dict(refusals.most_common()),
-        "violating_files": [f["file"] for f in files if f["violations"] or f["crashes"]],
+        "violating_files": [f["file"] for f in files if _broken(f)],
         "files": files,
     }
     if args.json:
@@ -673,6 +713,7 @@ def _file_entry(drawn: DrawnRobot, path: Path, summary: dict[str, Any]) -> dict[
         "violations": {k: n for k, n in summary["violations"].items() if n},
         "failures": summary["failures"],
         "crashes": summary["crashes"],
+        "hangs": summary["hangs"],
         "changed": {key: [_plain(old), _plain(new)] for key, (old, new) in drawn.changed.items()},
         "repaired": [
             {"key": r.key, "drawn": _plain(r.drawn), "base": _plain(r.base), "rule": r.rule}
@@ -752,7 +793,7 @@ def _print_drawn(console: Console, result: dict[str, Any]) -> None:
         for rule, count in refusals.items():
             console.print(f"    {count:4d}  {escape(rule)}", highlight=False, soft_wrap=True)
     for entry in result["files"]:
-        if not entry["violations"] and not entry["crashes"]:
+        if not _broken(entry):
             console.print(f"  {entry['file']}: clean ({len(entry['changed'])} keys drawn)")
             continue
         broken = ", ".join(f"{k} {n}" for k, n in entry["violations"].items())
@@ -761,6 +802,12 @@ def _print_drawn(console: Console, result: dict[str, Any]) -> None:
             console.print(
                 f"[red]    campaign {crash['index']} of seed {crash['seed']} killed its worker"
                 f" {_times(crash['worker_deaths'])}[/red]",
+                highlight=False,
+            )
+        for hang in entry["hangs"]:
+            console.print(
+                f"[red]    campaign {hang['index']} of seed {hang['seed']} still ran after"
+                f" {hang['limit_s']:g} s of real time[/red]",
                 highlight=False,
             )
         for failure in entry["failures"]:
