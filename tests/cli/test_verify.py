@@ -584,3 +584,24 @@ def _ignores_sigint(process: psutil.Process) -> bool:
         return False
     ignored = int(next(line for line in status.splitlines() if line.startswith("SigIgn:"))[7:], 16)
     return bool(ignored & (1 << (signal.SIGINT - 1)))
+
+
+def test_a_verify_killed_outright_leaves_no_worker_behind(tmp_path: Path) -> None:
+    """SIGKILL gives the parent no way out: each worker reads the end of its pipe and returns
+    (after its campaign at most), as no other process holds the parent's ends."""
+    command = [sys.executable, "-m", "bywire.cli.main", "verify", "--budget", "400"]
+    command += ["--campaign-s", "2", "--jobs", "2", "--out", str(tmp_path)]
+    process = subprocess.Popen(
+        command, start_new_session=True, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL
+    )
+    try:
+        verify_process = psutil.Process(process.pid)
+        assert _until(
+            lambda: sum(map(_ignores_sigint, verify_process.children(recursive=True))) == 2
+        )
+        process.kill()
+        process.wait()
+        assert _until(lambda: not _group_alive(process.pid))
+    finally:
+        if _group_alive(process.pid):
+            os.killpg(process.pid, signal.SIGKILL)

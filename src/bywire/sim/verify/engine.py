@@ -171,12 +171,17 @@ class _Workers:
         self._limit_s = limit_s
         self._deaths: Counter[int] = Counter()
         self._again: deque[int] = deque()  # campaigns whose worker died once: run them first
-        self._workers = [self._start() for _ in range(jobs)]
+        self._workers: list[_Worker] = []
+        for _ in range(jobs):
+            self._workers.append(self._start())
 
     def _start(self) -> _Worker:
         here, there = self._context.Pipe()
+        # The child closes this side's ends, its own and the other workers': a worker then reads
+        # the end of its pipe when this process is gone, however it went, and returns.
+        ours = (here, *(worker.pipe for worker in self._workers))
         process = self._context.Process(
-            target=_work, args=(there, self._job), name="bywire-verify-worker", daemon=True
+            target=_work, args=(there, self._job, ours), name="bywire-verify-worker", daemon=True
         )
         OWNER.process(process)
         there.close()
@@ -211,6 +216,8 @@ class _Workers:
                 if result is not None:
                     ready[result.index] = result
                 if not worker.process.is_alive():
+                    worker.process.join()
+                    worker.pipe.close()
                     self._workers[position] = self._start()
             while released in ready:
                 yield ready.pop(released)
@@ -290,10 +297,13 @@ class _Raised:
     error: BaseException
 
 
-def _work(pipe: Connection, job: CampaignJob) -> None:
-    """A worker: run each campaign index sent until None (or the parent gone). Ctrl-C is left
-    to the parent, which ends the workers: one clean exit, no traceback from every process."""
+def _work(pipe: Connection, job: CampaignJob, parents: tuple[Connection, ...]) -> None:
+    """A worker: run each campaign index sent until None, or until the parent is gone (the
+    parent's ends of the pipes, inherited at the fork, closed here first). Ctrl-C is left to the
+    parent, which ends the workers: one clean exit, no traceback from every process."""
     signal.signal(signal.SIGINT, signal.SIG_IGN)
+    for end in parents:
+        end.close()
     while True:
         try:
             index: int | None = pipe.recv()
@@ -307,6 +317,8 @@ def _work(pipe: Connection, job: CampaignJob) -> None:
             answer = _Raised(error)
         try:
             pipe.send(answer)
+        except OSError:  # the parent is gone
+            return
         except Exception as error:  # an error that does not pickle: its text does
             pipe.send(_Raised(RuntimeError(f"campaign {index}: {error!r}")))
 
