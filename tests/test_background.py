@@ -113,7 +113,7 @@ STARTERS = re.compile(
 )
 HANDED_TO_THE_OWNER = {
     ("ros2/link_process.py", "Process("),  # made here, started by OWNER.process
-    ("sim/verify/engine.py", ".Pool("),  # a library's pool: adopted, terminated by the owner
+    ("sim/verify/engine.py", "Process("),  # verify's workers: made here, started by OWNER.process
 }
 
 

@@ -10,6 +10,7 @@ import os
 import signal
 import subprocess
 import sys
+import threading
 import time
 from collections.abc import Callable, Iterator
 from pathlib import Path
@@ -24,9 +25,10 @@ from bywire.cli import verify
 from bywire.cli.main import main
 from bywire.config import RobotConfig, parse_config, sections
 from bywire.config.reader import Interval, KeyRead
+from bywire.sim.verify import engine
 from bywire.sim.verify.campaign import Step
 from bywire.sim.verify.draw_bridge import is_bridge_campaign
-from bywire.sim.verify.engine import Outcome, run_campaign
+from bywire.sim.verify.engine import CampaignJob, Outcome, run_campaign
 from bywire.sim.verify.oracle import INVARIANTS
 from bywire.sim.verify.robots import Schema, dotted, draw_robot, keys_needed
 from bywire.sim.verify.supervisor_check import MONITOR_CAUSES, TRANSITIONS, transitions_naming
@@ -508,7 +510,7 @@ def test_command_frames_the_simulated_computer_never_sent_are_a_run_problem_not_
     assert outcome.hlc_refused == {"LightsCommand": 5}
     assert outcome.findings == []
 
-    def one_campaign(*_args: object) -> Iterator[Outcome]:
+    def one_campaign(*_args: object, **_kwargs: object) -> Iterator[Outcome]:
         yield outcome
 
     monkeypatch.setattr(verify, "campaign_outcomes", one_campaign)
@@ -530,3 +532,120 @@ def test_a_run_whose_computer_sent_everything_names_no_run_problem(
     )
     assert status == 0
     assert summary["hlc_refused"] == {"frames": {}, "campaigns": []}
+
+
+# --- --jobs N: a campaign that kills or hangs its worker is a finding, the run goes on ----------
+
+
+def _kill_or_hang_at(monkeypatch: pytest.MonkeyPatch, index: int, hang: bool) -> None:
+    """Campaign `index` kills its worker (or hangs in it) every time: patched before the
+    workers fork, so only they see it."""
+    real = engine.run_indexed
+
+    def patched(robot: RobotConfig, job: CampaignJob, at: int) -> Outcome:
+        if at == index:
+            if hang:
+                threading.Event().wait()
+            os._exit(9)
+        return real(robot, job, at)
+
+    monkeypatch.setattr(engine, "run_indexed", patched)
+
+
+def test_with_jobs_a_campaign_that_kills_its_worker_twice_is_reported_and_the_rest_run(
+    capsys: pytest.CaptureFixture[str], monkeypatch: pytest.MonkeyPatch, tmp_path: Path
+) -> None:
+    _kill_or_hang_at(monkeypatch, 1, hang=False)
+    args = ("--budget", "3", "--campaign-s", "1", "--seed", "4", "--out", str(tmp_path))
+    status, summary = _verify(capsys, *args, "--jobs", "2")
+    assert status == 1
+    assert summary["crashes"] == [{"seed": 4, "index": 1, "worker_deaths": 2}]
+    assert summary["hangs"] == []
+    assert summary["campaigns"] == 2  # the others ran
+    assert main(["verify", *args, "--jobs", "2"]) == 1
+    assert "campaign 1 of seed 4 killed its worker twice" in capsys.readouterr().out
+
+
+@pytest.mark.parametrize("jobs", ["1", "2"])
+def test_a_campaign_past_its_real_time_limit_is_reported_as_a_hang_and_the_rest_run(
+    capsys: pytest.CaptureFixture[str], monkeypatch: pytest.MonkeyPatch, tmp_path: Path, jobs: str
+) -> None:
+    _kill_or_hang_at(monkeypatch, 2, hang=True)
+    args = ("--budget", "4", "--campaign-s", "1", "--seed", "4", "--out", str(tmp_path))
+    status, summary = _verify(capsys, *args, "--hang-s", "2", "--jobs", jobs)
+    assert status == 1
+    assert summary["hangs"] == [{"seed": 4, "index": 2, "limit_s": 2.0}]
+    assert summary["crashes"] == []
+    assert summary["campaigns"] == 3
+
+
+def test_a_hang_is_named_in_the_summary_and_the_limit_in_help(
+    capsys: pytest.CaptureFixture[str], monkeypatch: pytest.MonkeyPatch, tmp_path: Path
+) -> None:
+    _kill_or_hang_at(monkeypatch, 0, hang=True)
+    args = ["--budget", "1", "--campaign-s", "1", "--seed", "3", "--out", str(tmp_path)]
+    assert main(["verify", *args, "--hang-s", "1", "--jobs", "1"]) == 1
+    assert "campaign 0 of seed 3 still ran after 1 s of real time" in capsys.readouterr().out
+    with pytest.raises(SystemExit):
+        main(["verify", "--help"])
+    assert "--hang-s S" in capsys.readouterr().out
+
+
+def test_ctrl_c_ends_the_jobs_workers_and_leaves_nothing_running(tmp_path: Path) -> None:
+    command = [sys.executable, "-m", "bywire.cli.main", "verify", "--budget", "400"]
+    command += ["--campaign-s", "5", "--jobs", "2", "--out", str(tmp_path)]
+    process = subprocess.Popen(
+        command, start_new_session=True, stdout=subprocess.PIPE, stderr=subprocess.PIPE
+    )
+    try:
+        verify_process = psutil.Process(process.pid)
+        assert _until(
+            lambda: sum(map(_ignores_sigint, verify_process.children(recursive=True))) == 2
+        )
+        os.killpg(process.pid, signal.SIGINT)  # as the terminal does: every process of the group
+        _, error = process.communicate(timeout=120)
+    finally:
+        if process.poll() is None:
+            process.kill()
+            process.wait()
+    assert process.returncode == 130
+    assert error.decode() == ""  # no worker's traceback either
+    assert _until(lambda: not _group_alive(process.pid))  # the workers ended with the run
+
+
+def _ignores_sigint(process: psutil.Process) -> bool:
+    try:
+        status = Path(f"/proc/{process.pid}/status").read_text()
+    except OSError:
+        return False
+    ignored = int(next(line for line in status.splitlines() if line.startswith("SigIgn:"))[7:], 16)
+    return bool(ignored & (1 << (signal.SIGINT - 1)))
+
+
+def test_a_verify_killed_outright_leaves_no_worker_behind(tmp_path: Path) -> None:
+    """SIGKILL gives the parent no way out: each worker reads the end of its pipe and returns
+    (after its campaign at most), as no other process holds the parent's ends."""
+    command = [sys.executable, "-m", "bywire.cli.main", "verify", "--budget", "400"]
+    command += ["--campaign-s", "2", "--jobs", "2", "--out", str(tmp_path)]
+    process = subprocess.Popen(
+        command, start_new_session=True, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL
+    )
+    try:
+        verify_process = psutil.Process(process.pid)
+        assert _until(
+            lambda: sum(map(_ignores_sigint, verify_process.children(recursive=True))) == 2
+        )
+        process.kill()
+        process.wait()
+        assert _until(lambda: not _group_alive(process.pid))
+    finally:
+        if _group_alive(process.pid):
+            os.killpg(process.pid, signal.SIGKILL)
+
+
+def test_the_hang_limit_grows_with_a_long_campaign_and_an_asked_one_is_kept() -> None:
+    """A campaign of 5,000 simulated seconds runs about 2 minutes at 40x real time: the fixed
+    120 s default reported it as a hang. Slower than real time, it is stuck."""
+    assert verify.hang_limit_s(None, 20.0) == engine.HANG_S
+    assert verify.hang_limit_s(None, 5000.0) == 5000.0
+    assert verify.hang_limit_s(3.0, 5000.0) == 3.0

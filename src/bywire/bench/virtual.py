@@ -10,7 +10,7 @@ from bywire.config import RobotConfig
 from bywire.sim.catalog import DEFAULT_SCENARIO, packaged_scenario
 from bywire.sim.runner import SimRun
 from bywire.sim.verify.draw import CAMPAIGN_S
-from bywire.sim.verify.engine import CampaignJob, campaign_outcomes
+from bywire.sim.verify.engine import CampaignJob, Outcome, campaign_outcomes
 
 
 @dataclass(frozen=True, slots=True)
@@ -70,5 +70,5 @@ def measure_verify_rate(
     started_s = time.perf_counter()
     outcomes = list(campaign_outcomes(robot, CampaignJob(0, campaign_s), jobs, campaigns, None))
     wall_s = time.perf_counter() - started_s
-    simulated_s = sum(outcome.simulated_s for outcome in outcomes)
+    simulated_s = sum(o.simulated_s for o in outcomes if isinstance(o, Outcome))  # a crash has none
     return VerifyRateResult(len(outcomes), campaign_s, jobs, wall_s, simulated_s)

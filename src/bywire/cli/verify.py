@@ -18,11 +18,13 @@ standstill, every refused command shows in /diagnostics).
 
 With --cluster the campaigns run on a Dask distributed cluster instead (`local`: one started on
 127.0.0.1; tcp://HOST:PORT: a scheduler you run; README "Verifying on a cluster"), with the same
-result for the same seed and budget; a campaign that kills its worker twice is reported.
+result for the same seed and budget. Wherever they run, a campaign that kills its worker twice
+is reported (a crash), and with --jobs a campaign still running after --hang-s seconds of real
+time is killed with its worker and reported (a hang); the run goes on.
 
 A violation is shrunk to a short scenario written to --out; `bywire sim --scenario FILE` replays
-it and fails. Exit status: 0 clean, 1 a violation or an unsafe combination of numbers, 2 a bad
-configuration or argument.
+it and fails. Exit status: 0 clean, 1 a violation, a crash, a hang or an unsafe combination of
+numbers, 2 a bad configuration or argument.
 """
 
 from __future__ import annotations
@@ -53,7 +55,6 @@ from bywire.sim.scenario import scenario_toml
 from bywire.sim.verify.campaign import Campaign
 from bywire.sim.verify.cluster import (
     LOCAL,
-    Crash,
     cluster_client,
     cluster_outcomes,
     robot_hash,
@@ -61,9 +62,13 @@ from bywire.sim.verify.cluster import (
 )
 from bywire.sim.verify.draw import CAMPAIGN_S
 from bywire.sim.verify.engine import (
+    HANG_S,
     CampaignJob,
+    Crash,
+    Hang,
     Outcome,
     Reproduction,
+    Result,
     campaign_outcomes,
     shrink_failure,
 )
@@ -147,6 +152,18 @@ def configure(parser: argparse.ArgumentParser) -> None:
         ),
     )
     parser.add_argument(
+        "--hang-s",
+        type=positive_seconds,
+        default=None,
+        metavar="S",
+        help=(
+            "real (wall-clock) seconds a campaign may run before it is killed with its worker"
+            f" process and reported as a hang (default {HANG_S:g}, or --campaign-s if longer: a"
+            " campaign simulated slower than real time is stuck); campaigns run in worker"
+            " processes then, with --jobs 1 too. Not applied with --cluster"
+        ),
+    )
+    parser.add_argument(
         "--seed", type=_seed, default=0, metavar="S", help="random seed (default 0)"
     )
     parser.add_argument(
@@ -204,10 +221,14 @@ class Tally:
     # A run problem, not a verdict: command frames the simulated computer never sent.
     hlc_refused: Counter[str] = field(default_factory=Counter)
     campaigns_refused: list[int] = field(default_factory=list)
+    hangs: list[Hang] = field(default_factory=list)  # campaigns over --hang-s, killed
 
-    def add(self, outcome: Outcome | Crash) -> None:
+    def add(self, outcome: Result) -> None:
         if isinstance(outcome, Crash):
             self.crashes.append(outcome)
+            return
+        if isinstance(outcome, Hang):
+            self.hangs.append(outcome)
             return
         self.campaigns += 1
         if outcome.hlc_refused:
@@ -240,6 +261,13 @@ def _progress(console: Console, show: bool) -> Progress:
     )
 
 
+def hang_limit_s(asked_s: float | None, campaign_s: float) -> float:
+    """The real time a campaign may run: as asked, else `HANG_S` or the campaign's simulated
+    length if longer (it runs tens of times faster than real time; slower than real time, it is
+    stuck). A fixed default reported a long campaign (--campaign-s 5000 at ~40x) as a hang."""
+    return asked_s if asked_s is not None else max(HANG_S, campaign_s)
+
+
 @dataclass(frozen=True, slots=True)
 class Runner:
     """Where the campaigns run: `jobs` processes here, or the workers of a Dask cluster."""
@@ -247,6 +275,7 @@ class Runner:
     jobs: int
     client: Client | None = None
     cluster: str | None = None
+    hang_s: float | None = None  # --hang-s: the real time a campaign may run here
 
     def outcomes(
         self,
@@ -255,9 +284,9 @@ class Runner:
         job: CampaignJob,
         budget: int | None,
         until: float | None,
-    ) -> Iterator[Outcome | Crash]:
+    ) -> Iterator[Result]:
         if self.client is None:
-            return campaign_outcomes(robot, job, self.jobs, budget, until)
+            return campaign_outcomes(robot, job, self.jobs, budget, until, limit_s=self.hang_s)
         return cluster_outcomes(
             self.client,
             robot=robot,
@@ -272,7 +301,7 @@ class Runner:
 def _runner(args: argparse.Namespace) -> Iterator[Runner]:
     """`--jobs` processes, or `--cluster`'s workers (a local cluster shut down on the way out)."""
     if args.cluster is None:
-        yield Runner(args.jobs)
+        yield Runner(args.jobs, hang_s=hang_limit_s(args.hang_s, args.campaign_s))
         return
     with cluster_client(args.cluster, args.jobs) as client:
         yield Runner(worker_count(client), client, args.cluster)
@@ -303,7 +332,7 @@ def run(args: argparse.Namespace) -> int:
         print(json.dumps(summary, indent=2))
     else:
         _print_summary(Console(), summary, robot)
-    return 1 if any(summary["violations"].values()) or summary["crashes"] else 0
+    return 1 if _broken(summary) else 0
 
 
 def verify_robot(
@@ -333,6 +362,8 @@ def verify_robot(
             status = ", ".join(f"{k} {n}" for k, n in sorted(tally.violations.items()))
             if tally.crashes:
                 status += f", {len(tally.crashes)} crashed a worker"
+            if tally.hangs:
+                status += f", {len(tally.hangs)} hung"
             progress.update(task, advance=1, status=status or "0 violations")
     wall_s = time.perf_counter() - started
     reproductions = _shrink_all(
@@ -442,6 +473,11 @@ def _summary(
             "frames": dict(sorted(tally.hlc_refused.items())),
             "campaigns": sorted(tally.campaigns_refused),
         },
+        # Campaigns still running after --hang-s of real time, killed with their worker.
+        "hangs": [
+            {"seed": h.seed, "index": h.index, "limit_s": h.limit_s}
+            for h in sorted(tally.hangs, key=_at)
+        ],
         "failures": [
             {
                 "invariant": r.finding.invariant,
@@ -456,8 +492,13 @@ def _summary(
     }
 
 
-def _at(crash: Crash) -> int:
-    return crash.index
+def _at(finding: Crash | Hang) -> int:
+    return finding.index
+
+
+def _broken(summary: dict[str, Any]) -> bool:
+    """A violation, or a campaign that crashed or hung its worker."""
+    return bool(any(summary["violations"].values()) or summary["crashes"] or summary["hangs"])
 
 
 def _times(deaths: int | None) -> str:
@@ -531,7 +572,14 @@ def _print_summary(console: Console, summary: dict[str, Any], robot: RobotConfig
             f" own; replay it alone: bywire verify --seed {crash['seed']} ... --jobs 1)",
             highlight=False,
         )
-    broken = any(violations.values()) or summary["crashes"]
+    for hang in summary["hangs"]:
+        console.print(
+            f"[red]  campaign {hang['index']} of seed {hang['seed']} still ran after"
+            f" {hang['limit_s']:g} s of real time[/red] (a hang: killed with its worker, a finding"
+            f" of its own; replay it alone: bywire verify --seed {hang['seed']} ... --jobs 1)",
+            highlight=False,
+        )
+    broken = _broken(summary)
     verdict = "[red]VIOLATIONS[/red]" if broken else "[green]clean[/green]"
     console.print(f"  result: {verdict}")
 
@@ -584,7 +632,7 @@ def run_drawn(args: argparse.Namespace) -> int:
         "campaigns": sum(f["campaigns"] for f in files),
         "files_refused": refused,
         "refusals_repaired": dict(refusals.most_common()),
-        "violating_files": [f["file"] for f in files if f["violations"] or f["crashes"]],
+        "violating_files": [f["file"] for f in files if _broken(f)],
         "files": files,
     }
     if args.json:
@@ -694,6 +742,7 @@ def _file_entry(drawn: DrawnRobot, path: Path, summary: dict[str, Any]) -> dict[
         "violations": {k: n for k, n in summary["violations"].items() if n},
         "failures": summary["failures"],
         "crashes": summary["crashes"],
+        "hangs": summary["hangs"],
         "changed": {key: [_plain(old), _plain(new)] for key, (old, new) in drawn.changed.items()},
         "repaired": [
             {"key": r.key, "drawn": _plain(r.drawn), "base": _plain(r.base), "rule": r.rule}
@@ -773,7 +822,7 @@ def _print_drawn(console: Console, result: dict[str, Any]) -> None:
         for rule, count in refusals.items():
             console.print(f"    {count:4d}  {escape(rule)}", highlight=False, soft_wrap=True)
     for entry in result["files"]:
-        if not entry["violations"] and not entry["crashes"]:
+        if not _broken(entry):
             console.print(f"  {entry['file']}: clean ({len(entry['changed'])} keys drawn)")
             continue
         broken = ", ".join(f"{k} {n}" for k, n in entry["violations"].items())
@@ -782,6 +831,12 @@ def _print_drawn(console: Console, result: dict[str, Any]) -> None:
             console.print(
                 f"[red]    campaign {crash['index']} of seed {crash['seed']} killed its worker"
                 f" {_times(crash['worker_deaths'])}[/red]",
+                highlight=False,
+            )
+        for hang in entry["hangs"]:
+            console.print(
+                f"[red]    campaign {hang['index']} of seed {hang['seed']} still ran after"
+                f" {hang['limit_s']:g} s of real time[/red]",
                 highlight=False,
             )
         for failure in entry["failures"]:

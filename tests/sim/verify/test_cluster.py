@@ -16,13 +16,12 @@ from bywire.sim.verify.cluster import (
     LOCAL,
     LOOPBACK,
     ClusterError,
-    Crash,
     batch_size,
     cluster_client,
     cluster_outcomes,
     robot_hash,
 )
-from bywire.sim.verify.engine import CampaignJob, Outcome, run_indexed
+from bywire.sim.verify.engine import CampaignJob, Crash, Outcome, run_indexed
 from tests.sim.verify.cluster_plugins import CrashAt, OtherBuild
 
 JOB = CampaignJob(seed=5, campaign_s=2.0)

@@ -39,7 +39,7 @@ from typing import TYPE_CHECKING
 from bywire import __version__
 from bywire.config import RobotConfig
 from bywire.errors import BywireError
-from bywire.sim.verify.engine import CampaignJob, Outcome, run_indexed
+from bywire.sim.verify.engine import CampaignJob, Crash, Outcome, run_indexed
 
 if TYPE_CHECKING:
     from distributed import Client, Future
@@ -113,17 +113,6 @@ class BatchResult:
     host: str
     robot_hash: str
     outcomes: tuple[Outcome, ...]
-
-
-@dataclass(frozen=True, slots=True)
-class Crash:
-    """A campaign that killed its worker `deaths` times (twice on a local cluster; on a cluster
-    the user runs, its scheduler's allowed-failures + 1; None when it does not say): a finding of
-    its own."""
-
-    seed: int
-    index: int
-    deaths: int | None
 
 
 def run_batch(batch: Batch) -> BatchResult:

@@ -11,12 +11,13 @@ from __future__ import annotations
 
 import contextlib
 import multiprocessing
-import multiprocessing.pool
+import multiprocessing.connection
 import signal
-import threading
 import time
+from collections import Counter, deque
 from collections.abc import Callable, Iterator
 from dataclasses import dataclass, field, replace
+from multiprocessing.connection import Connection
 from typing import Any
 
 from bywire.background import OWNER
@@ -73,9 +74,14 @@ def run_campaign(robot: RobotConfig, steps: list[Step], index: int = 0) -> Outco
 
 # --- running campaigns on every core ---------------------------------------------------------
 
-BATCH_PER_JOB = 8  # campaigns handed out at a time per process when running for a duration
+CRASH_DEATHS = 2
+"""A campaign whose worker dies is run once more in a new worker; dying this many times makes it
+a finding of its own (`Crash`), as on a cluster."""
+HANG_S = 120.0
+"""The default real time a campaign may run in its worker before it is killed as a hang."""
+END_WAIT_S = 5.0  # how long an idle worker has to return at the end of a run before SIGTERM
 
-_ROBOT: RobotConfig | None = None  # each worker's robot, set before the pool forks
+_ROBOT: RobotConfig | None = None  # each worker's robot, set before the workers fork
 
 
 @dataclass(frozen=True, slots=True)
@@ -84,6 +90,31 @@ class CampaignJob:
 
     seed: int
     campaign_s: float
+
+
+@dataclass(frozen=True, slots=True)
+class Crash:
+    """A campaign that killed its worker `deaths` times (twice here and on a local cluster; on
+    a cluster the user runs, its scheduler's allowed-failures + 1; None when it does not say): a
+    finding of its own."""
+
+    seed: int
+    index: int
+    deaths: int | None
+
+
+@dataclass(frozen=True, slots=True)
+class Hang:
+    """A campaign still running after `limit_s` seconds of real time: killed with its worker, a
+    finding of its own (a hung campaign is a real-time hang, so its limit is real time)."""
+
+    seed: int
+    index: int
+    limit_s: float
+
+
+Result = Outcome | Crash | Hang
+"""What one campaign gives: its outcome, or the finding that it crashed or hung its worker."""
 
 
 def run_indexed(robot: RobotConfig, job: CampaignJob, index: int) -> Outcome:
@@ -96,58 +127,202 @@ def _run_one(job: CampaignJob, index: int) -> Outcome:
     return run_indexed(_ROBOT if _ROBOT is not None else default_sim_config(), job, index)
 
 
-def _run_index(arguments: tuple[CampaignJob, int]) -> Outcome:
-    return _run_one(*arguments)
-
-
 def campaign_outcomes(
-    robot: RobotConfig, job: CampaignJob, jobs: int, budget: int | None, until: float | None
-) -> Iterator[Outcome]:
-    """Every campaign's outcome as it finishes: `budget` of them, or as many as fit before the
-    wall-clock time `until`."""
+    robot: RobotConfig,
+    job: CampaignJob,
+    jobs: int,
+    budget: int | None,
+    until: float | None,
+    *,
+    limit_s: float | None = None,
+) -> Iterator[Result]:
+    """Every campaign's result in index order: `budget` of them, or as many as start before the
+    wall-clock time `until`. With `jobs` > 1, or a real-time limit `limit_s` per campaign, they
+    run in forked worker processes (`_Workers`): a worker that dies is replaced, a campaign
+    that killed its worker twice is a `Crash`, one over `limit_s` a `Hang`, and the run goes
+    on. One job without a limit runs them here, in this process."""
     global _ROBOT  # noqa: PLW0603 - read by the forked workers
     _ROBOT = robot
-    if jobs == 1:
+    if jobs == 1 and limit_s is None:
         yield from _serial(job, budget, until)
         return
-    with _workers(jobs) as pool:
-        if budget is not None:
-            yield from pool.imap_unordered(_run_index, ((job, i) for i in range(budget)), 2)
-            return
-        start = 0
-        while until is None or time.monotonic() < until:
-            batch = range(start, start + jobs * BATCH_PER_JOB)
-            yield from pool.imap_unordered(_run_index, ((job, i) for i in batch))
-            start = batch.stop
-
-
-@contextlib.contextmanager
-def _workers(jobs: int) -> Iterator[multiprocessing.pool.Pool]:
-    """A pool of `jobs` forked workers, owned: a run that ends any way ends them too."""
-    pool = multiprocessing.get_context("fork").Pool(jobs, initializer=_ignore_interrupt)
-    ended = threading.Event()
-
-    def end(_wait_s: float | None) -> bool:
-        pool.terminate()
-        pool.join()
-        ended.set()
-        return True
-
-    work = OWNER.adopt(
-        "process", f"bywire-verify-workers ({jobs})", alive=lambda: not ended.is_set(), end=end
-    )
+    workers = _Workers(jobs, job, limit_s)
     try:
-        with pool:  # its exit terminates the workers
-            yield pool
+        yield from workers.results(budget, until)
     finally:
-        ended.set()
-        OWNER.forget(work)
+        workers.end()
 
 
-def _ignore_interrupt() -> None:
-    """A worker leaves Ctrl-C to the parent, which ends the pool: one clean exit, no traceback
-    from every process."""
+@dataclass(eq=False, slots=True)
+class _Worker:
+    """One forked worker: campaign indices go down its pipe, results come back."""
+
+    process: Any  # multiprocessing's forked Process
+    pipe: Connection
+    index: int | None = None  # the campaign it runs, None when idle
+    started_s: float = 0.0  # time.monotonic() when it was given `index`
+
+
+class _Workers:
+    """`jobs` forked worker processes, each started through the owner, each given one campaign
+    at a time, so that whichever dies or hangs is known by its campaign."""
+
+    def __init__(self, jobs: int, job: CampaignJob, limit_s: float | None) -> None:
+        self._context = multiprocessing.get_context("fork")
+        self._job = job
+        self._limit_s = limit_s
+        self._deaths: Counter[int] = Counter()
+        self._again: deque[int] = deque()  # campaigns whose worker died once: run them first
+        self._workers: list[_Worker] = []
+        for _ in range(jobs):
+            self._workers.append(self._start())
+
+    def _start(self) -> _Worker:
+        here, there = self._context.Pipe()
+        # The child closes this side's ends, its own and the other workers': a worker then reads
+        # the end of its pipe when this process is gone, however it went, and returns.
+        ours = (here, *(worker.pipe for worker in self._workers))
+        process = self._context.Process(
+            target=_work, args=(there, self._job, ours), name="bywire-verify-worker", daemon=True
+        )
+        OWNER.process(process)
+        there.close()
+        return _Worker(process, here)
+
+    def results(self, budget: int | None, until: float | None) -> Iterator[Result]:
+        ready: dict[int, Result] = {}
+        released = 0
+        issued = 0
+
+        def next_index() -> int | None:
+            nonlocal issued
+            if self._again:
+                return self._again.popleft()
+            if budget is not None and issued >= budget:
+                return None
+            if budget is None and until is not None and time.monotonic() >= until:
+                return None
+            issued += 1
+            return issued - 1
+
+        while True:
+            for worker in self._workers:
+                if worker.index is None and (index := next_index()) is not None:
+                    self._give(worker, index)
+            busy = [worker for worker in self._workers if worker.index is not None]
+            if not busy:
+                break
+            self._wait(busy)
+            for position, worker in enumerate(self._workers):
+                result = self._result(worker)
+                if result is not None:
+                    ready[result.index] = result
+                if not worker.process.is_alive():
+                    worker.process.join()
+                    worker.pipe.close()
+                    self._workers[position] = self._start()
+            while released in ready:
+                yield ready.pop(released)
+                released += 1
+        yield from (ready[index] for index in sorted(ready))
+
+    def _give(self, worker: _Worker, index: int) -> None:
+        worker.index, worker.started_s = index, time.monotonic()
+        with contextlib.suppress(OSError):  # a worker gone already is noticed by its sentinel
+            worker.pipe.send(index)
+
+    def _wait(self, busy: list[_Worker]) -> None:
+        timeout_s = None
+        if self._limit_s is not None:
+            first_s = min(worker.started_s for worker in busy) + self._limit_s
+            timeout_s = max(0.0, first_s - time.monotonic())
+        handles: list[Any] = [worker.pipe for worker in busy]
+        handles += [worker.process.sentinel for worker in busy]
+        multiprocessing.connection.wait(handles, timeout_s)
+
+    def _result(self, worker: _Worker) -> Result | None:
+        """What `worker` has to say about its campaign, if anything yet: its outcome (an error
+        raised by the campaign is raised here), or a crash or a hang; None for a campaign that
+        still runs, or one given again to another worker."""
+        index = worker.index
+        if index is None:
+            return None
+        if worker.pipe.poll():
+            try:
+                answer: Outcome | _Raised = worker.pipe.recv()
+            except (EOFError, OSError):
+                pass  # it died: below
+            else:
+                worker.index = None
+                if isinstance(answer, _Raised):
+                    raise answer.error
+                return answer
+        if not worker.process.is_alive():
+            worker.index = None
+            worker.process.join()
+            worker.pipe.close()
+            self._deaths[index] += 1
+            if self._deaths[index] >= CRASH_DEATHS:
+                return Crash(self._job.seed, index, self._deaths[index])
+            self._again.append(index)
+            return None
+        if self._limit_s is not None and time.monotonic() - worker.started_s >= self._limit_s:
+            worker.index = None
+            worker.process.kill()
+            worker.process.join()
+            worker.pipe.close()
+            return Hang(self._job.seed, index, self._limit_s)
+        return None
+
+    def end(self) -> None:
+        """Every worker ended: an idle one asked to return, a busy one (the run interrupted)
+        and any that does not return in time killed."""
+        for worker in self._workers:
+            if worker.index is None:
+                with contextlib.suppress(OSError):
+                    worker.pipe.send(None)
+            else:
+                worker.process.terminate()
+        deadline_s = time.monotonic() + END_WAIT_S
+        for worker in self._workers:
+            worker.process.join(max(0.0, deadline_s - time.monotonic()))
+            if worker.process.is_alive():
+                worker.process.kill()
+                worker.process.join()
+            worker.pipe.close()
+
+
+@dataclass(frozen=True, slots=True)
+class _Raised:
+    """An error a campaign raised in its worker, sent back to be raised in the parent."""
+
+    error: BaseException
+
+
+def _work(pipe: Connection, job: CampaignJob, parents: tuple[Connection, ...]) -> None:
+    """A worker: run each campaign index sent until None, or until the parent is gone (the
+    parent's ends of the pipes, inherited at the fork, closed here first). Ctrl-C is left to the
+    parent, which ends the workers: one clean exit, no traceback from every process."""
     signal.signal(signal.SIGINT, signal.SIG_IGN)
+    for end in parents:
+        end.close()
+    while True:
+        try:
+            index: int | None = pipe.recv()
+        except (EOFError, OSError):
+            return
+        if index is None:
+            return
+        try:
+            answer: Outcome | _Raised = _run_one(job, index)
+        except Exception as error:
+            answer = _Raised(error)
+        try:
+            pipe.send(answer)
+        except OSError:  # the parent is gone
+            return
+        except Exception as error:  # an error that does not pickle: its text does
+            pipe.send(_Raised(RuntimeError(f"campaign {index}: {error!r}")))
 
 
 def _serial(job: CampaignJob, budget: int | None, until: float | None) -> Iterator[Outcome]:
