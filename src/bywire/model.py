@@ -14,7 +14,7 @@ from collections.abc import Callable
 from dataclasses import Field, dataclass, fields
 from enum import IntEnum
 from operator import attrgetter
-from typing import TYPE_CHECKING, Any, ClassVar
+from typing import Any, ClassVar
 
 from bywire.error_flags import ErrorFlag
 
@@ -48,8 +48,8 @@ class Command:
     this, with its signals as fields and its rolling counter as `counter`."""
 
     __slots__ = ()
-    if TYPE_CHECKING:  # each message's own; said here for the type checker alone
-        __dataclass_fields__: ClassVar[dict[str, Field[Any]]]
+    # each message's own; declared (never assigned) here for the type checker alone
+    __dataclass_fields__: ClassVar[dict[str, Field[Any]]]
     counter: int
 
 

@@ -45,7 +45,7 @@ class SimImpostor:
     def __init__(self, clock: SimClock, port: SimCanPort, real: SimHigherLevelComputer) -> None:
         self._clock = clock
         self._port = port
-        self._real = real
+        self._real_sender = real
         self._timer = PeriodicTimer(clock, COMMAND_PERIOD_S, self._send)
         self._remaining = 0
         self.throttle_norm = 0.8
@@ -97,7 +97,7 @@ class SimImpostor:
         if self._remaining <= 0:
             self._timer.stop()
             return
-        counter = self._real.next_counter(self.kind)
+        counter = self._real_sender.next_counter(self.kind)
         if self.forge:
             self._forge((counter + (1 if self.skip else -1)) % dbc.COUNTER_MODULUS)
             return
@@ -105,7 +105,7 @@ class SimImpostor:
         frame_id, payload = dbc.encode_command(command)
         if self._port.send(CanFrame(frame_id, payload)):
             self.frames_sent += 1
-            signer = self._real.signer
+            signer = self._real_sender.signer
             authenticator = None
             if self.keyed and signer is not None:  # in the trip the computer heard, if it has
                 authenticator = signer.authenticator(frame_id, payload)
