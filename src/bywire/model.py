@@ -14,7 +14,7 @@ from collections.abc import Callable
 from dataclasses import Field, dataclass, fields
 from enum import IntEnum
 from operator import attrgetter
-from typing import Any, ClassVar
+from typing import TYPE_CHECKING, Any, ClassVar
 
 from bywire.error_flags import ErrorFlag
 
@@ -43,13 +43,24 @@ class ControlMode(IntEnum):
 # controller obeys are the rows of `bywire.command_table`; a new one is a class there.
 
 
-class Command:
+if TYPE_CHECKING:
+
+    class _Dataclass:
+        """What the type checker knows of every command message: a dataclass (each its own)."""
+
+        __dataclass_fields__: ClassVar[dict[str, Field[Any]]]
+
+else:
+    # At run time Command derives from object alone, as before. (Not an `if TYPE_CHECKING:` in
+    # Command's body: mypyc refuses that statement in a class body, issue 43.)
+    _Dataclass = object
+
+
+class Command(_Dataclass):
     """Any command frame's content: every command message is a frozen dataclass deriving from
     this, with its signals as fields and its rolling counter as `counter`."""
 
     __slots__ = ()
-    # each message's own; declared (never assigned) here for the type checker alone
-    __dataclass_fields__: ClassVar[dict[str, Field[Any]]]
     counter: int
 
 
