@@ -62,11 +62,20 @@ def compiled_modules() -> list[str]:
     return sorted(found - LEFT_PURE)
 
 
+SOURCE_HASHES: dict[str, str] = {}
+"""Each compiled module's source SHA-256, taken when mypyc reads it."""
+
+
 def extensions() -> list[object]:
     if os.environ.get("BYWIRE_COMPILE", "") != "1" or os.environ.get("BYWIRE_NOT_BUILDING"):
         return []
     from mypyc.build import mypycify  # noqa: PLC0415 (only the compiled build needs it)
 
+    # The sources as mypyc reads them now: one edited during the build is then stale, as it is.
+    SOURCE_HASHES.update(
+        (module, hashlib.sha256((SRC / module).read_bytes()).hexdigest())
+        for module in compiled_modules()
+    )
     # Paths under src/ (no __init__.py there): mypyc names src/bywire/model.py bywire.model.
     return list(
         mypycify(
@@ -93,10 +102,7 @@ class BuildWithRecord(build_ext):
         record = {
             "mypyc": mypyc_version,
             "opt_level": os.environ.get("MYPYC_OPT_LEVEL", "3"),
-            "sources": {
-                module: hashlib.sha256((SRC / module).read_bytes()).hexdigest()
-                for module in compiled_modules()
-            },
+            "sources": SOURCE_HASHES,
         }
         (package_dir / "_compiled.json").write_text(json.dumps(record, indent=1) + "\n")
 

@@ -11,10 +11,13 @@ Units in names: ``_norm`` is a normalised set-point (steering −1…1, throttle
 from __future__ import annotations
 
 from collections.abc import Callable
-from dataclasses import Field, dataclass, fields
+from dataclasses import Field, dataclass, fields, replace
 from enum import IntEnum
 from operator import attrgetter
-from typing import TYPE_CHECKING, Any, ClassVar
+from typing import TYPE_CHECKING, Any, TypeVar, cast
+
+if TYPE_CHECKING:
+    from _typeshed import DataclassInstance
 
 from bywire.error_flags import ErrorFlag
 
@@ -43,20 +46,7 @@ class ControlMode(IntEnum):
 # controller obeys are the rows of `bywire.command_table`; a new one is a class there.
 
 
-if TYPE_CHECKING:
-
-    class _Dataclass:
-        """What the type checker knows of every command message: a dataclass (each its own)."""
-
-        __dataclass_fields__: ClassVar[dict[str, Field[Any]]]
-
-else:
-    # At run time Command derives from object alone, as before. (Not an `if TYPE_CHECKING:` in
-    # Command's body: mypyc refuses that statement in a class body, issue 43.)
-    _Dataclass = object
-
-
-class Command(_Dataclass):
+class Command:
     """Any command frame's content: every command message is a frozen dataclass deriving from
     this, with its signals as fields and its rolling counter as `counter`."""
 
@@ -95,10 +85,24 @@ class LightsCommand(Command):
     counter: int
 
 
+def command_fields(kind: type[Command]) -> tuple[Field[Any], ...]:
+    """A command message's fields: each is a dataclass. (`Command` does not tell the type checker
+    so itself: mypyc refuses the `if TYPE_CHECKING:` declaration in a class body, issue 43.)"""
+    return fields(cast("type[DataclassInstance]", kind))
+
+
+CommandT = TypeVar("CommandT", bound=Command)
+
+
+def with_counter(command: CommandT, counter: int) -> CommandT:
+    """The same command with another rolling counter (`dataclasses.replace`)."""
+    return cast(CommandT, replace(cast(Any, command), counter=counter))
+
+
 def request_fields(kind: type[Command]) -> tuple[str, ...]:
     """What a command can ask for, by signal name: every field but its rolling counter (which
     only the receive checks judge)."""
-    return tuple(field.name for field in fields(kind) if field.name != "counter")
+    return tuple(field.name for field in command_fields(kind) if field.name != "counter")
 
 
 LIGHT_REQUESTS = request_fields(LightsCommand)

@@ -20,14 +20,12 @@ counter, a miss, not a second sender (issue 41).
 
 from __future__ import annotations
 
-import dataclasses
-
 from bywire.can_frame import CanFrame
 from bywire.command_table import command_row
 from bywire.hal.simulated.can_port import SimCanPort
 from bywire.hal.simulated.hlc import COMMAND_PERIOD_S, SimHigherLevelComputer
 from bywire.hal.simulated.timers import PeriodicTimer, SimClock
-from bywire.model import Command, Gear, LightsCommand, MovementCommand
+from bywire.model import Command, Gear, LightsCommand, MovementCommand, with_counter
 from bywire.protocol import dbc, secoc
 
 IMPOSTOR_NODE = "impostor"
@@ -86,12 +84,12 @@ class SimImpostor:
 
     def _command(self, counter: int) -> Command:
         if self.asks is not None:
-            return dataclasses.replace(self.asks, counter=counter)
+            return with_counter(self.asks, counter)
         if self.kind is MovementCommand:
             return MovementCommand(0.0, self.throttle_norm, 0.0, Gear.FORWARD, counter)
         if self.kind is LightsCommand:
             return LightsCommand(False, False, True, False, counter)
-        return dataclasses.replace(command_row(self.kind).neutral, counter=counter)
+        return with_counter(command_row(self.kind).neutral, counter)
 
     def _send(self, _tick_s: float) -> None:
         if self._remaining <= 0:
