@@ -51,6 +51,12 @@ LEFT_PURE = {
     # the exceptions derive from ValueError and OSError, which a native class cannot; raised,
     # never on a hot path
     "bywire/errors.py",
+    # `@value` is typing.dataclass_transform's, which sets an attribute on the function it
+    # marks: a compiled function has none to set ("the decorator cannot be applied", issue 43),
+    # and mypy knows the mark only on the def itself (a run-time stand-in under `if
+    # TYPE_CHECKING:`/`else:` is code mypyc calls unreachable and refuses to run). Nothing is
+    # lost: it runs when a class is made, and the `__init__` it makes is exec'd Python anyway
+    "bywire/control/values.py",
     # matplotlib drawing of a finished run: not on any path a run or a campaign takes
     "bywire/sim/plot.py",
 }

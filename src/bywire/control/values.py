@@ -16,16 +16,7 @@ from __future__ import annotations
 import dataclasses
 import inspect
 from collections.abc import Callable
-from typing import TYPE_CHECKING, Any, TypeVar
-
-if TYPE_CHECKING:
-    from typing import dataclass_transform
-else:
-    # At run time `typing.dataclass_transform` only sets `__dataclass_transform__` on the
-    # function, which a compiled (mypyc) function refuses: the mark is for type checkers alone.
-    def dataclass_transform(**_: object) -> Callable[[T], T]:
-        return lambda decorated: decorated
-
+from typing import Any, TypeVar, dataclass_transform
 
 T = TypeVar("T")
 
