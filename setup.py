@@ -14,6 +14,7 @@ from __future__ import annotations
 import hashlib
 import json
 import os
+from importlib.machinery import EXTENSION_SUFFIXES
 from pathlib import Path
 
 from setuptools import setup
@@ -99,6 +100,8 @@ class BuildWithRecord(build_ext):
     a compiled module never silently runs when its source has changed since."""
 
     def run(self) -> None:
+        if self.extensions:
+            self._remove_others()
         super().run()
         if not self.extensions:
             return
@@ -111,6 +114,17 @@ class BuildWithRecord(build_ext):
             "sources": SOURCE_HASHES,
         }
         (package_dir / "_compiled.json").write_text(json.dumps(record, indent=1) + "\n")
+
+
+    def _remove_others(self) -> None:
+        """Compiled modules an earlier build left where this one builds (build/lib, or src/ in
+        place) that this one does not compile: they would be shipped and imported instead of
+        their source."""
+        package_dir = Path(self.get_ext_fullpath("bywire.model")).parent
+        built = {Path(self.get_ext_fullpath(extension.name)) for extension in self.extensions}
+        for path in package_dir.rglob("*"):
+            if path.name.endswith(tuple(EXTENSION_SUFFIXES)) and path not in built:
+                path.unlink()
 
 
 setup(ext_modules=extensions(), cmdclass={"build_ext": BuildWithRecord})

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import hashlib
+import importlib.machinery
 import json
 import subprocess
 import sys
@@ -65,3 +66,17 @@ def test_version_names_the_build() -> None:
         [sys.executable, "-m", "bywire", "--version"], capture_output=True, text=True, check=True
     ).stdout
     assert shown == f"bywire 0.1.0 ({build.build_name()})\n"
+
+
+def test_a_compiled_module_the_build_did_not_compile_refuses_to_run(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    # an earlier build's compiled module, its source now left pure: Python would import the .so
+    package = _compiled_package(tmp_path, monkeypatch, recorded="SPEED = 1\n")
+    (package / "values.py").write_text("")
+    (package / f"values{importlib.machinery.EXTENSION_SUFFIXES[0]}").write_bytes(b"")
+    stale = build.stale_modules()
+    assert len(stale) == 1
+    assert stale[0].startswith("bywire/values.")
+    with pytest.raises(build.StaleBuildError, match=r"bywire/values\."):
+        build.check()

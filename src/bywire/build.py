@@ -69,11 +69,19 @@ def stale_modules() -> list[str]:
     if info is None:
         return ["bywire/_compiled.json (missing)"]
     root = PACKAGE_DIR.parent
+    sources: dict[str, str] = info["sources"]
     stale = []
-    for name, digest in sorted(info["sources"].items()):
+    for name, digest in sorted(sources.items()):
         path = root / name
         if not path.is_file() or source_hash(path) != digest:
             stale.append(name)
+    # and a compiled module this build did not compile (left by an earlier one)
+    for path in sorted(PACKAGE_DIR.rglob("*")):
+        if path.name.endswith(tuple(importlib.machinery.EXTENSION_SUFFIXES)):
+            source = path.parent / (path.name.split(".")[0] + ".py")
+            name = source.relative_to(root).as_posix()
+            if name not in sources:
+                stale.append(path.relative_to(root).as_posix())
     return stale
 
 
