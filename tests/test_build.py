@@ -5,6 +5,7 @@ from __future__ import annotations
 import hashlib
 import importlib.machinery
 import json
+import pickle
 import subprocess
 import sys
 from pathlib import Path
@@ -12,6 +13,10 @@ from pathlib import Path
 import pytest
 
 from bywire import build
+from bywire.config import default_sim_config
+from bywire.sim.verify.campaign import Step
+from bywire.sim.verify.draw_bridge import draw_any
+from bywire.sim.verify.engine import CampaignJob, run_campaign
 
 
 def _compiled_package(tmp_path: Path, monkeypatch: pytest.MonkeyPatch, recorded: str) -> Path:
@@ -80,3 +85,13 @@ def test_a_compiled_module_the_build_did_not_compile_refuses_to_run(
     assert stale[0].startswith("bywire/values.")
     with pytest.raises(build.StaleBuildError, match=r"bywire/values\."):
         build.check()
+
+
+def test_campaigns_and_outcomes_cross_processes_in_either_build() -> None:
+    # issue 43: compiled, pickle rebuilt a frozen dataclass by setting its fields, which it
+    # refuses (FrozenInstanceError), so `verify --jobs 2` workers died and the parent hung
+    build.picklable_compiled_dataclasses()
+    job = CampaignJob(seed=9, campaign_s=2.0)
+    outcome = run_campaign(default_sim_config(), draw_any(job.seed, 0, job.campaign_s), 0)
+    for value in (job, Step(0.5, "arm", None), outcome):
+        assert pickle.loads(pickle.dumps(value)) == value

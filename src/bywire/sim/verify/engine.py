@@ -20,6 +20,7 @@ from dataclasses import dataclass, field, replace
 from typing import Any
 
 from bywire.background import OWNER
+from bywire.build import picklable_compiled_dataclasses
 from bywire.config import RobotConfig, default_sim_config
 from bywire.sim.scenario import Expectation, Scenario
 from bywire.sim.verify.campaign import TAIL_S, VOCABULARY, Campaign, Step, compile_steps
@@ -117,6 +118,7 @@ def campaign_outcomes(
 @contextlib.contextmanager
 def _workers(jobs: int) -> Iterator[multiprocessing.pool.Pool]:
     """A pool of `jobs` forked workers, owned: a run that ends any way ends them too."""
+    picklable_compiled_dataclasses()  # a compiled build's campaigns and outcomes cross over
     pool = multiprocessing.get_context("fork").Pool(jobs, initializer=_ignore_interrupt)
     ended = threading.Event()
 
