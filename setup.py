@@ -127,4 +127,5 @@ class BuildWithRecord(build_ext):
                 path.unlink()
 
 
-setup(ext_modules=extensions(), cmdclass={"build_ext": BuildWithRecord})
+if __name__ == "__main__":  # setuptools runs it so; bench/compiled_value_eq.py reads the lists
+    setup(ext_modules=extensions(), cmdclass={"build_ext": BuildWithRecord})
