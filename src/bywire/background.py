@@ -14,6 +14,7 @@ had); the owner is the last word on the way out, not the first. Work that has en
 
 from __future__ import annotations
 
+import builtins
 import contextlib
 import os
 import subprocess
@@ -49,7 +50,9 @@ class Work:
     started_at: str  # file:line of the starter, so that a leak names its source
     alive: Callable[[], bool]
     end: Callable[[float | None], bool]  # ask it to stop, wait its own bound or less; ended?
-    handle: object = field(repr=False)  # the Thread, Popen or Process itself
+    # the Thread, Popen or Process itself; builtins.object: mypyc cannot load a field annotated
+    # `object` at import (issue 43)
+    handle: builtins.object = field(repr=False)
     number: int = 0  # in order of start, from 1: what a scope ends is numbered after its mark
 
     def __str__(self) -> str:

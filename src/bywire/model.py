@@ -11,10 +11,13 @@ Units in names: ``_norm`` is a normalised set-point (steering −1…1, throttle
 from __future__ import annotations
 
 from collections.abc import Callable
-from dataclasses import Field, dataclass, fields
+from dataclasses import Field, dataclass, fields, replace
 from enum import IntEnum
 from operator import attrgetter
-from typing import TYPE_CHECKING, Any, ClassVar
+from typing import TYPE_CHECKING, Any, TypeVar, cast
+
+if TYPE_CHECKING:
+    from _typeshed import DataclassInstance
 
 from bywire.error_flags import ErrorFlag
 
@@ -48,8 +51,6 @@ class Command:
     this, with its signals as fields and its rolling counter as `counter`."""
 
     __slots__ = ()
-    if TYPE_CHECKING:  # each message's own; said here for the type checker alone
-        __dataclass_fields__: ClassVar[dict[str, Field[Any]]]
     counter: int
 
 
@@ -84,10 +85,24 @@ class LightsCommand(Command):
     counter: int
 
 
+def command_fields(kind: type[Command]) -> tuple[Field[Any], ...]:
+    """A command message's fields: each is a dataclass. (`Command` does not tell the type checker
+    so itself: mypyc refuses the `if TYPE_CHECKING:` declaration in a class body, issue 43.)"""
+    return fields(cast("type[DataclassInstance]", kind))
+
+
+CommandT = TypeVar("CommandT", bound=Command)
+
+
+def with_counter(command: CommandT, counter: int) -> CommandT:
+    """The same command with another rolling counter (`dataclasses.replace`)."""
+    return cast(CommandT, replace(cast(Any, command), counter=counter))
+
+
 def request_fields(kind: type[Command]) -> tuple[str, ...]:
     """What a command can ask for, by signal name: every field but its rolling counter (which
     only the receive checks judge)."""
-    return tuple(field.name for field in fields(kind) if field.name != "counter")
+    return tuple(field.name for field in command_fields(kind) if field.name != "counter")
 
 
 LIGHT_REQUESTS = request_fields(LightsCommand)

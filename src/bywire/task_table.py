@@ -17,6 +17,7 @@ runtime, which runs it; the runtime's own bookkeeping of deadlines and statistic
 
 from __future__ import annotations
 
+import operator
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from typing import Protocol
@@ -79,7 +80,10 @@ def _steering_changed(before: ControlOutputs, after: ControlOutputs) -> bool:
 
 
 def _drive_changed(before: ControlOutputs, after: ControlOutputs) -> bool:
-    return after.drive != before.drive
+    # operator.ne, not !=: compiled, mypyc makes != between two instances of an @value class
+    # (whose __eq__ its decorator adds) an identity test (issue 43)
+    changed: bool = operator.ne(after.drive, before.drive)
+    return changed
 
 
 def _brakes_changed(before: ControlOutputs, after: ControlOutputs) -> bool:

@@ -9,6 +9,8 @@ import resource
 import sys
 from pathlib import Path
 
+from bywire.build import build_name
+
 CPUINFO = Path("/proc/cpuinfo")
 PROC_STAT = Path("/proc/stat")
 CPU_PRESSURE = Path("/proc/pressure/cpu")
@@ -34,7 +36,8 @@ def cpu_model(cpuinfo: Path = CPUINFO) -> str:
 
 
 def machine_info() -> dict[str, object]:
-    """What RESULTS.md records about the machine: CPUs, model, Python, OS, load, date."""
+    """What RESULTS.md records about the machine: CPUs, model, Python, bywire's build (pure or
+    compiled), OS, load, date."""
     usable = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count()
     load_1m = os.getloadavg()[0] if hasattr(os, "getloadavg") else None
     return {
@@ -43,6 +46,7 @@ def machine_info() -> dict[str, object]:
         "usable_cpus": usable,
         "load_average_1m": load_1m,
         "python": platform.python_version(),
+        "build": build_name(),
         "python_implementation": platform.python_implementation(),
         "platform": platform.platform(),
         "date_utc": datetime.datetime.now(datetime.UTC).isoformat(timespec="seconds"),

@@ -24,7 +24,8 @@ def machine_line(machine: dict[str, object]) -> str:
     """One line about where the figures were taken."""
     return (
         f"{machine.get('cpu_model')}, {machine.get('usable_cpus')} usable CPUs,"
-        f" Python {machine.get('python')}, {machine.get('date_utc')}"
+        f" Python {machine.get('python')}, bywire {machine.get('build')} build,"
+        f" {machine.get('date_utc')}"
     )
 
 

@@ -12,6 +12,7 @@ from typing import NoReturn, Protocol
 
 from bywire import __version__
 from bywire.background import OWNER
+from bywire.build import build_name
 from bywire.errors import BywireError
 
 # name -> (module, one-line help). Modules are imported only when their command runs, so that
@@ -122,7 +123,8 @@ def build_parser(selected: str | None) -> argparse.ArgumentParser:
         prog="bywire",
         description="Low-level drive-by-wire controller: CAN and FlySky IBUS in, actuators out.",
     )
-    parser.add_argument("--version", action="version", version=f"bywire {__version__}")
+    version = f"bywire {__version__} ({build_name()})"  # pure, or compiled (mypyc X): issue 43
+    parser.add_argument("--version", action="version", version=version)
     sub = parser.add_subparsers(dest="command", metavar="COMMAND")
     for name, (_module, help_text) in COMMANDS.items():
         command_parser = sub.add_parser(name, help=help_text, description=help_text)

@@ -6,6 +6,7 @@ every problem in it; `Problems.check` then raises them together as one ConfigErr
 
 from __future__ import annotations
 
+import builtins
 import difflib
 import itertools
 import json
@@ -129,7 +130,7 @@ class KeyRead:
     parts: tuple[str, ...]
     kind: str  # "number", "integer", "integers" (count increasing), "text", "flag"
     allowed: Interval | range | tuple[str, ...] | None
-    value: object
+    value: builtins.object  # not `object`: mypyc cannot load that annotation (issue 43)
     count: int = 1
 
 

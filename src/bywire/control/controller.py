@@ -512,7 +512,9 @@ def changes_decision(
                 return True
     return not (
         _repeats(arrivals.rc, seen.rc, decided_at, config.rc_timeout_s, operator.eq)
-        and arrivals.control_edges == seen.control_edges
+        # operator.eq, not ==: compiled, mypyc makes == between two instances of a class it
+        # sees no __eq__ in (an @value class: the decorator adds it) an identity test (issue 43)
+        and operator.eq(arrivals.control_edges, seen.control_edges)
     )
 
 

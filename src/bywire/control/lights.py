@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field, fields
+from typing import Any
 
 from bywire.control.values import value
 
@@ -42,7 +43,9 @@ class LightLine:
 
 def _light(
     line: str, description: str, *, blinks: bool = False, tripped: bool | None = None
-) -> bool:
+) -> Any:
+    # A `dataclasses.Field` (typed Any, as `field` itself is to the type checker): mypyc checks
+    # a declared return type, and a Field is no bool (issue 43).
     return field(default=False, metadata={"light": LightLine(line, description, blinks, tripped)})
 
 

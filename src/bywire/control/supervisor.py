@@ -48,10 +48,21 @@ class Cause(enum.Enum):
     stop: the drive powered to brake, then off) where it is healthy: `docs/SAFETY.md` says why
     for each."""
 
-    def __init__(self, description: str, flag: ErrorFlag, category: StopCategory) -> None:
-        self.description = description
-        self.flag = flag
-        self.category = category
+    # Each member's value is its row; the columns are read by name below. (Not an `__init__`
+    # storing them as attributes: mypyc cannot compile an Enum's `__init__`, issue 43.)
+    _value_: tuple[str, ErrorFlag, StopCategory]
+
+    @property
+    def description(self) -> str:
+        return self._value_[0]
+
+    @property
+    def flag(self) -> ErrorFlag:
+        return self._value_[1]
+
+    @property
+    def category(self) -> StopCategory:
+        return self._value_[2]
 
     # nothing drives yet: there is no drive to keep powered
     POWER_UP = (

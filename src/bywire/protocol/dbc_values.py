@@ -14,7 +14,7 @@ import dataclasses
 import enum
 import math
 from dataclasses import fields
-from typing import Any, get_type_hints
+from typing import TYPE_CHECKING, Any, cast, get_type_hints
 
 from cantools.database.can import Message, Signal
 
@@ -22,11 +22,16 @@ from bywire.command_table import COMMAND_TYPES
 from bywire.errors import FrameError
 from bywire.model import REPORT_TYPES, Command, Report
 
+if TYPE_CHECKING:
+    from _typeshed import DataclassInstance
+
 
 def _field_types(kind: type[Command] | type[Report]) -> dict[str, Any]:
     """Each field's annotated type, in the fields' order (not the base `Command`'s names)."""
     hints = get_type_hints(kind)
-    return {field.name: hints[field.name] for field in fields(kind)}
+    # cast: a Command is a dataclass, which `Command` cannot tell mypy (model.command_fields)
+    kind_fields = fields(cast("type[DataclassInstance]", kind))
+    return {field.name: hints[field.name] for field in kind_fields}
 
 
 # Field name -> annotated type, resolved once (the model uses postponed annotations).

@@ -10,6 +10,7 @@ robot through the input's timeout, as a silent sender does.
 
 from __future__ import annotations
 
+import operator
 from collections import Counter
 from collections.abc import Sequence
 from dataclasses import replace
@@ -121,7 +122,8 @@ class IbusReader:
         """`rc_step` of the frame, mapped once for a run of equal frames in an equal stage: held
         sticks and switches send the same channels about 140 times a second."""
         mapped = self._mapped
-        if mapped is None or mapped[0] != channels or mapped[1] != self.stage:
+        # operator.ne for the stage: compiled, != between @value instances is identity (issue 43)
+        if mapped is None or mapped[0] != channels or operator.ne(mapped[1], self.stage):
             stage, request = rc_step(self.stage, channels, self._mapping, self._debounce_frames)
             mapped = self._mapped = (channels, self.stage, stage, request)
         self.stage = mapped[2]

@@ -46,7 +46,7 @@ class Watchdog:
         self._last_feed_s = monotonic()
         self._tripped = False
         self._stop = threading.Event()
-        self._thread: threading.Thread | None = None
+        self._watcher: threading.Thread | None = None
 
     @property
     def tripped(self) -> bool:
@@ -74,13 +74,13 @@ class Watchdog:
     def start(self) -> None:
         """Run `check` from a daemon thread every control period (or faster for short limits)."""
         self._stop.clear()
-        self._thread = OWNER.thread(self._watch, name="bywire-watchdog", stop=self._stop.set)
+        self._watcher = OWNER.thread(self._watch, name="bywire-watchdog", stop=self._stop.set)
 
     def stop(self) -> None:
         self._stop.set()
-        if self._thread is not None:
-            self._thread.join()
-            self._thread = None
+        if self._watcher is not None:
+            self._watcher.join()
+            self._watcher = None
 
     def _watch(self) -> None:
         next_notify_s = self._monotonic()

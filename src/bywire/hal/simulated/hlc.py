@@ -13,7 +13,6 @@ so the next one keeps the sequence). Scenario faults: ``silence()`` (commands st
 
 from __future__ import annotations
 
-import dataclasses
 import enum
 from collections import Counter, deque
 from typing import TypeVar, cast
@@ -30,6 +29,7 @@ from bywire.model import (
     LightsCommand,
     MovementCommand,
     Report,
+    with_counter,
 )
 from bywire.protocol import dbc, dbc_values
 from bywire.security.session import TRIP_IDS, SecocSigner
@@ -182,7 +182,7 @@ class SimHigherLevelComputer:
         corruption = self._corruptions[kind].popleft() if self._corruptions[kind] else None
         if corruption is Corruption.REPEATED_COUNTER:
             counter = (counter - 1) % dbc.COUNTER_MODULUS
-        command = dataclasses.replace(template, counter=counter)
+        command = with_counter(template, counter)
         frame_id, payload = dbc.encode_command(command)
         payload = _damaged(command, payload, corruption)
         # Signs what it sends, damage included (E2E judges that), before sending: a command it

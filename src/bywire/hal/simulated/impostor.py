@@ -20,14 +20,12 @@ counter, a miss, not a second sender (issue 41).
 
 from __future__ import annotations
 
-import dataclasses
-
 from bywire.can_frame import CanFrame
 from bywire.command_table import command_row
 from bywire.hal.simulated.can_port import SimCanPort
 from bywire.hal.simulated.hlc import COMMAND_PERIOD_S, SimHigherLevelComputer
 from bywire.hal.simulated.timers import PeriodicTimer, SimClock
-from bywire.model import Command, Gear, LightsCommand, MovementCommand
+from bywire.model import Command, Gear, LightsCommand, MovementCommand, with_counter
 from bywire.protocol import dbc, secoc
 
 IMPOSTOR_NODE = "impostor"
@@ -45,7 +43,7 @@ class SimImpostor:
     def __init__(self, clock: SimClock, port: SimCanPort, real: SimHigherLevelComputer) -> None:
         self._clock = clock
         self._port = port
-        self._real = real
+        self._real_sender = real
         self._timer = PeriodicTimer(clock, COMMAND_PERIOD_S, self._send)
         self._remaining = 0
         self.throttle_norm = 0.8
@@ -86,18 +84,18 @@ class SimImpostor:
 
     def _command(self, counter: int) -> Command:
         if self.asks is not None:
-            return dataclasses.replace(self.asks, counter=counter)
+            return with_counter(self.asks, counter)
         if self.kind is MovementCommand:
             return MovementCommand(0.0, self.throttle_norm, 0.0, Gear.FORWARD, counter)
         if self.kind is LightsCommand:
             return LightsCommand(False, False, True, False, counter)
-        return dataclasses.replace(command_row(self.kind).neutral, counter=counter)
+        return with_counter(command_row(self.kind).neutral, counter)
 
     def _send(self, _tick_s: float) -> None:
         if self._remaining <= 0:
             self._timer.stop()
             return
-        counter = self._real.next_counter(self.kind)
+        counter = self._real_sender.next_counter(self.kind)
         if self.forge:
             self._forge((counter + (1 if self.skip else -1)) % dbc.COUNTER_MODULUS)
             return
@@ -105,7 +103,7 @@ class SimImpostor:
         frame_id, payload = dbc.encode_command(command)
         if self._port.send(CanFrame(frame_id, payload)):
             self.frames_sent += 1
-            signer = self._real.signer
+            signer = self._real_sender.signer
             authenticator = None
             if self.keyed and signer is not None:  # in the trip the computer heard, if it has
                 authenticator = signer.authenticator(frame_id, payload)

@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import contextlib
 import logging
+import operator
 from collections.abc import Callable, Iterable, Iterator
 from dataclasses import dataclass, field
 from typing import cast
@@ -132,6 +133,8 @@ class TransitionLog:
 
     def observe(self, _now: float) -> None:
         state = self.run.runtime.state.supervisor
-        if state != self.previous:  # a new but equal state every pass: no row was taken
+        # a new but equal state every pass: no row was taken (operator.ne: compiled, != between
+        # @value instances is identity, issue 43)
+        if operator.ne(state, self.previous):
             self.seen.update(transition_labels(self.previous, state))
             self.previous = state

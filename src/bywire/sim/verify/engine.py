@@ -21,6 +21,7 @@ from multiprocessing.connection import Connection
 from typing import Any
 
 from bywire.background import OWNER
+from bywire.build import picklable_compiled_dataclasses
 from bywire.config import RobotConfig, default_sim_config
 from bywire.sim.scenario import Expectation, Scenario
 from bywire.sim.verify.campaign import TAIL_S, VOCABULARY, Campaign, Step, compile_steps
@@ -146,6 +147,7 @@ def campaign_outcomes(
     if jobs == 1 and limit_s is None:
         yield from _serial(job, budget, until)
         return
+    picklable_compiled_dataclasses()  # a compiled build's campaigns and outcomes cross over
     workers = _Workers(jobs, job, limit_s)
     try:
         yield from workers.results(budget, until)

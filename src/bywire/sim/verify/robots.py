@@ -17,6 +17,7 @@ files whatever else runs.
 
 from __future__ import annotations
 
+import builtins
 import math
 import random
 import re
@@ -163,9 +164,10 @@ class Repair:
     value itself, or the nearest to the draw found by halving), and the refusal that moved it."""
 
     key: str
-    drawn: object
-    kept: object
-    base: object
+    # builtins.object: mypyc cannot load a field annotated `object` at import (issue 43)
+    drawn: builtins.object
+    kept: builtins.object
+    base: builtins.object
     rule: str
 
 

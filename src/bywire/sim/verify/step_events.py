@@ -3,6 +3,7 @@
 
 from __future__ import annotations
 
+import builtins
 import heapq
 from dataclasses import dataclass, field
 from typing import Any
@@ -18,7 +19,7 @@ class Step:
 
     delay_s: float
     action: str
-    value: object = None
+    value: builtins.object = None  # not `object`: mypyc cannot load it at import (issue 43)
 
 
 @dataclass(slots=True)

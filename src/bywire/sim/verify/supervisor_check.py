@@ -9,6 +9,7 @@ every input of an abstract alphabet to each, and checks every invariant on every
 from __future__ import annotations
 
 import itertools
+import operator
 from collections import deque
 from collections.abc import Callable, Iterable, Iterator
 from dataclasses import dataclass, field
@@ -347,7 +348,7 @@ def explore(
             after = supervisor_step(before, step_inputs, config)
             result.transitions += 1
             result.mode_changes.add((before.mode, after.mode))
-            if after != before:
+            if operator.ne(after, before):  # not !=: compiled, identity for @value (issue 43)
                 result.labels.update(transition_labels(before, after))
             for name in violated(before, step_inputs, after, promised):
                 path = [*reversed(list(_path(parents, before))), step_inputs]

@@ -1,0 +1,97 @@
+"""Which build runs, and a compiled build whose sources changed refusing to run (issue 43)."""
+
+from __future__ import annotations
+
+import hashlib
+import importlib.machinery
+import json
+import pickle
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+from bywire import build
+from bywire.config import default_sim_config
+from bywire.sim.verify.campaign import Step
+from bywire.sim.verify.draw_bridge import draw_any
+from bywire.sim.verify.engine import CampaignJob, run_campaign
+
+
+def _compiled_package(tmp_path: Path, monkeypatch: pytest.MonkeyPatch, recorded: str) -> Path:
+    """A package directory that a compiled build recorded `recorded` as model.py's source of."""
+    package = tmp_path / "bywire"
+    package.mkdir()
+    (package / "model.py").write_text("SPEED = 1\n")
+    digest = hashlib.sha256(recorded.encode()).hexdigest()
+    record = {"mypyc": "9.9", "opt_level": "3", "sources": {"bywire/model.py": digest}}
+    (package / "_compiled.json").write_text(json.dumps(record))
+    monkeypatch.setattr(build, "PACKAGE_DIR", package)
+    monkeypatch.setattr(build, "BUILD_INFO", package / "_compiled.json")
+    monkeypatch.setattr(build, "is_compiled", lambda: True)
+    return package
+
+
+def test_the_tests_run_the_pure_build() -> None:
+    assert not build.is_compiled() or build.build_name().startswith("compiled (mypyc ")
+    if not build.is_compiled():
+        assert build.build_name() == "pure"
+        build.check()  # a pure build has nothing to be stale
+
+
+def test_a_compiled_build_says_its_compiler(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    _compiled_package(tmp_path, monkeypatch, recorded="SPEED = 1\n")
+    assert build.build_name() == "compiled (mypyc 9.9, -O3)"
+    build.check()  # the source is the one compiled
+
+
+def test_a_source_edited_after_the_build_refuses_to_run(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    _compiled_package(tmp_path, monkeypatch, recorded="SPEED = 2\n")
+    assert build.stale_modules() == ["bywire/model.py"]
+    with pytest.raises(build.StaleBuildError, match=r"bywire/model\.py.*rebuild"):
+        build.check()
+
+
+def test_a_compiled_build_without_its_record_refuses_to_run(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    package = _compiled_package(tmp_path, monkeypatch, recorded="SPEED = 1\n")
+    (package / "_compiled.json").unlink()
+    with pytest.raises(build.StaleBuildError, match=r"_compiled\.json"):
+        build.check()
+
+
+def test_version_names_the_build() -> None:
+    shown = subprocess.run(
+        [sys.executable, "-m", "bywire", "--version"], capture_output=True, text=True, check=True
+    ).stdout
+    assert shown == f"bywire 0.1.0 ({build.build_name()})\n"
+
+
+def test_a_compiled_module_the_build_did_not_compile_refuses_to_run(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    # an earlier build's compiled module, its source now left pure: Python would import the .so
+    package = _compiled_package(tmp_path, monkeypatch, recorded="SPEED = 1\n")
+    (package / "values.py").write_text("")
+    (package / f"values{importlib.machinery.EXTENSION_SUFFIXES[0]}").write_bytes(b"")
+    stale = build.stale_modules()
+    assert len(stale) == 1
+    assert stale[0].startswith("bywire/values.")
+    with pytest.raises(build.StaleBuildError, match=r"bywire/values\."):
+        build.check()
+
+
+def test_campaigns_and_outcomes_cross_processes_in_either_build() -> None:
+    # issue 43: compiled, pickle rebuilt a frozen dataclass by setting its fields, which it
+    # refuses (FrozenInstanceError), so `verify --jobs 2` workers died and the parent hung
+    build.picklable_compiled_dataclasses()
+    job = CampaignJob(seed=9, campaign_s=2.0)
+    outcome = run_campaign(default_sim_config(), draw_any(job.seed, 0, job.campaign_s), 0)
+    for value in (job, Step(0.5, "arm", None), outcome):
+        assert pickle.loads(pickle.dumps(value)) == value
