@@ -115,7 +115,6 @@ class BuildWithRecord(build_ext):
         }
         (package_dir / "_compiled.json").write_text(json.dumps(record, indent=1) + "\n")
 
-
     def _remove_others(self) -> None:
         """Compiled modules an earlier build left where this one builds (build/lib, or src/ in
         place) that this one does not compile: they would be shipped and imported instead of
