@@ -5,10 +5,13 @@ must expect the same, neither sooner (a false finding) nor never (a blind one)."
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import pytest
 
 from bywire.config import RobotConfig, default_sim_config, parse_config
-from bywire.control import rc_mapping
+from bywire.control import rc_mapping, supervisor
+from bywire.control.supervisor import Cause
 from bywire.model import ControlMode
 from bywire.sim.verify.campaign import Step
 from bywire.sim.verify.engine import run_campaign
@@ -47,5 +50,47 @@ def test_a_controller_that_holds_a_switch_in_transit_for_ever_is_found(
 
     monkeypatch.setattr(rc_mapping, "mode_position", for_ever)
     steps = [*DRIVING_BY[ControlMode.CAN], Step(1.0, "switch_between", 1750)]
+    outcome = run_campaign(ROBOT, steps)
+    assert {finding.invariant for finding in outcome.findings} & {"H1"}
+
+
+RC_DRIVING_STILL = [Step(0.2, "arm", ControlMode.RC), Step(0.15, "rc_throttle", 0.0)]
+
+
+@pytest.mark.parametrize("silenced_by", ["can_link", "can_cable"])
+@pytest.mark.parametrize("gap_s", [0.0, 0.005, 0.015625, 0.02, 0.024])
+def test_a_remote_stop_the_computer_fell_silent_before_sending_is_not_demanded(
+    silenced_by: str, gap_s: float
+) -> None:
+    """Found by tests/system/test_sequences.py: a remote stop asked at 0.944 s and the computer
+    silent at 0.959 s, before any ControlCommand frame carried it. The robot rightly drove on in
+    RC; the oracle demanded the stop (H1, 108 violations). Within a ControlCommand period either
+    is right: the frame may or may not have gone out."""
+    steps = [
+        *RC_DRIVING_STILL,
+        Step(0.59375, "remote_stop", True),
+        Step(gap_s, silenced_by, False),
+        Step(0.5, silenced_by, True),  # back: the request, still held, arrives then
+    ]
+    outcome = run_campaign(ROBOT, steps)
+    assert outcome.checks > 0
+    assert outcome.findings == [], outcome.findings[:1]
+
+
+@pytest.mark.parametrize("gap_s", [0.05, 0.2])
+def test_a_controller_that_ignores_a_remote_stop_that_went_out_is_still_found(
+    monkeypatch: pytest.MonkeyPatch, gap_s: float
+) -> None:
+    """The teeth the withdrawal must keep: a request older than a period surely went out."""
+    monkeypatch.setattr(supervisor, "CAN_BOUND", frozenset({Cause.CAN_LOST, Cause.CAN_UNTRUSTED}))
+    original = supervisor._latching
+
+    def ignoring_arrivals(
+        target: ControlMode, inputs: supervisor.SupervisorInputs
+    ) -> frozenset[Cause]:
+        return original(target, replace(inputs, remote_stop_rising=False))
+
+    monkeypatch.setattr(supervisor, "_latching", ignoring_arrivals)
+    steps = [*RC_DRIVING_STILL, Step(0.59375, "remote_stop", True), Step(gap_s, "can_link", False)]
     outcome = run_campaign(ROBOT, steps)
     assert {finding.invariant for finding in outcome.findings} & {"H1"}
