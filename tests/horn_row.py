@@ -21,7 +21,7 @@ import sys
 from collections.abc import Callable
 from functools import cache, partial
 from pathlib import Path
-from typing import Any
+from typing import Any, cast
 
 from cantools.database.can import Database
 
@@ -252,7 +252,7 @@ def frame_cli() -> object:
     for line in out.getvalue().split():
         frame_id, _, data = line.partition("#")
         command = dbc.decode_intact(int(frame_id, 16), bytes.fromhex(data))
-        decoded.append([type(command).__name__, *dataclasses.astuple(command)])
+        decoded.append([type(command).__name__, *dataclasses.astuple(cast(Any, command))])
     return {"status": status, "frames": decoded}
 
 

@@ -17,6 +17,7 @@ SOURCE = Path(__file__).resolve().parent.parent / "src" / "bywire"
 LAYERS: tuple[frozenset[str], ...] = tuple(
     frozenset(layer.split())
     for layer in (
+        "build",  # which build runs (pure or compiled): what the package checks first
         "__init__ errors background",
         "atomic_file quit_keys priority accepting textfile loopback",
         "error_flags can_frame plot_page",  # values and constants every layer may name

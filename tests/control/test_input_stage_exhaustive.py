@@ -27,7 +27,7 @@ import pytest
 
 from bywire.control import input_stage
 from bywire.control.input_stage import Decoded, MessageState, Verdict, message_step
-from bywire.model import Gear, MovementCommand, same_request
+from bywire.model import Gear, MovementCommand, same_request, with_counter
 
 PERIOD_S, TIMEOUT_S = 0.020, 0.100
 WINDOW = 3
@@ -62,7 +62,7 @@ def _at(state: MessageState, frame: Frame) -> Decoded:
     if offset is None or decoded.counter is None:
         return decoded
     counter = ((state.counter or 0) + offset) % MODULUS
-    command = None if decoded.command is None else replace(decoded.command, counter=counter)
+    command = None if decoded.command is None else with_counter(decoded.command, counter)
     return Decoded(True, counter, command)
 
 
@@ -72,7 +72,7 @@ def _relative(time_s: float | None, now: float, cap_s: float) -> float | None:
 
 def _canonical(state: MessageState, now: float) -> MessageState:
     """The state as seen from `now`: times relative and capped, the counter rotated to 0."""
-    seen = tuple(None if seen is None else replace(seen, counter=0) for seen in state.seen)
+    seen = tuple(None if seen is None else with_counter(seen, 0) for seen in state.seen)
     return MessageState(
         counter=None if state.counter is None else 0,
         seen=seen,

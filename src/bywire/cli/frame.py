@@ -11,7 +11,6 @@ and signed by the same signer as `bywire teleop`.
 from __future__ import annotations
 
 import argparse
-import dataclasses
 import enum
 import typing
 from collections.abc import Iterator
@@ -21,7 +20,15 @@ from bywire.cli.arguments import number_within, whole_number
 from bywire.command_table import COMMANDS, CommandSpec
 from bywire.config.security_setup import sender_signer
 from bywire.errors import ConfigError
-from bywire.model import Command, ControlCommand, Gear, LightsCommand, MovementCommand
+from bywire.model import (
+    Command,
+    ControlCommand,
+    Gear,
+    LightsCommand,
+    MovementCommand,
+    command_fields,
+    with_counter,
+)
 from bywire.protocol import dbc
 from bywire.protocol.secoc import MAX_TRIP
 from bywire.security.freshness import Adoption
@@ -72,7 +79,7 @@ def _field_options(parser: argparse.ArgumentParser, spec: CommandSpec) -> None:
     """A row without options of its own: one per field of its message (`--name`), a flag for a
     truth value, a member's name for an enum, a number otherwise (the codec checks its range)."""
     hints = typing.get_type_hints(spec.kind)
-    for field in dataclasses.fields(spec.kind):
+    for field in command_fields(spec.kind):
         if field.name == "counter":
             continue
         option, kind = f"--{field.name.replace('_', '-')}", hints[field.name]
@@ -148,7 +155,7 @@ def command_of(args: argparse.Namespace) -> Command:
     hints = typing.get_type_hints(spec.kind)
     values = {
         field.name: _value(hints[field.name], getattr(args, field.name))
-        for field in dataclasses.fields(spec.kind)
+        for field in command_fields(spec.kind)
         if field.name != "counter"
     }
     values["counter"] = args.counter
@@ -165,7 +172,7 @@ def frames(command: Command, count: int) -> Iterator[tuple[int, bytes]]:
     """`count` frames of `command`, the counter going up by one a frame (modulo 16)."""
     for index in range(count):
         counter = (command.counter + index) % dbc.COUNTER_MODULUS
-        yield dbc.encode_command(dataclasses.replace(command, counter=counter))
+        yield dbc.encode_command(with_counter(command, counter))
 
 
 def cansend(frame_id: int, data: bytes) -> str:
