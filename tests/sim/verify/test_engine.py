@@ -12,6 +12,7 @@ import os
 import threading
 from collections.abc import Callable
 from pathlib import Path
+from typing import Any
 
 import pytest
 
@@ -134,3 +135,25 @@ def test_an_error_a_campaign_raises_in_its_worker_is_raised_here(
 
     with pytest.raises(ValueError, match="campaign 3 broke"):
         _run(monkeypatch, before)
+
+
+def test_a_worker_that_dies_between_two_looks_loses_no_campaign(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """The race behind a failure under load: a worker found running by `_result` and dead by the
+    next look was replaced with its campaign still on it, and the run ended without campaign 0.
+    Here it dies exactly there, once: its campaign must be run again, as any death is."""
+    original = engine._Workers._result
+    died: list[int] = []
+
+    def dying_after_the_look(workers: engine._Workers, worker: Any) -> Result | None:
+        result = original(workers, worker)
+        if result is None and worker.index == 0 and not died:
+            died.append(worker.process.pid)
+            worker.process.kill()
+            worker.process.join()
+        return result
+
+    monkeypatch.setattr(engine._Workers, "_result", dying_after_the_look)
+    assert _run(monkeypatch, lambda _job, _at: None, jobs=2, limit_s=LIMIT_S) == _here()
+    assert died

@@ -219,7 +219,11 @@ class _Workers:
                 result = self._result(worker)
                 if result is not None:
                     ready[result.index] = result
-                if not worker.process.is_alive():
+                # Replaced only once its campaign is accounted for: one that died between
+                # `_result`'s look and this one is seen dead on the next round (its sentinel
+                # wakes the wait at once); replaced here, its campaign was lost (both workers
+                # killed at once, under load: the run ended without campaign 0).
+                if worker.index is None and not worker.process.is_alive():
                     worker.process.join()
                     worker.pipe.close()
                     self._workers[position] = self._start()
