@@ -154,6 +154,10 @@ def test_a_worker_that_dies_between_two_looks_loses_no_campaign(
             worker.process.join()
         return result
 
+    def slow_first(_job: CampaignJob, at: int) -> None:
+        if at == 0 and not died:  # still running when the other worker's answer wakes the wait
+            threading.Event().wait(0.5)
+
     monkeypatch.setattr(engine._Workers, "_result", dying_after_the_look)
-    assert _run(monkeypatch, lambda _job, _at: None, jobs=2, limit_s=LIMIT_S) == _here()
+    assert _run(monkeypatch, slow_first, jobs=2, limit_s=LIMIT_S) == _here()
     assert died
