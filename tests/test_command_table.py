@@ -9,12 +9,6 @@ the horn's line, the robot's mode and enable line, the frames on the bus, and th
 
 from __future__ import annotations
 
-import json
-import os
-import subprocess
-import sys
-from pathlib import Path
-
 import pytest
 
 from bywire.command_table import COMMAND_TYPES, COMMANDS, MOVES_NOTHING, Use, command_row
@@ -25,25 +19,12 @@ from bywire.hal.simulated.world import SimWorld
 from bywire.model import ControlCommand, LightsCommand, MovementCommand
 from bywire.protocol import dbc
 from bywire.runtime.rx_checks import rx_checks
-
-ROOT = Path(__file__).resolve().parent.parent
+from tests.row_child import observed
 
 
 @pytest.fixture(scope="module")
 def horn() -> dict[str, object]:
-    env = {**os.environ, "PYTHONPATH": os.pathsep.join([str(ROOT), str(ROOT / "src")])}
-    done = subprocess.run(
-        [sys.executable, "-m", "tests.horn_row"],
-        cwd=ROOT,
-        env=env,
-        capture_output=True,
-        text=True,
-        timeout=120,
-        check=False,
-    )
-    assert done.returncode == 0, done.stderr
-    seen: dict[str, object] = json.loads(done.stdout)
-    return seen
+    return observed("tests.horn_row")
 
 
 def test_the_childs_row_is_new() -> None:

@@ -7,34 +7,15 @@ function (and, in a robot file, its keys) is written for it.
 
 from __future__ import annotations
 
-import json
-import os
-import subprocess
-import sys
-from pathlib import Path
-
 import pytest
 
 from bywire.task_table import TASK_LINES, TASK_NAMES
-
-ROOT = Path(__file__).resolve().parent.parent
+from tests.row_child import observed
 
 
 @pytest.fixture(scope="module")
 def beeper() -> dict[str, object]:
-    env = {**os.environ, "PYTHONPATH": os.pathsep.join([str(ROOT), str(ROOT / "src")])}
-    done = subprocess.run(
-        [sys.executable, "-m", "tests.beeper_row"],
-        cwd=ROOT,
-        env=env,
-        capture_output=True,
-        text=True,
-        timeout=120,
-        check=False,
-    )
-    assert done.returncode == 0, done.stderr
-    seen: dict[str, object] = json.loads(done.stdout)
-    return seen
+    return observed("tests.beeper_row")
 
 
 def test_the_childs_row_is_new() -> None:

@@ -29,6 +29,7 @@ from bywire.sim.verify.supervisor_check import (
     same_rules,
     transitions_naming,
 )
+from tests.sim.verify.mutants import remote_stop_ignored
 
 FULL = os.environ.get("BYWIRE_EXHAUSTIVE") == "full"
 
@@ -125,15 +126,7 @@ def test_a_can_re_enable_that_clears_every_cause_is_found(monkeypatch: pytest.Mo
 def test_a_remote_stop_that_locks_out_rc_or_stops_nothing_is_found(
     monkeypatch: pytest.MonkeyPatch,
 ) -> None:
-    monkeypatch.setattr(supervisor, "CAN_BOUND", frozenset({Cause.CAN_LOST, Cause.CAN_UNTRUSTED}))
-    original = supervisor._latching
-
-    def ignoring_arrivals(
-        target: ControlMode, inputs: supervisor.SupervisorInputs
-    ) -> frozenset[Cause]:
-        return original(target, replace(inputs, remote_stop_rising=False))
-
-    assert _found(monkeypatch, "_latching", ignoring_arrivals)
+    assert _found(monkeypatch, "_latching", remote_stop_ignored(monkeypatch))
 
 
 def test_no_debounce_is_found() -> None:

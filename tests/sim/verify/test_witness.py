@@ -5,16 +5,14 @@ must expect the same, neither sooner (a false finding) nor never (a blind one)."
 
 from __future__ import annotations
 
-from dataclasses import replace
-
 import pytest
 
 from bywire.config import RobotConfig, default_sim_config, parse_config
 from bywire.control import rc_mapping, supervisor
-from bywire.control.supervisor import Cause
 from bywire.model import ControlMode
 from bywire.sim.verify.campaign import Step
 from bywire.sim.verify.engine import run_campaign
+from tests.sim.verify.mutants import remote_stop_ignored
 
 ROBOT = default_sim_config()
 SLOW_DEBOUNCE = parse_config('backend = "sim"\n\n[supervisor]\ndebounce_frames = 5\n', "<robot>")
@@ -82,15 +80,7 @@ def test_a_controller_that_ignores_a_remote_stop_that_went_out_is_still_found(
     monkeypatch: pytest.MonkeyPatch, gap_s: float
 ) -> None:
     """The teeth the withdrawal must keep: a request older than a period surely went out."""
-    monkeypatch.setattr(supervisor, "CAN_BOUND", frozenset({Cause.CAN_LOST, Cause.CAN_UNTRUSTED}))
-    original = supervisor._latching
-
-    def ignoring_arrivals(
-        target: ControlMode, inputs: supervisor.SupervisorInputs
-    ) -> frozenset[Cause]:
-        return original(target, replace(inputs, remote_stop_rising=False))
-
-    monkeypatch.setattr(supervisor, "_latching", ignoring_arrivals)
+    monkeypatch.setattr(supervisor, "_latching", remote_stop_ignored(monkeypatch))
     steps = [*RC_DRIVING_STILL, Step(0.59375, "remote_stop", True), Step(gap_s, "can_link", False)]
     outcome = run_campaign(ROBOT, steps)
     assert {finding.invariant for finding in outcome.findings} & {"H1"}

@@ -1,0 +1,28 @@
+"""Controllers broken on purpose, for tests that show a check has teeth."""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import replace
+
+import pytest
+
+from bywire.control import supervisor
+from bywire.control.supervisor import Cause
+from bywire.model import ControlMode
+
+Latching = Callable[[ControlMode, supervisor.SupervisorInputs], frozenset[Cause]]
+
+
+def remote_stop_ignored(monkeypatch: pytest.MonkeyPatch) -> Latching:
+    """A supervisor whose remote stop stops nothing (its arrival never latches REMOTE_STOP, and
+    it no longer counts as CAN-bound): the latching rule to put in `supervisor._latching`."""
+    monkeypatch.setattr(supervisor, "CAN_BOUND", frozenset({Cause.CAN_LOST, Cause.CAN_UNTRUSTED}))
+    original = supervisor._latching
+
+    def ignoring_arrivals(
+        target: ControlMode, inputs: supervisor.SupervisorInputs
+    ) -> frozenset[Cause]:
+        return original(target, replace(inputs, remote_stop_rising=False))
+
+    return ignoring_arrivals
