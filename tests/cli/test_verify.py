@@ -380,23 +380,33 @@ def test_a_cluster_runs_for_a_duration_too(capsys: pytest.CaptureFixture[str]) -
 
 
 def test_ctrl_c_shuts_the_local_cluster_down_and_leaves_nothing_running(tmp_path: Path) -> None:
+    def a_worker_is_up(children: list[psutil.Process]) -> bool:
+        return any(_ignores_sigint(p) and "spawn_main" in _title(p) for p in children)
+
+    _ctrl_c_ends_it(["--cluster", "local", "--jobs", "1", "--out", str(tmp_path)], a_worker_is_up)
+
+
+def _ctrl_c_ends_it(arguments: list[str], ready: Callable[[list[psutil.Process]], bool]) -> None:
+    """`bywire verify` with `arguments`, interrupted as the terminal does (SIGINT to every process
+    of its group) once `ready` holds of its descendants: exit 130, nothing on stderr (no worker's
+    traceback either), and its whole group gone."""
     command = [sys.executable, "-m", "bywire.cli.main", "verify", "--budget", "400"]
-    command += ["--campaign-s", "5", "--cluster", "local", "--jobs", "1", "--out", str(tmp_path)]
+    command += ["--campaign-s", "5", *arguments]
     process = subprocess.Popen(
         command, start_new_session=True, stdout=subprocess.PIPE, stderr=subprocess.PIPE
     )
     try:
         verify_process = psutil.Process(process.pid)
-        assert _until(lambda: any(_ignores_ctrl_c(p) for p in verify_process.children(True)))
-        os.killpg(process.pid, signal.SIGINT)  # as the terminal does: every process of the group
+        assert _until(lambda: ready(verify_process.children(recursive=True)))
+        os.killpg(process.pid, signal.SIGINT)
         _, error = process.communicate(timeout=120)
     finally:
         if process.poll() is None:
             process.kill()
             process.wait()
     assert process.returncode == 130
-    assert error.decode() == ""  # no worker's traceback either
-    assert _until(lambda: not _group_alive(process.pid))  # the workers end with the cluster
+    assert error.decode() == ""
+    assert _until(lambda: not _group_alive(process.pid))
 
 
 def _until(condition: Callable[[], bool], tries: int = 600) -> bool:
@@ -408,15 +418,11 @@ def _until(condition: Callable[[], bool], tries: int = 600) -> bool:
     return False
 
 
-def _ignores_ctrl_c(process: psutil.Process) -> bool:
-    """A worker of the local cluster, up and ignoring SIGINT (its `SigIgn` mask in /proc)."""
+def _title(process: psutil.Process) -> str:
     try:
-        status = Path(f"/proc/{process.pid}/status").read_text()
-        title = " ".join(process.cmdline())
-    except (OSError, psutil.Error):
-        return False
-    ignored = int(next(line for line in status.splitlines() if line.startswith("SigIgn:"))[7:], 16)
-    return "spawn_main" in title and bool(ignored & (1 << (signal.SIGINT - 1)))
+        return " ".join(process.cmdline())
+    except psutil.Error:
+        return ""
 
 
 def _group_alive(group: int) -> bool:
@@ -592,28 +598,14 @@ def test_a_hang_is_named_in_the_summary_and_the_limit_in_help(
 
 
 def test_ctrl_c_ends_the_jobs_workers_and_leaves_nothing_running(tmp_path: Path) -> None:
-    command = [sys.executable, "-m", "bywire.cli.main", "verify", "--budget", "400"]
-    command += ["--campaign-s", "5", "--jobs", "2", "--out", str(tmp_path)]
-    process = subprocess.Popen(
-        command, start_new_session=True, stdout=subprocess.PIPE, stderr=subprocess.PIPE
-    )
-    try:
-        verify_process = psutil.Process(process.pid)
-        assert _until(
-            lambda: sum(map(_ignores_sigint, verify_process.children(recursive=True))) == 2
-        )
-        os.killpg(process.pid, signal.SIGINT)  # as the terminal does: every process of the group
-        _, error = process.communicate(timeout=120)
-    finally:
-        if process.poll() is None:
-            process.kill()
-            process.wait()
-    assert process.returncode == 130
-    assert error.decode() == ""  # no worker's traceback either
-    assert _until(lambda: not _group_alive(process.pid))  # the workers ended with the run
+    def both_workers_are_up(children: list[psutil.Process]) -> bool:
+        return sum(map(_ignores_sigint, children)) == 2
+
+    _ctrl_c_ends_it(["--jobs", "2", "--out", str(tmp_path)], both_workers_are_up)
 
 
 def _ignores_sigint(process: psutil.Process) -> bool:
+    """Up and ignoring SIGINT, as a worker sets itself (its `SigIgn` mask in /proc)."""
     try:
         status = Path(f"/proc/{process.pid}/status").read_text()
     except OSError:
