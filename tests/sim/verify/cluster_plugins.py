@@ -1,14 +1,15 @@
-"""Worker plugins of the cluster tests: installed by a test's own client on every worker (the
-replacements of dead ones too), they make a campaign crash its worker process or make a worker
-claim another build of bywire. Nothing in bywire reads them: the only way in is a test's
-`client.register_plugin`."""
+"""Plugins of the cluster tests. Worker plugins, installed by a test's own client on every worker
+(the replacements of dead ones too), make a campaign crash its worker process or make a worker
+claim another build of bywire; a scheduler plugin counts what each worker is given. Nothing in
+bywire reads them: the only way in is a test's `register_plugin` or `add_plugin`."""
 
 from __future__ import annotations
 
 import os
 from pathlib import Path
 
-from distributed import Worker, WorkerPlugin
+from dask.typing import Key
+from distributed import Scheduler, SchedulerPlugin, Worker, WorkerPlugin
 
 from bywire.config import RobotConfig
 from bywire.sim.verify import cluster
@@ -51,3 +52,18 @@ class OtherBuild(WorkerPlugin):
 
     def setup(self, worker: Worker) -> None:
         vars(cluster)["build_id"] = lambda: "0.0.9+0123456789ab"
+
+
+class Crowding(SchedulerPlugin):
+    """Records, each time the scheduler gives a batch to a worker, how many batches that worker
+    is then processing: a death counts against every one of them."""
+
+    def __init__(self, scheduler: Scheduler) -> None:
+        self.held: list[int] = []
+        self.scheduler = scheduler
+
+    def transition(self, key: Key, start: str, finish: str, *args: object, **kw: object) -> None:
+        if finish == "processing":
+            worker = self.scheduler.tasks[key].processing_on
+            if worker is not None:
+                self.held.append(len(worker.processing))

@@ -5,14 +5,17 @@ its batch still run; a worker of another build is refused."""
 
 from __future__ import annotations
 
+import logging
 from collections.abc import Iterator
 from pathlib import Path
 
+import dask
 import pytest
-from distributed import Client
+from distributed import Client, LocalCluster
 
 from bywire.config import default_sim_config
 from bywire.sim.verify.cluster import (
+    ALLOWED_FAILURES,
     LOCAL,
     LOOPBACK,
     ClusterError,
@@ -22,7 +25,7 @@ from bywire.sim.verify.cluster import (
     robot_hash,
 )
 from bywire.sim.verify.engine import CampaignJob, Crash, Outcome, run_indexed
-from tests.sim.verify.cluster_plugins import CrashAt, OtherBuild
+from tests.sim.verify.cluster_plugins import CrashAt, Crowding, OtherBuild
 
 JOB = CampaignJob(seed=5, campaign_s=2.0)
 BUDGET = 6  # 2 workers: batches of 2 campaigns, [0, 2), [2, 4), [4, 6)
@@ -84,6 +87,46 @@ def test_a_campaign_that_kills_its_worker_twice_is_reported_with_its_seed_and_in
     assert outcomes[4] == Crash(seed=JOB.seed, index=4, deaths=2)
     # The batch was split down to the campaign: the one beside it in the batch still ran.
     assert [o for o in outcomes if isinstance(o, Outcome)] == _here(range(4)) + _here(range(5, 6))
+
+
+def test_the_halves_of_a_killed_batch_go_out_one_per_worker_so_an_innocent_half_is_never_blamed(
+    tmp_path: Path,
+) -> None:
+    """A scheduler the user runs (Dask's default worker-saturation 1.1 lets it give two batches
+    to a one-thread worker), one worker, batches [0, 2) and [2, 3); campaign 1 kills its worker
+    every time. CI once reported campaign 0 as a crash of its own, two ways: the halves of
+    [0, 2) went out together, onto the one worker; and campaign 0's result, still held on the
+    worker that campaign 1 killed, was computed again beside campaign 1's retry. A death counts
+    against every batch its worker is processing."""
+    with (
+        dask.config.set({"distributed.scheduler.allowed-failures": ALLOWED_FAILURES}),
+        LocalCluster(  # type: ignore[no-untyped-call]
+            n_workers=1,
+            threads_per_worker=1,
+            host=LOOPBACK,
+            dashboard_address=None,
+            silence_logs=logging.ERROR,
+        ) as theirs,
+        cluster_client(theirs.scheduler_address, 1) as one,
+    ):
+        crowding = Crowding(theirs.scheduler)  # the scheduler runs in this process
+        theirs.scheduler.add_plugin(crowding)
+        one.register_plugin(CrashAt(1), name="crash-always")
+        outcomes = list(
+            cluster_outcomes(
+                one,
+                robot=default_sim_config(),
+                robot_file_hash=robot_hash("sim"),
+                job=JOB,
+                budget=3,
+                until=None,
+            )
+        )
+    held = crowding.held
+    assert held
+    assert max(held) == 1  # never a batch waiting behind another on one worker
+    assert outcomes[1] == Crash(seed=JOB.seed, index=1, deaths=2)
+    assert [o for o in outcomes if isinstance(o, Outcome)] == _here(range(1)) + _here(range(2, 3))
 
 
 def test_a_worker_of_another_build_is_refused(client: Client) -> None:

@@ -32,7 +32,7 @@ import threading
 import time
 from collections.abc import Iterator
 from contextlib import contextmanager
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from importlib import resources
 from typing import TYPE_CHECKING
 
@@ -57,7 +57,8 @@ IN_FLIGHT_PER_WORKER = 1
 """Batches given out per worker at a time: one, so that no batch waits on a worker behind another
 (a scheduler the user runs may assign a second one at its default worker-saturation 1.1), where
 a crash of the first would count a death against it and could report an innocent campaign. The
-next batch goes out as one comes back: a round trip against a batch's seconds."""
+next batch goes out as one comes back (the halves of a killed batch too, first): a round trip
+against a batch's seconds."""
 WORKERS_TIMEOUT_S = 60.0
 """How long a cluster the user runs may take to show its first worker."""
 BUILD_SUFFIXES = (".py", ".dbc", ".toml")
@@ -263,6 +264,60 @@ def _checked(result: BatchResult, robot_file_hash: str) -> tuple[Outcome, ...]:
     return result.outcomes
 
 
+class _Dispatch:
+    """The batches out on the cluster: at most `IN_FLIGHT_PER_WORKER` a worker, the halves of a
+    killed batch before any new one."""
+
+    def __init__(
+        self, client: Client, batch: Batch, budget: int | None, until: float | None
+    ) -> None:
+        from distributed import as_completed  # noqa: PLC0415 -- an optional extra
+
+        self.client = client
+        self.template = batch  # job, robot and hash; its range is not used
+        self.workers = worker_count(client)
+        self.size = batch_size(budget, self.workers)
+        self.stop = budget
+        self.until = until
+        self.next_start = 0
+        self.retry: list[tuple[int, int]] = []
+        self.out: dict[Future[BatchResult], Batch] = {}
+        self.pending = as_completed(loop=client.loop)  # type: ignore[no-untyped-call]
+
+    def _submit(self, start: int, end: int) -> None:
+        batch = replace(self.template, start=start, stop=end)
+        stamp = time.monotonic_ns()
+        key = f"bywire-verify-{batch.robot_hash}-{batch.job.seed}-{start}-{end}-{stamp}"
+        future = self.client.submit(run_batch, batch, key=key, pure=False)
+        self.out[future] = batch
+        self.pending.add(future)  # type: ignore[no-untyped-call]
+
+    def fill(self) -> None:
+        while len(self.out) < IN_FLIGHT_PER_WORKER * max(1, self.workers):
+            if self.retry:  # through the same gate: two halves on one worker share a death
+                self._submit(*self.retry.pop(0))
+                continue
+            if self.stop is not None and self.next_start >= self.stop:
+                return
+            if self.stop is None and self.until is not None and time.monotonic() >= self.until:
+                return
+            end = self.next_start + self.size
+            self._submit(self.next_start, end if self.stop is None else min(self.stop, end))
+            self.next_start = end if self.stop is None else min(self.stop, end)
+
+    def split(self, batch: Batch) -> bool:
+        """Run a killed batch again as two halves; False for a single campaign."""
+        if batch.stop - batch.start <= 1:
+            return False
+        middle = (batch.start + batch.stop) // 2
+        self.retry[:0] = [(batch.start, middle), (middle, batch.stop)]
+        return True
+
+    def cancel(self) -> None:
+        for future in self.out:
+            future.cancel()  # type: ignore[no-untyped-call]
+
+
 def cluster_outcomes(
     client: Client,
     *,
@@ -274,57 +329,31 @@ def cluster_outcomes(
 ) -> Iterator[Outcome | Crash]:
     """Every campaign's outcome (or its crash) in index order: `budget` of them, or as many
     batches as start before the wall-clock time `until`."""
-    from distributed import as_completed  # noqa: PLC0415 -- an optional extra
-    from distributed.scheduler import KilledWorker  # noqa: PLC0415
+    from distributed.scheduler import KilledWorker  # noqa: PLC0415 -- an optional extra
 
-    workers = worker_count(client)
     deaths = worker_deaths(client)
-    size = batch_size(budget, workers)
-    stop = budget if budget is not None else None
-    next_start = 0
+    dispatch = _Dispatch(client, Batch(job, robot, robot_file_hash, 0, 0), budget, until)
     ready: dict[int, Outcome | Crash] = {}
     released = 0
-    batches: dict[Future[BatchResult], Batch] = {}
-    pending = as_completed(loop=client.loop)  # type: ignore[no-untyped-call] # not the default's
-
-    def submit(start: int, end: int) -> None:
-        batch = Batch(job, robot, robot_file_hash, start, end)
-        key = f"bywire-verify-{robot_file_hash}-{job.seed}-{start}-{end}-{time.monotonic_ns()}"
-        future = client.submit(run_batch, batch, key=key, pure=False)
-        batches[future] = batch
-        pending.add(future)  # type: ignore[no-untyped-call]
-
-    def fill() -> None:
-        nonlocal next_start
-        while len(batches) < IN_FLIGHT_PER_WORKER * max(1, workers):
-            if stop is not None and next_start >= stop:
-                return
-            if stop is None and until is not None and time.monotonic() >= until:
-                return
-            end = next_start + size if stop is None else min(stop, next_start + size)
-            submit(next_start, end)
-            next_start = end
-
-    fill()
+    dispatch.fill()
     try:
-        for future in pending:
-            batch = batches.pop(future)
+        for future in dispatch.pending:
+            batch = dispatch.out.pop(future)
             try:
                 result: BatchResult = future.result()
             except KilledWorker:
-                if batch.stop - batch.start > 1:
-                    middle = (batch.start + batch.stop) // 2
-                    submit(batch.start, middle)
-                    submit(middle, batch.stop)
-                else:
+                if not dispatch.split(batch):
                     ready[batch.start] = Crash(job.seed, batch.start, deaths)
             else:
                 ready.update((o.index, o) for o in _checked(result, robot_file_hash))
-            fill()
+            finally:
+                # Let go at once: a result still held when its worker dies is computed again,
+                # beside the next batch, and that batch's crash would count against it too.
+                future.release()
+            dispatch.fill()
             while released in ready:
                 yield ready.pop(released)
                 released += 1
     finally:
-        for future in batches:
-            future.cancel()  # type: ignore[no-untyped-call]
+        dispatch.cancel()
     yield from (ready[index] for index in sorted(ready))
