@@ -209,9 +209,10 @@ def test_a_file_without_the_estop_key_reads_the_default_line_and_says_it_was_not
 def test_none_says_there_is_no_estop_and_a_line_says_where_it_is() -> None:
     assert parse_config('[estop]\nline = "none"\n').estop.line is None
     assert parse_config('[estop]\nline = "none"\n').estop.summary().startswith("E-stop: none")
-    wired = parse_config("[estop]\nline = { chip = \"/dev/gpiochip3\", line = 4 }\n").estop
+    wired = parse_config('[estop]\nline = { chip = "/dev/gpiochip3", line = 4 }\n').estop
     assert wired.line == GpioLine("/dev/gpiochip3", 4)
-    assert wired.stated and "NOT STATED" not in wired.summary()
+    assert wired.stated
+    assert "NOT STATED" not in wired.summary()
 
 
 @pytest.mark.parametrize(

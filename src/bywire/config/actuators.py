@@ -19,10 +19,10 @@ from bywire.config.limits import (
 from bywire.config.reader import MISSING, Table, toml_type
 from bywire.config.sections import pwm
 from bywire.config.tree import (
-    TASK_LINE_SUFFIX,
-    DacOutput,
     ESTOP_DEFAULT_LINE,
     ESTOP_NONE,
+    TASK_LINE_SUFFIX,
+    DacOutput,
     DriveSection,
     EbrakeSection,
     EstopSection,

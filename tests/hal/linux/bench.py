@@ -14,8 +14,8 @@ from pathlib import Path
 from typing import Any
 
 from bywire.config import RobotConfig, output_lines
-from bywire.hal.hardware import OUTPUT_NAMES
 from bywire.config.tree import ESTOP_DEFAULT_LINE
+from bywire.hal.hardware import OUTPUT_NAMES
 from tests.hal.linux import fake_gpiod
 from tests.hal.linux.fake_sysfs import make_iio_dac, make_pwm_chip, read_iio, read_pwm
 
