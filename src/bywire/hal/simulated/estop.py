@@ -1,0 +1,42 @@
+"""The simulated E-stop button: normally closed, the line pulled down, read as the hardware is.
+
+The line is high only while the circuit is closed: released, the wire whole, and no bounce in
+progress. `press`/`release` are the operator's; `break_wire`/`mend_wire` the cable's; `chatter`
+makes the next `count` reads alternate open, closed, open... (a contact bouncing, a loose
+connector), starting open.
+"""
+
+from __future__ import annotations
+
+
+class SimEstopButton:
+    """A `DigitalIn`: the E-stop's line."""
+
+    def __init__(self) -> None:
+        self.pressed = False
+        self.wire_broken = False
+        self.chatter_reads = 0
+        self.reads = 0
+
+    def get(self) -> bool:
+        self.reads += 1
+        if self.chatter_reads > 0:
+            self.chatter_reads -= 1
+            return self.chatter_reads % 2 == 1  # the first of them open (low)
+        return not (self.pressed or self.wire_broken)
+
+    def press(self) -> None:
+        self.pressed = True
+
+    def release(self) -> None:
+        self.pressed = False
+
+    def break_wire(self) -> None:
+        self.wire_broken = True
+
+    def mend_wire(self) -> None:
+        self.wire_broken = False
+
+    def chatter(self, count: int) -> None:
+        """The next `count` reads alternate, open first (an even count ends closed)."""
+        self.chatter_reads = count
