@@ -1,9 +1,9 @@
 """The simulated E-stop button: normally closed, the line pulled down, read as the hardware is.
 
 The line is high only while the circuit is closed: released, the wire whole, and no bounce in
-progress. `press`/`release` are the operator's; `break_wire`/`mend_wire` the cable's; `chatter`
-makes the next `count` reads alternate open, closed, open... (a contact bouncing, a loose
-connector), starting open.
+progress. `press`/`release` are the operator's; `break_wire`/`mend_wire` the cable's; `chatter` is a
+press whose contact bounces: the next `count` reads alternate open, closed, open..., starting
+open, and the button stays pressed.
 """
 
 from __future__ import annotations
@@ -38,5 +38,6 @@ class SimEstopButton:
         self.wire_broken = False
 
     def chatter(self, count: int) -> None:
-        """The next `count` reads alternate, open first (an even count ends closed)."""
+        """A press that bounces: the next `count` reads alternate, open first; then pressed."""
+        self.pressed = True
         self.chatter_reads = count

@@ -208,6 +208,11 @@ RULES: dict[str, Expect] = {
     "line_dead": line_dead,
     "wheel_sensor_dead": wheel_sensor(dead=True),
     "wheel_sensor_restore": wheel_sensor(dead=False),
+    "estop_press": begins(OracleCause.ESTOP_PRESSED),
+    "estop_release": ends(OracleCause.ESTOP_PRESSED),
+    "estop_wire_break": begins(OracleCause.ESTOP_WIRE),
+    "estop_wire_mend": ends(OracleCause.ESTOP_WIRE),
+    "estop_chatter": begins(OracleCause.ESTOP_PRESSED),  # its first read is open: at once
 }
 # fmt: on
 """Each fault's rule, by its name in `faults.FAULTS`."""
