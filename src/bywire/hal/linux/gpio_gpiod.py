@@ -74,14 +74,20 @@ class GpiodLine:
 
 
 class GpiodInput:
-    """A `DigitalIn` on one line of a request (pulled down: an open circuit reads low)."""
+    """A `DigitalIn` on one line of a request (pulled down: an open circuit reads low), with
+    edge events on: a falling edge since the last read reads low, however short the low was,
+    so a press between two reads is not missed."""
 
     def __init__(self, request: gpiod.LineRequest, offset: int, key: str) -> None:
         self._request, self._offset, self.key = request, offset, key
 
     def get(self) -> bool:
         try:
-            return self._request.get_value(self._offset) == gpiod.line.Value.ACTIVE
+            fell = False
+            if self._request.wait_edge_events(0):  # one buffer a read: the rest, the next
+                for event in self._request.read_edge_events():
+                    fell |= event.event_type is gpiod.EdgeEvent.Type.FALLING_EDGE
+            return not fell and self._request.get_value(self._offset) == gpiod.line.Value.ACTIVE
         except (OSError, gpiod.RequestReleasedError) as error:
             raise HardwareError(f"GPIO {self.key}: cannot read ({reason(error)})") from error
 
@@ -133,7 +139,9 @@ class GpiodOutputs:
             )
         if ins:
             settings[ins] = gpiod.LineSettings(
-                direction=gpiod.line.Direction.INPUT, bias=gpiod.line.Bias.PULL_DOWN
+                direction=gpiod.line.Direction.INPUT,
+                bias=gpiod.line.Bias.PULL_DOWN,
+                edge_detection=gpiod.line.Edge.BOTH,
             )
         return settings
 
