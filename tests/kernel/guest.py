@@ -207,6 +207,13 @@ class GpioSim:
         offset = self.names.index(name)
         return (self._sysfs / f"sim_gpio{offset}" / "value").read_text().strip() == "1"
 
+    def set_pull(self, name: str, *, up: bool) -> None:
+        """What drives input line `name` from outside (gpio-sim's `pull`): up, high (an E-stop's
+        closed circuit: released), or down, low (open: pressed, or its wire broken). It acts
+        on a line a consumer holds as an input, edge events included."""
+        offset = self.names.index(name)
+        (self._sysfs / f"sim_gpio{offset}" / "pull").write_text("pull-up" if up else "pull-down")
+
     def close(self) -> None:
         """The chip goes away (configfs `live` = 0), as an unplugged GPIO expander does."""
         if not self.config.exists():
