@@ -123,7 +123,8 @@ class GpiodOutputs:
             # A chip that is gone leaves its pins to their pull-downs. Only the outputs: the
             # kernel refuses a set that names an input, and would then set none of them.
             with contextlib.suppress(OSError, gpiod.RequestReleasedError):
-                request.set_values(dict.fromkeys(outputs, gpiod.line.Value.INACTIVE))
+                if outputs:
+                    request.set_values(dict.fromkeys(outputs, gpiod.line.Value.INACTIVE))
             request.release()
 
     def _settings(
