@@ -136,3 +136,19 @@ def test_without_an_estop_wired_the_button_does_nothing() -> None:
     run = played(DRIVING_BY_RC + _event(FAULT_AT_S, "estop = { pressed = true }"), END_S, robot)
     assert run.world.estop.reads == 0
     assert powered(run, END_S - 0.01)
+
+
+def test_a_press_during_a_controlled_stop_cuts_the_power_it_kept() -> None:
+    """A double fault: the RC link lost at 2.5 s (category 1 from 2.6 s: the drive stays
+    powered to brake until the robot stands, 2.66 s on this run), then the E-stop pressed at
+    2.603 s while it brakes: power off within the bound (2.633 s), not at the stop's end."""
+    events = (
+        DRIVING_BY_RC
+        + _event(2.5, 'fault = "rc_link_lost"')
+        + _event(2.603, "estop = { pressed = true }")
+    )
+    run = played(events, 3.5)
+    enable = run.world.gpio["motors_enable"]
+    assert not run.world.gpio["ebrake_release"].level_at(2.602)  # the controlled stop began
+    assert enable.level_at(2.602)  # and brakes with the drive powered
+    assert not any(powered(run, at_s) for at_s in ticks(2.603 + BOUND_S, 3.5))
