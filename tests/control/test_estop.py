@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from collections.abc import Sequence
+
 import pytest
 
 from bywire.control.estop import BOUNCE_S, NOT_PRESSED, EstopState, estop_step, pressed_by_level
@@ -9,7 +11,7 @@ from bywire.control.estop import BOUNCE_S, NOT_PRESSED, EstopState, estop_step, 
 PERIOD_S = 0.010
 
 
-def _holds(samples: list[tuple[float, bool | None]]) -> list[bool]:
+def _holds(samples: Sequence[tuple[float, bool | None]]) -> list[bool]:
     state = NOT_PRESSED
     held = []
     for now, level_high in samples:

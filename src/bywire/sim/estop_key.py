@@ -58,7 +58,7 @@ def estop_key(
                 say(line)
 
     tty.setcbreak(fd)
-    reader = OWNER.thread(read_keys, name="estop key", stop=done.set)
+    reader = OWNER.thread(read_keys, name="bywire-estop-key", stop=done.set)
     try:
         yield
     finally:
