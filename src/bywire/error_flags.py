@@ -45,6 +45,7 @@ class ErrorFlag(enum.IntFlag):
     TIMING_FAULT = 1 << 24  # a pass, a port write or a DAC transfer overran its budget
     LIGHTS_UNTRUSTED = 1 << 25  # LightsCommand's id is untrusted: the last trusted lights held
     STOP_ESCALATED = 1 << 26  # a controlled stop did not slow the robot: power removed
+    ESTOP_PRESSED = 1 << 27  # the E-stop is pressed or its circuit is open: power off, latched
 
 
 DESCRIPTIONS: dict[ErrorFlag, str] = {
@@ -75,6 +76,7 @@ DESCRIPTIONS: dict[ErrorFlag, str] = {
     ErrorFlag.TIMING_FAULT: "A loop pass, port write or DAC transfer overran its budget: STOP.",
     ErrorFlag.LIGHTS_UNTRUSTED: "LightsCommand's id is untrusted: the last trusted lights held.",
     ErrorFlag.STOP_ESCALATED: "A controlled stop did not slow the robot: drive power removed.",
+    ErrorFlag.ESTOP_PRESSED: "The E-stop is pressed or its circuit open: power off, STOP latched.",
 }
 """What each flag means, one sentence: the comment of its signal in albert.dbc."""
 
@@ -90,6 +92,7 @@ class Subsystem(enum.Enum):
     STEERING = "steering"
     SPEED_SENSOR = "speed sensor"
     CONTROLLER = "controller"
+    EMERGENCY_STOP = "emergency stop"
 
 
 SUBSYSTEMS: dict[ErrorFlag, Subsystem] = {
@@ -120,6 +123,7 @@ SUBSYSTEMS: dict[ErrorFlag, Subsystem] = {
     ErrorFlag.TIMING_FAULT: Subsystem.CONTROLLER,
     ErrorFlag.LIGHTS_UNTRUSTED: Subsystem.CAN_COMMANDS,
     ErrorFlag.STOP_ESCALATED: Subsystem.BRAKES,
+    ErrorFlag.ESTOP_PRESSED: Subsystem.EMERGENCY_STOP,
 }
 """The subsystem of each flag."""
 

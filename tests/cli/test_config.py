@@ -131,3 +131,14 @@ def test_the_stop_promises_are_shown_and_a_declared_longer_one_says_so(tmp_path:
     assert status == 0
     declared = [line for line in out.splitlines() if "declared by timeouts.stop_response_s" in line]
     assert len(declared) == 3
+
+
+def test_the_check_says_whether_an_estop_is_wired(tmp_path: Path) -> None:
+    status, out, _ = _check(str(ALBERT))
+    assert status == 0
+    assert '# E-stop: none (the robot file says [estop] line = "none")' in out.splitlines()
+    silent = tmp_path / "silent.toml"
+    silent.write_text('name = "silent"\n')
+    status, out, _ = _check(str(silent))
+    assert status == 0
+    assert "# E-stop: wired on line 'ESTOP' of gpiochip0 (normally closed): NOT STATED" in out

@@ -370,6 +370,7 @@ def test_check_opens_each_device_reports_it_and_energises_nothing(
     for device in ("GPIO output lines", "DAC", "steering PWM", "RC receiver (UART)", "CAN bus"):
         assert f"ready    {device}" in out
     assert "6 of 6 devices ready" in out
+    assert 'E-stop: none (the robot file says [estop] line = "none")' in out  # issue 44
     assert [bench.dac_code(channel) for channel in range(4)] == [0, 0, 0, 0]
     assert fake_gpiod.read_state(bench.gpio_chip)["released"] is True
 

@@ -193,3 +193,52 @@ def test_the_schema_records_the_value_a_file_gives_or_the_default() -> None:
     assert schema["monitors.steering_tolerance_norm"] == 0.15  # absent: the default
     with pytest.raises(ConfigError, match="hydro_min_duty"):
         read_schema("[monitors]\nhydro_min_duty = 3.0\n")
+
+
+# --- the E-stop input: wired, "none", or not stated (then the default line, never "no E-stop")
+
+
+def test_a_file_without_the_estop_key_reads_the_default_line_and_says_it_was_not_stated() -> None:
+    estop = parse_config('backend = "linux"\ngpio_chip = "chip7"\n').estop
+    assert estop.line == GpioLine("chip7", "ESTOP")  # not None: a missing key is no "none"
+    assert not estop.stated
+    assert "NOT STATED" in estop.summary()
+    assert 'line = "none"' in estop.summary()
+
+
+def test_none_says_there_is_no_estop_and_a_line_says_where_it_is() -> None:
+    assert parse_config('[estop]\nline = "none"\n').estop.line is None
+    assert parse_config('[estop]\nline = "none"\n').estop.summary().startswith("E-stop: none")
+    wired = parse_config('[estop]\nline = { chip = "/dev/gpiochip3", line = 4 }\n').estop
+    assert wired.line == GpioLine("/dev/gpiochip3", 4)
+    assert wired.stated
+    assert "NOT STATED" not in wired.summary()
+
+
+@pytest.mark.parametrize(
+    ("value", "reason"),
+    [
+        ("true", 'a table { chip = ..., line = ... }, or "none", got a boolean'),
+        ("1.5", 'or "none", got a float'),
+        ("4096", "out of range; allowed a line name (string) or an offset (integer 0..1023)"),
+        ('""', "expected a line name (string)"),
+    ],
+)
+def test_a_bad_estop_line_is_refused_naming_the_key_and_the_allowed_forms(
+    value: str, reason: str
+) -> None:
+    with pytest.raises(ConfigError) as caught:
+        parse_config(f"[estop]\nline = {value}\n")
+    assert f"estop.line = {value}:" in str(caught.value)
+    assert reason in str(caught.value)
+
+
+def test_an_estop_on_an_output_line_is_refused() -> None:
+    with pytest.raises(ConfigError, match=r"drive\.motors_enable and estop\.line both use GPIO"):
+        parse_config('[estop]\nline = "MOTORS_ENABLE"\n')
+
+
+def test_the_estop_round_trips_through_describe() -> None:
+    for text in ('[estop]\nline = "none"\n', "[estop]\nline = 7\n", ""):
+        config = parse_config(text)
+        assert parse_config(describe(config)) == config

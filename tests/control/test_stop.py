@@ -119,7 +119,8 @@ def test_power_never_comes_back_within_a_stop_and_never_outlasts_the_bound(
 
 
 def test_every_cause_names_its_category_and_a_suspect_drive_is_category_0() -> None:
-    suspect = {Cause.DAC_FAULT, Cause.WATCHDOG, Cause.TIMING, Cause.POWER_UP}
+    # ...and the E-stop, category 0 by its standard (ISO 13850, the issue 44 acceptance)
+    suspect = {Cause.DAC_FAULT, Cause.WATCHDOG, Cause.TIMING, Cause.POWER_UP, Cause.ESTOP}
     assert {c for c in Cause if c.category is StopCategory.POWER_OFF} == suspect
     assert stop_category(frozenset()) is StopCategory.CONTROLLED  # the switch at STOP
     assert stop_category(frozenset({Cause.RC_LOST})) is StopCategory.CONTROLLED

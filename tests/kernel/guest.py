@@ -63,7 +63,9 @@ def run(*command: str) -> str:
     return done.stdout
 
 
-def robot_config(can_channel: str, i2c_bus: int, rc_tty: str = RC_TTY) -> str:
+def robot_config(
+    can_channel: str, i2c_bus: int, rc_tty: str = RC_TTY, estop_line: str = "none"
+) -> str:
     """A robot file for the guest's devices: the GPIO chip labelled as the bench's, the PWM
     simulator's two channels, the DAC at its address on `i2c_bus`, the RC line on ttyS1.
 
@@ -81,10 +83,13 @@ def robot_config(can_channel: str, i2c_bus: int, rc_tty: str = RC_TTY) -> str:
     fast tasks run at 50 Hz (the slowest issue 30's deadlines allow, which then ask for the
     tighter speed-step tolerance) and
     `bywire run` at SCHED_FIFO as on the robot (config/albert.toml), ahead of the tests'
-    own processes in the guest."""
+    own processes in the guest. `estop_line`: the E-stop's line on the chip, or "none"."""
     return f"""name = "kernel-robot"
 backend = "linux"
 gpio_chip = "{GPIO_LABEL}"
+
+[estop]
+line = "{estop_line}"
 
 [can]
 interface = "socketcan"
@@ -201,6 +206,13 @@ class GpioSim:
         """The line's level as the chip drives it (gpio-sim's own sysfs)."""
         offset = self.names.index(name)
         return (self._sysfs / f"sim_gpio{offset}" / "value").read_text().strip() == "1"
+
+    def set_pull(self, name: str, *, up: bool) -> None:
+        """What drives input line `name` from outside (gpio-sim's `pull`): up, high (an E-stop's
+        closed circuit: released), or down, low (open: pressed, or its wire broken). It acts
+        on a line a consumer holds as an input, edge events included."""
+        offset = self.names.index(name)
+        (self._sysfs / f"sim_gpio{offset}" / "pull").write_text("pull-up" if up else "pull-down")
 
     def close(self) -> None:
         """The chip goes away (configfs `live` = 0), as an unplugged GPIO expander does."""

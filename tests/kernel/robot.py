@@ -205,8 +205,10 @@ class KernelRobot:
         dac: str = "plain-i2c",
         extra_config: str = "",
         rc_tty: str = guest.RC_TTY,
+        estop_line: str = "none",
     ) -> None:
         self._devices = contextlib.ExitStack()
+        self.estop_line = estop_line  # a line of the chip, or "none"
         self.vcan = guest.Vcan(pair=True)  # the robot on one end, the computer on the other
         self._devices.callback(self.vcan.close)
         self.gpio = guest.GpioSim(GPIO_LABEL, line_names())
@@ -220,7 +222,7 @@ class KernelRobot:
         self.host.drain()
         self._devices.callback(self.host.close)
         self.config_path = folder / "robot.toml"
-        text = guest.robot_config(self.vcan.name, self.dac.bus, rc_tty)
+        text = guest.robot_config(self.vcan.name, self.dac.bus, rc_tty, estop_line)
         self.config_path.write_text(text + extra_config)
         try:
             self.config = parse_config(self.config_path.read_text())
@@ -244,6 +246,10 @@ class KernelRobot:
             )
         self.wait_for("its first reports", lambda: self.computer.mode is not None, START_LIMIT_S)
         time.sleep(WARM_UP_S)
+        if self.estop_line != "none":
+            # bywire holds the line pulled down (an open circuit is a press): the button's
+            # circuit closes only now, so the robot started with its E-stop pressed
+            self.gpio.set_pull(self.estop_line, up=True)
         # The transmitter rests at STOP: once the new process's slow first passes are behind it
         # (a pass that overran, RC frames it read late) the switch acknowledges what they
         # latched. The robot is ready to arm when it says nothing is latched.

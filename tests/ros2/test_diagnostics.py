@@ -164,3 +164,13 @@ def test_each_change_of_level_is_one_log_line() -> None:
     assert lines == [(Level.OK, "bywire: inputs OK: OK")]
     flags = flag_statuses(RobotStatus(True, 0.01, ControlMode.CAN, flags=ErrorFlag.IBUS_CHECKSUM))
     assert log_lines(logged, flags)[1] == []  # the flag groups are not logged
+
+
+def test_a_pressed_estop_has_its_own_status_and_is_named_as_a_latched_cause() -> None:
+    pressed = RobotStatus(True, 0.01, ControlMode.STOP, latched=True, flags=ErrorFlag.ESTOP_PRESSED)
+    assert mode_status(pressed, engaged=False, remote_stop=False).message == (
+        "STOP latched: ESTOP_PRESSED"
+    )
+    estop = next(s for s in flag_statuses(pressed) if s.name == "bywire: emergency stop")
+    assert estop.level is Level.ERROR
+    assert ("ESTOP_PRESSED", "latched") in estop.values

@@ -3,8 +3,10 @@
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 
 from bywire.config import default_sim_config
+from bywire.errors import HardwareError
 from bywire.hal.simulated.clock import VirtualClock
 from bywire.hal.simulated.world import SimWorld
 from bywire.model import ControlMode
@@ -62,3 +64,20 @@ def test_an_encoder_that_dies_quietly_while_driving_stops_the_robot() -> None:
     assert not world.gpio["motors_enable"].level
     assert not world.gpio["ebrake_release"].level
     assert result.transitions >= {"CAN->STOP: STEERING_ENCODER latched"}
+
+
+class _DeadLine:
+    """An E-stop line whose reads fail (its chip gone)."""
+
+    def get(self) -> bool:
+        raise HardwareError("GPIO estop.line: cannot read (No such device)")
+
+
+def test_an_estop_line_that_cannot_be_read_reads_as_pressed() -> None:
+    world = SimWorld.from_robot(VirtualClock(), default_sim_config())
+    assert read_sensors(world.hardware).estop_line_high is True  # released
+    world.estop.press()
+    assert read_sensors(world.hardware).estop_line_high is False
+    dead = replace(world.hardware, estop_line=_DeadLine())
+    assert read_sensors(dead).estop_line_high is False  # low: pressed, never "no E-stop"
+    assert read_sensors(replace(world.hardware, estop_line=None)).estop_line_high is None

@@ -77,6 +77,7 @@ def run(args: argparse.Namespace) -> int:
         return 0
     print(f"# {args.file}: valid; robot {config.name!r}, backend {config.backend!r}")
     print(f"# {authentication_line(config)}")
+    print(f"# {config.estop.summary()}")
     print("# CAN commands received (DBC and [timeouts]):")
     for check in rx_checks(config.timeouts):
         print(f"#   {check.describe()}")

@@ -159,6 +159,7 @@ def _run(args: argparse.Namespace, logs: background_log.BackgroundLog) -> int:
         if requests.signals:  # one came while the hardware opened: stop before driving
             runtime.request_stop()
         log.info("running %s (%s backend)", robot.name, robot.backend)  # signals handled
+        _report_estop(robot)
         runtime.run()
     log.info("stopped; outputs de-energised")
     return 0
@@ -250,6 +251,14 @@ def _report_authentication(robot: RobotConfig, receiver: SecocReceiver | None) -
         )
 
 
+def _report_estop(robot: RobotConfig) -> None:
+    """Whether an E-stop is read: a warning when the robot file does not say."""
+    if robot.estop.stated:
+        log.info("%s", robot.estop.summary())
+    else:
+        log.warning("%s", robot.estop.summary())
+
+
 def _preflight(robot: RobotConfig, paths: LinuxPaths) -> int:
     """Each device on a line: ready, or its problem and what to do; 2 if any is not ready."""
     with _device_errors():
@@ -258,6 +267,7 @@ def _preflight(robot: RobotConfig, paths: LinuxPaths) -> int:
         print(f"ready    {name}" if problem is None else f"PROBLEM  {name}: {problem}")
     failed = sum(problem is not None for _, problem in results)
     print(f"{robot.name}: {len(results) - failed} of {len(results)} devices ready")
+    print(robot.estop.summary())
     return 2 if failed else 0
 
 

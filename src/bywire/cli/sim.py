@@ -39,6 +39,7 @@ from bywire.netbus.interface import on_interface
 from bywire.replay.recorder import SimRunRecorder, check_record_path
 from bywire.sim.applicability import not_applicable
 from bywire.sim.catalog import DEFAULT_SCENARIO, find_scenario, packaged_scenarios
+from bywire.sim.estop_key import estop_key as keys_for_estop
 from bywire.sim.plot import check_plot_path, write_plot
 from bywire.sim.runner import SimRun, run_clock
 from bywire.sim.suite import Case, collect, junit_xml, run_case
@@ -261,6 +262,7 @@ def _one_run(
         serve=args.serve,
         feed=feed,
         rosbag=args.rosbag,
+        estop_key=_keys_for_estop(args, sim),
     )
     # A file that cannot be written whole is one line of its own; the run, the summary and the
     # other files go on (exit 1: what was asked for is not all there).
@@ -401,6 +403,13 @@ def _name(path: Path | None) -> str | None:
     return None if path is None else str(path)
 
 
+def _keys_for_estop(args: argparse.Namespace, sim: SimRun) -> bool:
+    """The E-stop on the `e` key: a live run (`--realtime`) at a terminal, on a robot that wires
+    an E-stop."""
+    live = isinstance(sim.world.clock, RealtimeClock) and not args.json
+    return live and sys.stdin.isatty() and sim.world.hardware.estop_line is not None
+
+
 def _play(
     sim: SimRun,
     log_path: Path | None,
@@ -409,6 +418,7 @@ def _play(
     serve: Endpoint | None = None,
     feed: tuple[FeedSinks, FeedOptions] | None = None,
     rosbag: Path | None = None,
+    estop_key: bool = False,
 ) -> tuple[float, int, str | None]:
     """Run to the end; (wall seconds, frames logged, why the log stopped early if it did). The
     log is closed even if the run fails."""
@@ -426,12 +436,19 @@ def _play(
             attach_feed(stack, sim, *feed)
         if show_progress:
             stack.enter_context(_progress(sim))
+        if estop_key:
+            print("press e to press or release the E-stop", file=sys.stderr, flush=True)
+            stack.enter_context(keys_for_estop(sim.world.estop, sys.stdin, _say))
         started = time.perf_counter()
         sim.run()
         wall_s = time.perf_counter() - started
     if log is None:
         return wall_s, 0, None
     return wall_s, log.frames, log.failure
+
+
+def _say(line: str) -> None:
+    print(line, file=sys.stderr, flush=True)
 
 
 def _serve(stack: contextlib.ExitStack, sim: SimRun, endpoint: Endpoint) -> None:

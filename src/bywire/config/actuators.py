@@ -19,10 +19,13 @@ from bywire.config.limits import (
 from bywire.config.reader import MISSING, Table, toml_type
 from bywire.config.sections import pwm
 from bywire.config.tree import (
+    ESTOP_DEFAULT_LINE,
+    ESTOP_NONE,
     TASK_LINE_SUFFIX,
     DacOutput,
     DriveSection,
     EbrakeSection,
+    EstopSection,
     GpioLine,
     HydrobrakeSection,
     LightsSection,
@@ -91,6 +94,24 @@ def ebrake_section(table: Table, chip: str) -> EbrakeSection:
     line = gpio_line(table, "ebrake_release", GpioLine(chip, default.ebrake_release.line))
     table.close()
     return EbrakeSection(ebrake_release=line)
+
+
+def estop_section(table: Table, chip: str) -> EstopSection:
+    """`line`: the E-stop's input line (any form `gpio_line` takes) or "none"; a file without
+    the key takes the default line, marked as not stated (`EstopSection`)."""
+    value = table.get("line")
+    if value is MISSING:
+        section = EstopSection(GpioLine(chip, ESTOP_DEFAULT_LINE), stated=False)
+    elif value == ESTOP_NONE:
+        section = EstopSection(line=None)
+    elif isinstance(value, bool) or not isinstance(value, str | int | dict):
+        allowed = f'{LINE_FORMS}, a table {{ chip = ..., line = ... }}, or "{ESTOP_NONE}"'
+        table.refuse("line", value, f"expected {allowed}, got {toml_type(value)}")
+        section = EstopSection(line=None)
+    else:
+        section = EstopSection(line=gpio_line(table, "line", GpioLine(chip, ESTOP_DEFAULT_LINE)))
+    table.close()
+    return section
 
 
 def lights_section(table: Table, chip: str) -> LightsSection:

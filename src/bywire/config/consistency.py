@@ -87,6 +87,9 @@ def _outputs(config: RobotConfig, problems: Problems) -> None:
     _distinct(problems, [(key, (pwm.chip, pwm.channel)) for key, pwm in pwms], "PWM chip, channel")
     lines = output_lines(config)
     keyed = [(key, (lines[name].chip, lines[name].line)) for name, key in OUTPUT_LINE_KEYS.items()]
+    estop = config.estop.line
+    if estop is not None:  # an input on an output's line would read back what it drives
+        keyed.append(("estop.line", (estop.chip, estop.line)))
     _distinct(problems, keyed, "GPIO chip, line")
 
 

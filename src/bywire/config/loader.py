@@ -10,6 +10,7 @@ from pathlib import Path
 from bywire.config.actuators import (
     drive_section,
     ebrake_section,
+    estop_section,
     hydrobrake_section,
     lights_section,
     tasks_section,
@@ -117,6 +118,7 @@ def build_robot(
         hydrobrake=hydrobrake_section(root.table("hydrobrake")),
         ebrake=ebrake_section(root.table("ebrake"), chip),
         lights=lights_section(root.table("lights"), chip),
+        estop=estop_section(root.table("estop"), chip),
         timeouts=timeouts_section(root.table("timeouts")),
         stop=stop_section(root.table("stop")),
         interlocks=interlocks_section(root.table("interlocks")),

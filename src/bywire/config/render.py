@@ -6,7 +6,14 @@ import json
 from collections.abc import Mapping
 from dataclasses import fields, is_dataclass
 
-from bywire.config.tree import TASK_LINE_SUFFIX, GpioLine, RobotConfig, TasksSection
+from bywire.config.tree import (
+    ESTOP_NONE,
+    TASK_LINE_SUFFIX,
+    EstopSection,
+    GpioLine,
+    RobotConfig,
+    TasksSection,
+)
 from bywire.control.drive import DriveConfig
 from bywire.control.rc_mapping import RcMapping
 from bywire.control.steering import SteeringConfig
@@ -50,6 +57,9 @@ def _table(node: object, chip: str) -> dict[str, object]:
             rates = {f"{name}_rate_hz": rate for name, rate in value.rates_hz}
             lines = {f"{name}{TASK_LINE_SUFFIX}": _line(line, chip) for name, line in value.lines}
             table[field.name] = rates | lines
+        elif isinstance(value, EstopSection):
+            line = ESTOP_NONE if value.line is None else _line(value.line, chip)
+            table[field.name] = {"line": line}
         elif _pairs(value):
             table[field.name] = dict(value)
         elif isinstance(value, GpioLine):

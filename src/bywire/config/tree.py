@@ -133,6 +133,42 @@ class LightsSection:
     error_led: GpioLine = field(default_factory=lambda: _line("ERROR_LED"))
 
 
+ESTOP_NONE = "none"
+"""What `[estop] line` says on a robot without an emergency-stop input."""
+ESTOP_DEFAULT_LINE = "ESTOP"
+
+
+@dataclass(frozen=True, slots=True)
+class EstopSection:
+    """The emergency-stop input: a GPIO line from a normally-closed button or a wireless E-stop
+    receiver, read high only while its circuit is closed (`bywire.control.estop`).
+
+    `line` None: no E-stop (`line = "none"`). A file without the key takes the simulator's
+    default like every line, a line named ESTOP on `gpio_chip`: never "no E-stop". On a real
+    robot without such a line `run` then cannot open it and `run --check` names it, until the
+    file names the button's line or says "none". `stated`: the file gave the key (shown by
+    `summary`; not part of the configuration's value)."""
+
+    line: GpioLine | None = field(default_factory=lambda: _line(ESTOP_DEFAULT_LINE))
+    stated: bool = field(default=True, compare=False)
+
+    @property
+    def wired(self) -> bool:
+        return self.line is not None
+
+    def summary(self) -> str:
+        """One line for `config check` and `run --check`: wired or not, and whether stated."""
+        if self.line is None:
+            return 'E-stop: none (the robot file says [estop] line = "none")'
+        wired = f"E-stop: wired on line {self.line.line!r} of {self.line.chip} (normally closed)"
+        if self.stated:
+            return wired
+        return (
+            f"{wired}: NOT STATED, the simulator's default; on a real robot give [estop] line"
+            ' (the button\'s line), or line = "none" if it has no E-stop input'
+        )
+
+
 CAN_COMMAND_NAMES = tuple(kind.__name__ for kind in COMMAND_TYPES)
 """The CAN command messages by their DBC names: the keys of `[timeouts.can_message_timeout_s]`."""
 
@@ -268,6 +304,7 @@ class RobotConfig:
     hydrobrake: HydrobrakeSection = field(default_factory=HydrobrakeSection)
     ebrake: EbrakeSection = field(default_factory=EbrakeSection)
     lights: LightsSection = field(default_factory=LightsSection)
+    estop: EstopSection = field(default_factory=EstopSection)
     timeouts: TimeoutsSection = field(default_factory=TimeoutsSection)
     stop: StopSection = field(default_factory=StopSection)
     interlocks: InterlockConfig = field(default_factory=InterlockConfig)

@@ -23,6 +23,7 @@ from bywire.command_table import (
 from bywire.control.command_edges import NO_EDGES, CommandEdges
 from bywire.control.command_slots import NO_COMMANDS, CommandSlots
 from bywire.control.drive import SAFE_DRIVE, DriveConfig, DriveOutputs, braking_drive, drive_outputs
+from bywire.control.estop import NOT_PRESSED, EstopState, estop_step
 from bywire.control.hydrobrake import DEFAULT_THRESHOLD_NORM, hydrobrake_duty
 from bywire.control.interlocks import (
     InterlockConfig,
@@ -156,6 +157,7 @@ class ControlInputs:
     speed_mps: float | None = None  # signed, positive forward; None without a speed sensor
     hydrobrake_pressure_bar: float | None = None  # None without a pressure sensor
     steering_measured_norm: float | None = None  # None without a steering encoder
+    estop_line_high: bool | None = None  # the E-stop's line as read; None without an E-stop
 
 
 @value
@@ -174,6 +176,7 @@ class ControlState:
     stop_requests_seen: int = 0
     stop: StopState = NOT_STOPPING
     drive_applied: DriveOutputs = SAFE_DRIVE  # as the previous step left it
+    estop: EstopState = NOT_PRESSED
 
 
 @value
@@ -266,7 +269,13 @@ def trust_changed(seen: ControlInputs, untrusted: frozenset[type[Command]]) -> b
 
 
 def _conditions(
-    inputs: ControlInputs, sources: _Sources, now: float, config: ControlConfig, monitor: int
+    inputs: ControlInputs,
+    sources: _Sources,
+    now: float,
+    config: ControlConfig,
+    monitor: int,
+    *,
+    estop: EstopState,
 ) -> frozenset[Cause]:
     """Every cause whose condition holds now, whatever the mode."""
     stopping = stopping_flags(monitor, config.monitors)
@@ -282,6 +291,7 @@ def _conditions(
         (inputs.dac_failing, Cause.DAC_FAULT),
         (inputs.watchdog_tripped, Cause.WATCHDOG),
         (inputs.timing_fault, Cause.TIMING),
+        (estop.holds(now), Cause.ESTOP),
         *((bool(stopping & int(flag)), cause) for flag, cause in MONITOR_CAUSES),
     )
     return frozenset(cause for holds, cause in held if holds)
@@ -374,7 +384,8 @@ def controller_step(
         state.speed_check, inputs.speed_mps, state.applied_throttle_norm, now, config.interlocks
     )
     sources = _sources(inputs, now, config)
-    conditions = _conditions(inputs, sources, now, config, monitor_flags)
+    estop = estop_step(state.estop, inputs.estop_line_high, now)
+    conditions = _conditions(inputs, sources, now, config, monitor_flags, estop=estop)
     supervisor = supervisor_step(
         state.supervisor,
         _supervisor_inputs(state, inputs, sources, conditions),
@@ -459,6 +470,7 @@ def controller_step(
         inputs.stop_requests,
         stop,
         drive,
+        estop,
     )
     return new_state, outputs
 

@@ -114,6 +114,12 @@ class Cause(enum.Enum):
         ErrorFlag.STEERING_ENCODER_FAULT,
         StopCategory.CONTROLLED,
     )
+    # the safety operator's button (or its circuit open): power off, as ISO 13850 asks
+    ESTOP = (
+        "emergency stop pressed, or its circuit open",
+        ErrorFlag.ESTOP_PRESSED,
+        StopCategory.POWER_OFF,
+    )
     # the loop cannot keep its deadlines: a controlled stop needs the loop to watch it
     TIMING = (
         "a loop pass, a port write or a DAC transfer overran its time budget",

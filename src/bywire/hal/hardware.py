@@ -20,6 +20,7 @@ from bywire.hal.ports import (
     ByteStream,
     CanPort,
     Clock,
+    DigitalIn,
     DigitalOut,
     I2cDevice,
     PwmChannel,
@@ -98,6 +99,7 @@ class Hardware:
     wheel_speeds: WheelSpeedSensor | None = None
     hydrobrake_pressure_bar: AnalogInput | None = None  # optional (Table 4): checked if fitted
     steering_encoder_norm: AnalogInput | None = None  # optional (Table 4): −1…1 like the command
+    estop_line: DigitalIn | None = None  # `[estop] line`: high only while released (issue 44)
 
 
 def sensors_fitted(backend: str) -> bool:

@@ -89,6 +89,9 @@ def _open_sim(config: RobotConfig, _paths: LinuxPaths, stack: contextlib.ExitSta
     return world.hardware
 
 
+ESTOP_INPUT = "estop"
+"""The E-stop's input among the GPIO device's lines (`[estop] line`, opened with the outputs)."""
+
 Opener = Callable[[contextlib.ExitStack], T]
 """Opens one device and puts its close on the stack; HardwareError says what is wrong."""
 
@@ -137,8 +140,11 @@ def linux_openers(config: RobotConfig, paths: LinuxPaths, clock: LinuxClock) -> 
         for name, line in output_lines(config).items()
     }
 
+    estop = config.estop.line
+    inputs = {} if estop is None else {ESTOP_INPUT: LineSpec("estop.line", estop.chip, estop.line)}
+
     def gpio(stack: contextlib.ExitStack) -> GpiodOutputs:
-        lines = GpiodOutputs(specs, paths.dev_root)
+        lines = GpiodOutputs(specs, paths.dev_root, inputs)
         stack.callback(lines.close)
         return lines
 
@@ -207,7 +213,10 @@ def _open_linux(config: RobotConfig, paths: LinuxPaths, stack: contextlib.ExitSt
     rc_uart = opened(Device.RC_UART, openers.rc_uart)
     can = opened(Device.CAN, openers.can)
     outputs = DigitalOutputs.of(gpio.lines)
-    return Hardware(clock, can, rc_uart, dac, steering_pwm, hydrobrake_pwm, outputs)
+    estop = gpio.inputs.get(ESTOP_INPUT)
+    return Hardware(
+        clock, can, rc_uart, dac, steering_pwm, hydrobrake_pwm, outputs, estop_line=estop
+    )
 
 
 def _problems(openers: Sequence[Opener[object]]) -> list[str]:

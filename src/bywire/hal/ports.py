@@ -106,6 +106,14 @@ class DigitalOut(Protocol):
         ...
 
 
+class DigitalIn(Protocol):
+    """One digital input line, read when asked (the E-stop's, at the control rate)."""
+
+    def get(self) -> bool:
+        """The line's level now: True high. Raises HardwareError when it cannot be read."""
+        ...
+
+
 class AnalogInput(Protocol):
     """One measured value from a sensor (a pressure, an angle), in the unit its name says."""
 

@@ -324,6 +324,7 @@ class Runtime:
             speed_mps=sensors.checked_speed_mps,
             hydrobrake_pressure_bar=sensors.checked_pressure_bar,
             steering_measured_norm=sensors.checked_steering_norm,
+            estop_line_high=sensors.estop_line_high,
         )
         self.state, outputs = controller_step(self.state, self.inputs, now, self.config.control)
         self.decided_at = now

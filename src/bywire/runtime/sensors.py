@@ -12,6 +12,7 @@ from __future__ import annotations
 import math
 
 from bywire.control.values import value
+from bywire.errors import HardwareError
 from bywire.hal.hardware import Hardware
 
 NO_READING = math.nan
@@ -29,6 +30,7 @@ class SensorReadings:
     wheels_fitted: bool = False
     pressure_fitted: bool = False
     encoder_fitted: bool = False
+    estop_line_high: bool | None = None  # None: no E-stop wired
 
     @property
     def speed_mps(self) -> float | None:
@@ -56,8 +58,19 @@ def _checked(reading: float | None, fitted: bool) -> float | None:
     return NO_READING if reading is None and fitted else reading
 
 
+def read_estop(hardware: Hardware) -> bool | None:
+    """The E-stop's line (None: none wired); a line that cannot be read reads low: pressed."""
+    line = hardware.estop_line
+    if line is None:
+        return None
+    try:
+        return line.get()
+    except HardwareError:
+        return False
+
+
 def read_sensors(hardware: Hardware) -> SensorReadings:
-    """Read each fitted sensor once."""
+    """Read each fitted sensor, and the E-stop's line, once."""
     wheels, pressure = hardware.wheel_speeds, hardware.hydrobrake_pressure_bar
     encoder = hardware.steering_encoder_norm
     return SensorReadings(
@@ -67,4 +80,5 @@ def read_sensors(hardware: Hardware) -> SensorReadings:
         wheels_fitted=wheels is not None,
         pressure_fitted=pressure is not None,
         encoder_fitted=encoder is not None,
+        estop_line_high=read_estop(hardware),
     )

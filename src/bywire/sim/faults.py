@@ -205,6 +205,17 @@ FAULTS: tuple[Fault, ...] = (
           lambda run, _v: run.world.wheel_sensor.die()),
     Fault("wheel_sensor_restore", "the wheel-speed sensor tells the truth again",
           lambda run, _v: run.world.wheel_sensor.restore()),
+    Fault("estop_press", "the safety operator presses the E-stop (its circuit opens)",
+          lambda run, _v: run.world.estop.press()),
+    Fault("estop_release", "the E-stop is released (its circuit closes)",
+          lambda run, _v: run.world.estop.release()),
+    Fault("estop_wire_break", "the E-stop's wire breaks (its circuit opens, as if pressed)",
+          lambda run, _v: run.world.estop.break_wire()),
+    Fault("estop_wire_mend", "the E-stop's wire is mended",
+          lambda run, _v: run.world.estop.mend_wire()),
+    Fault("estop_chatter", "the E-stop is pressed and its contact bounces: of the next `count` "
+          "reads of its line every other one reads released, then it stays pressed",
+          lambda run, v: run.world.estop.chatter(_count(v))),
 )
 # fmt: on
 BY_NAME: dict[str, Fault] = {fault.name: fault for fault in FAULTS}

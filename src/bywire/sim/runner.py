@@ -271,6 +271,7 @@ class SimRun:
             "hlc_lights": self._apply_hlc_lights,
             "hlc_control": self._apply_hlc_control,
             "fault": self._apply_fault,
+            "estop": self._apply_estop,
             "planner": self._apply_planner,
             "bridge_service": self._apply_bridge_service,
         }
@@ -313,6 +314,12 @@ class SimRun:
         self.world.hlc.set_control(
             bool(values.get("remote_stop", False)), bool(values.get("re_enable", False))
         )
+
+    def _apply_estop(self, values: dict[str, Any]) -> None:
+        if values.get("pressed"):
+            self.world.estop.press()
+        elif "pressed" in values:
+            self.world.estop.release()
 
     def _running_bridge(self) -> SimBridge:
         if self.bridge is None:

@@ -75,6 +75,7 @@ ACTION_VALUES: dict[str, dict[str, Check]] = {
     "hlc": {"steering": NORM, "throttle": UNIT, "brake": UNIT, "gear": one_of(GEARS)},
     "hlc_lights": dict.fromkeys(LIGHT_REQUESTS, flag),
     "hlc_control": {"remote_stop": flag, "re_enable": flag},
+    "estop": {"pressed": flag},  # the safety operator's E-stop button (a robot that wires one)
     # with `computer = "bridge"`: the planner feeding the ROS 2 bridge, and its service calls
     "planner": {
         "speed_mps": number(-30.0, 30.0, "m/s"),  # cmd_vel's linear.x

@@ -14,6 +14,7 @@ from pathlib import Path
 from typing import Any
 
 from bywire.config import RobotConfig, output_lines
+from bywire.config.tree import ESTOP_DEFAULT_LINE
 from bywire.hal.hardware import OUTPUT_NAMES
 from tests.hal.linux import fake_gpiod
 from tests.hal.linux.fake_sysfs import make_iio_dac, make_pwm_chip, read_iio, read_pwm
@@ -24,9 +25,10 @@ DAC_BUS, DAC_ADDRESS = 1, 0x4C
 
 
 def line_names() -> list[str]:
-    """The test GPIO chip's line names: two of another use, then every output's."""
+    """The test GPIO chip's line names: two of another use, then every output's, then the
+    E-stop's input (read only by a robot file that names it)."""
     names = [str(line.line) for line in output_lines(RobotConfig()).values()]
-    return ["ID_SD", "ID_SC", *names]
+    return ["ID_SD", "ID_SC", *names, ESTOP_DEFAULT_LINE]
 
 
 @dataclass
@@ -48,6 +50,9 @@ class Bench:
 name = "bench"
 backend = "linux"
 gpio_chip = "{GPIO_LABEL}"
+
+[estop]
+line = "none"
 
 [can]
 interface = "{self.can_interface}"

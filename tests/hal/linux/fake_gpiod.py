@@ -33,7 +33,34 @@ class Direction(enum.Enum):
     OUTPUT = 3
 
 
-line = types.SimpleNamespace(Value=Value, Direction=Direction)
+class Bias(enum.Enum):
+    AS_IS = 1
+    DISABLED = 3
+    PULL_UP = 4
+    PULL_DOWN = 5
+
+
+class Edge(enum.Enum):
+    NONE = 1
+    RISING = 2
+    FALLING = 3
+    BOTH = 4
+
+
+class _EdgeType(enum.Enum):
+    RISING_EDGE = 1
+    FALLING_EDGE = 2
+
+
+@dataclass(frozen=True)
+class EdgeEvent:
+    Type = _EdgeType
+    event_type: _EdgeType
+    line_offset: int
+
+
+line = types.SimpleNamespace(Value=Value, Direction=Direction, Bias=Bias, Edge=Edge)
+_LIVE: dict[str, LineRequest] = {}  # the newest request of each chip, by its path
 
 
 class RequestReleasedError(Exception):
@@ -51,6 +78,13 @@ class ChipInfo:
 class LineSettings:
     direction: Direction = Direction.AS_IS
     output_value: Value = Value.INACTIVE
+    bias: Bias = Bias.AS_IS
+    edge_detection: Edge = Edge.NONE
+
+
+def drive_input(chip: Path, name: str, high: bool) -> None:
+    """Drive input line `name` of the chip's live request from outside (its edge recorded)."""
+    _LIVE[str(chip)].drive(name, high)
 
 
 def make_chip(path: Path, label: str, line_names: Sequence[str]) -> Path:
@@ -105,29 +139,64 @@ class Chip:
         self, config: dict[Any, LineSettings | None], consumer: str | None = None
     ) -> LineRequest:
         values: dict[int, Value] = {}
+        inputs: dict[int, LineSettings] = {}
         for key, settings in config.items():
             offsets: Iterable[Any] = key if isinstance(key, tuple) else (key,)
             for offset in offsets:
                 number = self.line_offset_from_id(offset)
                 if number in values:
                     raise ValueError(f"line must be configured exactly once - offset {number}")
-                values[number] = (settings or LineSettings()).output_value
-        return LineRequest(Path(self.path), self._lines, values, consumer)
+                given = settings or LineSettings()
+                if given.direction is Direction.INPUT:
+                    inputs[number] = given
+                    # an input reads what drives it: nothing but its pull, at first
+                    values[number] = Value.ACTIVE if given.bias is Bias.PULL_UP else Value.INACTIVE
+                else:
+                    values[number] = given.output_value
+        request = LineRequest(Path(self.path), self._lines, values, consumer, inputs)
+        _LIVE[self.path] = request
+        return request
 
 
 class LineRequest:
     def __init__(
-        self, chip: Path, names: list[str], values: dict[int, Value], consumer: str | None
+        self,
+        chip: Path,
+        names: list[str],
+        values: dict[int, Value],
+        consumer: str | None,
+        inputs: dict[int, LineSettings] | None = None,
     ) -> None:
         self._chip, self._names, self._values = chip, names, dict(values)
+        self._inputs = dict(inputs or {})
+        self._edges: list[EdgeEvent] = []
         self._state: dict[str, Any] = {
             "consumer": consumer,
             "requested": {names[o]: v.value for o, v in values.items()},
             "levels": {names[o]: v.value for o, v in values.items()},
+            "inputs": {
+                names[o]: [s.bias.name, s.edge_detection.name] for o, s in self._inputs.items()
+            },
             "released": False,
             "writes": 0,
         }
         self._save()
+
+    def drive(self, name: str, high: bool) -> None:
+        offset = self._names.index(name)
+        value = Value.ACTIVE if high else Value.INACTIVE
+        if value is not self._values[offset]:
+            kind = _EdgeType.RISING_EDGE if high else _EdgeType.FALLING_EDGE
+            if self._inputs[offset].edge_detection is not Edge.NONE:
+                self._edges.append(EdgeEvent(kind, offset))
+        self._values[offset] = value
+
+    def wait_edge_events(self, timeout: float | None = None) -> bool:
+        return bool(self._edges)
+
+    def read_edge_events(self) -> list[EdgeEvent]:
+        events, self._edges = self._edges, []
+        return events
 
     @property
     def offsets(self) -> list[int]:
@@ -136,16 +205,24 @@ class LineRequest:
     def set_value(self, offset: int, value: Value) -> None:
         if self._state["released"]:
             raise RequestReleasedError
+        if offset in self._inputs:  # the kernel refuses to set an input (EPERM)
+            raise OSError(1, "Operation not permitted")
         self._values[offset] = value
         self._state["levels"][self._names[offset]] = value.value
         self._state["writes"] += 1
         self._save()
 
     def set_values(self, values: dict[int, Value]) -> None:
+        if self._state["released"]:
+            raise RequestReleasedError
+        if set(values) & set(self._inputs):  # the kernel refuses the whole set (EPERM)
+            raise OSError(1, "Operation not permitted")
         for offset, value in values.items():
             self.set_value(offset, value)
 
     def get_value(self, offset: int) -> Value:
+        if self._state["released"]:
+            raise RequestReleasedError
         return self._values[offset]
 
     def release(self) -> None:

@@ -79,3 +79,47 @@ def test_one_line_given_twice_is_refused_and_nothing_stays_requested(dev: Path) 
 def test_a_missing_chip_path_says_so(dev: Path) -> None:
     with pytest.raises(HardwareError, match="gpiochip9 does not exist"):
         GpiodOutputs({"a": LineSpec("drive.motors_enable", str(dev / "gpiochip9"), 1)}, dev)
+
+
+# --- the E-stop's input (issue 44), requested beside the outputs ---------------------------
+
+
+def _with_estop(dev: Path) -> GpiodOutputs:
+    return GpiodOutputs(
+        {"ebrake": LineSpec("ebrake.ebrake_release", "pinctrl-bcm2711", 17)},
+        dev,
+        {"estop": LineSpec("estop.line", "pinctrl-bcm2711", "GPIO4")},
+    )
+
+
+def test_the_estop_input_is_pulled_down_with_edges_and_reads_its_level(dev: Path) -> None:
+    lines = _with_estop(dev)
+    state = fake_gpiod.read_state(dev / "gpiochip0")
+    assert state["inputs"] == {"GPIO4": ["PULL_DOWN", "BOTH"]}  # nothing connected reads low
+    assert state["requested"]["GPIO17"] == 0
+    estop = lines.inputs["estop"]
+    assert estop.get() is False  # an open circuit: pressed
+    fake_gpiod.drive_input(dev / "gpiochip0", "GPIO4", high=True)
+    assert estop.get() is True  # released: a rising edge only, and the level high
+
+
+def test_a_low_between_two_reads_reads_low_once(dev: Path) -> None:
+    lines = _with_estop(dev)
+    chip = dev / "gpiochip0"
+    fake_gpiod.drive_input(chip, "GPIO4", high=True)
+    estop = lines.inputs["estop"]
+    assert estop.get() is True
+    fake_gpiod.drive_input(chip, "GPIO4", high=False)  # a 1 ms press, between two reads
+    fake_gpiod.drive_input(chip, "GPIO4", high=True)
+    assert estop.get() is False  # not missed
+    assert estop.get() is True
+
+
+def test_closing_drives_the_outputs_low_beside_an_input(dev: Path) -> None:
+    lines = _with_estop(dev)
+    lines.lines["ebrake"].set(True)
+    lines.close()
+    state = fake_gpiod.read_state(dev / "gpiochip0")
+    assert (state["levels"]["GPIO17"], state["released"]) == (0, True)
+    with pytest.raises(HardwareError, match=r"estop\.line: cannot read"):
+        lines.inputs["estop"].get()

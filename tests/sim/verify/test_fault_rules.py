@@ -10,7 +10,7 @@ from typing import Any
 
 import pytest
 
-from bywire.config import default_sim_config
+from bywire.config import default_sim_config, parse_config
 from bywire.hal.simulated.clock import VirtualClock
 from bywire.hal.simulated.world import SimWorld
 from bywire.model import ControlMode
@@ -83,6 +83,9 @@ RULES: dict[str, tuple[dict[str, Any], Callable[[HazardOracle], bool]] | None] =
     "dac_slow": ({"stall_s": 0.08}, _in_force(OracleCause.DAC_SLOW)),
     "line_dead": ({"line": "brake_light"}, lambda o: o.plant.dead_lines == {"brake_light"}),
     "wheel_sensor_dead": ({}, lambda o: o.plant.sensor_dead and o.ledger.armed),
+    "estop_press": ({}, _in_force(OracleCause.ESTOP_PRESSED)),
+    "estop_wire_break": ({}, _in_force(OracleCause.ESTOP_WIRE)),
+    "estop_chatter": ({"count": 7}, _in_force(OracleCause.ESTOP_PRESSED)),
     # Endings, each after its beginning a second before (`test_an_ending_ends_its_beginning`).
     "rc_link_restored": None,
     "rc_failsafe_off": None,
@@ -91,6 +94,8 @@ RULES: dict[str, tuple[dict[str, Any], Callable[[HazardOracle], bool]] | None] =
     "dac_restore": None,
     "hydrobrake_restore": None,
     "wheel_sensor_restore": None,
+    "estop_release": None,
+    "estop_wire_mend": None,
     # Nothing the oracle must know: `nothing`.
     "can_flood": None,
     "can_flood_off": None,
@@ -109,6 +114,8 @@ ENDINGS = {
     "can_resume": ("can_silence", OracleCause.CAN_LOST),
     "can_plug": ("can_unplug", OracleCause.CAN_UNPLUGGED),
     "dac_restore": ("dac_fail", OracleCause.DAC_FAIL),
+    "estop_release": ("estop_press", OracleCause.ESTOP_PRESSED),
+    "estop_wire_mend": ("estop_wire_break", OracleCause.ESTOP_WIRE),
 }
 MENDED = {
     "hydrobrake_restore": "hydrobrake_fail",
@@ -198,3 +205,17 @@ def test_ordinary_and_short_stalls_and_crawls_only_delay_the_loop() -> None:
     hang = _inject(_witness(), "dac_stall", stall_s=0.05)
     assert hang.ledger.tripped_at is None
     assert hang.delays.hung_until == AT_S + TIMING.control_period_s + 0.05
+
+
+@pytest.mark.parametrize("name", ["estop_press", "estop_wire_break", "estop_chatter"])
+def test_an_estop_fault_on_a_robot_without_an_estop_demands_nothing(name: str) -> None:
+    """albert says `[estop] line = "none"`: its controller reads no button, and a press of the
+    simulated one is no input; a demand for STOP there would be the oracle's mistake."""
+    robot = parse_config('[estop]\nline = "none"\n')
+    clock = VirtualClock()
+    oracle = HazardOracle(SimWorld.from_robot(clock, robot), timing=TIMING)
+    witness = OracleWitness(oracle, clock, False)
+    witness(Event(AT_S, "fault", {"fault": name, "count": 7}), AT_S)
+    assert OracleCause.ESTOP_PRESSED not in oracle.faults
+    assert OracleCause.ESTOP_WIRE not in oracle.faults
+    assert not oracle.ledger.stopped_by

@@ -21,6 +21,7 @@ from bywire.sim.verify.supervisor_check import (
     INVARIANTS,
     MONITOR_CAUSES,
     SAME_RULES,
+    SEARCHED_IN_OWN_RIGHT,
     TRANSITIONS,
     alphabet,
     expand_same_rules,
@@ -61,8 +62,12 @@ def test_every_reachable_state_keeps_every_invariant(capsys: pytest.CaptureFixtu
         # Without the causes DAC_FAULT stands for (the monitors' and TIMING) the search reaches
         # every row but those naming them; without the monitors' alone, what a sensorless robot
         # can take.
-        stood_for = set(transitions_naming(SAME_RULES - {Cause.DAC_FAULT}))
+        stood_for = set(transitions_naming(SAME_RULES - SEARCHED_IN_OWN_RIGHT))
         assert result.labels == set(TRANSITIONS) - stood_for
+        # the E-stop is searched in its own right: it latches from RC, CAN and STOP, and clears
+        estop_rows = set(transitions_naming({Cause.ESTOP}))
+        assert len(estop_rows) == 4
+        assert estop_rows <= result.labels
         assert set(transitions_naming(MONITOR_CAUSES)) < stood_for
 
 

@@ -2,13 +2,15 @@
 
 Every line of one chip is requested in one request whose settings already say "output, inactive",
 so the kernel switches the pin to an output at the low (safe) level: no glitch at start-up
-(R-SAFE-START). A chip is given as a label (`pinctrl-bcm2711`), a name (`gpiochip0`) or a path.
+(R-SAFE-START). The inputs (the E-stop's line) are requested in the same request as inputs with
+the pull-down on, so an open circuit (a press, a broken wire, nothing connected) reads low.
+A chip is given as a label (`pinctrl-bcm2711`), a name (`gpiochip0`) or a path.
 """
 
 from __future__ import annotations
 
 import contextlib
-from collections.abc import Mapping
+from collections.abc import Iterable, Mapping
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -71,14 +73,41 @@ class GpiodLine:
             raise HardwareError(f"GPIO {self.key}: cannot set ({reason(error)})") from error
 
 
-class GpiodOutputs:
-    """Every output line, keyed like `lines`, requested low; `close()` drives them low."""
+class GpiodInput:
+    """A `DigitalIn` on one line of a request (pulled down: an open circuit reads low), with
+    edge events on: a falling edge since the last read reads low, however short the low was,
+    so a press between two reads is not missed."""
 
-    def __init__(self, lines: Mapping[str, LineSpec], dev_root: Path = Path("/dev")) -> None:
-        self._requests: list[gpiod.LineRequest] = []
+    def __init__(self, request: gpiod.LineRequest, offset: int, key: str) -> None:
+        self._request, self._offset, self.key = request, offset, key
+
+    def get(self) -> bool:
+        try:
+            fell = False
+            if self._request.wait_edge_events(0):  # one buffer a read: the rest, the next
+                for event in self._request.read_edge_events():
+                    fell |= event.event_type is gpiod.EdgeEvent.Type.FALLING_EDGE
+            return not fell and self._request.get_value(self._offset) == gpiod.line.Value.ACTIVE
+        except (OSError, gpiod.RequestReleasedError) as error:
+            raise HardwareError(f"GPIO {self.key}: cannot read ({reason(error)})") from error
+
+
+class GpiodOutputs:
+    """Every output line, keyed like `lines`, requested low; `close()` drives them low. The
+    `inputs` (keyed alike) are requested beside them, pulled down, as `GpiodInput`s."""
+
+    def __init__(
+        self,
+        lines: Mapping[str, LineSpec],
+        dev_root: Path = Path("/dev"),
+        inputs: Mapping[str, LineSpec] | None = None,
+    ) -> None:
+        self._requests: list[tuple[gpiod.LineRequest, tuple[int, ...]]] = []  # with its outputs
         self.lines: dict[str, GpiodLine] = {}
+        self.inputs: dict[str, GpiodInput] = {}
+        self._input_names = frozenset(inputs or {})
         by_chip: dict[Path, dict[str, LineSpec]] = {}
-        for name, spec in lines.items():
+        for name, spec in {**lines, **(inputs or {})}.items():
             by_chip.setdefault(find_gpio_chip(dev_root, spec.chip), {})[name] = spec
         try:
             for path, specs in by_chip.items():
@@ -90,11 +119,32 @@ class GpiodOutputs:
     def close(self) -> None:
         """Every line low, then released; safe to call again."""
         requests, self._requests = self._requests, []
-        for request in requests:
-            # A chip that is gone leaves its pins to their pull-downs.
+        for request, outputs in requests:
+            # A chip that is gone leaves its pins to their pull-downs. Only the outputs: the
+            # kernel refuses a set that names an input, and would then set none of them.
             with contextlib.suppress(OSError, gpiod.RequestReleasedError):
-                request.set_values(dict.fromkeys(request.offsets, gpiod.line.Value.INACTIVE))
+                if outputs:
+                    request.set_values(dict.fromkeys(outputs, gpiod.line.Value.INACTIVE))
             request.release()
+
+    def _settings(
+        self, offsets: Mapping[str, int]
+    ) -> dict[Iterable[int | str] | int | str, gpiod.LineSettings | None]:
+        """Outputs low; inputs pulled down."""
+        outs = tuple(offset for name, offset in offsets.items() if name not in self._input_names)
+        ins = tuple(offset for name, offset in offsets.items() if name in self._input_names)
+        settings: dict[Iterable[int | str] | int | str, gpiod.LineSettings | None] = {}
+        if outs:
+            settings[outs] = gpiod.LineSettings(
+                direction=gpiod.line.Direction.OUTPUT, output_value=gpiod.line.Value.INACTIVE
+            )
+        if ins:
+            settings[ins] = gpiod.LineSettings(
+                direction=gpiod.line.Direction.INPUT,
+                bias=gpiod.line.Bias.PULL_DOWN,
+                edge_detection=gpiod.line.Edge.BOTH,
+            )
+        return settings
 
     def _request_chip(self, path: Path, specs: Mapping[str, LineSpec]) -> None:
         try:
@@ -106,20 +156,19 @@ class GpiodOutputs:
         with chip:
             offsets = {name: _offset(chip, path, spec) for name, spec in specs.items()}
             _check_distinct(offsets, specs, path)
-            settings = gpiod.LineSettings(
-                direction=gpiod.line.Direction.OUTPUT, output_value=gpiod.line.Value.INACTIVE
-            )
             try:
-                request = chip.request_lines(
-                    config={tuple(offsets.values()): settings}, consumer=CONSUMER
-                )
+                request = chip.request_lines(config=self._settings(offsets), consumer=CONSUMER)
             except OSError as error:
                 raise device_error(
                     "GPIO", str(path), error, group="gpio", missing=MISSING_HINT
                 ) from error
-        self._requests.append(request)
+        outputs = tuple(offset for name, offset in offsets.items() if name not in self._input_names)
+        self._requests.append((request, outputs))
         for name, offset in offsets.items():
-            self.lines[name] = GpiodLine(request, offset, specs[name].key)
+            if name in self._input_names:
+                self.inputs[name] = GpiodInput(request, offset, specs[name].key)
+            else:
+                self.lines[name] = GpiodLine(request, offset, specs[name].key)
 
 
 def _offset(chip: gpiod.Chip, path: Path, spec: LineSpec) -> int:

@@ -19,6 +19,7 @@ from bywire.hal.ports import Clock
 from bywire.hal.simulated.can_bus import DEFAULT_BITRATE_BPS, SimCanBus
 from bywire.hal.simulated.can_port import SimCanPort
 from bywire.hal.simulated.dac import SimDac6574
+from bywire.hal.simulated.estop import SimEstopButton
 from bywire.hal.simulated.gpio_pwm import SimDigitalOut, SimPwmChannel
 from bywire.hal.simulated.hlc import SimHigherLevelComputer
 from bywire.hal.simulated.impostor import SimImpostor, impostor_node
@@ -81,6 +82,7 @@ class SimWorld:
     pressure_sensor: SimPressureSensor
     steering_encoder: SimSteeringEncoder
     impostors: dict[type[Command], SimImpostor]  # a second sender on each command id
+    estop: SimEstopButton  # read by the controller only where the robot file wires an E-stop
 
     @property
     def impostor(self) -> SimImpostor:
@@ -111,6 +113,7 @@ class SimWorld:
         vehicle_config: VehicleConfig | None = None,
         bus_log_limit: int | None = 20_000,
         sensors: bool = True,
+        estop: bool = False,
     ) -> SimWorld:
         """Build the robot; nothing runs until ``start()``.
 
@@ -158,6 +161,7 @@ class SimWorld:
         wheel_sensor = SimWheelSpeedSensor(vehicle)
         pressure_sensor = SimPressureSensor(vehicle)
         steering_encoder = SimSteeringEncoder(vehicle)
+        button = SimEstopButton()
         hardware = Hardware(
             clock=clock,
             can=controller_can,
@@ -170,6 +174,7 @@ class SimWorld:
             wheel_speeds=wheel_sensor if sensors else None,
             hydrobrake_pressure_bar=pressure_sensor if sensors else None,
             steering_encoder_norm=steering_encoder if sensors else None,
+            estop_line=button if estop else None,
         )
         return cls(
             clock,
@@ -187,6 +192,7 @@ class SimWorld:
             pressure_sensor,
             steering_encoder,
             impostors,
+            button,
         )
 
     @classmethod
@@ -212,6 +218,7 @@ class SimWorld:
             ),
             bus_log_limit=bus_log_limit,
             sensors=sensors_fitted(robot.backend),
+            estop=robot.estop.wired,
         )
 
     @property

@@ -175,6 +175,13 @@ class ReplayWheelSpeeds(_ReadOrder):
         return value if isinstance(value, tuple) else None
 
 
+class ReplayDigitalIn(_ReadOrder):
+    """The E-stop's line, replayed in read order (1.0 high)."""
+
+    def get(self) -> bool:
+        return self._next() == 1.0
+
+
 def replay_hardware(record: RecordedRun, clock: VirtualClock) -> Hardware:
     """Ports that replay `record` on `clock`, with a wake-up at every recorded arrival."""
     for time_s in sorted({t for t, _, _ in record.rc_bytes} | {t for t, _ in record.can_rx}):
@@ -204,4 +211,7 @@ def replay_hardware(record: RecordedRun, clock: VirtualClock) -> Hardware:
         else None,
         hydrobrake_pressure_bar=analog("hydrobrake_pressure_bar"),
         steering_encoder_norm=analog("steering_encoder_norm"),
+        estop_line=ReplayDigitalIn(reads.get("estop_line", []))
+        if "estop_line" in present
+        else None,
     )

@@ -45,7 +45,8 @@ from bywire.textfile import check_regular
 
 FORMAT = "bywire-run-record"
 VERSION = 1
-SENSOR_NAMES = ("wheel_speeds", "hydrobrake_pressure_bar", "steering_encoder_norm")
+SENSOR_NAMES = ("wheel_speeds", "hydrobrake_pressure_bar", "steering_encoder_norm", "estop_line")
+"""The input ports noted as sensors (the E-stop's line as 1.0 high, 0.0 low)."""
 LINK_NAMES = ("can", "rc_uart")
 
 SensorValue = tuple[float, float] | float | None

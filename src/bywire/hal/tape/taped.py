@@ -18,6 +18,7 @@ from bywire.hal.ports import (
     ByteStream,
     CanPort,
     Clock,
+    DigitalIn,
     DigitalOut,
     I2cDevice,
     LinkState,
@@ -193,6 +194,16 @@ class TapedSensor(Generic[V]):
         return value
 
 
+class TapedDigitalIn:
+    """A DigitalIn (the E-stop's line) noted as a sensor: 1.0 high, 0.0 low."""
+
+    def __init__(self, inner: DigitalIn, name: str, tape: Tape) -> None:
+        self._sensor = TapedSensor(lambda: 1.0 if inner.get() else 0.0, name, tape)
+
+    def get(self) -> bool:
+        return self._sensor.read() == 1.0
+
+
 def taped_hardware(hardware: Hardware, tape: Tape) -> Hardware:
     """The same bundle with every port taped; the clock is shared, not taped."""
     outputs = hardware.outputs
@@ -220,4 +231,7 @@ def taped_hardware(hardware: Hardware, tape: Tape) -> Hardware:
         steering_encoder_norm=None
         if encoder is None
         else TapedSensor(encoder.read, "steering_encoder_norm", tape),
+        estop_line=None
+        if hardware.estop_line is None
+        else TapedDigitalIn(hardware.estop_line, "estop_line", tape),
     )

@@ -140,6 +140,20 @@ def _named(faults: Mapping[str, str]) -> Write:
     return write
 
 
+ESTOP_FAULTS = {
+    "press": "estop_press",
+    "release": "estop_release",
+    "wire": "estop_wire_break",
+    "mend": "estop_wire_mend",
+    "chatter": "estop_chatter",
+}
+ESTOP_CHATTER_READS = 7  # a press that bounces over seven reads of its line
+
+
+def _estop(events: StepEvents, at_s: float, value: str) -> None:
+    events.fault(at_s, ESTOP_FAULTS[value], count=ESTOP_CHATTER_READS)
+
+
 def _can_corrupt(events: StepEvents, at_s: float, how: str) -> None:
     events.fault(at_s, f"can_corrupt_{how}", count=3)
 
@@ -280,6 +294,8 @@ ACTIONS: tuple[Action, ...] = (
     Action("ebrake", (False,), _fault("ebrake_fail")),  # the spring brake fails to engage
     Action("servo", (False, True), _either("servo_free", "servo_stuck")),  # stuck, or free
     Action("encoder", (False,), _fault("encoder_fail")),  # the steering encoder gives nothing
+    # the E-stop: pressed, released, its wire broken or mended, a press that bounces
+    Action("estop", tuple(ESTOP_FAULTS), _estop),
     # the ROS 2 bridge is the computer (drawn at a bridge campaign's start), with these parameters
     Action("bridge", tuple(BRIDGE_PRESETS), _nothing),
     # its planner: cmd_vel's speed, the curvature (1/m, left > 0), silent or publishing again,

@@ -36,6 +36,7 @@ CAMPAIGN_S = 10.0
 DELAY_S = (0.005, 0.6)  # the wait before each step, drawn uniformly, to the millisecond
 WEIGHTS = {action: 4.0 if action in OPERATOR else 1.0 for action in VOCABULARY}
 WEIGHTS.update(ebrake=0.25, encoder=0.25)  # lasting faults: rarer, or the robot stays stopped
+WEIGHTS.update(estop=0.5)  # the E-stop: a stop every time, rarer than the operator
 WEIGHTS.update(line=0.1, secoc=0.0)  # a dead line ends the campaign; authentication opens one
 WEIGHTS.update(dict.fromkeys(BRIDGE_ACTIONS, 0.0))  # bridge campaigns' own (`draw_bridge.py`)
 SECOC_CHANCE = 0.25
@@ -60,6 +61,9 @@ ENDINGS: dict[tuple[str, object], Step] = {
     ("wheel_sensor", False): Step(0.0, "wheel_sensor", True),
     ("hydrobrake", False): Step(0.0, "hydrobrake", True),
     ("servo", False): Step(0.0, "servo", True),
+    ("estop", "press"): Step(0.0, "estop", "release"),
+    ("estop", "chatter"): Step(0.0, "estop", "release"),
+    ("estop", "wire"): Step(0.0, "estop", "mend"),
 }
 """A fault's beginning, and the step that ends it."""
 RE_ENABLE: Episode = (Step(0.0, "can_throttle", 0.0), Step(0.05, "re_enable"))

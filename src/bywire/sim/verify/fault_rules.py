@@ -166,6 +166,18 @@ def wheel_sensor(*, dead: bool) -> Expect:
     return expect
 
 
+def estop(cause: OracleCause, *, opens: bool) -> Expect:
+    """The E-stop's circuit opens (`cause` begins: STOP, category 0) or closes (it ends), on a
+    robot whose controller has the button wired (`[estop] line`); on one without, the button is
+    no input at all and the oracle expects nothing of it."""
+
+    def expect(witness: Witness, _values: FaultValues, now: float) -> None:
+        if witness.oracle.world.hardware.estop_line is not None:
+            witness.oracle.fault(cause, opens, now)
+
+    return expect
+
+
 # fmt: off
 RULES: dict[str, Expect] = {
     "rc_link_lost": begins(OracleCause.RC_LINK_LOST),
@@ -208,6 +220,12 @@ RULES: dict[str, Expect] = {
     "line_dead": line_dead,
     "wheel_sensor_dead": wheel_sensor(dead=True),
     "wheel_sensor_restore": wheel_sensor(dead=False),
+    "estop_press": estop(OracleCause.ESTOP_PRESSED, opens=True),
+    "estop_release": estop(OracleCause.ESTOP_PRESSED, opens=False),
+    "estop_wire_break": estop(OracleCause.ESTOP_WIRE, opens=True),
+    "estop_wire_mend": estop(OracleCause.ESTOP_WIRE, opens=False),
+    # a press that bounces: its first read is open, so it acts at once, as a press does
+    "estop_chatter": estop(OracleCause.ESTOP_PRESSED, opens=True),
 }
 # fmt: on
 """Each fault's rule, by its name in `faults.FAULTS`."""

@@ -248,12 +248,19 @@ def alphabet(causes: Iterable[Cause]) -> tuple[SupervisorInputs, ...]:
     return tuple(inputs)
 
 
+SEARCHED_IN_OWN_RIGHT = frozenset({Cause.DAC_FAULT, Cause.ESTOP})
+"""The causes of `SAME_RULES` the default search keeps: DAC_FAULT stands for the others, and the
+E-stop is searched itself (issue 44: the exhaustive check covers it, not only by `same_rules`)."""
+
+
 def reduced_causes() -> tuple[Cause, ...]:
-    """Every cause a condition can raise, with DAC_FAULT standing for `SAME_RULES`."""
+    """Every cause a condition can raise, with DAC_FAULT standing for the rest of `SAME_RULES`
+    (but the E-stop: `SEARCHED_IN_OWN_RIGHT`)."""
     return tuple(
         cause
         for cause in Cause
-        if cause is not Cause.POWER_UP and (cause not in SAME_RULES or cause is Cause.DAC_FAULT)
+        if cause is not Cause.POWER_UP
+        and (cause not in SAME_RULES or cause in SEARCHED_IN_OWN_RIGHT)
     )
 
 

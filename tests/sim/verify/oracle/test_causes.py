@@ -28,6 +28,7 @@ MODELLED: Mapping[Cause, frozenset[OracleCause]] = {
     # pass or a port write on their own (the simulator has no fault that makes one)
     Cause.TIMING: frozenset({OracleCause.DAC_SLOW}),
     Cause.WATCHDOG: frozenset({OracleCause.WATCHDOG}),
+    Cause.ESTOP: frozenset({OracleCause.ESTOP_PRESSED, OracleCause.ESTOP_WIRE}),
 }
 """Each controller cause the oracle models, and the oracle causes that demand its stop."""
 

@@ -175,6 +175,10 @@ class OracleTiming:
             # The next transfer (within a driving period) crawls; enable low as it returns.
             OracleCause.DAC_SLOW: self.driving_period_s + 2 * period + 0.005,
             OracleCause.WATCHDOG: self.watchdog_s + 3 * period,
+            # The promise of issue 44: one control period plus the debounce, the oracle's own
+            # figure for contact bounce (not the controller's).
+            OracleCause.ESTOP_PRESSED: period + ESTOP_BOUNCE_S,
+            OracleCause.ESTOP_WIRE: period + ESTOP_BOUNCE_S,
         }[cause]
 
     def unnoticed_s(self, cause: OracleCause) -> float:
@@ -189,6 +193,10 @@ class OracleTiming:
             OracleCause.CAN_IMPOSTOR: 0.080,
             OracleCause.DAC_FAIL: 3 * self.driving_period_s,
         }.get(cause, 0.0)
+
+
+ESTOP_BOUNCE_S = 0.020
+"""The contact bounce an E-stop's debounce may absorb: switches and relays settle in 5-20 ms."""
 
 
 def bounded(figure: Figure, configured: float) -> float:

@@ -24,6 +24,8 @@ class OracleCause(Enum):
     DAC_FAIL = "dac_fail"  # DAC writes are NAKed
     DAC_SLOW = "dac_slow"  # every DAC transfer crawls, slower than any budget
     WATCHDOG = "watchdog"  # the loop stalled past the watchdog's limit
+    ESTOP_PRESSED = "estop_pressed"  # the E-stop is pressed (or bounces while pressed)
+    ESTOP_WIRE = "estop_wire"  # the E-stop's wire is broken
 
 
 RC_BORNE = frozenset({OracleCause.SWITCH_STOP, OracleCause.RC_IMPLAUSIBLE, OracleCause.RC_FAILSAFE})
@@ -32,11 +34,19 @@ CAN_SILENT = frozenset({OracleCause.CAN_LOST, OracleCause.CAN_UNPLUGGED})
 """Faults in which nothing the computer sends arrives."""
 CAN_ONLY = frozenset({*CAN_SILENT, OracleCause.CAN_IMPOSTOR, OracleCause.REMOTE_STOP})
 """Causes that stop CAN mode and refuse arming into CAN, never RC."""
+ESTOP = frozenset({OracleCause.ESTOP_PRESSED, OracleCause.ESTOP_WIRE})
+"""The E-stop's circuit open: a press, a broken wire (issue 44)."""
 SWITCH_ONLY = frozenset(
-    {OracleCause.RC_LINK_LOST, OracleCause.RC_FAILSAFE, OracleCause.DAC_FAIL, OracleCause.DAC_SLOW}
+    {
+        OracleCause.RC_LINK_LOST,
+        OracleCause.RC_FAILSAFE,
+        OracleCause.DAC_FAIL,
+        OracleCause.DAC_SLOW,
+        *ESTOP,
+    }
 )
 """Faults whose latched cause only the operator's switch clears, never a CAN re-enable (S8);
 implausible frames and the watchdog's trip are such too, and so is a second sender once it has
 surely latched (`StopLedger.latched_from`)."""
-POWER_OFF = frozenset({OracleCause.DAC_FAIL, OracleCause.DAC_SLOW, OracleCause.WATCHDOG})
-"""Causes that make the drive suspect: category 0, the enable line low."""
+POWER_OFF = frozenset({OracleCause.DAC_FAIL, OracleCause.DAC_SLOW, OracleCause.WATCHDOG, *ESTOP})
+"""Causes that make the drive suspect, and the E-stop (ISO 13850): category 0, enable low."""
