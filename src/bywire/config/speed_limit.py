@@ -20,7 +20,7 @@ from bywire.control.governor import (
 )
 
 MAX_SPEED_MPS = Interval(0.1, 30.0, "m/s")
-DEFAULT_MAX_SPEED_MPS = 2.5
+DEFAULT_MAX_SPEED_MPS = 2.0
 
 
 @dataclass(frozen=True, slots=True)

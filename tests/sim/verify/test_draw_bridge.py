@@ -11,6 +11,7 @@ from bywire.sim.verify.campaign import VOCABULARY, Step
 from bywire.sim.verify.draw import draw_campaign
 from bywire.sim.verify.draw_bridge import (
     BRIDGE_WEIGHTS,
+    SLOPE_GRADES,
     draw_any,
     draw_bridge_campaign,
     is_bridge_campaign,
@@ -27,8 +28,21 @@ def test_a_share_of_the_campaigns_are_bridge_campaigns_and_the_others_are_unchan
         if index in bridge:
             assert drawn == draw_bridge_campaign(0, index)
             assert drawn[0].action == "bridge"
-        else:
-            assert drawn == draw_campaign(0, index)  # as `bywire verify` drew it before
+        else:  # as `bywire verify` drew it before, maybe on a slope from the start
+            unsloped = drawn[1:] if drawn[0].action == "grade" else drawn
+            assert unsloped == draw_campaign(0, index)
+
+
+def test_a_share_of_the_other_campaigns_open_downhill_at_every_grade() -> None:
+    grades = [
+        steps[0].value
+        for steps in (draw_any(0, index) for index in INDICES)
+        if steps[0].action == "grade"
+    ]
+    assert 0.1 < len(grades) / len(INDICES) < 0.4
+    assert set(grades) == set(SLOPE_GRADES)
+    assert all(value in VOCABULARY["grade"] for value in grades)
+    assert draw_any(0, 5) == draw_any(0, 5)
 
 
 def test_a_bridge_campaign_opens_enabled_with_the_planner_publishing() -> None:

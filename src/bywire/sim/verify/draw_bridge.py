@@ -30,6 +30,10 @@ from bywire.sim.verify.draw import (
 
 RC, CAN = ControlMode.RC, ControlMode.CAN
 BRIDGE_SHARE = 0.2
+SLOPE_SHARE = 0.25
+"""The share of the other campaigns driven downhill from their start."""
+SLOPE_GRADES = (-0.05, -0.1)
+"""Their grades: 5 % and 10 % downhill (the simulated robot's brakes hold 25 % and more)."""
 """The share of a run's campaigns that are bridge campaigns."""
 BRIDGE_WEIGHTS: dict[str, float] = {
     "planner_speed": 4.0,
@@ -89,7 +93,17 @@ def draw_any(seed: int, index: int, campaign_s: float = CAMPAIGN_S) -> list[Step
     """Campaign `index` of `seed`, a bridge campaign or `draw_campaign`'s."""
     if is_bridge_campaign(seed, index):
         return draw_bridge_campaign(seed, index, campaign_s)
-    return draw_campaign(seed, index, campaign_s)
+    return on_a_slope(draw_campaign(seed, index, campaign_s), seed, index)
+
+
+def on_a_slope(steps: list[Step], seed: int, index: int) -> list[Step]:
+    """Some campaigns are driven downhill from the start (a random source of its own, so the
+    others are drawn as before): gravity carries the robot towards and past its speed limit
+    unless the governor holds it (H11, docs/SAFETY.md row 67)."""
+    rng = random.Random(f"bywire-verify-grade:{seed}:{index}")
+    if rng.random() >= SLOPE_SHARE:
+        return steps
+    return [Step(0.0, "grade", rng.choice(SLOPE_GRADES)), *steps]
 
 
 def follow_ups(switch: ControlMode, step: Step) -> list[Episode]:
