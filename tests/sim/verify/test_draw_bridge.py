@@ -80,3 +80,15 @@ def test_a_bridge_campaign_compiles_to_a_scenario_run_by_the_bridge_with_its_par
     other = compile_steps(draw_campaign(0, 1), robot)
     assert (other.computer, other.bridge) == ("hlc", ())
     assert not any(event.kind in {"planner", "bridge_service"} for event in other.events)
+
+
+def test_a_campaign_whose_two_mechanical_brakes_fail_stays_on_the_flat() -> None:
+    both = [
+        index
+        for index in INDICES
+        if not is_bridge_campaign(0, index)
+        and {("ebrake", False), ("hydrobrake", False)}
+        <= {(step.action, step.value) for step in draw_campaign(0, index)}
+    ]
+    assert both
+    assert all(draw_any(0, index)[0].action != "grade" for index in both)

@@ -96,12 +96,20 @@ def draw_any(seed: int, index: int, campaign_s: float = CAMPAIGN_S) -> list[Step
     return on_a_slope(draw_campaign(seed, index, campaign_s), seed, index)
 
 
+def _both_brakes_fail(steps: list[Step]) -> bool:
+    """The spring brake and the hydraulic brake both fail in the campaign: downhill nothing then
+    holds a robot in STOP (a double fault no controller can act on, beyond H7's and H11's
+    assumption of a brake), so such a campaign stays on the flat."""
+    actions = {(step.action, step.value) for step in steps}
+    return ("ebrake", False) in actions and ("hydrobrake", False) in actions
+
+
 def on_a_slope(steps: list[Step], seed: int, index: int) -> list[Step]:
     """Some campaigns are driven downhill from the start (a random source of its own, so the
     others are drawn as before): gravity carries the robot towards and past its speed limit
     unless the governor holds it (H11, docs/SAFETY.md row 67)."""
     rng = random.Random(f"bywire-verify-grade:{seed}:{index}")
-    if rng.random() >= SLOPE_SHARE:
+    if rng.random() >= SLOPE_SHARE or _both_brakes_fail(steps):
         return steps
     return [Step(0.0, "grade", rng.choice(SLOPE_GRADES)), *steps]
 

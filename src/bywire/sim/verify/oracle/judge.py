@@ -287,7 +287,11 @@ class HazardOracle:
         )
         healthy = not (power_off or dac_unsure)
         brakes = BrakeFacts(plant.ebrake_failed, plant.hydrobrake_failed, healthy)
-        memory.braking, h7 = check_h7(memory.braking, out, brakes, now)
+        # H7 weighs the speed against the time the robot had to slow: the world's time, which a
+        # stalled write moved on while the pass that ends the stall still bears its start
+        # (`now`); on that pass the speed is already the stall's end's.
+        world_s = max(now, self.world.clock.now())
+        memory.braking, h7 = check_h7(memory.braking, out, brakes, world_s)
         h9 = None
         taking = arming.taking
         if taking is not None and not boosted:
@@ -301,7 +305,11 @@ class HazardOracle:
             timing.control_period_s,
         )
         memory.unnoticed, h10 = check_h10(memory.unnoticed, out, broken, now)
-        limit = LimitFacts(timing.speed_limit_mps, not plant.sensor_ever_dead)
+        limit = LimitFacts(
+            timing.speed_limit_mps,
+            not plant.sensor_ever_dead,
+            plant.ebrake_failed and plant.hydrobrake_failed,
+        )
         memory.over_limit, h11 = check_h11(memory.over_limit, out, limit, now)
         found = (h1, h2, h3, h4, *h5, h6, h7, h9, h10, h11)
         self.violations.extend(violation for violation in found if violation is not None)

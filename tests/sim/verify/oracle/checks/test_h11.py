@@ -53,3 +53,7 @@ def test_the_margin_is_a_fifth_of_the_limit_at_least_two_tenths(limit: float, bo
 def test_without_a_limit_or_a_trusted_sensor_nothing_is_judged() -> None:
     assert judged(LimitFacts(None, sensor_trusted=True), [9.0]) == []
     assert judged(LimitFacts(2.0, sensor_trusted=False), [9.0]) == []
+
+
+def test_not_judged_once_both_mechanical_brakes_failed() -> None:
+    assert judged(LimitFacts(2.0, sensor_trusted=True, brakes_failed=True), [9.0]) == []

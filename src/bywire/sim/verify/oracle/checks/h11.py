@@ -6,7 +6,10 @@ fifth of it, at least 0.2 m/s), whoever commands and in every mode.
 Judged on the vehicle's true speed, never on what the controller believes. Not judged once the
 wheel sensor died in the campaign (a speed the controller cannot see, it can only bound by a
 throttle ceiling, which holds on the flat but not downhill: row 67), nor on a robot that fits no
-sensor. One violation per excursion: the speed must come back within the bound before another."""
+sensor, nor once both mechanical brakes have failed (the spring brake and the hydraulic brake: a
+double fault, as for H4; downhill nothing then holds a robot the drive does not brake, in STOP
+least of all). One violation per excursion: the speed must come back within the bound before
+another."""
 
 from __future__ import annotations
 
@@ -23,13 +26,14 @@ class LimitFacts:
 
     limit_mps: float | None
     sensor_trusted: bool  # fitted, and never dead in this campaign
+    brakes_failed: bool = False  # the spring brake and the hydraulic brake both
 
 
 def check_h11(
     over: bool, out: Outputs, facts: LimitFacts, now: float
 ) -> tuple[bool, Violation | None]:
     """(`over`: the speed is past the bound now, as the previous pass left it.)"""
-    if facts.limit_mps is None or not facts.sensor_trusted:
+    if facts.limit_mps is None or not facts.sensor_trusted or facts.brakes_failed:
         return False, None
     bound_mps = facts.limit_mps + over_limit_margin_mps(facts.limit_mps)
     speed = abs(out.speed_mps)
