@@ -19,6 +19,7 @@ from pathlib import Path
 from bywire.config import RobotConfig, as_dict, describe, load_config
 from bywire.config.deadlines import loss_distances, loss_rows, promise_lines
 from bywire.config.speed_limit import enforcement
+from bywire.hal.hardware import sensors_fitted
 from bywire.runtime.rx_checks import rx_checks
 from bywire.security.keys import read_key_file
 
@@ -92,6 +93,10 @@ def run(args: argparse.Namespace) -> int:
     print("# Speed limit (docs/SAFETY.md row 78; [limits], [vehicle] calibration):")
     for line in enforcement(config.limits, config.vehicle):
         print(f"#   {line}")
+    if config.limits.max_speed_mps is not None and not sensors_fitted(config.backend):
+        print(
+            f"#   the {config.backend!r} backend opens no wheel-speed sensor: the ceiling applies"
+        )
     print("# RC switches (a value in no band is no position: the mode switch then means STOP):")
     for line in switch_bands(config):
         print(f"#   {line}")
