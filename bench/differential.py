@@ -208,7 +208,7 @@ def bench_robot() -> RobotConfig:
     taken before the controller had one, and the packaged defaults now set one. The runs that
     need the limit (`speed-limit-slope`) are recorded without it too: what the hardware did, not
     a verdict."""
-    return replace(default_sim_config(), limits=LimitsSection())
+    return replace(default_sim_config(), limits=LimitsSection(None))
 
 
 def _act(args: argparse.Namespace, robot: RobotConfig) -> int:

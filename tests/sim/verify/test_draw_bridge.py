@@ -5,7 +5,7 @@ action and value of the bridge's vocabulary."""
 from __future__ import annotations
 
 from bywire.config import default_sim_config
-from bywire.model import ControlMode
+from bywire.model import ControlMode, Gear
 from bywire.sim.verify.actions import BRIDGE_ACTIONS, BRIDGE_PRESETS, compile_steps
 from bywire.sim.verify.campaign import VOCABULARY, Step
 from bywire.sim.verify.draw import draw_campaign
@@ -92,3 +92,17 @@ def test_a_campaign_whose_two_mechanical_brakes_fail_stays_on_the_flat() -> None
     ]
     assert both
     assert all(draw_any(0, index)[0].action != "grade" for index in both)
+
+
+def test_a_campaign_that_selects_reverse_stays_on_the_flat() -> None:
+    reversing = [
+        index
+        for index in INDICES
+        if not is_bridge_campaign(0, index)
+        and any(
+            step.action in ("rc_gear", "can_gear") and step.value is Gear.REVERSE
+            for step in draw_campaign(0, index)
+        )
+    ]
+    assert reversing
+    assert all(draw_any(0, index)[0].action != "grade" for index in reversing)

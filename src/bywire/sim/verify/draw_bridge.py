@@ -16,7 +16,7 @@ from __future__ import annotations
 
 import random
 
-from bywire.model import ControlMode
+from bywire.model import ControlMode, Gear
 from bywire.sim.verify.actions import BRIDGE_PRESETS
 from bywire.sim.verify.campaign import Step
 from bywire.sim.verify.draw import (
@@ -104,12 +104,21 @@ def _both_brakes_fail(steps: list[Step]) -> bool:
     return ("ebrake", False) in actions and ("hydrobrake", False) in actions
 
 
+def _reverses(steps: list[Step]) -> bool:
+    """The campaign selects reverse: downhill, a reverse throttle weaker than gravity rolls the
+    robot forward against its drive (H4), which no rule of the controller prevents yet
+    (docs/SAFETY.md, "What is not covered"), so such a campaign stays on the flat."""
+    return any(
+        step.action in ("rc_gear", "can_gear") and step.value is Gear.REVERSE for step in steps
+    )
+
+
 def on_a_slope(steps: list[Step], seed: int, index: int) -> list[Step]:
     """Some campaigns are driven downhill from the start (a random source of its own, so the
     others are drawn as before): gravity carries the robot towards and past its speed limit
     unless the governor holds it (H11, docs/SAFETY.md row 67)."""
     rng = random.Random(f"bywire-verify-grade:{seed}:{index}")
-    if rng.random() >= SLOPE_SHARE or _both_brakes_fail(steps):
+    if rng.random() >= SLOPE_SHARE or _both_brakes_fail(steps) or _reverses(steps):
         return steps
     return [Step(0.0, "grade", rng.choice(SLOPE_GRADES)), *steps]
 
