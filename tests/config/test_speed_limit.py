@@ -6,6 +6,7 @@ from __future__ import annotations
 import pytest
 
 from bywire.config import parse_config
+from bywire.config.render import describe
 from bywire.config.speed_limit import (
     DEFAULT_MAX_SPEED_MPS,
     LimitsSection,
@@ -20,6 +21,15 @@ from bywire.hal.simulated.vehicle_model import (
     drive_accel_mps2,
     resistance_mps2,
 )
+
+
+def test_no_limit_is_a_deliberate_none_that_writes_and_reads_back() -> None:
+    robot = parse_config('[limits]\nmax_speed_mps = "none"')
+    assert robot.limits.max_speed_mps is None
+    assert 'max_speed_mps = "none"' in describe(robot)
+    assert parse_config(describe(robot)) == robot
+    with pytest.raises(ConfigError, match=r'expected a number in 0\.1\.\.30 m/s or "none"'):
+        parse_config('[limits]\nmax_speed_mps = "off"')
 
 
 def test_a_file_without_the_key_gets_the_default_limit_not_none() -> None:
@@ -67,7 +77,7 @@ def test_enforcement_states_the_governor_and_the_ceiling_with_its_numbers() -> N
     assert "brake begins above 2.75 m/s and is full at 3.00 m/s" in text
     assert "throttle ceiling of 0.462, derived from the limit and the vehicle's calibration" in text
     assert enforcement(LimitsSection(None), VehicleSection()) == [
-        "no speed limit: the controller limits nothing"
+        'no speed limit: the file says max_speed_mps = "none"; the controller limits nothing'
     ]
 
 

@@ -90,7 +90,7 @@ def run(args: argparse.Namespace) -> int:
     print("# What each timeout buys: how far the robot drives on at top speed before the stop:")
     for loss in loss_distances(config):
         print(f"#   {loss}")
-    print("# Speed limit (docs/SAFETY.md row 78; [limits], [vehicle] calibration):")
+    print("# Speed limit (docs/SAFETY.md row 67; [limits], [vehicle] calibration):")
     for line in enforcement(config.limits, config.vehicle):
         print(f"#   {line}")
     if config.limits.max_speed_mps is not None and not sensors_fitted(config.backend):

@@ -1,12 +1,12 @@
-"""The speed governor: what keeps the robot under `[limits] max_speed_mps`; pure, takes `now`.
+r"""The speed governor: what keeps the robot under `[limits] max_speed_mps`; pure, takes `now`.
 
-With a trusted wheel speed |v| and the limit L (docs/SAFETY.md row 78), in every driving mode:
+With a trusted wheel speed |v| and the limit L (docs/SAFETY.md row 67), in every driving mode:
 
-    throttle cap                                  governor brake
-      1 ─────────┐                                          ┌──── 1
-                 └──┐                                    ┌──┘
-      0             └──────────────────────────────  ───┘         0
-            L − band    L            L + margin    L + 2·margin
+    throttle cap                          governor brake
+    1 -------\                            1                 /------
+              \                                            /
+    0          \__________                0 ______________/
+       L - band  L                                L + margin  L + 2 margin      (speed ->)
 
 - the cap is 1 below L − band and falls linearly to 0 at L: the throttle asked is reduced as the
   speed nears the limit (band: `band_mps`, a fifth of L, at least 0.1 m/s);
