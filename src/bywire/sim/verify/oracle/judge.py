@@ -3,7 +3,7 @@
 It never asks the controller what it believes: it is told every action and fault the test (or
 `bywire verify`) applies, and after every pass of the loop it reads the simulated hardware (the
 enable line, the DAC's throttle volts, the e-brake line, the steering pulse, the direction lines
-and the vehicle's true speed) and checks the output invariants of `docs/SAFETY.md` (H1..H10, one
+and the vehicle's true speed) and checks the output invariants of `docs/SAFETY.md` (H1..H11, one
 pure check each in `checks/`).
 
 What it was told is kept in small parts: the faults in force (`FaultsInForce`), what may delay
