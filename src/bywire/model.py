@@ -151,11 +151,13 @@ class ErrorReport:
 class WheelSpeedReport:
     """Wheel speeds, positive forward (int16, 0.01 m/s per bit, as in the thesis' Figure 26);
     they mean nothing unless ``measured_valid`` (no sensor fitted, or no reading: the speed is
-    unknown, never standstill)."""
+    unknown, never standstill). ``speed_limited``: the speed governor holds the throttle below
+    what was asked, or brakes (docs/SAFETY.md row 67)."""
 
     left_mps: float
     right_mps: float
     measured_valid: bool
+    speed_limited: bool = False
 
 
 @dataclass(frozen=True, slots=True)

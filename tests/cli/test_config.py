@@ -77,6 +77,7 @@ def test_json_gives_the_same_values() -> None:
     assert status == 0
     resolved = json.loads(out)
     losses = resolved.pop("loss_distances")
+    assert resolved.pop("speed_limit")[0].startswith("speed limit 2 m/s")
     assert resolved == json.loads(json.dumps(as_dict(load_config(ALBERT))))
     assert [(row["key"], row["distance_m"]) for row in losses] == [
         ("timeouts.rc_timeout_s", 0.33),  # (0.1 s + one 10 ms period) at 3 m/s
@@ -142,3 +143,30 @@ def test_the_check_says_whether_an_estop_is_wired(tmp_path: Path) -> None:
     status, out, _ = _check(str(silent))
     assert status == 0
     assert "# E-stop: wired on line 'ESTOP' of gpiochip0 (normally closed): NOT STATED" in out
+
+
+def test_the_speed_limit_and_how_it_is_enforced_are_shown(tmp_path: Path) -> None:
+    status, out, _ = _check(str(ALBERT))
+    assert status == 0
+    assert "#   speed limit 2 m/s (7.2 km/h), both directions, RC and CAN mode" in out
+    assert "brake begins above 2.20 m/s and is full at 2.40 m/s" in out
+    assert (
+        "a throttle ceiling of 0.300, derived from the limit and the vehicle's calibration" in out
+    )
+    assert "the 'linux' backend opens no wheel-speed sensor: the ceiling applies" in out
+    raised = tmp_path / "raised.toml"
+    raised.write_text(ALBERT.read_text().replace("max_speed_mps = 2.0 ", "max_speed_mps = 2.9 "))
+    status, out, _ = _check(str(raised), "--json")
+    assert status == 0
+    shown = json.loads(out)
+    assert shown["limits"] == {"max_speed_mps": 2.9}
+    assert "speed limit 2.9 m/s (10.4 km/h)" in shown["speed_limit"][0]
+    assert "throttle ceiling of 0.811" in shown["speed_limit"][2]  # the calibration's last
+
+
+def test_a_limit_out_of_range_is_refused_naming_the_key_and_range(tmp_path: Path) -> None:
+    bad = tmp_path / "bad.toml"
+    bad.write_text("[limits]\nmax_speed_mps = 31\n")
+    status, out, err = _check(str(bad))
+    assert (status, out) == (2, "")
+    assert "limits.max_speed_mps = 31: out of range; allowed 0.1..30 m/s" in err

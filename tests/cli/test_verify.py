@@ -179,7 +179,7 @@ def test_bridge_campaigns_run_and_are_judged_in_a_small_budget(
     capsys: pytest.CaptureFixture[str], tmp_path: Path
 ) -> None:
     """CI-sized: of seed 21's first five campaigns four are bridge campaigns (the ROS 2 bridge as
-    the computer); they run, and are judged on H1..H10 and on the bridge's B1..B3."""
+    the computer); they run, and are judged on H1..H11 and on the bridge's B1..B3."""
     status, summary = _verify(
         capsys,
         *("--budget", "5", "--campaign-s", "4", "--seed", "21", "--jobs", "1"),

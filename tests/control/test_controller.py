@@ -25,6 +25,7 @@ from bywire.control.controller import (
     controller_step,
 )
 from bywire.control.drive import SAFE_DRIVE
+from bywire.control.governor import GovernorConfig
 from bywire.control.rc_mapping import RcRequest
 from bywire.control.sensor_checks import MonitorConfig
 from bywire.control.steering import SteeringConfig
@@ -711,3 +712,69 @@ def test_each_of_the_decisions_own_rules_is_its_own_messages_row_alone() -> None
         check_rules((control, movement, stray))
     with pytest.raises(TypeError, match="LIGHT_REQUESTS is LightsCommand's rule, not no row's"):
         check_rules((control, movement))
+
+
+GOVERNED = replace(CONFIG, governor=GovernorConfig(2.5, 0.462))
+
+
+def _driving(mode: ControlMode, throttle: float, speed_mps: float | None) -> ControlInputs:
+    """RC or CAN asking for `throttle` forward, at a wheel speed of `speed_mps`."""
+    if mode is ControlMode.RC:
+        return ControlInputs(rc=rc_at(0.0, mode=mode, throttle_norm=throttle), speed_mps=speed_mps)
+    movement = MovementCommand(0.0, throttle, 0.0, Gear.FORWARD, counter=3)
+    commands = received(Stamped(movement, 0.0))
+    return ControlInputs(rc=rc_at(0.0, mode=mode), commands=commands, speed_mps=speed_mps)
+
+
+def _restamped(inputs: ControlInputs, now: float) -> ControlInputs:
+    rc = None if inputs.rc is None else replace(inputs.rc, received_at=now)
+    slot = inputs.commands.get(MovementCommand)
+    commands = inputs.commands if slot is None else received(replace(slot, received_at=now))
+    return replace(inputs, rc=rc, commands=commands)
+
+
+def governed_run(
+    mode: ControlMode, speed_mps: float | None, config: ControlConfig = GOVERNED
+) -> ControlOutputs:
+    """Armed by RC, handed to `mode` at zero throttle, then full throttle for 2 s at a steady
+    wheel speed."""
+    idle, full = _driving(mode, 0.0, speed_mps), _driving(mode, 1.0, speed_mps)
+    steps = [
+        *armed_rc(0.0, mode=ControlMode.RC),
+        (0.02, _restamped(idle, 0.02)),
+        *held(0.03, 2.0, lambda now: _restamped(full, now)),
+    ]
+    return run(steps, config)[-1]
+
+
+@pytest.mark.parametrize("mode", [ControlMode.RC, ControlMode.CAN])
+@pytest.mark.parametrize(
+    ("speed", "volts", "duty"),
+    [
+        (1.0, 5.0, 0.0),  # well below the limit: the throttle asked, all of it
+        (2.25, 2.5, 0.0),  # half way through the band: half the throttle
+        (2.7, 0.0, 0.0),  # past the limit within the margin: no throttle, no brake
+        (2.9, 0.0, 0.2),  # brake 0.6: regeneration and a graded hydraulic duty
+        (3.0, 0.0, 1.0),  # past it by twice the margin: full brake (hydraulic at full duty)
+    ],
+)
+def test_the_speed_limit_governs_rc_and_can_alike(
+    mode: ControlMode, speed: float, volts: float, duty: float
+) -> None:
+    last = governed_run(mode, speed)
+    assert last.mode is mode  # governed, never stopped
+    assert last.drive.enable
+    assert not last.ebrake_engaged
+    assert last.drive.throttle_volts == pytest.approx(volts)
+    assert last.hydrobrake_duty == pytest.approx(duty)
+    assert last.speed_limited is (speed > 2.0)
+    assert last.lights.brake is (duty > 0.0)
+
+
+def test_without_a_trusted_speed_the_throttle_stops_at_the_ceiling() -> None:
+    last = governed_run(ControlMode.RC, None)
+    assert last.drive.throttle_volts == pytest.approx(0.462 * 5.0)
+    assert last.speed_limited
+    unlimited = governed_run(ControlMode.RC, None, CONFIG)
+    assert unlimited.drive.throttle_volts == pytest.approx(5.0)
+    assert not unlimited.speed_limited

@@ -5,6 +5,8 @@ from __future__ import annotations
 
 from typing import Any
 
+from bywire.config import default_sim_config
+from bywire.runtime.settings import RuntimeConfig
 from bywire.telemetry.capture import Capture, StateCapture, TelemetryTap
 from bywire.telemetry.messages import state_message
 from bywire.telemetry.outbox import Outbox
@@ -33,4 +35,13 @@ def rc_lost(until_s: float = 1.0) -> dict[str, Any]:
     robot = Robot.build()
     robot.arm_rc()
     robot.at(0.5, robot.world.rc.link_lost)
+    return state_of(robot, until_s)
+
+
+def full_throttle_limited(until_s: float = 6.0) -> dict[str, Any]:
+    """The simulator's own robot file (its speed limit, 2 m/s), full throttle by RC from 0.3 s:
+    the governor acts from 1.6 m/s on."""
+    robot = Robot.build(RuntimeConfig.from_robot(default_sim_config()))
+    robot.arm_rc()
+    robot.at(0.3, lambda: robot.world.rc.set_pedal(1.0))
     return state_of(robot, until_s)

@@ -18,7 +18,7 @@ from bywire.dashboard.view import (
 )
 from bywire.error_flags import ErrorFlag
 from bywire.task_table import SCHEDULE
-from tests.dashboard.states import driving_by_rc, rc_lost
+from tests.dashboard.states import driving_by_rc, full_throttle_limited, rc_lost
 
 TABLE_1 = {spec.name: spec.rate_hz for spec in SCHEDULE}
 
@@ -96,3 +96,16 @@ def test_a_negative_zero_is_shown_as_zero() -> None:
     state = driving_by_rc()
     state["setpoint"]["brake_norm"] = -0.0
     assert "brake 0.00" in command_panel(from_state(state)).plain
+
+
+def test_the_speed_limit_and_whether_it_acts_are_shown() -> None:
+    limited = from_state(full_throttle_limited())
+    assert (limited.speed_limit_mps, limited.speed_limited) == (2.0, True)
+    assert limited.speed_mps is not None
+    assert 1.6 < limited.speed_mps <= 2.0
+    panel = mode_panel(limited).plain
+    assert "limit 2, LIMITING" in panel
+    assert max(map(len, panel.split("\n"))) <= PANEL_WIDTH
+    free = from_state(driving_by_rc())  # a runtime without a limit
+    assert (free.speed_limit_mps, free.speed_limited) == (None, False)
+    assert "no limit" in mode_panel(free).plain

@@ -57,6 +57,7 @@ REPORTS: list[Report] = [
     WheelSpeedReport(left_mps=-327.68, right_mps=327.67, measured_valid=True),
     WheelSpeedReport(left_mps=1.25, right_mps=-0.01, measured_valid=True),
     WheelSpeedReport(left_mps=0.0, right_mps=0.0, measured_valid=False),
+    WheelSpeedReport(left_mps=2.2, right_mps=2.2, measured_valid=True, speed_limited=True),
     SteeringReport(commanded_norm=-1.0, measured_norm=1.0, measured_valid=True),
     SteeringReport(commanded_norm=0.1234, measured_norm=-0.0007, measured_valid=False),
     LightsReport(True, False, True, False, True, False, True),

@@ -6,7 +6,8 @@ from __future__ import annotations
 from dataclasses import replace
 
 from bywire.error_flags import ErrorFlag
-from bywire.model import ControlMode, StatusReport
+from bywire.model import ControlMode, Gear, ModeReport, Report, StatusReport, WheelSpeedReport
+from bywire.protocol import dbc
 from bywire.ros2.diagnostics import (
     FLAG_GROUPS,
     RECENT_S,
@@ -21,7 +22,8 @@ from bywire.ros2.diagnostics import (
     mode_status,
     statuses,
 )
-from bywire.ros2.robot import RobotStatus
+from bywire.ros2.robot import RobotStatus, robot_status
+from bywire.teleop.reports import ReportView, fold
 
 LATCHED = RobotStatus(
     reporting=True,
@@ -174,3 +176,29 @@ def test_a_pressed_estop_has_its_own_status_and_is_named_as_a_latched_cause() ->
     estop = next(s for s in flag_statuses(pressed) if s.name == "bywire: emergency stop")
     assert estop.level is Level.ERROR
     assert ("ESTOP_PRESSED", "latched") in estop.values
+
+
+def test_the_robots_speed_limit_acting_is_shown_in_the_mode_status() -> None:
+    driving = RobotStatus(True, 0.01, ControlMode.CAN, armed=True, speed_trusted=True)
+    free = mode_status(driving, engaged=True, remote_stop=False)
+    assert dict(free.values)["speed_limited"] == "false"
+    assert free.message == "CAN mode, enabled"
+    held = mode_status(replace(driving, speed_limited=True), engaged=True, remote_stop=False)
+    assert dict(held.values)["speed_limited"] == "true"
+    assert held.message == "CAN mode, enabled, held to the robot's speed limit"
+    assert held.level is Level.OK  # a limit that acts is no fault
+
+
+def _folded(*reports: Report) -> ReportView:
+    view = ReportView()
+    for report in reports:
+        view = fold(view, *dbc.encode_report(report), 1.0)
+    return view
+
+
+def test_the_status_reads_speed_limited_off_the_wheel_speed_report() -> None:
+    mode = ModeReport(Gear.FORWARD, ControlMode.CAN, False, False, True)
+    limited = _folded(mode, WheelSpeedReport(2.0, 2.0, True, speed_limited=True))
+    assert robot_status(limited, 1.01, 0.2).speed_limited
+    free = _folded(mode, WheelSpeedReport(1.0, 1.0, True))
+    assert not robot_status(free, 1.01, 0.2).speed_limited

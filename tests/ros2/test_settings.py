@@ -4,6 +4,7 @@ default maps are the simulated robot's own (so the speed loop starts from the ri
 from __future__ import annotations
 
 import dataclasses
+from dataclasses import replace
 from pathlib import Path
 
 import pytest
@@ -20,6 +21,7 @@ from bywire.ros2.settings import (
     RANGES,
     SHELL_PARAMETERS,
     BridgeSettings,
+    capped_by,
     interpolate,
     parameter_defaults,
     settings_from,
@@ -131,3 +133,12 @@ def test_docs_ros2_lists_every_parameter_with_its_default_and_range() -> None:
     for name, value in SHELL_PARAMETERS.items():
         shown = str(value).lower() if isinstance(value, bool) else f"`{value}`"
         assert f"| {shown} |" in rows[name], name
+
+
+def test_the_robots_speed_limit_caps_the_speed_gates_and_nothing_else() -> None:
+    capped = capped_by(DEFAULTS, 1.5)
+    assert (capped.max_speed_mps, capped.max_reverse_speed_mps) == (1.5, 0.8)
+    assert capped_by(DEFAULTS, 0.5).max_reverse_speed_mps == 0.5
+    assert capped_by(DEFAULTS, 9.0) == DEFAULTS  # a limit above the gates changes nothing
+    assert capped_by(DEFAULTS, None) is DEFAULTS
+    assert replace(capped, max_speed_mps=2.0, max_reverse_speed_mps=0.8) == DEFAULTS

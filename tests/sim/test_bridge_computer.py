@@ -4,9 +4,12 @@ events; files without it read as before; and what the run does with it, on the h
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import pytest
 
 from bywire.config import default_sim_config
+from bywire.config.speed_limit import LimitsSection
 from bywire.errors import ConfigError
 from bywire.sim.runner import SimRun
 from bywire.sim.scenario import parse_scenario, scenario_toml
@@ -124,3 +127,22 @@ bridge_throttle_max_norm = 0.0
     record = SimRun(default_sim_config(), parse_scenario(text, "bridge.toml")).run()
     passed = [verdict.passed for verdict in record.verdicts]
     assert passed == [True, False, True, True], record.verdicts
+
+
+def test_the_robots_speed_limit_gates_what_the_bridge_asks_for() -> None:
+    """A planner asking 3 m/s of a robot limited to 1.2 m/s: the bridge's speed gate is the
+    limit (its own max_speed_mps is 2.0), and the true speed stays near it, not past it."""
+    robot = replace(default_sim_config(), limits=LimitsSection(1.2))
+    text = (BRIDGE_RUN % 5.5).replace("duration_s = 4.0", "duration_s = 6.0")
+    text = text.replace("speed_mps = 1.0", "speed_mps = 3.0")
+    run = SimRun(robot, parse_scenario(text, "bridge.toml"))
+    assert run.bridge is not None
+    assert run.bridge.settings.max_speed_mps == 1.2
+    assert run.bridge.settings.max_reverse_speed_mps == 0.8  # already below the limit
+    speeds: list[float] = []
+    run.runtime.on_cycle.append(lambda _now: speeds.append(run.world.vehicle.state.speed_mps))
+    run.run()
+    assert 1.0 < max(speeds) <= 1.2
+    unlimited = SimRun(default_sim_config(), parse_scenario(text, "bridge.toml"))
+    assert unlimited.bridge is not None
+    assert unlimited.bridge.settings.max_speed_mps == 2.0  # the bridge's own, below the limit

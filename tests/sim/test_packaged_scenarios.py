@@ -2,11 +2,13 @@
 
 from __future__ import annotations
 
+from dataclasses import replace
 from pathlib import Path
 
 import pytest
 
 from bywire.config import default_sim_config
+from bywire.config.speed_limit import LimitsSection
 from bywire.sim.runner import SimRun
 from bywire.sim.scenario import load_scenario, parse_scenario
 
@@ -63,3 +65,19 @@ def test_the_teleop_scenario_waits_in_stop_for_an_outside_computer() -> None:
     # The switch moved into CAN before any computer sent: the refused arming latched CAN_LOST,
     # which the outside computer's re-enable edge clears.
     assert {cause.name for cause in outputs.causes} == {"CAN_LOST"}
+
+
+def test_the_slope_scenario_fails_without_the_governor_or_the_grade() -> None:
+    """speed-limit-slope has teeth: without the limit the slope carries the robot past it; and
+    the grade is real: on the flat the unlimited robot passes the limit too, but not the margin."""
+    scenario = load_scenario(SCENARIOS[0].parent / "speed-limit-slope.toml")
+    unlimited = replace(default_sim_config(), limits=LimitsSection(None))
+    record = SimRun(unlimited, scenario).run()
+    failed = {verdict.expectation.describe() for verdict in record.verdicts if not verdict.passed}
+    assert any(name.startswith("downhill at full throttle") for name in failed)
+    flat = replace(
+        scenario, events=tuple(event for event in scenario.events if event.kind != "world")
+    )
+    run = SimRun(unlimited, flat)
+    run.run()
+    assert 2.9 < run.record.top_speed_mps <= 3.0

@@ -91,6 +91,7 @@ BAD_VALUES = [
     (EVENT + "rc = { steering = -3 }", "event[0].rc.steering: got -3; allowed: a number in -1..1"),
     (EVENT + "hlc_control = { remote_stop = 1 }", "remote_stop: got 1; allowed: true or false"),
     ("[[expect]]\nat_s = 1\nmode = 'drive'", "expect[0].mode: got 'drive'; allowed: one of"),
+    (EVENT + "world = { grade = -0.5 }", "event[0].world.grade: got -0.5; allowed: a number in"),
     (
         "duration_s = 5\n" + EVENT.replace("1", "6") + "rc = { mode = 'rc' }",
         "event[0].at_s: 6 s is after",

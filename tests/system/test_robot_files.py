@@ -153,6 +153,7 @@ def test_without_a_wheel_sensor_reverse_never_engages_while_rolling(
     text = (
         f'backend = "linux"\n[interlocks]\nunknown_speed_brake_norm = {demand}\n'
         f"[hydrobrake]\nthreshold_norm = {threshold}\n"
+        '[limits]\nmax_speed_mps = "none"\n'  # rolling past 2 m/s: no ceiling holds it back
     )
     robot = accepted(text, ("breaks the deadline 'no reversal at speed'", fix))
     if robot is None:
@@ -216,6 +217,7 @@ def test_with_both_mechanical_brakes_failed_a_controlled_stop_keeps_regenerating
 LONG_TIMEOUTS = (
     'backend = "sim"\n[timeouts]\nrc_timeout_s = 1.0\ncan_command_timeout_s = 1.0\n'
     "watchdog_s = 1.0\n"
+    '[limits]\nmax_speed_mps = "none"\n'  # the drive's own top speed: the longest way
 )
 FULL_THROTTLE_FOR_S = 8.0  # long enough to reach the top speed
 

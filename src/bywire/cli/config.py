@@ -18,6 +18,8 @@ from pathlib import Path
 
 from bywire.config import RobotConfig, as_dict, describe, load_config
 from bywire.config.deadlines import loss_distances, loss_rows, promise_lines
+from bywire.config.speed_limit import enforcement
+from bywire.hal.hardware import sensors_fitted
 from bywire.runtime.rx_checks import rx_checks
 from bywire.security.keys import read_key_file
 
@@ -73,7 +75,12 @@ def switch_bands(config: RobotConfig) -> list[str]:
 def run(args: argparse.Namespace) -> int:
     config = load_config(args.file)
     if args.json:
-        print(json.dumps(as_dict(config) | {"loss_distances": loss_rows(config)}, indent=2))
+        speed_limit = {"speed_limit": enforcement(config.limits, config.vehicle)}
+        print(
+            json.dumps(
+                as_dict(config) | {"loss_distances": loss_rows(config)} | speed_limit, indent=2
+            )
+        )
         return 0
     print(f"# {args.file}: valid; robot {config.name!r}, backend {config.backend!r}")
     print(f"# {authentication_line(config)}")
@@ -84,6 +91,13 @@ def run(args: argparse.Namespace) -> int:
     print("# What each timeout buys: how far the robot drives on at top speed before the stop:")
     for loss in loss_distances(config):
         print(f"#   {loss}")
+    print("# Speed limit (docs/SAFETY.md row 67; [limits], [vehicle] calibration):")
+    for line in enforcement(config.limits, config.vehicle):
+        print(f"#   {line}")
+    if config.limits.max_speed_mps is not None and not sensors_fitted(config.backend):
+        print(
+            f"#   the {config.backend!r} backend opens no wheel-speed sensor: the ceiling applies"
+        )
     print("# RC switches (a value in no band is no position: the mode switch then means STOP):")
     for line in switch_bands(config):
         print(f"#   {line}")

@@ -20,7 +20,7 @@ from bywire.config import default_sim_config, load_config
 from bywire.config.security_setup import sender_signer
 from bywire.errors import HardwareError
 from bywire.protocol import dbc
-from bywire.ros2.settings import Geometry
+from bywire.ros2.settings import Geometry, capped_by
 from bywire.security.keys import read_key_file
 from bywire.security.session import TRIP_IDS
 
@@ -114,18 +114,27 @@ def run(args: argparse.Namespace) -> int:
     geometry = Geometry.of(robot.vehicle)
     rclpy.init(args=["bywire", "--ros-args", *args.ros_args])
     try:
-        return _serve(rclpy, args, geometry, defaults=args.config is None)
+        limit_mps = robot.limits.max_speed_mps
+        return _serve(rclpy, args, geometry, limit_mps, defaults=args.config is None)
     finally:
         if rclpy.ok():
             rclpy.shutdown()
 
 
-def _serve(rclpy: Any, args: argparse.Namespace, geometry: Geometry, *, defaults: bool) -> int:
+def _serve(
+    rclpy: Any,
+    args: argparse.Namespace,
+    geometry: Geometry,
+    limit_mps: float | None,
+    *,
+    defaults: bool,
+) -> int:
     from bywire.ros2.link_process import LinkOptions, LinkProcess  # noqa: PLC0415
     from bywire.ros2.node import NODE_NAME, BridgeNode, declare_parameters, spin  # noqa: PLC0415
 
     node = rclpy.create_node(NODE_NAME)
     settings, shell = declare_parameters(node)
+    settings = capped_by(settings, limit_mps)  # the robot's speed limit gates cmd_vel too
     opener = functools.partial(open_link, _bus_options(args), args.key, args.freshness)
     link = LinkProcess(opener, LinkOptions(settings, geometry, args.link_priority))
     stop = threading.Event()

@@ -7,12 +7,12 @@ a write, dead sensors, failing brakes and steering), partly strung into episodes
 ends, then a re-arming; a broken brake or servo, then a request that needs it; a brake asked
 with the throttle held, a reversal while rolling, a stop with the steering turned), run on the
 simulated robot built from the configuration, in virtual time, on every core. After every pass
-of the control loop the hazard oracle checks the output invariants H1–H10 of docs/SAFETY.md on
+of the control loop the hazard oracle checks the output invariants H1–H11 of docs/SAFETY.md on
 the simulated hardware. A fifth of the campaigns are bridge campaigns: the ROS 2 bridge's CAN
 side (its link, speed loop, stop ramp and enabling) is the computer, fed by a simulated planner
 (speeds, curvatures, reversals, silence, stale and lagging stamps, rates, ~/enable and
 ~/remote_stop) among the faults that matter to it (a dead wheel sensor, failing brakes, the
-bridge falling silent, a pulled cable, RC taking over); besides H1–H10 they are judged on the
+bridge falling silent, a pulled cable, RC taking over); besides H1–H11 they are judged on the
 bridge's own invariants B1–B3 (a flagged speed ends in a stop, the stop ramp brakes to
 standstill, every refused command shows in /diagnostics).
 

@@ -31,6 +31,7 @@ from bywire.config.sections import (
     timeouts_section,
 )
 from bywire.config.security import SecuritySection, security_section
+from bywire.config.speed_limit import limits_section
 from bywire.config.tree import BACKENDS, Backend, RobotConfig
 from bywire.config.vehicle import vehicle_section
 from bywire.errors import ConfigError
@@ -130,6 +131,7 @@ def build_robot(
         sim=sim_section(root.table("sim")),
         security=security_section(root.table("security"), backend),
         vehicle=vehicle_section(root.table("vehicle")),
+        limits=limits_section(root.table("limits")),
     )
     root.close()
     return config

@@ -128,7 +128,7 @@ class KeyRead:
     default when the key is absent)."""
 
     parts: tuple[str, ...]
-    kind: str  # "number", "integer", "integers" (count increasing), "text", "flag"
+    kind: str  # "number", "integer", "integers" (count increasing), "numbers", "text", "flag"
     allowed: Interval | range | tuple[str, ...] | None
     value: builtins.object  # not `object`: mypyc cannot load that annotation (issue 43)
     count: int = 1
@@ -252,6 +252,39 @@ class Table:
             self.refuse(name, value, f"out of range or not increasing; allowed {text}")
             return default
         return tuple(value)
+
+    def number_list(
+        self, name: str, default: tuple[float, ...], allowed: Interval, counts: range, strict: bool
+    ) -> tuple[float, ...]:
+        """Numbers in `allowed` at `name` (or `default`), as many as `counts` allows, rising
+        (strictly when `strict`): one axis of a calibration map."""
+        numbers = self._number_list(name, default, allowed, counts, strict)
+        self._record(name, "numbers", allowed, numbers, len(numbers))
+        return numbers
+
+    def _number_list(
+        self, name: str, default: tuple[float, ...], allowed: Interval, counts: range, strict: bool
+    ) -> tuple[float, ...]:
+        value = self.get(name)
+        if value is MISSING:
+            return default
+        order = "strictly rising" if strict else "rising"
+        text = f"{counts.start}..{counts[-1]} {order} numbers, each {allowed}"
+        if not isinstance(value, list) or len(value) not in counts:
+            self.refuse(name, value, f"expected an array of {text}, got {toml_type(value)}")
+            return default
+        numbers = [
+            None if isinstance(v, bool) or not isinstance(v, int | float) else finite(v)
+            for v in value
+        ]
+        if any(n is None or n not in allowed for n in numbers):
+            self.refuse(name, value, f"out of range; allowed {text}")
+            return default
+        checked = [float(n) for n in numbers if n is not None]
+        if any(a >= b if strict else a > b for a, b in itertools.pairwise(checked)):
+            self.refuse(name, value, f"not {order}; allowed {text}")
+            return default
+        return tuple(checked)
 
     def text(self, name: str, default: str, choices: Sequence[str] = ()) -> str:
         text = self._text(name, default, choices)

@@ -6,6 +6,7 @@ import json
 from collections.abc import Mapping
 from dataclasses import fields, is_dataclass
 
+from bywire.config.speed_limit import WRITTEN_NONE
 from bywire.config.tree import (
     ESTOP_NONE,
     TASK_LINE_SUFFIX,
@@ -51,7 +52,11 @@ def _table(node: object, chip: str) -> dict[str, object]:
     table: dict[str, object] = {}
     for field in fields(node):  # type: ignore[arg-type]
         value = getattr(node, field.name)
-        if field.name in NOT_KEYS or value is None:
+        if field.name in NOT_KEYS:
+            continue
+        if value is None:  # an optional key left out, or one whose None the file spells
+            if WRITTEN_NONE in field.metadata:
+                table[field.name] = field.metadata[WRITTEN_NONE]
             continue
         if isinstance(value, TasksSection):
             rates = {f"{name}_rate_hz": rate for name, rate in value.rates_hz}

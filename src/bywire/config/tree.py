@@ -12,6 +12,7 @@ from typing import Literal
 
 from bywire.command_table import COMMAND_TYPES
 from bywire.config.security import SecuritySection
+from bywire.config.speed_limit import LimitsSection
 from bywire.config.vehicle import VehicleSection
 from bywire.control.drive import DriveConfig
 from bywire.control.hydrobrake import DEFAULT_THRESHOLD_NORM
@@ -316,6 +317,7 @@ class RobotConfig:
     sim: SimSection = field(default_factory=SimSection)
     security: SecuritySection = field(default_factory=SecuritySection)
     vehicle: VehicleSection = field(default_factory=VehicleSection)
+    limits: LimitsSection = field(default_factory=LimitsSection)
 
 
 OUTPUT_SECTIONS = ("drive", "ebrake", "lights")

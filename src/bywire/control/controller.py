@@ -24,6 +24,14 @@ from bywire.control.command_edges import NO_EDGES, CommandEdges
 from bywire.control.command_slots import NO_COMMANDS, CommandSlots
 from bywire.control.drive import SAFE_DRIVE, DriveConfig, DriveOutputs, braking_drive, drive_outputs
 from bywire.control.estop import NOT_PRESSED, EstopState, estop_step
+from bywire.control.governor import (
+    IDLE,
+    GovernorConfig,
+    GovernorState,
+    acting,
+    governed,
+    governor_step,
+)
 from bywire.control.hydrobrake import DEFAULT_THRESHOLD_NORM, hydrobrake_duty
 from bywire.control.interlocks import (
     InterlockConfig,
@@ -114,6 +122,7 @@ class ControlConfig:
     monitors: MonitorConfig = field(default_factory=MonitorConfig)
     supervisor: SupervisorConfig = field(default_factory=SupervisorConfig)
     stop: StopConfig = field(default_factory=StopConfig)
+    governor: GovernorConfig = field(default_factory=GovernorConfig)
 
     def command_timeout_s(self, kind: type[Command]) -> float:
         """The age limit of the CAN command `kind` (LookupError for a command without one)."""
@@ -177,6 +186,7 @@ class ControlState:
     stop: StopState = NOT_STOPPING
     drive_applied: DriveOutputs = SAFE_DRIVE  # as the previous step left it
     estop: EstopState = NOT_PRESSED
+    governor: GovernorState = IDLE
 
 
 @value
@@ -198,6 +208,7 @@ class ControlOutputs:
     error_flags: int
     # Each `Use.REQUEST` row's request, fresh and trusted, in CAN mode (else None), for its task.
     requests: tuple[tuple[type[Command], Command | None], ...] = ()
+    speed_limited: bool = False  # the governor holds the throttle below what was asked, or brakes
 
     def request(self, kind: type[C]) -> C | None:
         """What the command `kind` (a `Use.REQUEST` row) asks of its task now; None: nothing."""
@@ -395,13 +406,15 @@ def controller_step(
     if driving and state.supervisor.mode is ControlMode.STOP:
         speed_check = cleared(speed_check)  # an arming event acknowledges a sensor fault
     speed_mps = trusted_speed(speed_check, inputs.speed_mps)
-    interlock, movement, held = interlock_step(
+    interlock, asked, held = interlock_step(
         state.interlock,
         _requested(supervisor, sources, speed_check.faulted),
         speed_mps,
         now,
         config.interlocks,
     )
+    governor = governor_step(state.governor, speed_mps, driving, now, config.governor)
+    movement = governed(asked, governor)
     stop, stop_phase = stop_step(
         state.stop,
         stopping=not driving,
@@ -456,6 +469,7 @@ def controller_step(
         light_request=light_request,
         error_flags=int(flags),
         requests=_requests(supervisor.mode, sources) if REQUESTS else (),
+        speed_limited=acting(asked, governor),
     )
     new_state = ControlState(
         supervisor,
@@ -471,6 +485,7 @@ def controller_step(
         stop,
         drive,
         estop,
+        governor,
     )
     return new_state, outputs
 

@@ -86,6 +86,8 @@ class DashboardSnapshot:
     tasks: tuple[TaskView, ...]
     idle_share_pct: float  # 100 % minus the tasks' runtime shares (Figure 30's IDLE row)
     watchdog_tripped: bool
+    speed_limit_mps: float | None = None  # `[limits] max_speed_mps` (None: no limit)
+    speed_limited: bool = False  # the governor acts: throttle held below what was asked, or braking
 
 
 def from_state(state: Mapping[str, Any]) -> DashboardSnapshot:
@@ -132,6 +134,8 @@ def from_state(state: Mapping[str, Any]) -> DashboardSnapshot:
         tasks=tasks,
         idle_share_pct=max(0.0, 100.0 - sum(task.runtime_share_pct for task in tasks)),
         watchdog_tripped=bool(state["watchdog_tripped"]),
+        speed_limit_mps=state["speed_limit"]["limit_mps"],
+        speed_limited=bool(state["speed_limit"]["acting"]),
     )
 
 

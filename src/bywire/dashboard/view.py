@@ -35,13 +35,26 @@ def mode_panel(snap: DashboardSnapshot) -> Text:
     text.append(snap.mode, style=MODE_STYLES.get(snap.mode, "bold"))
     text.append(f"  {'armed' if snap.armed else 'LATCHED'}  t {snap.elapsed_s:.1f} s\n")
     speed = "—" if snap.speed_mps is None else f"{snap.speed_mps:.2f} m/s"
-    text.append(_fit(f"speed {speed}") + "\n", style="bold")
+    text.append(_fit(f"speed {speed}"), style="bold")
+    text.append(_fit(f"  {speed_limit_text(snap)}") + "\n", style=_limit_style(snap))
     latch = ", ".join(snap.latched) or "none"
     text.append(_fit(f"latched: {latch}") + "\n", style="yellow" if snap.latched else "")
     count = len(snap.error_flags) + snap.watchdog_tripped
     summary = "none" if not count else f"{count} set (below)"
     text.append(f"flags: {summary}", style="bold red" if count else "green")
     return text
+
+
+def speed_limit_text(snap: DashboardSnapshot) -> str:
+    """The speed limit and whether it acts (docs/SAFETY.md row 67)."""
+    if snap.speed_limit_mps is None:
+        return "no limit"
+    acting = ", LIMITING" if snap.speed_limited else ""
+    return f"limit {snap.speed_limit_mps:g}{acting}"
+
+
+def _limit_style(snap: DashboardSnapshot) -> str:
+    return "bold yellow" if snap.speed_limited else ""
 
 
 def flags_line(snap: DashboardSnapshot, verdict: str | None = None) -> Text:

@@ -130,6 +130,7 @@ def mode_status(status: RobotStatus, engaged: bool, remote_stop: bool) -> Status
         ("armed", str(status.armed).lower()),
         ("bridge_enabled", str(engaged).lower()),
         ("remote_stop_requested", str(remote_stop).lower()),
+        ("speed_limited", str(status.speed_limited).lower()),
     )
     if causes:
         return Status(PREFIX + "mode", Level.ERROR, f"STOP latched: {' '.join(causes)}", values)
@@ -143,7 +144,8 @@ def mode_status(status: RobotStatus, engaged: bool, remote_stop: bool) -> Status
         message = f"speed unknown ({why}): the bridge asks no throttle and brakes to a stop"
         return Status(PREFIX + "mode", Level.ERROR, message, values)
     if status.drivable and engaged:
-        return Status(PREFIX + "mode", Level.OK, "CAN mode, enabled", values)
+        limited = ", held to the robot's speed limit" if status.speed_limited else ""
+        return Status(PREFIX + "mode", Level.OK, f"CAN mode, enabled{limited}", values)
     hint = "call ~/enable" if status.drivable else f"{mode} mode"
     return Status(PREFIX + "mode", Level.WARN, f"not driving: {hint}", values)
 

@@ -32,6 +32,7 @@ class RobotStatus:
     flags: ErrorFlag = NO_FLAGS
     speed_trusted: bool = False
     speed_measured: bool = False  # the WheelSpeedReport's measured_valid
+    speed_limited: bool = False  # the WheelSpeedReport's speed_limited: the robot's governor acts
 
     @property
     def trusted_speed_mps(self) -> float | None:
@@ -77,6 +78,7 @@ def robot_status(view: ReportView, now_s: float, report_timeout_s: float) -> Rob
         speed_mps=(wheels.left_mps + wheels.right_mps) / 2,
         flags=flags,
         speed_measured=wheels.measured_valid,
+        speed_limited=wheels.speed_limited,
         speed_trusted=(
             reporting
             and wheels.measured_valid  # no sensor, or no reading: unknown, never standstill

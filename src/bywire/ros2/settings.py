@@ -13,7 +13,7 @@ from __future__ import annotations
 import itertools
 import math
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass, fields
+from dataclasses import dataclass, fields, replace
 
 from bywire.config.reader import Interval
 from bywire.config.vehicle import VehicleSection
@@ -110,6 +110,21 @@ SHELL_PARAMETERS: dict[str, bool | str] = {
 def parameter_defaults() -> dict[str, float | tuple[float, ...]]:
     """Every parameter with its default, for the node to declare."""
     return {field.name: getattr(DEFAULTS, field.name) for field in fields(BridgeSettings)}
+
+
+def capped_by(settings: BridgeSettings, robot_limit_mps: float | None) -> BridgeSettings:
+    """The settings with their speed gates (`max_speed_mps`, `max_reverse_speed_mps`: what a
+    cmd_vel or a speed request is clamped to) no faster than the robot's own speed limit
+    (`[limits] max_speed_mps`, docs/SAFETY.md row 67; None: none). The controller enforces the
+    limit whatever the bridge asks; capped here, the bridge's speed loop aims at a speed it may
+    reach instead of winding up against the governor."""
+    if robot_limit_mps is None:
+        return settings
+    return replace(
+        settings,
+        max_speed_mps=min(settings.max_speed_mps, robot_limit_mps),
+        max_reverse_speed_mps=min(settings.max_reverse_speed_mps, robot_limit_mps),
+    )
 
 
 def settings_from(values: Mapping[str, object]) -> BridgeSettings:

@@ -64,7 +64,12 @@ def build_reports(outputs: ControlOutputs, health: Health) -> tuple[Report, ...]
             armed=not outputs.causes,
         ),
         ErrorReport(flags=ErrorFlag(outputs.error_flags)),
-        WheelSpeedReport(left_mps=left_mps, right_mps=right_mps, measured_valid=wheels_valid),
+        WheelSpeedReport(
+            left_mps=left_mps,
+            right_mps=right_mps,
+            measured_valid=wheels_valid,
+            speed_limited=outputs.speed_limited,
+        ),
         SteeringReport(
             commanded_norm=health.steering_setpoint_norm,
             measured_norm=0.0 if measured is None else measured,

@@ -5,6 +5,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field, replace
 
 from bywire.config import RobotConfig, TimeoutsSection
+from bywire.config.speed_limit import governor_config
 from bywire.control.controller import ControlConfig
 from bywire.control.stop import STANDSTILL_LIMIT_MPS, StopConfig
 from bywire.runtime.actuators import ActuatorConfig
@@ -47,6 +48,7 @@ class RuntimeConfig:
                 controlled_min_decel_mps2=robot.stop.controlled_min_decel_mps2,
                 standstill_mps=min(robot.interlocks.standstill_speed_mps, STANDSTILL_LIMIT_MPS),
             ),
+            governor=governor_config(robot.limits, robot.vehicle),
         )
         timeouts = robot.timeouts
         schedule = tuple(replace(spec, rate_hz=robot.tasks.rate_hz(spec.name)) for spec in SCHEDULE)

@@ -30,7 +30,7 @@ from bywire.ros2.bridge import Activity, Decision
 from bywire.ros2.diagnostics import Level, inputs_status
 from bywire.ros2.link import CanLink, Snapshot
 from bywire.ros2.setpoint import Refusal, Setpoint
-from bywire.ros2.settings import BridgeSettings, Geometry
+from bywire.ros2.settings import BridgeSettings, Geometry, capped_by
 from bywire.security.session import TRIP_IDS, SecocSigner
 from bywire.teleop.frames import SEND_PERIOD_S
 
@@ -101,6 +101,7 @@ class SimBridge:
         accepted = (*dbc.report_ids(), *(TRIP_IDS if signer is not None else ()))
         port = world.bus.attach(BRIDGE_NODE, accept_ids=accepted, tx_mailboxes=BRIDGE_TX_MAILBOXES)
         geometry = Geometry.of(robot.vehicle)
+        settings = capped_by(settings, robot.limits.max_speed_mps)
         link = CanLink(
             SimPortBus(port), settings, geometry, signer=signer, now=world.clock.now, notifier=False
         )

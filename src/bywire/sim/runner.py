@@ -274,6 +274,7 @@ class SimRun:
             "estop": self._apply_estop,
             "planner": self._apply_planner,
             "bridge_service": self._apply_bridge_service,
+            "world": self._apply_world,
         }
         appliers[event.kind](event.values)
         for listener in self.on_event:
@@ -335,6 +336,10 @@ class SimRun:
             bridge.enable()
         if "remote_stop" in values:
             bridge.remote_stop(bool(values["remote_stop"]))
+
+    def _apply_world(self, values: dict[str, Any]) -> None:
+        if "grade" in values:
+            self.world.vehicle.grade = float(values["grade"])
 
     def _apply_fault(self, values: dict[str, Any]) -> None:
         BY_NAME[str(values["fault"])].apply(self, values)

@@ -85,6 +85,8 @@ ACTION_VALUES: dict[str, dict[str, Check]] = {
         "publishing": flag,  # false: the planner falls silent
     },
     "bridge_service": {"enable": flag, "remote_stop": flag},  # ~/enable, ~/remote_stop
+    # the simulated road: its grade, rise over run in the forward direction (-0.1: 10 % downhill)
+    "world": {"grade": number(-0.3, 0.3)},
 }
 """Every key of every action, with what its value may be."""
 

@@ -72,6 +72,8 @@ class StateCapture(NamedTuple):
     rc_request: MovementValues | None
     can_movement: MovementValues | None
     speed_mps: float | None
+    speed_limit_mps: float | None  # `[limits] max_speed_mps` (None: no limit)
+    speed_limited: bool  # the governor holds the throttle below what was asked, or brakes
     wheel_left_mps: float | None
     wheel_right_mps: float | None
     hydrobrake_pressure_bar: float | None
@@ -221,6 +223,8 @@ class TelemetryTap:
             None if rc_request is None else movement_values(rc_request),
             None if movement is None else movement_values(movement.value),
             sensors.speed_mps,
+            runtime.config.control.governor.max_speed_mps,
+            outputs.speed_limited,
             None if wheels is None else wheels[0],
             None if wheels is None else wheels[1],
             sensors.hydrobrake_pressure_bar,

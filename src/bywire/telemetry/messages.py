@@ -76,6 +76,7 @@ def state_message(capture: StateCapture) -> Message:
         "outputs": _outputs(capture),
         "inputs": _inputs(capture),
         "speed_mps": capture.speed_mps,
+        "speed_limit": {"limit_mps": capture.speed_limit_mps, "acting": capture.speed_limited},
         "error_flags": flag_names(capture.error_flags),
         "error_flags_bits": capture.error_flags,
         "watchdog_tripped": capture.watchdog_tripped,

@@ -117,6 +117,7 @@ STATE_SCHEMA = _object(
         "outputs": _OUTPUTS,
         "inputs": _INPUTS,
         "speed_mps": _OPTIONAL_NUMBER,
+        "speed_limit": _object({"limit_mps": _OPTIONAL_NUMBER, "acting": _BOOLEAN}),
         "error_flags": _NAMES,
         "error_flags_bits": _INTEGER,
         "watchdog_tripped": _BOOLEAN,

@@ -181,3 +181,35 @@ def test_straight_ahead_wheels_run_at_the_same_speed() -> None:
     state = run(VehicleState(), FULL_FORWARD, 1.0)
     left_mps, right_mps = MODEL.wheel_speeds(state)
     assert left_mps == right_mps == state.speed_mps > 0.0
+
+
+def _on_grade(
+    state: VehicleState, inputs: ActuatorInputs, grade: float, seconds: float
+) -> VehicleState:
+    for _ in range(round(seconds / STEP_S)):
+        state = MODEL.step(state, inputs, STEP_S, grade)
+    return state
+
+
+COASTING = ActuatorInputs(ebrake_release=True, steering_pulse_s=0.0015)
+
+
+def test_downhill_gravity_carries_the_robot_past_its_top_speed() -> None:
+    flat = _on_grade(VehicleState(), FULL_FORWARD, 0.0, 20.0)
+    downhill = _on_grade(VehicleState(), FULL_FORWARD, -0.1, 20.0)
+    assert flat.speed_mps == pytest.approx(3.0, abs=0.01)
+    assert downhill.speed_mps > 3.5
+    rolled = _on_grade(VehicleState(), COASTING, -0.1, 1.0)  # nothing driving: it rolls forward
+    assert rolled.speed_mps == pytest.approx((9.81 * 0.1 / math.sqrt(1.01) - 0.15) * 1.0, rel=0.01)
+
+
+def test_uphill_a_coasting_robot_rolls_back_and_brakes_hold_it() -> None:
+    assert _on_grade(VehicleState(), COASTING, 0.1, 1.0).speed_mps < -0.5
+    held = dataclasses.replace(COASTING, hydraulic_duty=1.0)
+    assert _on_grade(VehicleState(), held, 0.1, 1.0).speed_mps == 0.0
+    assert _on_grade(VehicleState(), ActuatorInputs(), -0.3, 1.0).speed_mps == 0.0  # e-brake
+
+
+def test_a_flat_road_is_the_model_without_grades() -> None:
+    state = VehicleState(speed_mps=1.3)
+    assert MODEL.step(state, FULL_FORWARD, STEP_S, 0.0) == MODEL.step(state, FULL_FORWARD, STEP_S)

@@ -5,12 +5,13 @@ action and value of the bridge's vocabulary."""
 from __future__ import annotations
 
 from bywire.config import default_sim_config
-from bywire.model import ControlMode
+from bywire.model import ControlMode, Gear
 from bywire.sim.verify.actions import BRIDGE_ACTIONS, BRIDGE_PRESETS, compile_steps
 from bywire.sim.verify.campaign import VOCABULARY, Step
 from bywire.sim.verify.draw import draw_campaign
 from bywire.sim.verify.draw_bridge import (
     BRIDGE_WEIGHTS,
+    SLOPE_GRADES,
     draw_any,
     draw_bridge_campaign,
     is_bridge_campaign,
@@ -27,8 +28,21 @@ def test_a_share_of_the_campaigns_are_bridge_campaigns_and_the_others_are_unchan
         if index in bridge:
             assert drawn == draw_bridge_campaign(0, index)
             assert drawn[0].action == "bridge"
-        else:
-            assert drawn == draw_campaign(0, index)  # as `bywire verify` drew it before
+        else:  # as `bywire verify` drew it before, maybe on a slope from the start
+            unsloped = drawn[1:] if drawn[0].action == "grade" else drawn
+            assert unsloped == draw_campaign(0, index)
+
+
+def test_a_share_of_the_other_campaigns_open_downhill_at_every_grade() -> None:
+    grades = [
+        steps[0].value
+        for steps in (draw_any(0, index) for index in INDICES)
+        if steps[0].action == "grade"
+    ]
+    assert 0.1 < len(grades) / len(INDICES) < 0.4
+    assert set(grades) == set(SLOPE_GRADES)
+    assert all(value in VOCABULARY["grade"] for value in grades)
+    assert draw_any(0, 5) == draw_any(0, 5)
 
 
 def test_a_bridge_campaign_opens_enabled_with_the_planner_publishing() -> None:
@@ -66,3 +80,29 @@ def test_a_bridge_campaign_compiles_to_a_scenario_run_by_the_bridge_with_its_par
     other = compile_steps(draw_campaign(0, 1), robot)
     assert (other.computer, other.bridge) == ("hlc", ())
     assert not any(event.kind in {"planner", "bridge_service"} for event in other.events)
+
+
+def test_a_campaign_whose_two_mechanical_brakes_fail_stays_on_the_flat() -> None:
+    both = [
+        index
+        for index in INDICES
+        if not is_bridge_campaign(0, index)
+        and {("ebrake", False), ("hydrobrake", False)}
+        <= {(step.action, step.value) for step in draw_campaign(0, index)}
+    ]
+    assert both
+    assert all(draw_any(0, index)[0].action != "grade" for index in both)
+
+
+def test_a_campaign_that_selects_reverse_stays_on_the_flat() -> None:
+    reversing = [
+        index
+        for index in INDICES
+        if not is_bridge_campaign(0, index)
+        and any(
+            step.action in ("rc_gear", "can_gear") and step.value is Gear.REVERSE
+            for step in draw_campaign(0, index)
+        )
+    ]
+    assert reversing
+    assert all(draw_any(0, index)[0].action != "grade" for index in reversing)

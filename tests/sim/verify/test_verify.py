@@ -17,14 +17,19 @@ import pytest
 
 from bywire.cli.main import main
 from bywire.config import default_sim_config, load_config, parse_config
+from bywire.config.speed_limit import LimitsSection
+from bywire.control.governor import GovernorConfig
 from bywire.model import ControlMode
+from bywire.runtime import settings
 from bywire.sim.scenario import parse_scenario, scenario_toml
 from bywire.sim.verify.campaign import VOCABULARY, Campaign, Step, compile_steps
-from bywire.sim.verify.draw import draw_campaign
+from bywire.sim.verify.draw import CAMPAIGN_S, draw_campaign
 from bywire.sim.verify.engine import (
+    CampaignJob,
     Outcome,
     _simpler_values,
     run_campaign,
+    run_indexed,
     shrink_failure,
 )
 from tests.system.old_bugs import OLD_BUGS
@@ -298,3 +303,61 @@ def test_the_default_robot_acts_on_a_failed_brake_and_a_stuck_servo_in_time() ->
         outcome = run_campaign(ROBOT, steps)
         assert outcome.checks > 0
         assert outcome.findings == []
+
+
+FULL_THROTTLE_FOR_LONG = [
+    Step(0.2, "arm", RC),
+    Step(0.15, "rc_throttle", 1.0),
+    Step(8.0, "rc_throttle", 1.0),
+]
+
+
+def _without_the_governor(monkeypatch: pytest.MonkeyPatch) -> None:
+    """The controller built without its governor, whatever the robot file's limit says (the
+    oracle still reads the limit from the file)."""
+    monkeypatch.setattr(settings, "governor_config", lambda *_: GovernorConfig())
+
+
+def test_h11_finds_a_controller_without_the_speed_governor(monkeypatch: pytest.MonkeyPatch) -> None:
+    assert run_campaign(ROBOT, FULL_THROTTLE_FOR_LONG).findings == []  # governed: clean
+    _without_the_governor(monkeypatch)
+    outcome = run_campaign(ROBOT, FULL_THROTTLE_FOR_LONG)
+    assert [finding.invariant for finding in outcome.findings] == ["H11"], outcome.findings
+    assert "past the limit 2 m/s" in outcome.findings[0].detail
+
+
+def test_verify_s_own_campaigns_find_a_controller_without_the_speed_governor(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    _without_the_governor(monkeypatch)
+    job = CampaignJob(seed=0, campaign_s=CAMPAIGN_S)
+    for index in range(SEARCH_LIMIT):
+        outcome = run_indexed(ROBOT, job, index)
+        if any(finding.invariant == "H11" for finding in outcome.findings):
+            return
+    pytest.fail(f"no H11 in {SEARCH_LIMIT} campaigns without the governor")
+
+
+STALL_WHILE_ROLLING = """
+name = "stall-while-rolling"
+duration_s = 9.3
+event = [
+    { at_s = 0.0, rc = { gear = "forward" } },
+    { at_s = 0.0, hlc = { steering = 0.0, throttle = 0.0, brake = 0.0, gear = "forward" } },
+    { at_s = 0.2, rc = { mode = "stop" } },
+    { at_s = 0.26, rc = { throttle = 0.0, mode = "rc" } },
+    { at_s = 0.3, rc = { throttle = 0.8 } },
+    { at_s = 8.5, fault = "dac_stall", count = 1, stall_s = 0.3 },
+]
+"""
+"""Found by `bywire verify --seed 0` (campaign 29, shrunk) once campaigns went downhill: a DAC
+write hangs past the watchdog while the robot rolls; the watchdog's own thread engages the brakes
+during the hang, and the pass that ends it still bears the time it began."""
+
+
+@pytest.mark.parametrize("limit", [None, 2.0])
+def test_h7_weighs_the_stop_that_a_stall_hid_on_the_worlds_time(limit: float | None) -> None:
+    robot = replace(ROBOT, limits=LimitsSection(limit))
+    result = Campaign(robot).run_scenario(parse_scenario(STALL_WHILE_ROLLING, "stall.toml"))
+    assert result.oracle.checks > 0
+    assert result.oracle.violations == []

@@ -85,6 +85,7 @@ class SimVehicle:
         self.state = VehicleState()
         self.inputs = ActuatorInputs()
         self.faults = ActuatorFaults()
+        self.grade = 0.0  # the road's rise over run, forward; a scenario's `world` action sets it
         self.history: deque[tuple[float, VehicleState]] = deque(maxlen=history_limit)
         """``(time_s, state)`` after each step, the latest ``history_limit`` of them."""
         self._clock = clock
@@ -110,7 +111,7 @@ class SimVehicle:
 
     def _step(self, tick_s: float) -> None:
         self.inputs = self.wiring.sample(self.faults)
-        self.state = self.model.step(self.state, self.inputs, self._step_s)
+        self.state = self.model.step(self.state, self.inputs, self._step_s, self.grade)
         self.history.append((tick_s, self.state))
 
 

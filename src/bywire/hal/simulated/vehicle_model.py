@@ -108,6 +108,15 @@ def resistance_mps2(inputs: ActuatorInputs, config: VehicleConfig) -> float:
     )
 
 
+GRAVITY_MPS2 = 9.81
+
+
+def grade_accel_mps2(grade: float) -> float:
+    """Gravity along the road for a grade (rise over run, positive uphill when driving forward):
+    it pulls the robot back uphill, −g·sin(atan(grade))."""
+    return -GRAVITY_MPS2 * grade / math.sqrt(1.0 + grade * grade)
+
+
 def speed_step(speed_mps: float, drive_mps2: float, resistance: float, dt_s: float) -> float:
     """Next speed: resistance opposes motion, holds a robot at rest, and stops it at zero."""
     if speed_mps == 0.0:
@@ -154,12 +163,18 @@ class VehicleModel:
 
     config: VehicleConfig = field(default_factory=VehicleConfig)
 
-    def step(self, state: VehicleState, inputs: ActuatorInputs, dt_s: float) -> VehicleState:
-        """Advance ``dt_s`` with the actuators held at ``inputs`` (semi-implicit Euler)."""
+    def step(
+        self, state: VehicleState, inputs: ActuatorInputs, dt_s: float, grade: float = 0.0
+    ) -> VehicleState:
+        """Advance ``dt_s`` with the actuators held at ``inputs`` (semi-implicit Euler), on a road
+        of ``grade`` (rise over run in the forward direction; gravity acts like a drive that the
+        brakes hold against, so a braked robot stays put on a slope they can hold)."""
         config = self.config
         target_norm = servo_target_norm(inputs.steering_pulse_s, state.steering_norm, config)
         steering = servo_step(state.steering_norm, target_norm, config.servo_rate_norm_per_s * dt_s)
         drive = drive_accel_mps2(state.speed_mps, inputs, config)
+        if grade:  # on the flat the sum is left alone: the same floats as before grades
+            drive += grade_accel_mps2(grade)
         speed = speed_step(state.speed_mps, drive, resistance_mps2(inputs, config), dt_s)
         yaw_rate = yaw_rate_radps(speed, steering, config)
         heading = state.heading_rad + yaw_rate * dt_s

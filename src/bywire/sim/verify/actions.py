@@ -5,9 +5,10 @@ Each step waits its delay, then does one thing an operator, the higher-level com
 world can do: move a stick or a switch (or arm deliberately), bounce the switch, lose, garble or
 fake the RC link, send, corrupt or stop CAN commands, pull the CAN cable or flood the bus, ask
 for a remote stop or a re-enable, let a second node send on the computer's id, make DAC writes
-fail or hang, kill the wheel-speed sensor, break a brake or the steering. With the ROS 2 bridge
-as the computer (a bridge campaign): what its planner publishes (speed, curvature, rate, how old
-its stamps are, silence) and its service calls (`BRIDGE_ACTIONS`). A new action is a row here.
+fail or hang, kill the wheel-speed sensor, break a brake or the steering, tip the road. With the
+ROS 2 bridge as the computer (a bridge campaign): what its planner publishes (speed, curvature,
+rate, how old its stamps are, silence) and its service calls (`BRIDGE_ACTIONS`). A new action
+is a row here.
 """
 
 from __future__ import annotations
@@ -308,6 +309,9 @@ ACTIONS: tuple[Action, ...] = (
     # its services: ~/enable, ~/remote_stop
     Action("bridge_enable", (None,), _service("enable")),
     Action("bridge_remote_stop", (False, True), _service("remote_stop")),
+    # the road tips: its grade (rise over run forward; below zero downhill), drawn at a
+    # campaign's start by `draw_bridge.draw_any`, never in the walk (the speed limit, row 67)
+    Action("grade", (0.0, -0.05, -0.1), _set("world", "grade")),
 )
 # fmt: on
 BY_NAME: dict[str, Action] = {action.name: action for action in ACTIONS}

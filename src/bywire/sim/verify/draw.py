@@ -39,6 +39,7 @@ WEIGHTS.update(ebrake=0.25, encoder=0.25)  # lasting faults: rarer, or the robot
 WEIGHTS.update(estop=0.5)  # the E-stop: a stop every time, rarer than the operator
 WEIGHTS.update(line=0.1, secoc=0.0)  # a dead line ends the campaign; authentication opens one
 WEIGHTS.update(dict.fromkeys(BRIDGE_ACTIONS, 0.0))  # bridge campaigns' own (`draw_bridge.py`)
+WEIGHTS.update(grade=0.0)  # drawn at the start, apart (`draw_bridge.draw_any`)
 SECOC_CHANCE = 0.25
 """A campaign runs with authenticated commands (a second sender without the key is harmless
 then, one with it is an impostor like any other)."""

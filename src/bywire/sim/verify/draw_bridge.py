@@ -16,7 +16,7 @@ from __future__ import annotations
 
 import random
 
-from bywire.model import ControlMode
+from bywire.model import ControlMode, Gear
 from bywire.sim.verify.actions import BRIDGE_PRESETS
 from bywire.sim.verify.campaign import Step
 from bywire.sim.verify.draw import (
@@ -30,6 +30,10 @@ from bywire.sim.verify.draw import (
 
 RC, CAN = ControlMode.RC, ControlMode.CAN
 BRIDGE_SHARE = 0.2
+SLOPE_SHARE = 0.25
+"""The share of the other campaigns driven downhill from their start."""
+SLOPE_GRADES = (-0.05, -0.1)
+"""Their grades: 5 % and 10 % downhill (the simulated robot's brakes hold 25 % and more)."""
 """The share of a run's campaigns that are bridge campaigns."""
 BRIDGE_WEIGHTS: dict[str, float] = {
     "planner_speed": 4.0,
@@ -89,7 +93,34 @@ def draw_any(seed: int, index: int, campaign_s: float = CAMPAIGN_S) -> list[Step
     """Campaign `index` of `seed`, a bridge campaign or `draw_campaign`'s."""
     if is_bridge_campaign(seed, index):
         return draw_bridge_campaign(seed, index, campaign_s)
-    return draw_campaign(seed, index, campaign_s)
+    return on_a_slope(draw_campaign(seed, index, campaign_s), seed, index)
+
+
+def _both_brakes_fail(steps: list[Step]) -> bool:
+    """The spring brake and the hydraulic brake both fail in the campaign: downhill nothing then
+    holds a robot in STOP (a double fault no controller can act on, beyond H7's and H11's
+    assumption of a brake), so such a campaign stays on the flat."""
+    actions = {(step.action, step.value) for step in steps}
+    return ("ebrake", False) in actions and ("hydrobrake", False) in actions
+
+
+def _reverses(steps: list[Step]) -> bool:
+    """The campaign selects reverse: downhill, a reverse throttle weaker than gravity rolls the
+    robot forward against its drive (H4), which no rule of the controller prevents yet
+    (docs/SAFETY.md, "What is not covered"), so such a campaign stays on the flat."""
+    return any(
+        step.action in ("rc_gear", "can_gear") and step.value is Gear.REVERSE for step in steps
+    )
+
+
+def on_a_slope(steps: list[Step], seed: int, index: int) -> list[Step]:
+    """Some campaigns are driven downhill from the start (a random source of its own, so the
+    others are drawn as before): gravity carries the robot towards and past its speed limit
+    unless the governor holds it (H11, docs/SAFETY.md row 67)."""
+    rng = random.Random(f"bywire-verify-grade:{seed}:{index}")
+    if rng.random() >= SLOPE_SHARE or _both_brakes_fail(steps) or _reverses(steps):
+        return steps
+    return [Step(0.0, "grade", rng.choice(SLOPE_GRADES)), *steps]
 
 
 def follow_ups(switch: ControlMode, step: Step) -> list[Episode]:

@@ -54,9 +54,11 @@ Drawing one would only find what the file already says; they stay as the base fi
 
 def picks_hardware(read: KeyRead) -> bool:
     """A key that stays as the base file has it: a string (backend, interface, device path, pin,
-    process setting), a wiring number, a key of a section that picks the bus or the process, or a
-    declaration that the file is a test bench's."""
-    if read.kind == "text" or read.parts[0] in HARDWARE_SECTIONS or read.parts in DECLARATIONS:
+    process setting), a wiring number, a key of a section that picks the bus or the process, a
+    declaration that the file is a test bench's, or one axis of a measured calibration map
+    (`[vehicle] flat_speeds_mps`: its two axes must keep their length together)."""
+    kept_kinds = ("text", "numbers")
+    if read.kind in kept_kinds or read.parts[0] in HARDWARE_SECTIONS or read.parts in DECLARATIONS:
         return True
     return HARDWARE_KEYS.fullmatch(read.parts[-1]) is not None
 

@@ -50,8 +50,10 @@ class OracleWitness:
                 self._hlc(values, now)
             case "hlc_control":
                 self._hlc_control(values, now)
-            case "hlc_lights" | "planner" | "bridge_service":
-                return  # the lights demand nothing of the drive; the bridge's periods tell
+            case "hlc_lights" | "planner" | "bridge_service" | "world":
+                # the lights demand nothing of the drive; the bridge's periods tell; the road's
+                # grade is judged by its effect, the true speed (H11)
+                return
             case "fault":
                 RULES[str(values["fault"])](self, values, now)
             case _:

@@ -23,7 +23,7 @@ oracle was told (the switch, what is broken), and on the bridge's own outputs (i
   WARN or ERROR, within `REFUSAL_GRACE_S`.
 
 B1 and B2 are judged only while the bridge drives the robot: enabled, the switch at CAN, the
-motors enabled and the spring brake released (a stop of the controller's own is H1..H10's to
+motors enabled and the spring brake released (a stop of the controller's own is H1..H11's to
 judge), and B2 only with the hydraulic brake and the wheel sensor working (without them the
 stop is B1's or the controller's).
 """

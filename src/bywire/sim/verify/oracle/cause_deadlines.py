@@ -101,6 +101,7 @@ class OracleTiming:
     boost_gain: float = 0.0  # how far the pulse may overshoot the set-point (H10)
     servo: ServoPulses = field(default_factory=ServoPulses)
     sticks: RcSticks = field(default_factory=RcSticks)
+    speed_limit_mps: float | None = None  # the file's `[limits] max_speed_mps` (H11)
 
     @classmethod
     def for_robot(cls, robot: RobotConfig) -> OracleTiming:
@@ -131,6 +132,7 @@ class OracleTiming:
                 StickDeadband.of(robot.rc.mapping.steering),
                 StickDeadband.of(robot.rc.mapping.throttle_brake),
             ),
+            speed_limit_mps=robot.limits.max_speed_mps,
         )
 
     @property

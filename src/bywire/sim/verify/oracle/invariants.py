@@ -1,4 +1,4 @@
-"""The output invariants of `docs/SAFETY.md` (H1..H10), the ROS 2 bridge's (B1..B3, judged in
+"""The output invariants of `docs/SAFETY.md` (H1..H11), the ROS 2 bridge's (B1..B3, judged in
 bridge campaigns only), the safe levels each asks for, and a violation of one."""
 
 from __future__ import annotations
@@ -23,6 +23,7 @@ class Invariant(StrEnum):
     H8 = "H8"  # the exit path never gives up
     H9 = "H9"  # a handover is bumpless for the steering
     H10 = "H10"  # a broken brake or servo is acted on
+    H11 = "H11"  # the speed limit holds (with a wheel sensor that tells the truth)
     B1 = "B1"  # the bridge, its speed unknown or flagged: bounded throttle, a stop
     B2 = "B2"  # the bridge's stop ramp brakes until standstill
     B3 = "B3"  # every command the bridge refuses is counted, and /diagnostics warns
@@ -50,6 +51,7 @@ _LEVELS: dict[Invariant, dict[str, Any]] = {
     },
     Invariant.H9: {},
     Invariant.H10: {"ebrake_engaged": True},
+    Invariant.H11: {},  # with the speed it must not exceed (`speed_max_mps`)
     Invariant.B1: {},  # with the speed it must not exceed (`speed_max_mps`)
     Invariant.B2: {},  # with the standstill it must have reached (`speed_max_mps`)
     Invariant.B3: {"bridge_unshown_drop": False},

@@ -3,7 +3,7 @@
 It never asks the controller what it believes: it is told every action and fault the test (or
 `bywire verify`) applies, and after every pass of the loop it reads the simulated hardware (the
 enable line, the DAC's throttle volts, the e-brake line, the steering pulse, the direction lines
-and the vehicle's true speed) and checks the output invariants of `docs/SAFETY.md` (H1..H10, one
+and the vehicle's true speed) and checks the output invariants of `docs/SAFETY.md` (H1..H11, one
 pure check each in `checks/`).
 
 What it was told is kept in small parts: the faults in force (`FaultsInForce`), what may delay
@@ -35,6 +35,7 @@ from bywire.sim.verify.oracle.checks.h7 import BrakeFacts, Braking, check_h7
 from bywire.sim.verify.oracle.checks.h8 import check_h8
 from bywire.sim.verify.oracle.checks.h9 import check_h9
 from bywire.sim.verify.oracle.checks.h10 import BrokenFacts, Unnoticed, check_h10
+from bywire.sim.verify.oracle.checks.h11 import LimitFacts, check_h11
 from bywire.sim.verify.oracle.checks.hold import SteeringHold
 from bywire.sim.verify.oracle.delays import Delays
 from bywire.sim.verify.oracle.faults_in_force import FaultsInForce
@@ -56,10 +57,11 @@ class CheckMemory:
     brake_with_throttle_at: float | None = None  # H6
     braking: Braking | None = None  # H7
     unnoticed: Unnoticed = field(default_factory=Unnoticed)  # H10
+    over_limit: bool = False  # H11: past the speed limit's bound at the last pass
 
 
 class HazardOracle:
-    """Told every action; `observe` after every pass checks H1..H10 on the world's hardware."""
+    """Told every action; `observe` after every pass checks H1..H11 on the world's hardware."""
 
     __slots__ = (
         "arming",
@@ -246,8 +248,8 @@ class HazardOracle:
         self.judge(Outputs.read(self.world), now)
 
     def judge(self, out: Outputs, now: float) -> None:
-        """Check H1..H7, H9 and H10 on `out`, what the hardware shows at `now` (a debounce that has
-        just ended is `observe`'s to resolve first)."""
+        """Check H1..H7 and H9..H11 on `out`, what the hardware shows at `now` (a debounce that
+        has just ended is `observe`'s to resolve first)."""
         arming, ledger, plant, timing, memory = (
             self.arming,
             self.ledger,
@@ -285,7 +287,11 @@ class HazardOracle:
         )
         healthy = not (power_off or dac_unsure)
         brakes = BrakeFacts(plant.ebrake_failed, plant.hydrobrake_failed, healthy)
-        memory.braking, h7 = check_h7(memory.braking, out, brakes, now)
+        # H7 weighs the speed against the time the robot had to slow: the world's time, which a
+        # stalled write moved on while the pass that ends the stall still bears its start
+        # (`now`); on that pass the speed is already the stall's end's.
+        world_s = max(now, self.world.clock.now())
+        memory.braking, h7 = check_h7(memory.braking, out, brakes, world_s)
         h9 = None
         taking = arming.taking
         if taking is not None and not boosted:
@@ -299,7 +305,13 @@ class HazardOracle:
             timing.control_period_s,
         )
         memory.unnoticed, h10 = check_h10(memory.unnoticed, out, broken, now)
-        found = (h1, h2, h3, h4, *h5, h6, h7, h9, h10)
+        limit = LimitFacts(
+            timing.speed_limit_mps,
+            not plant.sensor_ever_dead,
+            plant.ebrake_failed and plant.hydrobrake_failed,
+        )
+        memory.over_limit, h11 = check_h11(memory.over_limit, out, limit, now)
+        found = (h1, h2, h3, h4, *h5, h6, h7, h9, h10, h11)
         self.violations.extend(violation for violation in found if violation is not None)
 
     def exited(self, now: float) -> None:

@@ -133,3 +133,15 @@ SERVO_DEVIATION_NORM = STEERING_DEVIATION_NORM
 this off the position its pulse asks for is a fault…"""
 SERVO_DEADLINE_S = STUCK_SERVO_DEADLINE_S
 """…acted on (the e-brake engaged) within this of the deviation."""
+OVER_LIMIT_FRACTION = 0.2
+OVER_LIMIT_LEAST_MPS = 0.2
+"""Issue 44 (docs/SAFETY.md row 67): with a wheel sensor that tells the truth, the true speed
+never exceeds the file's `[limits] max_speed_mps` by more than this fraction of it, and never by
+more than `OVER_LIMIT_LEAST_MPS` where that is more (a small overshoot on a slope is allowed, a
+runaway is not). The limit is the file's (it is the operator's choice, raised step by step);
+the margin is the requirement's."""
+
+
+def over_limit_margin_mps(limit_mps: float) -> float:
+    """How far past a speed limit the robot may ever be (`OVER_LIMIT_FRACTION`)."""
+    return max(OVER_LIMIT_FRACTION * limit_mps, OVER_LIMIT_LEAST_MPS)
