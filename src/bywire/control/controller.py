@@ -533,8 +533,10 @@ def changes_decision(
     if arrivals.commands is not seen.commands:
         for spec in COMMANDS:
             kind = spec.kind
-            timeout_s = config.command_timeout_s(kind)
             newest, before = arrivals.commands.get(kind), seen.commands.get(kind)
+            if newest is before:  # this slot is as the decision saw it (most are, every time)
+                continue
+            timeout_s = config.command_timeout_s(kind)
             if not _repeats(newest, before, decided_at, timeout_s, same_request):
                 return True
     return not (

@@ -13,6 +13,7 @@ from __future__ import annotations
 import itertools
 from collections import deque
 from collections.abc import Callable, Iterable
+from functools import partial
 
 from bywire.can_frame import CanFrame
 from bywire.control.values import value
@@ -131,13 +132,15 @@ class SimCanBus:
         self._busy = True
         start_s = max(self.clock.now(), self._free_at_s)
         # Scheduled, not run now: nodes queuing at the same instant all take part.
-        self.clock.call_at(start_s, lambda: self._arbitrate(start_s))
+        self.clock.call_at(start_s, partial(self._arbitrate, start_s))
 
     def _arbitrate(self, start_s: float) -> None:
         best: tuple[int, int, CanFrame] | None = None
         sender: SimCanPort | None = None
         if self.plugged:
             for port in self._ports:
+                if not port.mailboxes:  # most nodes have nothing to send: not asked
+                    continue
                 offer = port.next_pending()
                 # (id, queue order) decides; the order is unique, so frames are never compared
                 if offer is not None and (best is None or offer < best):
@@ -149,7 +152,7 @@ class SimCanBus:
         bits = frame_bits(len(frame.data))
         end_s = start_s + bits / self.bitrate_bps
         self._busy = True
-        self.clock.call_at(end_s, lambda: self._complete(sender, frame, bits, end_s))
+        self.clock.call_at(end_s, partial(self._complete, sender, frame, bits, end_s))
 
     def _complete(self, sender: SimCanPort, frame: CanFrame, bits: int, end_s: float) -> None:
         self._free_at_s = end_s
@@ -159,9 +162,11 @@ class SimCanBus:
             return
         sender.transmitted(frame)
         self.bits_by_sender[sender.name] = self.bits_by_sender.get(sender.name, 0) + bits
-        delivered = CanFrame(frame.arbitration_id, frame.data, end_s)
+        frame_id = frame.arbitration_id
+        delivered = CanFrame(frame_id, frame.data, end_s)
         for port in self._ports:
-            if port is not sender:
+            accept_ids = port.accept_ids  # its filter, looked at here: most frames pass most by
+            if port is not sender and (accept_ids is None or frame_id in accept_ids):
                 port.deliver(delivered)
         if self.log.maxlen != 0 or self._monitors:
             entry = LoggedFrame(end_s, frame.arbitration_id, frame.data, sender.name)

@@ -53,7 +53,9 @@ class SimCanPort:
         self.rx_overflows = 0
         self._bus = bus
         self._tx_mailboxes = tx_mailboxes
-        self._pending: list[tuple[int, int, CanFrame]] = []
+        self.mailboxes: list[tuple[int, int, CanFrame]] = []
+        """The frames waiting to go out, as (id, queue order, frame): read by the bus, which
+        asks only a node that holds one for its offer (`next_pending`)."""
         self._rx: deque[CanFrame] = deque()
         self._rx_capacity = rx_capacity
         self._listener: Callable[[CanFrame], None] | None = None
@@ -61,10 +63,10 @@ class SimCanPort:
     def send(self, frame: CanFrame) -> bool:
         """Queue a frame for the bus; False when every mailbox is busy or the node is bus-off."""
         check_can_frame(frame)
-        if self.bus_off or len(self._pending) >= self._tx_mailboxes:
+        if self.bus_off or len(self.mailboxes) >= self._tx_mailboxes:
             self.send_refused += 1
             return False
-        self._pending.append((frame.arbitration_id, self._bus.queue_order(), frame))
+        self.mailboxes.append((frame.arbitration_id, self._bus.queue_order(), frame))
         self._bus.request_arbitration()
         return True
 
@@ -84,7 +86,7 @@ class SimCanPort:
     @property
     def pending(self) -> int:
         """Frames waiting in the mailboxes."""
-        return len(self._pending)
+        return len(self.mailboxes)
 
     def set_filter(self, accept_ids: Iterable[int] | None) -> None:
         """Accept only these ids (None: every id), like a hardware acceptance filter."""
@@ -101,7 +103,7 @@ class SimCanPort:
     def enter_bus_off(self) -> None:
         """Fault injection: the node goes bus-off; its pending frames are lost."""
         self.bus_off = True
-        self._pending.clear()
+        self.mailboxes.clear()
 
     def recover_bus_off(self) -> None:
         """Leave bus-off (after the 128 x 11 recessive bits a real controller waits for)."""
@@ -111,15 +113,15 @@ class SimCanPort:
 
     def next_pending(self) -> tuple[int, int, CanFrame] | None:
         """The mailbox the controller offers for arbitration: lowest id, then oldest."""
-        if self.bus_off or not self._pending:
+        if self.bus_off or not self.mailboxes:
             return None
-        return min(self._pending)  # (id, queue order, frame): the order is unique
+        return min(self.mailboxes)  # (id, queue order, frame): the order is unique
 
     def transmitted(self, frame: CanFrame) -> None:
         """The bus acknowledged ``frame``: free its mailbox."""
-        for index, (_, _, pending) in enumerate(self._pending):
+        for index, (_, _, pending) in enumerate(self.mailboxes):
             if pending is frame:
-                del self._pending[index]
+                del self.mailboxes[index]
                 self.frames_sent += 1
                 return
 

@@ -16,30 +16,17 @@ from collections.abc import Callable
 Callback = Callable[[], None]
 
 
-class _TimerQueue:
-    """Timers in time order; equal times run in the order they were set, so runs reproduce."""
-
-    def __init__(self) -> None:
-        self._heap: list[tuple[float, int, Callback]] = []
-        self._sequence = itertools.count()
-
-    def push(self, when_s: float, callback: Callback) -> None:
-        heapq.heappush(self._heap, (when_s, next(self._sequence), callback))
-
-    def next_time(self) -> float | None:
-        return self._heap[0][0] if self._heap else None
-
-    def pop(self) -> tuple[float, Callback]:
-        when_s, _, callback = heapq.heappop(self._heap)
-        return when_s, callback
-
-
 class VirtualClock:
-    """Discrete-event time: waiting jumps straight to the next timer; nothing ever sleeps."""
+    """Discrete-event time: waiting jumps straight to the next timer; nothing ever sleeps.
+
+    The timers are a heap of (time, sequence, callback): equal times run in the order they were
+    set, so runs reproduce. The heap is the clock's own, read in place by `wait_until` (it runs
+    about a million timers a minute of `bywire verify`: no method call per timer)."""
 
     def __init__(self, start_s: float = 0.0) -> None:
         self._now_s = start_s
-        self._timers = _TimerQueue()
+        self._heap: list[tuple[float, int, Callback]] = []
+        self._sequence = itertools.count()
         self._input_pending = False
 
     def now(self) -> float:
@@ -47,22 +34,29 @@ class VirtualClock:
 
     def call_at(self, when_s: float, callback: Callback) -> None:
         """Run `callback` at `when_s` (at once on the next wait if that time has passed)."""
-        self._timers.push(when_s, callback)
+        heapq.heappush(self._heap, (when_s, next(self._sequence), callback))
 
     def notify_input(self) -> None:
         """An input port has data: the current or next `wait_until` returns now."""
         self._input_pending = True
 
     def wait_until(self, deadline_s: float) -> None:
+        heap = self._heap
         while not self._input_pending:
-            next_s = self._timers.next_time()
-            if next_s is None or next_s > deadline_s:
+            if not heap or heap[0][0] > deadline_s:
                 self._now_s = max(self._now_s, deadline_s)
                 return
-            when_s, callback = self._timers.pop()
+            when_s, _, callback = heapq.heappop(heap)
             self._now_s = max(self._now_s, when_s)
             callback()
         self._input_pending = False
+
+    def _next_time(self) -> float | None:
+        return self._heap[0][0] if self._heap else None
+
+    def _pop(self) -> tuple[float, Callback]:
+        when_s, _, callback = heapq.heappop(self._heap)
+        return when_s, callback
 
     def advance(self, duration_s: float) -> None:
         """Run every timer in the next `duration_s` (a write that hangs, and tests). Input that
@@ -71,8 +65,8 @@ class VirtualClock:
         event set (`bywire.hal.linux.clock`), so a frame is acted on when the pass ends, not a
         tick later."""
         deadline_s = self.now() + duration_s
-        while (next_s := self._timers.next_time()) is not None and next_s <= deadline_s:
-            when_s, callback = self._timers.pop()
+        while (next_s := self._next_time()) is not None and next_s <= deadline_s:
+            when_s, callback = self._pop()
             self._now_s = max(self._now_s, when_s)
             callback()
         self._now_s = max(self._now_s, deadline_s)
@@ -90,12 +84,12 @@ class RealtimeClock(VirtualClock):
 
     def wait_until(self, deadline_s: float) -> None:
         while not self._input_pending:
-            next_s = self._timers.next_time()
+            next_s = self._next_time()
             target_s = deadline_s if next_s is None else min(next_s, deadline_s)
             self._sleep_until(target_s)
             if next_s is None or next_s > deadline_s:
                 return
-            self._timers.pop()[1]()
+            self._pop()[1]()
         self._input_pending = False
         self._run_overdue()
 
@@ -103,16 +97,16 @@ class RealtimeClock(VirtualClock):
         """As `VirtualClock.advance`, paced by the wall clock: input that arrives meanwhile
         wakes the loop's next wait."""
         deadline_s = self.now() + duration_s
-        while (next_s := self._timers.next_time()) is not None and next_s <= deadline_s:
+        while (next_s := self._next_time()) is not None and next_s <= deadline_s:
             self._sleep_until(next_s)
-            self._timers.pop()[1]()
+            self._pop()[1]()
         self._sleep_until(deadline_s)
 
     def _run_overdue(self) -> None:
         """Everything already due happens before the loop looks (a frame that arrived while it
         was busy is in the receive buffer on a robot too), not one event per wake-up."""
-        while (next_s := self._timers.next_time()) is not None and next_s <= self.now():
-            self._timers.pop()[1]()
+        while (next_s := self._next_time()) is not None and next_s <= self.now():
+            self._pop()[1]()
 
     def _sleep_until(self, target_s: float) -> None:
         remaining_s = target_s - self.now()

@@ -7,6 +7,7 @@ so the same device runs on a ``VirtualClock`` (as fast as possible) and a ``Real
 from __future__ import annotations
 
 from collections.abc import Callable
+from functools import partial
 from typing import Protocol
 
 
@@ -75,7 +76,7 @@ class PeriodicTimer:
 
     def _schedule(self, series: int) -> None:
         when_s = self._first_s + self._ticks * self._period_s
-        self._clock.call_at(when_s, lambda: self._tick(series, when_s))
+        self._clock.call_at(when_s, partial(self._tick, series, when_s))
 
     def _tick(self, series: int, tick_s: float) -> None:
         if series != self._series:

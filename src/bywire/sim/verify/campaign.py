@@ -133,8 +133,9 @@ class TransitionLog:
 
     def observe(self, _now: float) -> None:
         state = self.run.runtime.state.supervisor
-        # a new but equal state every pass: no row was taken (operator.ne: compiled, != between
-        # @value instances is identity, issue 43)
-        if operator.ne(state, self.previous):
+        # The same state on most passes (no decision taken: nothing compared); a new but equal
+        # one on a decision: no row was taken (operator.ne: compiled, != between @value
+        # instances is identity, issue 43)
+        if state is not self.previous and operator.ne(state, self.previous):
             self.seen.update(transition_labels(self.previous, state))
             self.previous = state

@@ -18,6 +18,7 @@ fault just injected) the oracle leans towards allowing: it must never flag a cor
 
 from __future__ import annotations
 
+import functools
 from dataclasses import dataclass, field
 
 from bywire.hal.simulated.world import SimWorld
@@ -45,6 +46,17 @@ from bywire.sim.verify.oracle.outputs import Outputs
 from bywire.sim.verify.oracle.plant import Plant
 
 STOP = ControlMode.STOP
+
+# Each check's facts are a frozen value of a few flags and figures that change seldom (a fault
+# begins, the switch moves, the watchdog trips), made on every pass: each distinct one is made
+# once and shared (equal arguments, equal facts; typed, so a flag is never taken for a number).
+FACTS_KEPT = 64
+_stop_facts = functools.lru_cache(maxsize=FACTS_KEPT, typed=True)(StopFacts)
+_handover_facts = functools.lru_cache(maxsize=FACTS_KEPT, typed=True)(HandoverFacts)
+_trip_facts = functools.lru_cache(maxsize=FACTS_KEPT, typed=True)(TripFacts)
+_motion_facts = functools.lru_cache(maxsize=FACTS_KEPT, typed=True)(MotionFacts)
+_brake_facts = functools.lru_cache(maxsize=FACTS_KEPT, typed=True)(BrakeFacts)
+_broken_facts = functools.lru_cache(maxsize=FACTS_KEPT, typed=True)(BrokenFacts)
 
 
 @dataclass(slots=True)
@@ -264,15 +276,15 @@ class HazardOracle:
         dac_unsure = self.faults.dac_unsure(now)
         boosted = timing.steering_boosted
         untrusted = plant.sensor_ever_dead or plant.sensor_dead
-        stop = StopFacts(allowed, power_off, untrusted, timing.standstill_mps)
+        stop = _stop_facts(allowed, power_off, untrusted, timing.standstill_mps)
         memory.stop_watch, h1 = check_h1(memory.stop_watch, out, stop, now)
         switch = arming.switch
         seen_zero = switch is STOP or arming.sources[switch].seen_zero
-        handover = HandoverFacts(switch, arming.settled_s(), seen_zero)
+        handover = _handover_facts(switch, arming.settled_s(), seen_zero)
         h2 = check_h2(handover, out.throttle_volts if out.enable else 0.0, now)
-        trip = TripFacts(ledger.tripped_at, dac_unsure, boosted)
+        trip = _trip_facts(ledger.tripped_at, dac_unsure, boosted)
         memory.trip_hold, h3 = check_h3(memory.trip_hold, out, trip, now)
-        motion = MotionFacts(
+        motion = _motion_facts(
             plant.sensor_dead,
             plant.died_at_mps,
             plant.hydrobrake_failed,
@@ -286,7 +298,7 @@ class HazardOracle:
             memory.brake_with_throttle_at, out, dac_unsure, timing.control_period_s, now
         )
         healthy = not (power_off or dac_unsure)
-        brakes = BrakeFacts(plant.ebrake_failed, plant.hydrobrake_failed, healthy)
+        brakes = _brake_facts(plant.ebrake_failed, plant.hydrobrake_failed, healthy)
         # H7 weighs the speed against the time the robot had to slow: the world's time, which a
         # stalled write moved on while the pass that ends the stall still bears its start
         # (`now`); on that pass the speed is already the stall's end's.
@@ -297,7 +309,7 @@ class HazardOracle:
         if taking is not None and not boosted:
             target = arming.sources[taking.source].steering_norm
             arming.taking, h9 = check_h9(taking, out, target, timing.servo, now)
-        broken = BrokenFacts(
+        broken = _broken_facts(
             plant.sensors_fitted,
             plant.hydrobrake_failed,
             plant.servo_stuck,

@@ -54,6 +54,10 @@ class Unnoticed:
     servo_asked_norm: float = 0.0  # where the pulse asked the servo to be at `servo_since`
 
 
+NOTHING_UNNOTICED = Unnoticed()
+"""Nothing broken shows: most passes' memory, one shared value."""
+
+
 def _since(since: float | None, condition: bool, now: float) -> float | None:
     return (now if since is None else since) if condition else None
 
@@ -62,7 +66,7 @@ def check_h10(
     memory: Unnoticed, out: Outputs, facts: BrokenFacts, now: float
 ) -> tuple[Unnoticed, Violation | None]:
     if not (facts.sensors_fitted and out.released):
-        return Unnoticed(), None
+        return NOTHING_UNNOTICED, None
     braking = facts.hydrobrake_failed and out.hydrobrake_duty >= PRESSURE_DUTY + DUTY_SLACK
     deviation = abs(out.asked_steering_norm - out.steering_norm) / (1.0 + facts.boost_gain)
     off = facts.servo_stuck and deviation > SERVO_DEVIATION_NORM
@@ -72,7 +76,13 @@ def check_h10(
         servo_since = None  # the pulse moved on: a new command, timed afresh
     servo_since = _since(servo_since, off, now)
     held = memory.servo_asked_norm if servo_since == memory.servo_since else asked
-    memory = Unnoticed(_since(memory.pressure_since, braking, now), servo_since, held)
+    pressure_since = _since(memory.pressure_since, braking, now)
+    if not (  # a new memory only for a change: most passes keep every field as it was
+        pressure_since is memory.pressure_since
+        and servo_since is memory.servo_since
+        and held is memory.servo_asked_norm
+    ):
+        memory = Unnoticed(pressure_since, servo_since, held)
     slack_s = 2 * facts.control_period_s + SLACK_S
     late = None
     if memory.pressure_since is not None and (
@@ -92,4 +102,4 @@ def check_h10(
     if late is None:
         return memory, None
     # Once a fault, not at every pass after: judged afresh from here.
-    return Unnoticed(), Violation.of(Invariant.H10, now, late)
+    return NOTHING_UNNOTICED, Violation.of(Invariant.H10, now, late)

@@ -5,7 +5,7 @@ set-point, and only the brake is judged)."""
 
 from __future__ import annotations
 
-from bywire.sim.verify.oracle.checks.hold import SteeringHold
+from bywire.sim.verify.oracle.checks.hold import NO_HOLD, SteeringHold
 from bywire.sim.verify.oracle.invariants import Invariant, Violation
 from bywire.sim.verify.oracle.outputs import Outputs
 from bywire.sim.verify.oracle.requirements import FULL_DUTY
@@ -16,7 +16,7 @@ def check_h5(
 ) -> tuple[SteeringHold, tuple[Violation, ...]]:
     """`cut`: H1 wants the drive cut and the e-brake is engaged."""
     if not cut:
-        return SteeringHold(), ()
+        return NO_HOLD, ()
     found: list[Violation] = []
     duty, pulse = out.hydrobrake_duty, out.steering_pulse_s
     if duty < FULL_DUTY:

@@ -5,7 +5,7 @@ has reached it (not judged with a boosted steering, whose pulse leads its set-po
 
 from __future__ import annotations
 
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
 
 from bywire.model import ControlMode
 from bywire.sim.verify.oracle.cause_deadlines import ServoPulses
@@ -41,11 +41,11 @@ def check_h9(
     once the pulse has reached it."""
     if not out.released or now < taking.from_s:
         # In STOP the steering holds; the move counts once driving.
-        return replace(taking, last=None), None
+        return TakeOver(taking.source, taking.from_s), None  # not `replace`: every pass
     pulse_s = out.steering_pulse_s
     if abs(pulse_s - servo.pulse_s(target_norm)) <= REACHED_NORM * servo.half_span_s:
         return None, None
-    last, taking = taking.last, replace(taking, last=(now, pulse_s))
+    last, taking = taking.last, TakeOver(taking.source, taking.from_s, (now, pulse_s))
     if last is None or now <= last[0]:
         return taking, None
     speed = abs(out.speed_mps)

@@ -16,3 +16,7 @@ class SteeringHold:
         """The hold after reading `pulse_s` at `now`, and whether the pulse left it."""
         held = self if self.pulse_s is not None else SteeringHold(pulse_s, now)
         return held, pulse_s != held.pulse_s
+
+
+NO_HOLD = SteeringHold()
+"""Nothing held: most passes' memory, one shared value."""
