@@ -252,8 +252,9 @@ def _report_authentication(robot: RobotConfig, receiver: SecocReceiver | None) -
 
 
 def _report_estop(robot: RobotConfig) -> None:
-    """Whether an E-stop is read: a warning when the robot file does not say."""
-    if robot.estop.stated:
+    """Whether an E-stop is read: a warning when the file of a real robot does not say (the
+    simulator has its button whatever the file says)."""
+    if robot.estop.stated or robot.backend == "sim":
         log.info("%s", robot.estop.summary())
     else:
         log.warning("%s", robot.estop.summary())

@@ -5,7 +5,10 @@ its batch still run; a worker of another build is refused."""
 
 from __future__ import annotations
 
+import contextlib
 import logging
+import socket
+import warnings
 from collections.abc import Iterator
 from pathlib import Path
 
@@ -134,3 +137,21 @@ def test_a_worker_of_another_build_is_refused(client: Client) -> None:
     client.register_plugin(OtherBuild(), name="other-build")
     with pytest.raises(ClusterError, match=r"runs bywire 0\.0\.9\+0123456789ab.*mixed versions"):
         _run(client)
+
+
+def test_a_local_cluster_takes_no_fixed_port_and_warns_nothing_when_8787_is_taken() -> None:
+    """Dask's scheduler serves its HTTP routes on 8787 by default: a second cluster (another
+    `verify --cluster local`, a user's own) found it taken and warned on the user's stderr."""
+    taken = socket.socket()
+    with contextlib.suppress(OSError):  # taken already: as good
+        taken.bind((LOOPBACK, 8787))
+        taken.listen()
+    try:
+        with warnings.catch_warnings(record=True) as warned:
+            warnings.simplefilter("always")
+            with cluster_client(LOCAL, 1) as local:
+                http = local.cluster.scheduler.http_server  # type: ignore[union-attr]
+                assert (http.address, http.port != 8787) == (LOOPBACK, True)
+        assert [str(w.message) for w in warned if "8787" in str(w.message)] == []
+    finally:
+        taken.close()

