@@ -7,6 +7,7 @@ import builtins
 import hashlib
 import importlib.machinery
 import json
+import os
 import pickle
 import runpy
 import subprocess
@@ -146,11 +147,17 @@ def _compiled_package(tmp_path: Path, monkeypatch: pytest.MonkeyPatch, recorded:
     return package
 
 
-def test_the_tests_run_the_pure_build() -> None:
-    assert not build.is_compiled() or build.build_name().startswith("compiled (mypyc ")
-    if not build.is_compiled():
+def test_the_tests_run_the_build_they_are_meant_to() -> None:
+    # CI's compiled tier (.ci/compiled-tier) runs tests from the checkout on the compiled venv
+    # with BYWIRE_EXPECT_BUILD=compiled: they must import its compiled modules, never src/
+    expected = os.environ.get("BYWIRE_EXPECT_BUILD", "pure")
+    assert expected in {"pure", "compiled"}
+    assert build.is_compiled() == (expected == "compiled")
+    if expected == "compiled":
+        assert build.build_name().startswith("compiled (mypyc ")
+    else:
         assert build.build_name() == "pure"
-        build.check()  # a pure build has nothing to be stale
+    build.check()  # neither is stale
 
 
 def test_a_compiled_build_says_its_compiler(
