@@ -189,6 +189,7 @@ def test_ci_builds_the_compiled_tier_beside_the_ros_tier_and_checks_it_after() -
     assert "BYWIRE_COMPILE=1 .venv-c/bin/pip install '.[test]'" in tier
     assert "BYWIRE_EXPECT_BUILD=compiled .venv-c/bin/python -m pytest" in tier
     assert "PYTHONPATH=. .venv-c/bin/python bench/differential.py check" in tier
+    assert 'wait "$differential" || identical=$?' in tier
 
 
 def _tier_copy(tmp_path: Path) -> tuple[Path, Path]:
