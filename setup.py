@@ -60,6 +60,11 @@ LEFT_PURE = {
     "bywire/control/values.py",
     # matplotlib drawing of a finished run: not on any path a run or a campaign takes
     "bywire/sim/plot.py",
+    # `verify --cluster`'s Dask client and worker plugin: an optional extra (`bywire[cluster]`)
+    # that the build does not install, so mypyc could not type-check them against it; they hand
+    # batches to compiled campaigns and carry their results (I/O, not computation)
+    "bywire/sim/verify/cluster.py",
+    "bywire/sim/verify/cluster_worker.py",
 }
 
 

@@ -2,9 +2,12 @@
 every test fails that leaves a thread or a child process of ours running (`tests/leaks.py`)."""
 
 import os
+from collections.abc import Iterator
 
+import pytest
 from hypothesis import settings
 
+from tests.compiled import CompiledAwareMonkeyPatch
 from tests.leaks import no_leaks
 
 __all__ = ["no_leaks"]  # autouse: every test runs under the leak check (issue 42)
@@ -15,3 +18,12 @@ settings.register_profile("ci", deadline=None, derandomize=True, print_blob=True
 # A search, not a gate: `pytest --hypothesis-profile=long tests/...`, ten times CI's examples.
 settings.register_profile("long", deadline=None, max_examples=1000, print_blob=True)
 settings.load_profile("ci" if os.environ.get("CI") else "default")
+
+
+@pytest.fixture
+def monkeypatch() -> Iterator[pytest.MonkeyPatch]:
+    """pytest's own, except that on the compiled build a test that replaces compiled code is
+    skipped, saying so (`tests/compiled.py`)."""
+    patch = CompiledAwareMonkeyPatch()
+    yield patch
+    patch.undo()

@@ -165,3 +165,81 @@ def test_the_layering_check_names_an_import_that_runs_back_up(tmp_path: Path) ->
     (wrong,) = upward(imports(copy))
     assert (wrong.importer, wrong.imported) == ("config", "runtime")
     assert str(wrong).endswith("config imports runtime")
+
+
+def test_ci_builds_the_compiled_tier_beside_the_ros_tier_and_checks_it_after() -> None:
+    """Issue 43: .venv-c is built in the background while the ROS tier runs; a failed build
+    prints its log and fails CI, and the compiled checks run before the kernel tier."""
+    ci_lines = [line.strip() for line in (ROOT / ".ci" / "run").read_text().splitlines()]
+    start = ci_lines.index('setsid bash .ci/compiled-tier build >"$compiled_log" 2>&1 &')
+    waited = ci_lines.index('if ! wait "$compiled_build"; then')
+    order = [
+        start,
+        ci_lines.index("bash .ci/ros-tier"),
+        waited,
+        ci_lines.index("bash .ci/compiled-tier check"),
+        ci_lines.index("tests/kernel/run"),
+    ]
+    assert order == sorted(order)
+    failed = ci_lines[waited : ci_lines.index("fi", waited)]
+    assert 'cat "$compiled_log"' in failed
+    assert failed[-1] == "exit 1"
+    tier = (ROOT / ".ci" / "compiled-tier").read_text(encoding="utf-8")
+    assert "set -euo pipefail" in tier
+    assert "BYWIRE_COMPILE=1 .venv-c/bin/pip install '.[test]'" in tier
+    assert "BYWIRE_EXPECT_BUILD=compiled .venv-c/bin/python -m pytest" in tier
+    assert "PYTHONPATH=. .venv-c/bin/python bench/differential.py check" in tier
+    assert 'wait "$differential" || identical=$?' in tier
+
+
+def _tier_copy(tmp_path: Path) -> tuple[Path, Path]:
+    """.ci/compiled-tier in a clone of nothing (its .venv-c is the copy's), and a PATH whose
+    python3 fails as a broken build would."""
+    (tmp_path / "clone" / ".ci").mkdir(parents=True)
+    script = tmp_path / "clone" / ".ci" / "compiled-tier"
+    shutil.copy(ROOT / ".ci" / "compiled-tier", script)
+    bin_dir = tmp_path / "bin"
+    bin_dir.mkdir()
+    for tool in ("bash", "dirname", "rm"):
+        found = shutil.which(tool)
+        assert found is not None
+        (bin_dir / tool).symlink_to(found)
+    python3 = bin_dir / "python3"
+    python3.write_text("#!/bin/sh\necho 'python3: the build broke' >&2\nexit 3\n")
+    python3.chmod(0o755)
+    return script, bin_dir
+
+
+@pytest.mark.parametrize("step", [[], ["check"]], ids=["all", "check"])
+def test_the_compiled_tier_elsewhere_than_ci_skips_with_one_line_naming_how_to_run_it(
+    tmp_path: Path, step: list[str]
+) -> None:
+    script, bin_dir = _tier_copy(tmp_path)
+    said = _said_once(["bash", str(script), *step], bin_dir, "", 0)
+    assert said == [
+        "compiled tier skipped (not CI): BYWIRE_COMPILED_TIER=1 .ci/compiled-tier to run it"
+    ]
+    quiet = subprocess.run(
+        ["bash", str(script), "build"],
+        env={"PATH": str(bin_dir)},
+        capture_output=True,
+        text=True,
+        check=False,
+    )
+    assert (quiet.returncode, quiet.stdout, quiet.stderr) == (0, "", "")  # check says it once
+
+
+@pytest.mark.parametrize("env", [{"CI": "true"}, {"BYWIRE_COMPILED_TIER": "1"}], ids=["ci", "user"])
+def test_the_compiled_tier_fails_when_its_build_fails(tmp_path: Path, env: dict[str, str]) -> None:
+    script, bin_dir = _tier_copy(tmp_path)
+    for step in (["build"], []):
+        result = subprocess.run(
+            ["bash", str(script), *step],
+            env={"PATH": str(bin_dir), **env},
+            capture_output=True,
+            text=True,
+            check=False,
+        )
+        assert result.returncode == 3, result.stdout + result.stderr
+        assert "the build broke" in result.stderr
+        assert "built in" not in result.stdout

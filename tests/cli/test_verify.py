@@ -25,6 +25,7 @@ from bywire.cli import verify
 from bywire.cli.main import main
 from bywire.config import RobotConfig, parse_config, sections
 from bywire.config.reader import Interval, KeyRead
+from bywire.model import ControlMode
 from bywire.sim.verify import engine
 from bywire.sim.verify.campaign import Step
 from bywire.sim.verify.draw_bridge import is_bridge_campaign
@@ -515,7 +516,10 @@ def test_command_frames_the_simulated_computer_never_sent_are_a_run_problem_not_
     computer sent fewer commands than the campaign drew): the summary names the frames and the
     campaign, in JSON and in text, and the verdict is the oracle's alone (clean: exit 0)."""
     robot = parse_config("", "robot.toml")
-    outcome = run_campaign(robot, [Step(0.5, "doubles", 5), Step(1.0, "arm", "rc")], index=7)
+    # `arm` takes a ControlMode: the string "rc" armed CAN in the pure build (it `is not RC`)
+    # and is refused by the compiled one
+    steps = [Step(0.5, "doubles", 5), Step(1.0, "arm", ControlMode.RC)]
+    outcome = run_campaign(robot, steps, index=7)
     assert outcome.hlc_refused == {"LightsCommand": 5}
     assert outcome.findings == []
 

@@ -2,6 +2,10 @@
 
 from __future__ import annotations
 
+import inspect
+import subprocess
+import sys
+
 import pytest
 from hypothesis import given
 from hypothesis import strategies as st
@@ -113,6 +117,27 @@ def test_a_key_never_shows_itself() -> None:
         assert key.check_value in text
     with pytest.raises(ValueError, match="16 bytes"):
         secoc.SecocKey(b"short")
+
+
+def test_keys_made_one_after_another_in_a_fresh_process_all_work() -> None:
+    # issue 43: compiled, `__str__ = __repr__` made `__str__` an attribute of every key, looked
+    # up among the module's globals as each key was made; its KeyError '__repr__' was left
+    # pending and raised by a later call, at random (in most runs once importlib.metadata,
+    # which hypothesis imports, was loaded). Fifty keys in a new interpreter of this build.
+    script = (
+        "import importlib.metadata\n"
+        "from bywire.protocol import secoc\n"
+        "for _ in range(50):\n"
+        f"    key = secoc.SecocKey(bytes.fromhex({RFC4493_KEY.hex()!r}))\n"
+        "    print(key.cmac(b'').hex())\n"
+    )
+    done = subprocess.run(
+        [sys.executable, "-c", script], capture_output=True, text=True, check=False
+    )
+    assert done.returncode == 0, done.stderr
+    assert done.stdout == f"{RFC4493_VECTORS[0][1]}\n" * 50
+    # and `str` is a method of the class, not an attribute of each key
+    assert not inspect.isdatadescriptor(vars(secoc.SecocKey)["__str__"])
 
 
 def test_a_short_authenticator_is_a_frame_error() -> None:

@@ -14,6 +14,7 @@ from pathlib import Path
 from rich.console import Console
 from rich.progress import BarColumn, Progress, TextColumn
 
+from bywire.bench import builds
 from bywire.bench.clocks import MeteredRealtimeClock
 from bywire.bench.figures import BenchResult, as_json
 from bywire.bench.machine import machine_info
@@ -81,6 +82,28 @@ def configure(parser: argparse.ArgumentParser) -> None:
         " as a child process on the feed, each at nominal load",
     )
     parser.add_argument(
+        "--builds",
+        metavar="PYTHON,PYTHON",
+        help="instead: measure two or more installs of bywire side by side, each in its own"
+        " Python (e.g. .venv/bin/python,.venv-c/bin/python: the pure and the compiled build):"
+        " the test course and a fixed verify budget, interleaved A B A B ..., as x real time"
+        " and campaigns per CPU-minute, with the ratios to the first",
+    )
+    parser.add_argument(
+        "--rounds",
+        type=int,
+        metavar="N",
+        help=f"with --builds: runs of every build (default {builds.ROUNDS},"
+        f" {builds.QUICK_ROUNDS} with --quick)",
+    )
+    parser.add_argument(
+        "--budget",
+        type=int,
+        metavar="N",
+        help=f"with --builds: verify campaigns per build per round (default {builds.BUDGET},"
+        f" {builds.QUICK_BUDGET} with --quick)",
+    )
+    parser.add_argument(
         "--probe",
         action="store_true",
         help="also find where the tail comes from: time every garbage collection and sample the"
@@ -90,6 +113,8 @@ def configure(parser: argparse.ArgumentParser) -> None:
 
 
 def _settings(args: argparse.Namespace) -> BenchSettings:
+    if args.rounds is not None or args.budget is not None:
+        raise ConfigError("--rounds and --budget go with --builds")
     phase_s = QUICK_PHASE_S if args.quick else args.duration
     if not (math.isfinite(phase_s) and 0.5 <= phase_s <= MAX_PHASE_S):
         raise ConfigError(f"--duration {phase_s:g}: use 0.5 to {MAX_PHASE_S:g} seconds")
@@ -100,6 +125,8 @@ def _settings(args: argparse.Namespace) -> BenchSettings:
 
 def run(args: argparse.Namespace) -> int:
     """Measure, then print the table (or JSON); 0 whatever the figures are."""
+    if args.builds is not None:
+        return _run_builds(args)
     settings = _settings(args)
     robot: RobotConfig = default_sim_config() if args.config is None else load_config(args.config)
     course_s = QUICK_COURSE_S if args.quick else None
@@ -165,6 +192,39 @@ def run(args: argparse.Namespace) -> int:
         out.print(summary_line(result))
         if realtime.tail is not None:
             out.print(render_tail(realtime.tail))
+    return 0
+
+
+def _given(value: int | None, default: int) -> int:
+    return default if value is None else value
+
+
+def _run_builds(args: argparse.Namespace) -> int:
+    """`--builds`: the course and verify in every build, interleaved; the figures side by side."""
+    pythons = builds.parse_builds(args.builds)
+    for flag in ("look", "probe", "realtime"):
+        if getattr(args, flag):
+            raise ConfigError(f"--{flag} does not go with --builds (the course and verify only)")
+    quick = bool(args.quick)
+    settings = builds.BuildsSettings(
+        rounds=_given(args.rounds, builds.QUICK_ROUNDS if quick else builds.ROUNDS),
+        budget=_given(args.budget, builds.QUICK_BUDGET if quick else builds.BUDGET),
+        course_s=QUICK_COURSE_S if quick else None,
+        config=args.config,
+    )
+    console = Console(stderr=True)
+
+    def progress(number: int, of: int, label: str, build: builds.Build) -> None:
+        console.print(
+            f"bywire bench: run {number + 1}/{of}: {label}, {build.build} ({build.python})",
+            highlight=False,
+        )
+
+    result = builds.measure_builds(pythons, settings.checked(), progress)
+    if args.json:
+        print(json.dumps(builds.as_json(result), indent=2))
+    else:
+        stdout_console().print(builds.render(result), highlight=False, soft_wrap=True)
     return 0
 
 

@@ -41,7 +41,6 @@ which a robot without `[security]` should not load (nor lock, with `[realtime] l
 from __future__ import annotations
 
 import hmac
-import importlib
 import struct
 from typing import TYPE_CHECKING, NamedTuple
 
@@ -76,11 +75,9 @@ class SecocKey:
     def __init__(self, secret: bytes) -> None:
         if len(secret) != KEY_BYTES:
             raise ValueError(f"an AES-128 key is {KEY_BYTES} bytes, got {len(secret)}")
-        # Imported only with a key, by importlib: compiled, mypyc's own `from ... import` here
-        # failed (KeyError: '__repr__', issue 43; the module's TYPE_CHECKING import of the same
-        # module is never run).
-        cmac = importlib.import_module("cryptography.hazmat.primitives.cmac")
-        algorithms = importlib.import_module("cryptography.hazmat.primitives.ciphers.algorithms")
+        from cryptography.hazmat.primitives import cmac  # noqa: PLC0415 -- only with a key
+        from cryptography.hazmat.primitives.ciphers import algorithms  # noqa: PLC0415
+
         # Keyed once; each MAC starts from a copy (a fifth of the cost of keying every time).
         self._keyed: CMAC = cmac.CMAC(algorithms.AES128(bytes(secret)))
 
@@ -98,7 +95,11 @@ class SecocKey:
     def __repr__(self) -> str:
         return f"SecocKey(check value {self.check_value})"
 
-    __str__ = __repr__
+    def __str__(self) -> str:
+        # Not `__str__ = __repr__`: compiled, mypyc makes a class-body alias an attribute of
+        # every instance, looked up among the module's globals when one is made (KeyError:
+        # '__repr__', issue 43; docs/COMPILED.md)
+        return repr(self)
 
 
 def authenticated_data(data_id: int, payload: bytes, freshness: int) -> bytes:

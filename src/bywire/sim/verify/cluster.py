@@ -37,6 +37,7 @@ from importlib import resources
 from typing import TYPE_CHECKING
 
 from bywire import __version__
+from bywire.build import picklable_compiled_dataclasses
 from bywire.config import RobotConfig
 from bywire.errors import BywireError
 from bywire.sim.verify.engine import CampaignJob, Crash, Outcome, run_indexed
@@ -121,6 +122,7 @@ def run_batch(batch: Batch) -> BatchResult:
     outcomes = tuple(
         run_indexed(batch.robot, batch.job, index) for index in range(batch.start, batch.stop)
     )
+    picklable_compiled_dataclasses()  # the outcomes go back pickled (a compiled build's too)
     return BatchResult(build_id(), socket.gethostname(), batch.robot_hash, outcomes)
 
 
@@ -334,6 +336,7 @@ def cluster_outcomes(
     batches as start before the wall-clock time `until`."""
     from distributed.scheduler import KilledWorker  # noqa: PLC0415 -- an optional extra
 
+    picklable_compiled_dataclasses()  # the batches go out pickled (a compiled build's too)
     deaths = worker_deaths(client)
     dispatch = _Dispatch(client, Batch(job, robot, robot_file_hash, 0, 0), budget, until)
     ready: dict[int, Outcome | Crash] = {}

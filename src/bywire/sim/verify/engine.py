@@ -9,6 +9,7 @@ alone (`sim/verify/draw.py` and `draw_bridge.py` say how campaigns are drawn).
 
 from __future__ import annotations
 
+import builtins
 import contextlib
 import multiprocessing
 import multiprocessing.connection
@@ -302,7 +303,7 @@ class _Workers:
 class _Raised:
     """An error a campaign raised in its worker, sent back to be raised in the parent."""
 
-    error: BaseException
+    error: builtins.BaseException  # not `BaseException`: mypyc cannot load it at import (issue 43)
 
 
 def _work(pipe: Connection, job: CampaignJob, parents: tuple[Connection, ...]) -> None:
