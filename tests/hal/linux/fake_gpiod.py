@@ -9,6 +9,7 @@ The backend under test (`bywire.hal.linux.gpio_gpiod`) uses only this part of th
 from __future__ import annotations
 
 import enum
+import errno
 import json
 import os
 import threading
@@ -87,9 +88,14 @@ def drive_input(chip: Path, name: str, high: bool) -> None:
     _LIVE[str(chip)].drive(name, high)
 
 
-def make_chip(path: Path, label: str, line_names: Sequence[str]) -> Path:
-    """Create a chip file with these line names (offset = index)."""
-    path.write_text(json.dumps({MARKER: True, "label": label, "lines": list(line_names)}))
+def make_chip(
+    path: Path, label: str, line_names: Sequence[str], *, interrupts: bool = True
+) -> Path:
+    """Create a chip file with these line names (offset = index). `interrupts` False: a chip
+    whose lines have no interrupt, as user-mode Linux's gpio-sim: the kernel refuses edge
+    detection on them (ENODEV)."""
+    described = {MARKER: True, "label": label, "lines": list(line_names), "irq": interrupts}
+    path.write_text(json.dumps(described))
     return path
 
 
@@ -113,6 +119,7 @@ class Chip:
         self.path = path
         self._label: str = description["label"]
         self._lines: list[str] = description["lines"]
+        self._interrupts: bool = description.get("irq", True)
 
     def __enter__(self) -> Chip:
         return self
@@ -147,6 +154,8 @@ class Chip:
                 if number in values:
                     raise ValueError(f"line must be configured exactly once - offset {number}")
                 given = settings or LineSettings()
+                if given.edge_detection is not Edge.NONE and not self._interrupts:
+                    raise OSError(errno.ENODEV, "No such device")  # gpiolib-cdev: no IRQ
                 if given.direction is Direction.INPUT:
                     inputs[number] = given
                     # an input reads what drives it: nothing but its pull, at first

@@ -123,3 +123,35 @@ def test_closing_drives_the_outputs_low_beside_an_input(dev: Path) -> None:
     assert (state["levels"]["GPIO17"], state["released"]) == (0, True)
     with pytest.raises(HardwareError, match=r"estop\.line: cannot read"):
         lines.inputs["estop"].get()
+
+
+def test_a_chip_without_interrupts_reads_the_estop_by_level_and_says_so(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, caplog: pytest.LogCaptureFixture
+) -> None:
+    """User-mode Linux's gpio-sim has no interrupts: the kernel refuses edge detection (ENODEV),
+    and `bywire run` once refused to start ("/dev/gpiochip1 does not exist")."""
+    monkeypatch.setattr(gpio_gpiod, "gpiod", fake_gpiod)
+    chip = fake_gpiod.make_chip(
+        tmp_path / "gpiochip0", "sim", ["EBRAKE", "ESTOP"], interrupts=False
+    )
+    lines = GpiodOutputs(
+        {"ebrake": LineSpec("ebrake.ebrake_release", "sim", "EBRAKE")},
+        tmp_path,
+        {"estop": LineSpec("estop.line", "sim", "ESTOP")},
+    )
+    assert fake_gpiod.read_state(chip)["inputs"] == {"ESTOP": ["PULL_DOWN", "NONE"]}
+    assert "GPIO estop.line: " in caplog.text
+    assert "no edge events" in caplog.text
+    estop = lines.inputs["estop"]
+    assert estop.get() is False  # still pulled down: an open circuit is a press
+    fake_gpiod.drive_input(chip, "ESTOP", high=True)
+    assert estop.get() is True
+
+
+def test_a_chip_without_interrupts_and_no_input_still_fails_as_the_kernel_says(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    monkeypatch.setattr(gpio_gpiod, "gpiod", fake_gpiod)
+    fake_gpiod.make_chip(tmp_path / "gpiochip0", "sim", ["EBRAKE"], interrupts=False)
+    lines = GpiodOutputs({"ebrake": LineSpec("ebrake.ebrake_release", "sim", "EBRAKE")}, tmp_path)
+    assert lines.inputs == {}  # outputs ask for no edges: nothing to refuse

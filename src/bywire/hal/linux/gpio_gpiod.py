@@ -10,6 +10,8 @@ A chip is given as a label (`pinctrl-bcm2711`), a name (`gpiochip0`) or a path.
 from __future__ import annotations
 
 import contextlib
+import errno
+import logging
 from collections.abc import Iterable, Mapping
 from dataclasses import dataclass
 from pathlib import Path
@@ -20,6 +22,9 @@ from bywire.errors import HardwareError
 from bywire.hal.linux.device_errors import device_error, reason
 
 CONSUMER = "bywire"
+NO_INTERRUPT = frozenset({errno.ENODEV, errno.ENXIO})
+"""What gpiolib-cdev answers an edge-detection request on a line without an interrupt."""
+log = logging.getLogger(__name__)
 MISSING_HINT = "check gpio_chip (`gpiodetect` lists the chips and their labels)"
 
 
@@ -76,15 +81,21 @@ class GpiodLine:
 class GpiodInput:
     """A `DigitalIn` on one line of a request (pulled down: an open circuit reads low), with
     edge events on: a falling edge since the last read reads low, however short the low was,
-    so a press between two reads is not missed."""
+    so a press between two reads is not missed. On a chip whose lines have no interrupt
+    (`edges` False) the level alone is read."""
 
-    def __init__(self, request: gpiod.LineRequest, offset: int, key: str) -> None:
+    def __init__(
+        self, request: gpiod.LineRequest, offset: int, key: str, *, edges: bool = True
+    ) -> None:
         self._request, self._offset, self.key = request, offset, key
+        self.edges = edges
 
     def get(self) -> bool:
         try:
             fell = False
-            if self._request.wait_edge_events(0):  # one buffer a read: the rest, the next
+            if self.edges and self._request.wait_edge_events(
+                0
+            ):  # one buffer a read: the rest, the next
                 for event in self._request.read_edge_events():
                     fell |= event.event_type is gpiod.EdgeEvent.Type.FALLING_EDGE
             return not fell and self._request.get_value(self._offset) == gpiod.line.Value.ACTIVE
@@ -128,9 +139,9 @@ class GpiodOutputs:
             request.release()
 
     def _settings(
-        self, offsets: Mapping[str, int]
+        self, offsets: Mapping[str, int], *, edges: bool = True
     ) -> dict[Iterable[int | str] | int | str, gpiod.LineSettings | None]:
-        """Outputs low; inputs pulled down."""
+        """Outputs low; inputs pulled down, with edge events unless `edges` is False."""
         outs = tuple(offset for name, offset in offsets.items() if name not in self._input_names)
         ins = tuple(offset for name, offset in offsets.items() if name in self._input_names)
         settings: dict[Iterable[int | str] | int | str, gpiod.LineSettings | None] = {}
@@ -142,7 +153,7 @@ class GpiodOutputs:
             settings[ins] = gpiod.LineSettings(
                 direction=gpiod.line.Direction.INPUT,
                 bias=gpiod.line.Bias.PULL_DOWN,
-                edge_detection=gpiod.line.Edge.BOTH,
+                edge_detection=gpiod.line.Edge.BOTH if edges else gpiod.line.Edge.NONE,
             )
         return settings
 
@@ -156,19 +167,47 @@ class GpiodOutputs:
         with chip:
             offsets = {name: _offset(chip, path, spec) for name, spec in specs.items()}
             _check_distinct(offsets, specs, path)
-            try:
-                request = chip.request_lines(config=self._settings(offsets), consumer=CONSUMER)
-            except OSError as error:
-                raise device_error(
-                    "GPIO", str(path), error, group="gpio", missing=MISSING_HINT
-                ) from error
+            request, edges = self._request(chip, path, offsets, specs)
         outputs = tuple(offset for name, offset in offsets.items() if name not in self._input_names)
         self._requests.append((request, outputs))
         for name, offset in offsets.items():
             if name in self._input_names:
-                self.inputs[name] = GpiodInput(request, offset, specs[name].key)
+                self.inputs[name] = GpiodInput(request, offset, specs[name].key, edges=edges)
             else:
                 self.lines[name] = GpiodLine(request, offset, specs[name].key)
+
+    def _request(
+        self,
+        chip: gpiod.Chip,
+        path: Path,
+        offsets: Mapping[str, int],
+        specs: Mapping[str, LineSpec],
+    ) -> tuple[gpiod.LineRequest, bool]:
+        """The chip's request, and whether its inputs have edge events: a chip whose lines have
+        no interrupt (the kernel answers ENODEV or ENXIO) has its inputs read by level alone,
+        with a warning naming them: a low shorter than a control period may then pass unseen
+        (an E-stop button latches: a press is held until it is reset)."""
+        inputs = [specs[name].key for name in offsets if name in self._input_names]
+        try:
+            return chip.request_lines(config=self._settings(offsets), consumer=CONSUMER), True
+        except OSError as error:
+            if not inputs or error.errno not in NO_INTERRUPT:
+                raise device_error(
+                    "GPIO", str(path), error, group="gpio", missing=MISSING_HINT
+                ) from error
+        log.warning(
+            "GPIO %s: %s gives no edge events (its lines have no interrupt): read by level once"
+            " a pass, a press shorter than a control period may pass unseen",
+            ", ".join(inputs),
+            path,
+        )
+        try:
+            settings = self._settings(offsets, edges=False)
+            return chip.request_lines(config=settings, consumer=CONSUMER), False
+        except OSError as error:
+            raise device_error(
+                "GPIO", str(path), error, group="gpio", missing=MISSING_HINT
+            ) from error
 
 
 def _offset(chip: gpiod.Chip, path: Path, spec: LineSpec) -> int:
