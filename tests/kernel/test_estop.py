@@ -19,7 +19,14 @@ from bywire.config.tree import ESTOP_DEFAULT_LINE
 from bywire.error_flags import ErrorFlag
 from bywire.model import ControlMode
 from tests.kernel.robot import KernelRobot
-from tests.kernel.test_faults import SAFE_WITHIN_S, flags, outputs_safe, wait_flag, wait_safe
+from tests.kernel.test_faults import (
+    SAFE_WITHIN_S,
+    _mode,
+    flags,
+    outputs_safe,
+    wait_flag,
+    wait_safe,
+)
 
 
 @pytest.fixture
@@ -35,7 +42,8 @@ def robot(tmp_path: Path) -> Iterator[KernelRobot]:
 def _drive_by_rc(robot: KernelRobot) -> None:
     robot.transmitter.apply({"mode": "stop", "gear": "forward", "throttle": 0.0})
     time.sleep(0.5)
-    robot.transmitter.apply({"mode": "rc"})
+    robot.transmitter.apply({"mode": "rc"})  # armed with the stick at zero
+    robot.wait_for("RC mode", lambda: _mode(robot) is ControlMode.RC, SAFE_WITHIN_S)
     robot.transmitter.apply({"throttle": 0.4})
     robot.wait_for("the motors enabled", lambda: robot.observe(0.0).motors_enabled, SAFE_WITHIN_S)
 
