@@ -29,6 +29,7 @@ from pathlib import Path
 from typing import Any
 
 import bywire
+from bywire.background import OWNER
 from bywire.bench.machine import machine_info
 from bywire.build import build_name
 from bywire.config import default_sim_config, load_config
@@ -263,15 +264,22 @@ def render(result: BuildsResult) -> str:
 def _child(python: str, arguments: Sequence[str], timeout_s: float | None) -> dict[str, Any]:
     """Run `python -P -m bywire.bench.builds ARGUMENTS` and read its one JSON line."""
     try:
-        done = subprocess.run(
+        process = OWNER.popen(  # owned: a Ctrl-C or a failed run ends it (issue 42)
             [python, "-P", "-m", CHILD_MODULE, *arguments],
-            capture_output=True,
+            name="bywire-bench-build",
+            stdout=subprocess.PIPE,
+            stderr=subprocess.PIPE,
             text=True,
-            timeout=timeout_s,
-            check=False,
         )
     except OSError as error:
         raise BuildError(f"--builds: cannot run {python}: {error.strerror or error}") from None
+    try:
+        stdout, stderr = process.communicate(timeout=timeout_s)
+    except subprocess.TimeoutExpired:
+        process.kill()
+        process.communicate()
+        raise
+    done = subprocess.CompletedProcess(process.args, process.returncode, stdout, stderr)
     if done.returncode != 0:
         last = (done.stderr.strip().splitlines() or ["(nothing on stderr)"])[-1]
         if "No module named 'bywire'" in last:
