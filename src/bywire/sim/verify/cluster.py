@@ -307,8 +307,10 @@ class _Dispatch:
             if self.stop is None and self.until is not None and time.monotonic() >= self.until:
                 return
             end = self.next_start + self.size
-            self._submit(self.next_start, end if self.stop is None else min(self.stop, end))
-            self.next_start = end if self.stop is None else min(self.stop, end)
+            if self.stop is not None:
+                end = min(self.stop, end)
+            self._submit(self.next_start, end)
+            self.next_start = end
 
     def split(self, batch: Batch) -> bool:
         """Run a killed batch again as two halves; False for a single campaign."""
