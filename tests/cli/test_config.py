@@ -164,6 +164,18 @@ def test_the_speed_limit_and_how_it_is_enforced_are_shown(tmp_path: Path) -> Non
     assert "throttle ceiling of 0.811" in shown["speed_limit"][2]  # the calibration's last
 
 
+def test_how_a_controlled_stop_ends_and_its_standstill_hold_are_shown(tmp_path: Path) -> None:
+    status, out, _ = _check(str(ALBERT))
+    assert status == 0
+    assert "until the wheel speed has read standstill (at most 0.05 m/s) for 0.30 s" in out
+    assert "a wheel sensor dying below 0.45 m/s reads like a stop; regeneration (1.50 m/s²)" in out
+    weaker = tmp_path / "weaker.toml"
+    weaker.write_text("[drive]\nmax_regen_volts = 4.0\n")
+    status, out, _ = _check(str(weaker))
+    assert status == 0
+    assert "for 0.38 s, and 2.5 s at most" in out
+
+
 def test_a_limit_out_of_range_is_refused_naming_the_key_and_range(tmp_path: Path) -> None:
     bad = tmp_path / "bad.toml"
     bad.write_text("[limits]\nmax_speed_mps = 31\n")

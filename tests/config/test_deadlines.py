@@ -158,6 +158,13 @@ UNSAFE = [
         "set stop.controlled_min_decel_mps2 to 0.75 or less, or drive.max_regen_volts to 3.34 or"
         " more",
     ),
+    (  # issue 44's verify finding: a weak regeneration stops a hidden roll too slowly to hold
+        "[drive]\nmax_regen_volts = 2.5",
+        "a standstill is held only briefly",
+        ("drive.max_regen_volts", "interlocks.speed_step_tolerance_mps"),
+        "(up to 0.45 m/s) in 0.6 s: a controlled stop would keep a standing robot's drive powered"
+        " longer than 0.5 s; set drive.max_regen_volts to 3 or more",
+    ),
     (  # issue 30: every task at 1 Hz, an unplugged receiver gave a second of full throttle
         "[tasks]\nsteering_rate_hz = 1\ndriving_rate_hz = 1\nhydrobrake_rate_hz = 1\n"
         "can_tx_rate_hz = 1\nlights_rate_hz = 1\n[timeouts]\nwatchdog_s = 2.0",
@@ -267,6 +274,8 @@ def test_the_limit_itself_is_safe() -> None:
         "[interlocks]\nunknown_speed_brake_norm = 0.625\n[hydrobrake]\nthreshold_norm = 0.25",
         "[interlocks]\nunknown_speed_brake_norm = 1.0\n[hydrobrake]\nthreshold_norm = 0.99",
         "[stop]\ncontrolled_min_decel_mps2 = 1.5",
+        "[drive]\nmax_regen_volts = 3.0",  # 0.45 m/s at 0.9 m/s²: held 0.5 s
+        "[interlocks]\nspeed_step_tolerance_mps = 0.35\n[drive]\nmax_regen_volts = 3.34",
         "[monitors]\nhydro_min_duty = 0.2\nhydro_response_s = 0.49",  # 0.49 + 0.01 = 0.5 s
         "[monitors]\nhydro_min_duty = 0.0",  # watching every duty: 0 bar expected at duty 0
         "[drive]\nmax_regen_volts = 5.5\n[drive.dac]\nvref_volts = 5.5\n[stop]\n"
@@ -292,6 +301,7 @@ def test_the_nearest_safe_values_are_accepted(text: str) -> None:
         "[monitors]\nhydro_min_duty = 0.201",
         "[monitors]\nhydro_response_s = 0.491",
         "[drive]\nmax_regen_volts = 0.0\n[stop]\ncontrolled_min_decel_mps2 = 0.1",
+        "[drive]\nmax_regen_volts = 2.99",
         pairing_window_text(smallest_pairing_window_s(500_000) - PAIRING_STEP_S),
         pairing_window_text(PAIRING_WINDOW_S.high, least_pairing_bitrate_bps() - 1),
     ],

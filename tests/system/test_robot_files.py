@@ -181,8 +181,8 @@ def test_without_a_wheel_sensor_reverse_never_engages_while_rolling(
         (5.0, 5.0, "set stop.controlled_min_decel_mps2 to 1.5 or less"),  # the finding
         (1.5, 5.0, ""),  # the nearest safe value
         (0.5, 5.0, ""),  # the default
-        (1.5, 2.5, "set stop.controlled_min_decel_mps2 to 0.75 or less"),  # half the regen
-        (0.75, 2.5, ""),
+        (1.5, 3.0, "set stop.controlled_min_decel_mps2 to 0.9 or less"),  # 3/5 of the regen
+        (0.9, 3.0, ""),  # the weakest regeneration that may hold a standstill (0.45 m/s in 0.5 s)
     ],
 )
 def test_with_both_mechanical_brakes_failed_a_controlled_stop_keeps_regenerating(

@@ -281,6 +281,58 @@ def test_a_stop_for_a_failed_hydraulic_brake_keeps_the_drives_regenerative_brake
     assert not level(run, "motors_enable", 6.9)  # power off once it stood still
 
 
+# Found by `bywire verify --budget 2000 --seed 0` (campaign 1398, H7): the spring brake fails
+# unnoticed, the hydraulic brake fails as the operator brakes, and the wheel sensor dies at
+# 0.16 m/s, inside the speed check's blind spot, so its 0 reads as a stop that stood still.
+BRAKES_AND_SENSOR_FAIL_SLOWING = """
+[[event]]
+at_s = 0.2
+rc = { mode = "stop", gear = "forward", throttle = 0.0 }
+[[event]]
+at_s = 0.26
+rc = { mode = "rc" }
+[[event]]
+at_s = 0.3
+rc = { throttle = 0.8 }
+[[event]]
+at_s = 1.43
+fault = "ebrake_fail"
+[[event]]
+at_s = 1.73
+fault = "hydrobrake_fail"
+[[event]]
+at_s = 1.73
+rc = { throttle = -1.0 }
+[[event]]
+at_s = 1.93
+fault = "wheel_sensor_dead"
+"""
+
+
+def test_a_wheel_sensor_dying_slowly_does_not_end_the_only_brake_left() -> None:
+    # Before: the dead sensor's 0 m/s ended the controlled stop at once (power off at 2.04 s)
+    # with both mechanical brakes failed: the robot rolled on at 0.15 m/s on rolling drag alone.
+    samples: list[tuple[float, float, bool]] = []
+
+    def watch(run: SimRun) -> None:
+        state = run.world.vehicle
+        run.runtime.on_cycle.append(
+            lambda now: samples.append(
+                (now, state.state.speed_mps, level(run, "motors_enable", now))
+            )
+        )
+
+    played(BRAKES_AND_SENSOR_FAIL_SLOWING, 3.0, prepare=watch)
+    moving_at_death = next(v for t, v, _ in samples if t >= 1.93)
+    assert moving_at_death > 0.1  # rolling, inside the blind spot, when the sensor dies
+    stood = next((t for t, v, _ in samples if t > 1.93 and v == 0.0), None)
+    assert stood is not None, "still rolling at the end"
+    assert stood < 2.5
+    enabled_until = max(t for t, _, on in samples if on)
+    assert enabled_until >= stood  # regeneration kept until the robot truly stood
+    assert not samples[-1][2]  # and then power off
+
+
 def test_a_controlled_stop_that_does_not_slow_the_robot_removes_power() -> None:
     # Category 1 keeps the drive powered only while it brakes: a drive that keeps pushing (here
     # a throttle line the DAC holds high: the regenerative brake cannot win) is switched off.
@@ -296,6 +348,7 @@ def test_a_controlled_stop_that_does_not_slow_the_robot_removes_power() -> None:
             speed_mps=1.5,  # not slowing at all
             now=now,
             config=config,
+            standstill_since_s=None,
         )
         phases.append(phase)
     assert phases[0] is StopPhase.BRAKING

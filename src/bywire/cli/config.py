@@ -17,10 +17,19 @@ import json
 from pathlib import Path
 
 from bywire.config import RobotConfig, as_dict, describe, load_config
-from bywire.config.deadlines import loss_distances, loss_rows, promise_lines
+from bywire.config.deadlines import (
+    decision_period_s,
+    loss_distances,
+    loss_rows,
+    promise_lines,
+    regen_decel_mps2,
+)
+from bywire.config.reader import number_text
 from bywire.config.speed_limit import enforcement
+from bywire.control.speed_check import blind_spot_mps
 from bywire.hal.hardware import sensors_fitted
 from bywire.runtime.rx_checks import rx_checks
+from bywire.runtime.settings import RuntimeConfig
 from bywire.security.keys import read_key_file
 
 
@@ -72,6 +81,22 @@ def switch_bands(config: RobotConfig) -> list[str]:
     return lines
 
 
+def controlled_stop_lines(config: RobotConfig) -> list[str]:
+    """How a controlled stop (category 1) ends on this robot, and why a standstill is held."""
+    stop = RuntimeConfig.from_robot(config).control.stop
+    blind_mps = blind_spot_mps(config.interlocks, decision_period_s(config))
+    decel = stop.controlled_min_decel_mps2
+    regen = regen_decel_mps2(config)
+    return [
+        "the drive stays powered, braking by regeneration, until the wheel speed has read"
+        f" standstill (at most {number_text(stop.standstill_mps)} m/s) for"
+        f" {stop.standstill_hold_s:.2f} s, and {number_text(stop.controlled_max_s)} s at most;"
+        f" power off at once if the robot slows by less than {number_text(decel)} m/s²",
+        f"the hold: a wheel sensor dying below {blind_mps:.2f} m/s reads like a stop;"
+        f" regeneration ({regen:.2f} m/s²) stops a robot rolling that fast within the hold",
+    ]
+
+
 def run(args: argparse.Namespace) -> int:
     config = load_config(args.file)
     if args.json:
@@ -100,6 +125,9 @@ def run(args: argparse.Namespace) -> int:
         )
     print("# RC switches (a value in no band is no position: the mode switch then means STOP):")
     for line in switch_bands(config):
+        print(f"#   {line}")
+    print("# Controlled stop (docs/SAFETY.md row 37; [stop], [interlocks]):")
+    for line in controlled_stop_lines(config):
         print(f"#   {line}")
     print("# Stop promises (docs/SAFETY.md; [timeouts] budgets are held to them):")
     for line in promise_lines(config):

@@ -26,6 +26,7 @@ from bywire.config.tree import RobotConfig
 from bywire.control.dac_health import DAC_FAILURE_LIMIT, DAC_TRANSFERS_PER_PASS
 from bywire.control.hydrobrake import hydrobrake_duty
 from bywire.control.sensor_checks import MonitorConfig
+from bywire.control.speed_check import blind_spot_mps
 from bywire.control.stop import STANDSTILL_LIMIT_MPS
 from bywire.model import MovementCommand
 from bywire.protocol import ibus
@@ -62,6 +63,10 @@ FULL_TRAVEL_NORM = 2.0
 """The steering's travel from full left (-1) to full right (+1)."""
 BLIND_SPOT_MPS = 0.5
 """A wheel sensor that dies faster than this is noticed (docs/SAFETY.md row 27)."""
+STANDSTILL_HOLD_MAX_S = 0.5
+"""The longest a controlled stop keeps a standing robot's drive powered (at 0 V, braking) before
+power goes off: the standstill hold (`control/stop.py`) in which regeneration stops a robot that
+a wheel sensor dying inside its blind spot hid (docs/SAFETY.md row 37)."""
 STOP_RESPONSE_S = 0.010
 """One control period: the most a stop carried by a frame may take from the frame's period to
 the brakes (docs/SAFETY.md: "the frame that carries the change, plus one control period")."""
@@ -106,13 +111,13 @@ class Deadline:
     check: Check
 
 
-def _decision_period_s(robot: RobotConfig) -> float:
+def decision_period_s(robot: RobotConfig) -> float:
     """How long a decision may wait: one period of the fastest task (every due task decides)."""
     return 1.0 / max(rate for _, rate in robot.tasks.rates_hz)
 
 
 def _input_loss(robot: RobotConfig) -> list[Breach]:
-    period_s = _decision_period_s(robot)
+    period_s = decision_period_s(robot)
     if period_s <= MAX_CONTROL_PERIOD_S + 1e-12:
         return []
     keys = tuple(f"tasks.{name}_rate_hz" for name, _ in robot.tasks.rates_hz)
@@ -302,7 +307,7 @@ def _pressure_monitor(robot: RobotConfig) -> list[Breach]:
                 f"set monitors.hydro_min_duty to {number_text(HYDRO_FAILURE_DUTY)} or less",
             )
         )
-    period_s = _decision_period_s(robot)
+    period_s = decision_period_s(robot)
     noticed_s = monitors.hydro_response_s + period_s
     if noticed_s > HYDRO_FAILURE_DEADLINE_S + 1e-9:
         allowed_s = math.floor((HYDRO_FAILURE_DEADLINE_S - period_s) * 1000 + 1e-6) / 1000
@@ -324,6 +329,40 @@ def regen_decel_mps2(robot: RobotConfig) -> float:
     requirement's figure, scaled by the volts the file lets it have."""
     volts = min(robot.drive.limits.max_regen_volts, MOTOR_FULL_SCALE_VOLTS)
     return REGEN_DECEL_MPS2 * volts / MOTOR_FULL_SCALE_VOLTS
+
+
+def standstill_hold_s(robot: RobotConfig) -> float:
+    """How long a controlled stop holds a standstill the sensor reads before power goes off:
+    the time regeneration alone takes to stop a robot rolling at the blind spot's speed (a
+    sensor dying there reads like a stop). Infinite without regeneration."""
+    blind_mps = blind_spot_mps(robot.interlocks, decision_period_s(robot))
+    regen = regen_decel_mps2(robot)
+    return blind_mps / regen if regen > 0.0 else math.inf
+
+
+def _standstill_hold(robot: RobotConfig) -> list[Breach]:
+    hold_s = standstill_hold_s(robot)
+    if hold_s <= STANDSTILL_HOLD_MAX_S + 1e-9:
+        return []
+    blind_mps = blind_spot_mps(robot.interlocks, decision_period_s(robot))
+    wanted = blind_mps / STANDSTILL_HOLD_MAX_S / REGEN_DECEL_MPS2 * MOTOR_FULL_SCALE_VOLTS
+    volts = math.ceil(wanted * 100 - 1e-6) / 100
+    fix = (
+        f"set drive.max_regen_volts to {number_text(volts)} or more"
+        if volts <= MOTOR_FULL_SCALE_VOLTS
+        else "lower interlocks.speed_step_tolerance_mps or interlocks.speed_max_change_mps2"
+    )
+    held = "never" if math.isinf(hold_s) else f"in {number_text(round(hold_s, 3))} s"
+    return [
+        Breach(
+            STANDSTILL_HOLD.name,
+            ("drive.max_regen_volts", "interlocks.speed_step_tolerance_mps"),
+            f"regeneration stops a robot that a dying wheel sensor hid (up to"
+            f" {number_text(round(blind_mps, 3))} m/s) {held}: a controlled stop would keep a"
+            f" standing robot's drive powered longer than {number_text(STANDSTILL_HOLD_MAX_S)} s",
+            fix,
+        )
+    ]
 
 
 def _controlled_stop(robot: RobotConfig) -> list[Breach]:
@@ -353,8 +392,8 @@ def _controlled_stop(robot: RobotConfig) -> list[Breach]:
 
 def _blind_spot(robot: RobotConfig) -> list[Breach]:
     interlocks = robot.interlocks
-    period_s = _decision_period_s(robot)
-    blind_mps = interlocks.speed_step_tolerance_mps + interlocks.speed_max_change_mps2 * period_s
+    period_s = decision_period_s(robot)
+    blind_mps = blind_spot_mps(interlocks, period_s)
     if blind_mps <= BLIND_SPOT_MPS + 1e-9:
         return []
     tolerance = max(BLIND_SPOT_MPS - interlocks.speed_max_change_mps2 * period_s, 0.0)
@@ -461,7 +500,7 @@ class StopPromise:
         pass_s = robot.timeouts.pass_budget_s
         if self.wakes:
             return self.wire_s + pass_s
-        return max(_decision_period_s(robot), pass_s)
+        return max(decision_period_s(robot), pass_s)
 
     def most_pass_budget_s(self, robot: RobotConfig | None = None) -> float:
         """The largest pass budget that keeps this promise (given a fast enough tick): the
@@ -688,6 +727,12 @@ CONTROLLED_STOP = Deadline(
     f" ({number_text(REGEN_DECEL_MPS2)} m/s² at {number_text(MOTOR_FULL_SCALE_VOLTS)} V)",
     _controlled_stop,
 )
+STANDSTILL_HOLD = Deadline(
+    "a standstill is held only briefly",
+    f"a controlled stop holds a standstill (regeneration stopping a robot a dying wheel sensor"
+    f" hid) for at most {number_text(STANDSTILL_HOLD_MAX_S)} s",
+    _standstill_hold,
+)
 STOP_PROMISE = Deadline(
     "a stop within its promise",
     "every stop deadline of `STOP_PROMISES` holds whatever the work of a pass, within the"
@@ -709,6 +754,7 @@ DEADLINES: tuple[Deadline, ...] = (
     SWITCH,
     STEERING,
     CONTROLLED_STOP,
+    STANDSTILL_HOLD,
     STOP_PROMISE,
     PRESSURE,
     PAIRING,
@@ -757,7 +803,7 @@ def loss_distances(robot: RobotConfig) -> list[LossDistance]:
     them beyond the loader's ranges and `STALL`: slow test rigs need long timeouts; a robot file
     is shown what its own cost (`bywire config check`, `bywire verify`)."""
     timeouts = robot.timeouts
-    period_s = _decision_period_s(robot)
+    period_s = decision_period_s(robot)
     movement_key, movement_s = _movement_timeout(robot)
     speed = top_speed_mps(robot)
     return [

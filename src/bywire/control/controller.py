@@ -423,6 +423,7 @@ def controller_step(
         speed_mps=speed_mps,
         now=now,
         config=config.stop,
+        standstill_since_s=speed_check.standstill_since,
     )
     # In STOP the steering holds where it is: centring at speed would be a swerve.
     target_norm = movement.steering_norm if driving else state.steering.setpoint_norm

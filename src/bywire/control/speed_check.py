@@ -31,14 +31,16 @@ from bywire.control.values import value
 
 @value
 class SpeedCheckState:
-    """The last reading, since when the robot is driven without moving, the latched fault, and
-    whether a standstill the sensor reads is unproven (see the module's text)."""
+    """The last reading, since when the robot is driven without moving, the latched fault,
+    whether a standstill the sensor reads is unproven (see the module's text), and since when
+    the readings say standstill (a controlled stop ends only on one that has lasted)."""
 
     previous_mps: float | None = None
     updated_at: float | None = None
     stuck_since: float | None = None
     faulted: bool = False
     unproven: bool = False
+    standstill_since: float | None = None
 
 
 def _jumped(state: SpeedCheckState, speed_mps: float, now: float, config: InterlockConfig) -> bool:
@@ -66,7 +68,18 @@ def speed_check_step(
     stuck = stuck_since is not None and now - stuck_since > config.speed_stuck_s
     faulted = state.faulted or stuck or _jumped(state, speed_mps, now, config)
     unproven = not moving and (state.unproven or applied_throttle_norm > 0.0)
-    return SpeedCheckState(speed_mps, now, stuck_since, faulted, unproven)
+    standstill_since = None if moving else _first(state.standstill_since, now)
+    return SpeedCheckState(speed_mps, now, stuck_since, faulted, unproven, standstill_since)
+
+
+def _first(since: float | None, now: float) -> float:
+    return now if since is None else since
+
+
+def blind_spot_mps(config: InterlockConfig, period_s: float) -> float:
+    """The fastest speed at which a sensor that dies (drops to 0) passes the jump check unseen
+    between two readings `period_s` apart: it reads like a stop."""
+    return config.speed_step_tolerance_mps + config.speed_max_change_mps2 * period_s
 
 
 def trusted_speed(state: SpeedCheckState, speed_mps: float | None) -> float | None:
@@ -78,5 +91,8 @@ def trusted_speed(state: SpeedCheckState, speed_mps: float | None) -> float | No
 def cleared(state: SpeedCheckState) -> SpeedCheckState:
     """After an arming event: the fault acknowledged and checked afresh from the next reading;
     but a sensor that was faulted proves nothing until it reads motion again (the robot may be
-    rolling at the arming, and a dead sensor reads standstill)."""
-    return SpeedCheckState(unproven=state.faulted or state.unproven)
+    rolling at the arming, and a dead sensor reads standstill); a standstill that a sound sensor
+    has read goes on counting."""
+    doubtful = state.faulted or state.unproven
+    standstill_since = None if doubtful else state.standstill_since
+    return SpeedCheckState(unproven=doubtful, standstill_since=standstill_since)

@@ -7,12 +7,23 @@
   that may not do what it is told must not be powered.
 - **Category 1, `CONTROLLED`**: the drive stays powered to brake. Throttle 0 V at once, the
   regenerative brake at full, the hydraulic brake at full duty, the spring brake engaged; the
-  enable line goes low at standstill (a trusted speed at or below the standstill threshold),
-  after `StopConfig.controlled_max_s` at the latest, or at once when the robot does not slow
-  down as a braking robot must (then category 0 after all: `escalated`, flag STOP_ESCALATED).
-  For every cause whose drive is healthy: with a spring brake that failed unnoticed and a
-  hydraulic brake that builds no pressure, regeneration is the only brake left, and cutting the
-  drive's power would throw it away.
+  enable line goes low at standstill (a trusted speed at or below the standstill threshold that
+  the sensor has read for `StopConfig.standstill_hold_s`), after `StopConfig.controlled_max_s`
+  at the latest, or at once when the robot does not slow down as a braking robot must (then
+  category 0 after all: `escalated`, flag STOP_ESCALATED). For every cause whose drive is
+  healthy: with a spring brake that failed unnoticed and a hydraulic brake that builds no
+  pressure, regeneration is the only brake left, and cutting the drive's power would throw it
+  away.
+
+Why a standstill must have been read for a while: a wheel sensor that dies inside its
+plausibility check's blind spot (`speed_check.blind_spot_mps`, 0.45 m/s by default) drops to 0
+as a real stop would. Were a fresh 0 proof, the stop would cut the drive at once, and with both
+mechanical brakes failed (one of them latent) the robot would roll on with nothing to slow it
+(found by `bywire verify`, H7). `standstill_hold_s` is the blind spot's speed divided by the
+regenerative brake's deceleration (0.45 / 1.5 = 0.3 s by default; a robot file may not make it
+longer than 0.5 s): regeneration stops a robot that the dead sensor hid. A robot that stood
+before the stop began is off at once; one that has just halted keeps its drive powered, at 0 V,
+until the hold is over.
 
 A stop that begins with the drive already off (power-up, a stop after a stop) is category 0:
 there is nothing to keep powered. `stop_step` is pure: the controller calls it on every
@@ -64,6 +75,7 @@ class StopConfig:
     controlled_max_s: float = 2.5
     controlled_min_decel_mps2: float = 0.5
     standstill_mps: float = 0.05
+    standstill_hold_s: float = 0.3  # the default robot's (`config.deadlines.standstill_hold_s`)
 
 
 @value
@@ -89,33 +101,46 @@ def stop_step(
     speed_mps: float | None,
     now: float,
     config: StopConfig,
+    standstill_since_s: float | None,
 ) -> tuple[StopState, StopPhase]:
     """The next stop state and what the drive does.
 
     `stopping`: the mode is STOP; `category`: the latched causes' (`POWER_OFF` if any is);
     `powered`: the previous decision left the drive enabled; `speed_mps`: a speed the controller
-    trusts (None without one: then only `controlled_max_s` ends the stop).
+    trusts (None without one: then only `controlled_max_s` ends the stop);
+    `standstill_since_s`: since when the sensor reads standstill (None: it does not).
     """
     if not stopping:
         return NOT_STOPPING, StopPhase.DRIVING
     if state.since_s is None:
         state = StopState(since_s=now, start_speed_mps=_magnitude(speed_mps), power_off=not powered)
     if not state.power_off:
-        state = _judged(state, category, _magnitude(speed_mps), now, config)
+        speed = _magnitude(speed_mps)
+        stood = standstill_since_s is not None and now - standstill_since_s >= (
+            config.standstill_hold_s
+        )
+        state = _judged(state, category, speed, now, config, stood=stood)
     return state, StopPhase.POWER_OFF if state.power_off else StopPhase.BRAKING
 
 
 def _judged(
-    state: StopState, category: StopCategory, speed: float | None, now: float, config: StopConfig
+    state: StopState,
+    category: StopCategory,
+    speed: float | None,
+    now: float,
+    config: StopConfig,
+    *,
+    stood: bool,
 ) -> StopState:
-    """A controlled stop under way, judged at `now`: it goes on, or power goes off."""
+    """A controlled stop under way, judged at `now`: it goes on, or power goes off (`stood`:
+    the sensor has read standstill for the hold)."""
     since_s = now if state.since_s is None else state.since_s
     if category is StopCategory.POWER_OFF or now - since_s >= config.controlled_max_s:
         return _off(state)
     if speed is None:  # no speed to judge by: the time bound alone
         return state
     if speed <= config.standstill_mps:
-        return _off(state)
+        return _off(state) if stood else state
     if speed > _allowed_speed_mps(state, now, config):
         return _off(state, escalated=True)
     return state

@@ -5,6 +5,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field, replace
 
 from bywire.config import RobotConfig, TimeoutsSection
+from bywire.config.deadlines import standstill_hold_s
 from bywire.config.speed_limit import governor_config
 from bywire.control.controller import ControlConfig
 from bywire.control.stop import STANDSTILL_LIMIT_MPS, StopConfig
@@ -12,6 +13,16 @@ from bywire.runtime.actuators import ActuatorConfig
 from bywire.runtime.rx_checks import RxCheck, rx_checks
 from bywire.runtime.timing import Budgets
 from bywire.task_table import SCHEDULE, TaskSpec
+
+
+def _stop_config(robot: RobotConfig) -> StopConfig:
+    stop = StopConfig(
+        controlled_max_s=robot.stop.controlled_max_s,
+        controlled_min_decel_mps2=robot.stop.controlled_min_decel_mps2,
+        standstill_mps=min(robot.interlocks.standstill_speed_mps, STANDSTILL_LIMIT_MPS),
+    )
+    hold_s = min(standstill_hold_s(robot), stop.controlled_max_s)
+    return replace(stop, standstill_hold_s=hold_s)
 
 
 @dataclass(frozen=True, slots=True)
@@ -43,11 +54,7 @@ class RuntimeConfig:
             interlocks=robot.interlocks,
             monitors=robot.monitors,
             supervisor=robot.supervisor,
-            stop=StopConfig(
-                controlled_max_s=robot.stop.controlled_max_s,
-                controlled_min_decel_mps2=robot.stop.controlled_min_decel_mps2,
-                standstill_mps=min(robot.interlocks.standstill_speed_mps, STANDSTILL_LIMIT_MPS),
-            ),
+            stop=_stop_config(robot),
             governor=governor_config(robot.limits, robot.vehicle),
         )
         timeouts = robot.timeouts

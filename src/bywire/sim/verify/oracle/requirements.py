@@ -31,6 +31,7 @@ from bywire.config.deadlines import (
     HYDRO_FAILURE_DUTY,
     MAX_CONTROL_PERIOD_S,
     MOST_DAC_TRANSFER_BUDGET_S,
+    STANDSTILL_HOLD_MAX_S,
     STEERING_DEVIATION_NORM,
     STUCK_SERVO_DEADLINE_S,
 )
@@ -95,9 +96,10 @@ CONTROLLED_STOP_LIMIT_S = MAX_CONTROLLED_STOP_S
 REGEN_WINDOW_S = MIN_CONTROLLED_STOP_S
 """R-STOP-CATEGORY: how long a controlled stop surely keeps its regenerative brake (unless
 standing still)."""
-STANDSTILL_GRACE_S = 0.05
+STANDSTILL_GRACE_S = STANDSTILL_HOLD_MAX_S + 0.05
 """R-STOP-CATEGORY: standing still this long, with a wheel sensor that tells the truth, ends a
-controlled stop."""
+controlled stop: the longest standstill hold a robot file may have (a stop cannot tell a
+standstill from a sensor dying inside its blind spot at once), and a reading's lag."""
 REQUIRED_DECEL_MPS2 = 1.0
 """R-EBRAKE: the least deceleration of a stop while any brake works (the simulated robot's
 weakest brake, regeneration alone with rolling drag, gives 1.65 m/s²)."""
