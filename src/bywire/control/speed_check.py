@@ -24,12 +24,13 @@ no-sensor rule.
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
 
 from bywire.control.interlocks import InterlockConfig, elapsed_since
-from bywire.control.values import value
+from bywire.control.values import slot_init
 
 
-@value
+@dataclass(frozen=True, slots=True)
 class SpeedCheckState:
     """The last reading, since when the robot is driven without moving, the latched fault, and
     whether a standstill the sensor reads is unproven (see the module's text)."""
@@ -39,6 +40,23 @@ class SpeedCheckState:
     stuck_since: float | None = None
     faulted: bool = False
     unproven: bool = False
+
+    def __init__(
+        self,
+        previous_mps: float | None = None,
+        updated_at: float | None = None,
+        stuck_since: float | None = None,
+        faulted: bool = False,
+        unproven: bool = False,
+    ) -> None:
+        object.__setattr__(self, "previous_mps", previous_mps)
+        object.__setattr__(self, "updated_at", updated_at)
+        object.__setattr__(self, "stuck_since", stuck_since)
+        object.__setattr__(self, "faulted", faulted)
+        object.__setattr__(self, "unproven", unproven)
+
+
+slot_init(SpeedCheckState)
 
 
 def _jumped(state: SpeedCheckState, speed_mps: float, now: float, config: InterlockConfig) -> bool:

@@ -23,8 +23,9 @@ from __future__ import annotations
 
 import enum
 import math
+from dataclasses import dataclass
 
-from bywire.control.values import value
+from bywire.control.values import slot_init
 
 MIN_CONTROLLED_STOP_S = 2.0
 MAX_CONTROLLED_STOP_S = 3.0
@@ -56,7 +57,7 @@ class StopPhase(enum.Enum):
     POWER_OFF = "drive power removed"
 
 
-@value
+@dataclass(frozen=True, slots=True)
 class StopConfig:
     """How long a controlled stop may keep the drive powered, and the least deceleration it
     must show (judged after `GRACE_S`) before it gives up and removes power."""
@@ -66,7 +67,7 @@ class StopConfig:
     standstill_mps: float = 0.05
 
 
-@value
+@dataclass(frozen=True, slots=True)
 class StopState:
     """The stop under way: when it began with the drive powered, the speed then, and whether
     power is off (done, or given up: `escalated`)."""
@@ -75,6 +76,21 @@ class StopState:
     start_speed_mps: float | None = None
     power_off: bool = False
     escalated: bool = False
+
+    def __init__(
+        self,
+        since_s: float | None = None,
+        start_speed_mps: float | None = None,
+        power_off: bool = False,
+        escalated: bool = False,
+    ) -> None:
+        object.__setattr__(self, "since_s", since_s)
+        object.__setattr__(self, "start_speed_mps", start_speed_mps)
+        object.__setattr__(self, "power_off", power_off)
+        object.__setattr__(self, "escalated", escalated)
+
+
+slot_init(StopState)
 
 
 NOT_STOPPING = StopState()
