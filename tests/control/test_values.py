@@ -134,7 +134,10 @@ def test_the_hot_values_are_native_in_the_compiled_build() -> None:
 
 def test_each_written_init_stores_its_fields_as_the_swapped_one_does() -> None:
     # a written `__init__` that computed, reordered or skipped a field would make the two builds
-    # differ: both are run with a distinct marker per field, which each field must hold
+    # differ: both are run with a distinct marker per field, which each field must hold (pure
+    # build only: compiled, nothing is swapped and the written `__init__`s are what run)
+    if build.build_name() != "pure":
+        pytest.skip("compiled: the written __init__ runs, no other to compare with")
     assert len(SOURCE_INITS) >= 30
     for cls, written in SOURCE_INITS.items():
         names = [field.name for field in dataclasses.fields(cls)]
