@@ -71,6 +71,25 @@ def _builtin_field_annotations(source: str) -> list[str]:
     return found
 
 
+NATIVE_DECORATORS = {"dataclass", "dataclasses.dataclass", "final", "trait", "mypyc_attr"}
+"""The class decorators mypyc keeps a native class under (mypyc.irbuild.util.is_extension_class)."""
+
+
+def _non_native_classes(source: str) -> list[str]:
+    """Every class whose decorators make mypyc compile it as a plain Python class (`@value`):
+    its fields read by a generic attribute lookup, its `__init__` interpreted; as 'line Class:
+    @decorator'."""
+    found = []
+    for cls in ast.walk(ast.parse(source)):
+        if not isinstance(cls, ast.ClassDef):
+            continue
+        for decorator in cls.decorator_list:
+            called = decorator.func if isinstance(decorator, ast.Call) else decorator
+            if ast.unparse(called) not in NATIVE_DECORATORS:
+                found.append(f"{cls.lineno} {cls.name}: @{ast.unparse(decorator)}")
+    return found
+
+
 def _compiled_sources() -> dict[str, str]:
     modules = runpy.run_path(str(CHECKOUT / "setup.py"), run_name="lists")["compiled_modules"]()
     assert "bywire/protocol/secoc.py" in modules
@@ -102,6 +121,42 @@ def test_the_annotation_check_finds_object_and_exceptions_but_not_what_mypyc_kno
     assert _builtin_field_annotations(source) == [
         "2 Raised: error: BaseException",
         "3 Raised: value: object",
+    ]
+
+
+def test_every_compiled_class_is_native() -> None:
+    # issue 43's course at 70x: 44 `@value` classes (the decision's every value, the sensor
+    # readings, the observations, the oracle's outputs) were plain Python classes in the
+    # compiled build: each field read by name, each value built by exec'd Python
+    found = [
+        f"{module}:{finding}"
+        for module, source in _compiled_sources().items()
+        for finding in _non_native_classes(source)
+    ]
+    # mypyc 2.4.1 cannot make a generic dataclass native: the import fails ("attribute
+    # '__dict__' of 'type' objects is not writable"), so Stamped[T] stays a `@value`
+    assert found == ["bywire/control/validity.py:18 Stamped: @value"]
+
+
+def test_the_native_class_check_finds_a_decorator_mypyc_does_not_know() -> None:
+    source = (
+        "@value\n"
+        "class Plain:\n"
+        "    a: int\n"
+        "@dataclass(frozen=True, slots=True)\n"
+        "class Native:\n"
+        "    a: int\n"
+        "@dataclasses.dataclass\n"
+        "@final\n"
+        "class Also:\n"
+        "    a: int\n"
+        "@functools.total_ordering\n"
+        "class Ordered:\n"
+        "    a: int\n"
+    )
+    assert _non_native_classes(source) == [
+        "2 Plain: @value",
+        "12 Ordered: @functools.total_ordering",
     ]
 
 

@@ -23,6 +23,13 @@ class CanFrame:
     data: bytes
     timestamp_s: float = 0.0
 
+    # written out, as the dataclass would make it: compiled, mypyc makes it stores into the
+    # struct (the dataclass's own is interpreted Python); the frame of every CAN message
+    def __init__(self, arbitration_id: int, data: bytes, timestamp_s: float = 0.0) -> None:
+        object.__setattr__(self, "arbitration_id", arbitration_id)
+        object.__setattr__(self, "data", data)
+        object.__setattr__(self, "timestamp_s", timestamp_s)
+
 
 def check_can_frame(frame: CanFrame) -> None:
     """FrameError for a frame classic CAN cannot carry; every `CanPort.send` checks this first."""

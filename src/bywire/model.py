@@ -11,7 +11,7 @@ Units in names: ``_norm`` is a normalised set-point (steering −1…1, throttle
 from __future__ import annotations
 
 from collections.abc import Callable
-from dataclasses import Field, dataclass, fields, replace
+from dataclasses import Field, dataclass, fields
 from enum import IntEnum
 from operator import attrgetter
 from typing import TYPE_CHECKING, Any, TypeVar, cast
@@ -62,6 +62,11 @@ class ControlCommand(Command):
     re_enable: bool
     counter: int
 
+    def __init__(self, remote_stop: bool, re_enable: bool, counter: int) -> None:
+        object.__setattr__(self, "remote_stop", remote_stop)
+        object.__setattr__(self, "re_enable", re_enable)
+        object.__setattr__(self, "counter", counter)
+
 
 @dataclass(frozen=True, slots=True)
 class MovementCommand(Command):
@@ -72,6 +77,20 @@ class MovementCommand(Command):
     brake_norm: float
     gear: Gear
     counter: int
+
+    def __init__(
+        self,
+        steering_norm: float,
+        throttle_norm: float,
+        brake_norm: float,
+        gear: Gear,
+        counter: int,
+    ) -> None:
+        object.__setattr__(self, "steering_norm", steering_norm)
+        object.__setattr__(self, "throttle_norm", throttle_norm)
+        object.__setattr__(self, "brake_norm", brake_norm)
+        object.__setattr__(self, "gear", gear)
+        object.__setattr__(self, "counter", counter)
 
 
 @dataclass(frozen=True, slots=True)
@@ -84,6 +103,20 @@ class LightsCommand(Command):
     low_beam: bool
     counter: int
 
+    def __init__(
+        self,
+        turn_left: bool,
+        turn_right: bool,
+        hazard: bool,
+        low_beam: bool,
+        counter: int,
+    ) -> None:
+        object.__setattr__(self, "turn_left", turn_left)
+        object.__setattr__(self, "turn_right", turn_right)
+        object.__setattr__(self, "hazard", hazard)
+        object.__setattr__(self, "low_beam", low_beam)
+        object.__setattr__(self, "counter", counter)
+
 
 def command_fields(kind: type[Command]) -> tuple[Field[Any], ...]:
     """A command message's fields: each is a dataclass. (`Command` does not tell the type checker
@@ -95,8 +128,18 @@ CommandT = TypeVar("CommandT", bound=Command)
 
 
 def with_counter(command: CommandT, counter: int) -> CommandT:
-    """The same command with another rolling counter (`dataclasses.replace`)."""
-    return cast(CommandT, replace(cast(Any, command), counter=counter))
+    """The same command with another rolling counter: its requests, built anew (what
+    `dataclasses.replace` does, without its generic walk over the fields: the simulated
+    computer sends a command every 20 ms of each campaign, issue 43)."""
+    kind = type(command)
+    names = _REQUEST_NAMES.get(kind)
+    if names is None:
+        names = _REQUEST_NAMES[kind] = request_fields(kind)
+    requests = {name: getattr(command, name) for name in names}
+    return cast(CommandT, cast(Any, kind)(counter=counter, **requests))
+
+
+_REQUEST_NAMES: dict[type[Command], tuple[str, ...]] = {}
 
 
 def request_fields(kind: type[Command]) -> tuple[str, ...]:
@@ -139,12 +182,29 @@ class ModeReport:
     stop_latched: bool
     armed: bool
 
+    def __init__(
+        self,
+        gear: Gear,
+        control_mode: ControlMode,
+        estop_engaged: bool,
+        stop_latched: bool,
+        armed: bool,
+    ) -> None:
+        object.__setattr__(self, "gear", gear)
+        object.__setattr__(self, "control_mode", control_mode)
+        object.__setattr__(self, "estop_engaged", estop_engaged)
+        object.__setattr__(self, "stop_latched", stop_latched)
+        object.__setattr__(self, "armed", armed)
+
 
 @dataclass(frozen=True, slots=True)
 class ErrorReport:
     """The error flags that are up; none means no error. On the bus: one 1-bit signal per flag."""
 
     flags: ErrorFlag
+
+    def __init__(self, flags: ErrorFlag) -> None:
+        object.__setattr__(self, "flags", flags)
 
 
 @dataclass(frozen=True, slots=True)
@@ -159,6 +219,18 @@ class WheelSpeedReport:
     measured_valid: bool
     speed_limited: bool = False
 
+    def __init__(
+        self,
+        left_mps: float,
+        right_mps: float,
+        measured_valid: bool,
+        speed_limited: bool = False,
+    ) -> None:
+        object.__setattr__(self, "left_mps", left_mps)
+        object.__setattr__(self, "right_mps", right_mps)
+        object.__setattr__(self, "measured_valid", measured_valid)
+        object.__setattr__(self, "speed_limited", speed_limited)
+
 
 @dataclass(frozen=True, slots=True)
 class SteeringReport:
@@ -167,6 +239,11 @@ class SteeringReport:
     commanded_norm: float
     measured_norm: float
     measured_valid: bool
+
+    def __init__(self, commanded_norm: float, measured_norm: float, measured_valid: bool) -> None:
+        object.__setattr__(self, "commanded_norm", commanded_norm)
+        object.__setattr__(self, "measured_norm", measured_norm)
+        object.__setattr__(self, "measured_valid", measured_valid)
 
 
 @dataclass(frozen=True, slots=True)
@@ -181,6 +258,24 @@ class LightsReport:
     low_beam: bool
     error_led: bool
 
+    def __init__(  # noqa: PLR0917
+        self,
+        brake: bool,
+        reverse: bool,
+        turn_left: bool,
+        turn_right: bool,
+        hazard: bool,
+        low_beam: bool,
+        error_led: bool,
+    ) -> None:
+        object.__setattr__(self, "brake", brake)
+        object.__setattr__(self, "reverse", reverse)
+        object.__setattr__(self, "turn_left", turn_left)
+        object.__setattr__(self, "turn_right", turn_right)
+        object.__setattr__(self, "hazard", hazard)
+        object.__setattr__(self, "low_beam", low_beam)
+        object.__setattr__(self, "error_led", error_led)
+
 
 @dataclass(frozen=True, slots=True)
 class StatusReport:
@@ -190,6 +285,18 @@ class StatusReport:
     overrun_count: int
     rc_input_age_ms: int
     can_command_age_ms: int
+
+    def __init__(
+        self,
+        uptime_s: int,
+        overrun_count: int,
+        rc_input_age_ms: int,
+        can_command_age_ms: int,
+    ) -> None:
+        object.__setattr__(self, "uptime_s", uptime_s)
+        object.__setattr__(self, "overrun_count", overrun_count)
+        object.__setattr__(self, "rc_input_age_ms", rc_input_age_ms)
+        object.__setattr__(self, "can_command_age_ms", can_command_age_ms)
 
 
 Report = ModeReport | ErrorReport | WheelSpeedReport | SteeringReport | LightsReport | StatusReport

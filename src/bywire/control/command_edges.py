@@ -10,16 +10,25 @@ there is no previous frame to compare with.
 
 from __future__ import annotations
 
-from bywire.control.values import value
+from dataclasses import dataclass
+
+from bywire.control.values import slot_init
 from bywire.model import ControlCommand
 
 
-@value
+@dataclass(frozen=True, slots=True)
 class CommandEdges:
     """What a ControlCommand frame changed against the frame before it."""
 
     re_enable: bool = False
     remote_stop: bool = False
+
+    def __init__(self, re_enable: bool = False, remote_stop: bool = False) -> None:
+        object.__setattr__(self, "re_enable", re_enable)
+        object.__setattr__(self, "remote_stop", remote_stop)
+
+
+slot_init(CommandEdges)
 
 
 NO_EDGES = CommandEdges()

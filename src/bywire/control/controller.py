@@ -10,7 +10,7 @@ from __future__ import annotations
 import operator
 from collections.abc import Callable
 from dataclasses import dataclass, field
-from typing import Protocol, TypeVar, cast
+from typing import Final, Protocol, TypeVar, cast
 
 from bywire.command_table import (
     COMMANDS,
@@ -67,7 +67,7 @@ from bywire.control.supervisor import (
     supervisor_step,
 )
 from bywire.control.validity import Stamped, fresh, is_fresh
-from bywire.control.values import value
+from bywire.control.values import slot_init
 from bywire.error_flags import ErrorFlag
 from bywire.model import (
     Command,
@@ -132,7 +132,7 @@ class ControlConfig:
         raise LookupError(f"no timeout for {kind.__name__}")
 
 
-@value
+@dataclass(frozen=True, slots=True)
 class ControlInputs:
     """The latest value of every input, stamped; None until first seen.
 
@@ -168,16 +168,61 @@ class ControlInputs:
     steering_measured_norm: float | None = None  # None without a steering encoder
     estop_line_high: bool | None = None  # the E-stop's line as read; None without an E-stop
 
+    def __init__(  # noqa: PLR0917
+        self,
+        rc: Stamped[RcRequest | None] | None = None,
+        commands: CommandSlots = NO_COMMANDS,
+        control_edges: CommandEdges = NO_EDGES,
+        rc_frames: int = 0,
+        control_frames: int = 0,
+        stop_requests: int = 0,
+        fault_flags: int = 0,
+        dac_failing: bool = False,
+        watchdog_tripped: bool = False,
+        untrusted: frozenset[type[Command]] = frozenset(),
+        timing_fault: bool = False,
+        speed_mps: float | None = None,
+        hydrobrake_pressure_bar: float | None = None,
+        steering_measured_norm: float | None = None,
+        estop_line_high: bool | None = None,
+    ) -> None:
+        object.__setattr__(self, "rc", rc)
+        object.__setattr__(self, "commands", commands)
+        object.__setattr__(self, "control_edges", control_edges)
+        object.__setattr__(self, "rc_frames", rc_frames)
+        object.__setattr__(self, "control_frames", control_frames)
+        object.__setattr__(self, "stop_requests", stop_requests)
+        object.__setattr__(self, "fault_flags", fault_flags)
+        object.__setattr__(self, "dac_failing", dac_failing)
+        object.__setattr__(self, "watchdog_tripped", watchdog_tripped)
+        object.__setattr__(self, "untrusted", untrusted)
+        object.__setattr__(self, "timing_fault", timing_fault)
+        object.__setattr__(self, "speed_mps", speed_mps)
+        object.__setattr__(self, "hydrobrake_pressure_bar", hydrobrake_pressure_bar)
+        object.__setattr__(self, "steering_measured_norm", steering_measured_norm)
+        object.__setattr__(self, "estop_line_high", estop_line_high)
 
-@value
+
+slot_init(ControlInputs)
+
+
+# a new controller's memories (values: one of each is shared)
+FRESH_SUPERVISOR: Final = SupervisorState()
+FRESH_STEERING: Final = SteeringState()
+FRESH_INTERLOCK: Final = InterlockState()
+FRESH_MONITOR: Final = MonitorState()
+FRESH_SPEED_CHECK: Final = SpeedCheckState()
+
+
+@dataclass(frozen=True, slots=True)
 class ControlState:
     """What the decision remembers between steps."""
 
-    supervisor: SupervisorState = field(default_factory=SupervisorState)
-    steering: SteeringState = field(default_factory=SteeringState)
-    interlock: InterlockState = field(default_factory=InterlockState)
-    monitor: MonitorState = field(default_factory=MonitorState)
-    speed_check: SpeedCheckState = field(default_factory=SpeedCheckState)
+    supervisor: SupervisorState = FRESH_SUPERVISOR
+    steering: SteeringState = FRESH_STEERING
+    interlock: InterlockState = FRESH_INTERLOCK
+    monitor: MonitorState = FRESH_MONITOR
+    speed_check: SpeedCheckState = FRESH_SPEED_CHECK
     hydrobrake_duty: float = 1.0  # as applied by the previous step: what the pressure answers to
     applied_throttle_norm: float = 0.0  # as applied by the previous step (0 while disabled)
     rc_frames_seen: int = 0
@@ -188,8 +233,43 @@ class ControlState:
     estop: EstopState = NOT_PRESSED
     governor: GovernorState = IDLE
 
+    def __init__(  # noqa: PLR0917
+        self,
+        supervisor: SupervisorState = FRESH_SUPERVISOR,
+        steering: SteeringState = FRESH_STEERING,
+        interlock: InterlockState = FRESH_INTERLOCK,
+        monitor: MonitorState = FRESH_MONITOR,
+        speed_check: SpeedCheckState = FRESH_SPEED_CHECK,
+        hydrobrake_duty: float = 1.0,
+        applied_throttle_norm: float = 0.0,
+        rc_frames_seen: int = 0,
+        control_frames_seen: int = 0,
+        stop_requests_seen: int = 0,
+        stop: StopState = NOT_STOPPING,
+        drive_applied: DriveOutputs = SAFE_DRIVE,
+        estop: EstopState = NOT_PRESSED,
+        governor: GovernorState = IDLE,
+    ) -> None:
+        object.__setattr__(self, "supervisor", supervisor)
+        object.__setattr__(self, "steering", steering)
+        object.__setattr__(self, "interlock", interlock)
+        object.__setattr__(self, "monitor", monitor)
+        object.__setattr__(self, "speed_check", speed_check)
+        object.__setattr__(self, "hydrobrake_duty", hydrobrake_duty)
+        object.__setattr__(self, "applied_throttle_norm", applied_throttle_norm)
+        object.__setattr__(self, "rc_frames_seen", rc_frames_seen)
+        object.__setattr__(self, "control_frames_seen", control_frames_seen)
+        object.__setattr__(self, "stop_requests_seen", stop_requests_seen)
+        object.__setattr__(self, "stop", stop)
+        object.__setattr__(self, "drive_applied", drive_applied)
+        object.__setattr__(self, "estop", estop)
+        object.__setattr__(self, "governor", governor)
 
-@value
+
+slot_init(ControlState)
+
+
+@dataclass(frozen=True, slots=True)
 class ControlOutputs:
     """Every output level at one instant, and why."""
 
@@ -210,6 +290,40 @@ class ControlOutputs:
     requests: tuple[tuple[type[Command], Command | None], ...] = ()
     speed_limited: bool = False  # the governor holds the throttle below what was asked, or brakes
 
+    def __init__(  # noqa: PLR0917
+        self,
+        mode: ControlMode,
+        causes: frozenset[Cause],
+        movement: Movement,
+        direction_change_held: bool,
+        steering_pulse_s: float,
+        steering_hold_pulse_s: float,
+        stop_phase: StopPhase,
+        drive: DriveOutputs,
+        hydrobrake_duty: float,
+        ebrake_engaged: bool,
+        lights: LightOutputs,
+        light_request: LightRequest,
+        error_flags: int,
+        requests: tuple[tuple[type[Command], Command | None], ...] = (),
+        speed_limited: bool = False,
+    ) -> None:
+        object.__setattr__(self, "mode", mode)
+        object.__setattr__(self, "causes", causes)
+        object.__setattr__(self, "movement", movement)
+        object.__setattr__(self, "direction_change_held", direction_change_held)
+        object.__setattr__(self, "steering_pulse_s", steering_pulse_s)
+        object.__setattr__(self, "steering_hold_pulse_s", steering_hold_pulse_s)
+        object.__setattr__(self, "stop_phase", stop_phase)
+        object.__setattr__(self, "drive", drive)
+        object.__setattr__(self, "hydrobrake_duty", hydrobrake_duty)
+        object.__setattr__(self, "ebrake_engaged", ebrake_engaged)
+        object.__setattr__(self, "lights", lights)
+        object.__setattr__(self, "light_request", light_request)
+        object.__setattr__(self, "error_flags", error_flags)
+        object.__setattr__(self, "requests", requests)
+        object.__setattr__(self, "speed_limited", speed_limited)
+
     def request(self, kind: type[C]) -> C | None:
         """What the command `kind` (a `Use.REQUEST` row) asks of its task now; None: nothing."""
         for requested, command in self.requests:
@@ -218,7 +332,10 @@ class ControlOutputs:
         raise LookupError(f"{kind.__name__} is no request row")
 
 
-@value
+slot_init(ControlOutputs)
+
+
+@dataclass(frozen=True, slots=True)
 class _Sources:
     """The inputs usable at one instant: None means missing, stale or invalid."""
 
@@ -227,6 +344,23 @@ class _Sources:
     control: ControlCommand | None
     lights: LightsCommand | None
     usable: dict[type[Command], Command | None]  # every command row's, by its `use`
+
+    def __init__(
+        self,
+        rc: RcRequest | None,
+        can_movement: MovementCommand | None,
+        control: ControlCommand | None,
+        lights: LightsCommand | None,
+        usable: dict[type[Command], Command | None],
+    ) -> None:
+        object.__setattr__(self, "rc", rc)
+        object.__setattr__(self, "can_movement", can_movement)
+        object.__setattr__(self, "control", control)
+        object.__setattr__(self, "lights", lights)
+        object.__setattr__(self, "usable", usable)
+
+
+slot_init(_Sources)
 
 
 def _sources(inputs: ControlInputs, now: float, config: ControlConfig) -> _Sources:

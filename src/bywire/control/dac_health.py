@@ -19,8 +19,9 @@ Three rules turn failing writes into a hardware fault:
 from __future__ import annotations
 
 import enum
+from dataclasses import dataclass
 
-from bywire.control.values import value
+from bywire.control.values import slot_init
 
 DAC_LEAK = 0.25  # one failure is forgiven after four good writes
 DAC_FAILURE_LIMIT = 3  # failures in a row (30 ms at 100 Hz) before the DAC counts as failing
@@ -38,7 +39,7 @@ class Transfer(enum.Enum):
     SLOW = "acknowledged, after more than its budget"
 
 
-@value
+@dataclass(frozen=True, slots=True)
 class DacHealth:
     """The leaky level, whether it escalated, the channels whose lowering write failed, and what
     each channel was last told and acknowledged (volts)."""
@@ -48,6 +49,18 @@ class DacHealth:
     lowering_failed: frozenset[int] = frozenset()
     acknowledged: tuple[tuple[int, float], ...] = ()
 
+    def __init__(
+        self,
+        level: float = 0.0,
+        escalated: bool = False,
+        lowering_failed: frozenset[int] = frozenset(),
+        acknowledged: tuple[tuple[int, float], ...] = (),
+    ) -> None:
+        object.__setattr__(self, "level", level)
+        object.__setattr__(self, "escalated", escalated)
+        object.__setattr__(self, "lowering_failed", lowering_failed)
+        object.__setattr__(self, "acknowledged", acknowledged)
+
     @property
     def failing(self) -> bool:
         """The DAC cannot be trusted to drive what it was told."""
@@ -56,6 +69,9 @@ class DacHealth:
     def volts(self, channel: int) -> float | None:
         """What `channel` was last told and acknowledged (None before its first good write)."""
         return dict(self.acknowledged).get(channel)
+
+
+slot_init(DacHealth)
 
 
 def dac_step(

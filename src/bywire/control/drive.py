@@ -8,13 +8,14 @@ the DAC for more than its configured maximum. Brake beats throttle.
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
 
 from bywire.control.mux import Movement
-from bywire.control.values import value
+from bywire.control.values import slot_init
 from bywire.model import Gear
 
 
-@value
+@dataclass(frozen=True, slots=True)
 class DriveConfig:
     """Voltage limits of the motor controllers' analogue inputs."""
 
@@ -22,7 +23,7 @@ class DriveConfig:
     max_regen_volts: float = 5.0
 
 
-@value
+@dataclass(frozen=True, slots=True)
 class DriveOutputs:
     """Levels for Table 2's five signals."""
 
@@ -31,6 +32,23 @@ class DriveOutputs:
     enable: bool = False
     forward: bool = False
     reverse: bool = False
+
+    def __init__(
+        self,
+        throttle_volts: float = 0.0,
+        regen_volts: float = 0.0,
+        enable: bool = False,
+        forward: bool = False,
+        reverse: bool = False,
+    ) -> None:
+        object.__setattr__(self, "throttle_volts", throttle_volts)
+        object.__setattr__(self, "regen_volts", regen_volts)
+        object.__setattr__(self, "enable", enable)
+        object.__setattr__(self, "forward", forward)
+        object.__setattr__(self, "reverse", reverse)
+
+
+slot_init(DriveOutputs)
 
 
 SAFE_DRIVE = DriveOutputs()

@@ -15,7 +15,9 @@ decision (every control period at least): a press acts within one control period
 
 from __future__ import annotations
 
-from bywire.control.values import value
+from dataclasses import dataclass
+
+from bywire.control.values import slot_init
 
 BOUNCE_S = 0.020
 """The longest contact bounce the debounce absorbs: mechanical switches and relays settle within
@@ -28,15 +30,21 @@ def pressed_by_level(level_high: bool) -> bool:
     return not level_high
 
 
-@value
+@dataclass(frozen=True, slots=True)
 class EstopState:
     """When the line last read pressed (None: never since power-up)."""
 
     pressed_at_s: float | None = None
 
+    def __init__(self, pressed_at_s: float | None = None) -> None:
+        object.__setattr__(self, "pressed_at_s", pressed_at_s)
+
     def holds(self, now: float, bounce_s: float = BOUNCE_S) -> bool:
         """The condition: pressed at `now`, or not yet released for `bounce_s`."""
         return self.pressed_at_s is not None and now - self.pressed_at_s < bounce_s
+
+
+slot_init(EstopState)
 
 
 NOT_PRESSED = EstopState()

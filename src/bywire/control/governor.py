@@ -31,7 +31,7 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 
 from bywire.control.mux import Movement
-from bywire.control.values import value
+from bywire.control.values import slot_init
 
 RATE_PER_S = 2.0
 """The fastest the cap or the brake moves, in full ranges per second (0 to 1 in 0.5 s)."""
@@ -87,13 +87,26 @@ def ceiling_throttle(
     return interpolate(speeds_mps, throttles, limit_mps)
 
 
-@value
+@dataclass(frozen=True, slots=True)
 class GovernorState:
     """The cap and brake as the previous step left them, and when; None: not driving."""
 
     cap_norm: float = 1.0
     brake_norm: float = 0.0
     at: float | None = None
+
+    def __init__(
+        self,
+        cap_norm: float = 1.0,
+        brake_norm: float = 0.0,
+        at: float | None = None,
+    ) -> None:
+        object.__setattr__(self, "cap_norm", cap_norm)
+        object.__setattr__(self, "brake_norm", brake_norm)
+        object.__setattr__(self, "at", at)
+
+
+slot_init(GovernorState)
 
 
 IDLE = GovernorState()

@@ -50,9 +50,10 @@ intact frame, whatever its counter or trust (R-STOP-PASS).
 from __future__ import annotations
 
 import enum
+from dataclasses import dataclass
 
 from bywire.control.command_edges import CommandEdges, command_edges
-from bywire.control.values import value
+from bywire.control.values import slot_init
 from bywire.model import Command, ControlCommand, same_request
 
 COUNTER_WINDOW = 16  # the last frames of a command message whose counters are judged
@@ -84,7 +85,7 @@ class Verdict(enum.Enum):
         return self is Verdict.ACCEPTED
 
 
-@value
+@dataclass(frozen=True, slots=True)
 class Decoded:
     """A frame as the codec read it: its counter and command, or why it could not be used
     (`readable` False: length or CRC; `command` None but readable: a value out of range)."""
@@ -93,8 +94,21 @@ class Decoded:
     counter: int | None = None
     command: Command | None = None
 
+    def __init__(
+        self,
+        readable: bool,
+        counter: int | None = None,
+        command: Command | None = None,
+    ) -> None:
+        object.__setattr__(self, "readable", readable)
+        object.__setattr__(self, "counter", counter)
+        object.__setattr__(self, "command", command)
 
-@value
+
+slot_init(Decoded)
+
+
+@dataclass(frozen=True, slots=True)
 class MessageState:
     """One command message's receive state (see the module's rules)."""
 
@@ -106,6 +120,25 @@ class MessageState:
     lost: int = 0  # unreadable frames since the last intact one
     window: tuple[bool, ...] = ()  # the last COUNTER_WINDOW frames: True for a miss or conflict
     untrusted: bool = False
+
+    def __init__(  # noqa: PLR0917
+        self,
+        counter: int | None = None,
+        seen: tuple[Command | None, ...] = (),
+        last_at: float | None = None,
+        lost: int = 0,
+        window: tuple[bool, ...] = (),
+        untrusted: bool = False,
+    ) -> None:
+        object.__setattr__(self, "counter", counter)
+        object.__setattr__(self, "seen", seen)
+        object.__setattr__(self, "last_at", last_at)
+        object.__setattr__(self, "lost", lost)
+        object.__setattr__(self, "window", window)
+        object.__setattr__(self, "untrusted", untrusted)
+
+
+slot_init(MessageState)
 
 
 def message_step(
@@ -205,13 +238,26 @@ def _with(state: MessageState, *, lost: int, last_at: float | None = None) -> Me
 # --- ControlCommand's requests -------------------------------------------------------------------
 
 
-@value
+@dataclass(frozen=True, slots=True)
 class EdgeState:
     """The last accepted ControlCommand, when it arrived, and since when frames arrive again."""
 
     previous: ControlCommand | None = None
     previous_at: float | None = None
     back_at: float = 0.0
+
+    def __init__(
+        self,
+        previous: ControlCommand | None = None,
+        previous_at: float | None = None,
+        back_at: float = 0.0,
+    ) -> None:
+        object.__setattr__(self, "previous", previous)
+        object.__setattr__(self, "previous_at", previous_at)
+        object.__setattr__(self, "back_at", back_at)
+
+
+slot_init(EdgeState)
 
 
 def edges_step(
@@ -233,12 +279,19 @@ def edges_forgotten(state: EdgeState) -> EdgeState:
     return EdgeState(back_at=state.back_at)
 
 
-@value
+@dataclass(frozen=True, slots=True)
 class StopRequests:
     """Remote stop requests that arrived (`count`), and the newest intact frame asking for one."""
 
     count: int = 0
     seen_at: float | None = None
+
+    def __init__(self, count: int = 0, seen_at: float | None = None) -> None:
+        object.__setattr__(self, "count", count)
+        object.__setattr__(self, "seen_at", seen_at)
+
+
+slot_init(StopRequests)
 
 
 def stop_request_step(

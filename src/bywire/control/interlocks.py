@@ -33,9 +33,10 @@ still brake and steer, RC is unaffected, and the next arming (through STOP) clea
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
 
 from bywire.control.mux import Movement
-from bywire.control.values import value
+from bywire.control.values import slot_init
 from bywire.model import ControlMode, Gear
 
 # Without a speed sensor the dwell cannot prove standstill; 1.5 s is about what full regenerative
@@ -44,7 +45,7 @@ from bywire.model import ControlMode, Gear
 UNKNOWN_SPEED_DWELL_S = 1.5
 
 
-@value
+@dataclass(frozen=True, slots=True)
 class InterlockConfig:
     """Thresholds of the interlocks; every value must be finite and ≥ 0 (slew > 0)."""
 
@@ -77,7 +78,7 @@ class InterlockConfig:
             raise ValueError("throttle_slew_up_per_s must be finite and > 0")
 
 
-@value
+@dataclass(frozen=True, slots=True)
 class InterlockState:
     """What the interlocks remember: the applied command and since when the robot is settled.
 
@@ -93,6 +94,27 @@ class InterlockState:
     throttle_norm: float = 0.0
     steering_norm: float = 0.0
     updated_at: float | None = None
+
+    def __init__(  # noqa: PLR0917
+        self,
+        gear: Gear = Gear.NEUTRAL,
+        direction: Gear = Gear.NEUTRAL,
+        quiet_since: float | None = None,
+        standstill_since: float | None = None,
+        throttle_norm: float = 0.0,
+        steering_norm: float = 0.0,
+        updated_at: float | None = None,
+    ) -> None:
+        object.__setattr__(self, "gear", gear)
+        object.__setattr__(self, "direction", direction)
+        object.__setattr__(self, "quiet_since", quiet_since)
+        object.__setattr__(self, "standstill_since", standstill_since)
+        object.__setattr__(self, "throttle_norm", throttle_norm)
+        object.__setattr__(self, "steering_norm", steering_norm)
+        object.__setattr__(self, "updated_at", updated_at)
+
+
+slot_init(InterlockState)
 
 
 def _finite_clamp(value: float, low: float, high: float, safe: float) -> float:

@@ -6,13 +6,13 @@ import math
 from dataclasses import dataclass, field, fields
 from typing import Any
 
-from bywire.control.values import value
+from bywire.control.values import slot_init
 
 BRAKE_LIGHT_THRESHOLD_NORM = 0.10
 BLINK_RATE_HZ = 1.5
 
 
-@value
+@dataclass(frozen=True, slots=True)
 class LightRequest:
     """What the lights task is asked for: the active command, gear and error state."""
 
@@ -23,6 +23,27 @@ class LightRequest:
     turn_right: bool = False
     hazard: bool = False
     low_beam: bool = False
+
+    def __init__(  # noqa: PLR0917
+        self,
+        brake_norm: float = 0.0,
+        reverse_gear: bool = False,
+        error_flags: int = 0,
+        turn_left: bool = False,
+        turn_right: bool = False,
+        hazard: bool = False,
+        low_beam: bool = False,
+    ) -> None:
+        object.__setattr__(self, "brake_norm", brake_norm)
+        object.__setattr__(self, "reverse_gear", reverse_gear)
+        object.__setattr__(self, "error_flags", error_flags)
+        object.__setattr__(self, "turn_left", turn_left)
+        object.__setattr__(self, "turn_right", turn_right)
+        object.__setattr__(self, "hazard", hazard)
+        object.__setattr__(self, "low_beam", low_beam)
+
+
+slot_init(LightRequest)
 
 
 @dataclass(frozen=True, slots=True)
@@ -49,7 +70,7 @@ def _light(
     return field(default=False, metadata={"light": LightLine(line, description, blinks, tripped)})
 
 
-@value
+@dataclass(frozen=True, slots=True)
 class LightOutputs:
     """The level of every light output at one instant: each field names its line (`LightLine`),
     so the writes, the watchdog's safe levels, the telemetry and the scenarios follow from here."""
@@ -60,6 +81,25 @@ class LightOutputs:
     turn_right: bool = _light("turn_right_light", "right turn signal", blinks=True)
     low_beam: bool = _light("low_beam", "low beam")
     error_led: bool = _light("error_led", "error LED", tripped=True)
+
+    def __init__(  # noqa: PLR0917
+        self,
+        brake: bool = False,
+        reverse: bool = False,
+        turn_left: bool = False,
+        turn_right: bool = False,
+        low_beam: bool = False,
+        error_led: bool = False,
+    ) -> None:
+        object.__setattr__(self, "brake", brake)
+        object.__setattr__(self, "reverse", reverse)
+        object.__setattr__(self, "turn_left", turn_left)
+        object.__setattr__(self, "turn_right", turn_right)
+        object.__setattr__(self, "low_beam", low_beam)
+        object.__setattr__(self, "error_led", error_led)
+
+
+slot_init(LightOutputs)
 
 
 LIGHT_LINES: tuple[tuple[str, LightLine], ...] = tuple(

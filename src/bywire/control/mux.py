@@ -7,12 +7,14 @@ fall-back to the other source.
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 from bywire.control.rc_mapping import RcRequest
-from bywire.control.values import value
+from bywire.control.values import slot_init
 from bywire.model import ControlMode, Gear, MovementCommand
 
 
-@value
+@dataclass(frozen=True, slots=True)
 class Movement:
     """The movement set-point the actuators follow, whichever source it came from."""
 
@@ -20,6 +22,21 @@ class Movement:
     throttle_norm: float = 0.0
     brake_norm: float = 1.0
     gear: Gear = Gear.NEUTRAL
+
+    def __init__(
+        self,
+        steering_norm: float = 0.0,
+        throttle_norm: float = 0.0,
+        brake_norm: float = 1.0,
+        gear: Gear = Gear.NEUTRAL,
+    ) -> None:
+        object.__setattr__(self, "steering_norm", steering_norm)
+        object.__setattr__(self, "throttle_norm", throttle_norm)
+        object.__setattr__(self, "brake_norm", brake_norm)
+        object.__setattr__(self, "gear", gear)
+
+
+slot_init(Movement)
 
 
 STOPPED = Movement()

@@ -26,15 +26,15 @@ pulses (`mode_position`). Before, one IBUS frame caught at 1700 µs in an RC to 
 
 from __future__ import annotations
 
-from dataclasses import field, replace
+from dataclasses import dataclass, field, replace
 
-from bywire.control.values import value
+from bywire.control.values import slot_init
 from bywire.model import ControlMode, Gear
 
 PLAUSIBLE_RAW = range(800, 2201)  # µs; anything else is a corrupt or failsafe-flagged channel
 
 
-@value
+@dataclass(frozen=True, slots=True)
 class AxisCalibration:
     """One stick axis: channel index, raw end points and centre, deadband (normalised), reverse."""
 
@@ -50,7 +50,7 @@ THREE_POSITIONS_RAW = (1000, 1500, 2000)
 TWO_POSITIONS_RAW = (1000, 2000)
 
 
-@value
+@dataclass(frozen=True, slots=True)
 class SwitchCalibration:
     """One switch: channel index, the nominal pulse of each position (low to high), the band
     around each (± `band_raw` µs), the hysteresis that holds a position read at a band's edge,
@@ -72,7 +72,7 @@ class SwitchCalibration:
         return len(self.positions_raw) - 1 - index if self.reverse else index
 
 
-@value
+@dataclass(frozen=True, slots=True)
 class FailsafeSignature:
     """How to recognise the receiver's failsafe output (R-FAILSAFE, Table 4).
 
@@ -85,7 +85,7 @@ class FailsafeSignature:
     below_raw: int = 950
 
 
-@value
+@dataclass(frozen=True, slots=True)
 class RcMapping:
     """Which channel does what; the modes and gears are listed from the low to the high position."""
 
@@ -108,7 +108,7 @@ class RcMapping:
     failsafe: FailsafeSignature = field(default_factory=FailsafeSignature)
 
 
-@value
+@dataclass(frozen=True, slots=True)
 class RcRequest:
     """What the RC transmitter asks for, in command units."""
 
@@ -119,6 +119,27 @@ class RcRequest:
     gear: Gear
     low_beam: bool
     hazard: bool
+
+    def __init__(  # noqa: PLR0917
+        self,
+        mode: ControlMode,
+        steering_norm: float,
+        throttle_norm: float,
+        brake_norm: float,
+        gear: Gear,
+        low_beam: bool,
+        hazard: bool,
+    ) -> None:
+        object.__setattr__(self, "mode", mode)
+        object.__setattr__(self, "steering_norm", steering_norm)
+        object.__setattr__(self, "throttle_norm", throttle_norm)
+        object.__setattr__(self, "brake_norm", brake_norm)
+        object.__setattr__(self, "gear", gear)
+        object.__setattr__(self, "low_beam", low_beam)
+        object.__setattr__(self, "hazard", hazard)
+
+
+slot_init(RcRequest)
 
 
 def axis_norm(raw: int, calibration: AxisCalibration) -> float:
@@ -197,7 +218,7 @@ def in_failsafe(channels: tuple[int, ...], mapping: RcMapping) -> bool:
     return signature.channel < len(channels) and channels[signature.channel] < signature.below_raw
 
 
-@value
+@dataclass(frozen=True, slots=True)
 class SwitchesHeld:
     """Each switch's position as last read (None: between positions, or not read yet): what the
     hysteresis holds, and the frames in a row the mode switch's has been held in transit. The
@@ -208,6 +229,23 @@ class SwitchesHeld:
     low_beam: int | None = None
     hazard: int | None = None
     mode_transit: int = 0
+
+    def __init__(
+        self,
+        mode: int | None = None,
+        gear: int | None = None,
+        low_beam: int | None = None,
+        hazard: int | None = None,
+        mode_transit: int = 0,
+    ) -> None:
+        object.__setattr__(self, "mode", mode)
+        object.__setattr__(self, "gear", gear)
+        object.__setattr__(self, "low_beam", low_beam)
+        object.__setattr__(self, "hazard", hazard)
+        object.__setattr__(self, "mode_transit", mode_transit)
+
+
+slot_init(SwitchesHeld)
 
 
 NONE_HELD = SwitchesHeld()
@@ -260,7 +298,7 @@ def _on(position: int | None, switch: SwitchCalibration) -> bool:
     return position == len(switch.positions_raw) - 1
 
 
-@value
+@dataclass(frozen=True, slots=True)
 class RcStage:
     """The RC frames' state between frames: the switches' positions as last read (the
     hysteresis) and the gear as debounced: a new gear counts once `debounce_frames` frames in a
@@ -272,6 +310,21 @@ class RcStage:
     gear: Gear = Gear.NEUTRAL
     candidate: Gear = Gear.NEUTRAL
     run: int = 0
+
+    def __init__(
+        self,
+        held: SwitchesHeld = NONE_HELD,
+        gear: Gear = Gear.NEUTRAL,
+        candidate: Gear = Gear.NEUTRAL,
+        run: int = 0,
+    ) -> None:
+        object.__setattr__(self, "held", held)
+        object.__setattr__(self, "gear", gear)
+        object.__setattr__(self, "candidate", candidate)
+        object.__setattr__(self, "run", run)
+
+
+slot_init(RcStage)
 
 
 def rc_step(

@@ -20,16 +20,17 @@ appears. Which flags demand STOP is configuration (`stop_flags`, default: both, 
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
 
 from bywire.control.interlocks import elapsed_since
 from bywire.control.steering import clamp_norm, step_towards
-from bywire.control.values import value
+from bywire.control.values import slot_init
 from bywire.error_flags import ErrorFlag
 
 NO_FLAGS = ErrorFlag(0)
 
 
-@value
+@dataclass(frozen=True, slots=True)
 class MonitorConfig:
     """Thresholds of the monitors; times and tolerances must be finite and ≥ 0, speeds > 0."""
 
@@ -60,7 +61,7 @@ class MonitorConfig:
 DEFAULT_MONITOR_CONFIG = MonitorConfig()
 
 
-@value
+@dataclass(frozen=True, slots=True)
 class MonitorInputs:
     """The command and the optional measurements at one instant; None means no sensor."""
 
@@ -69,8 +70,23 @@ class MonitorInputs:
     steering_command_norm: float = 0.0
     steering_measured_norm: float | None = None
 
+    def __init__(
+        self,
+        hydro_duty: float = 0.0,
+        pressure_bar: float | None = None,
+        steering_command_norm: float = 0.0,
+        steering_measured_norm: float | None = None,
+    ) -> None:
+        object.__setattr__(self, "hydro_duty", hydro_duty)
+        object.__setattr__(self, "pressure_bar", pressure_bar)
+        object.__setattr__(self, "steering_command_norm", steering_command_norm)
+        object.__setattr__(self, "steering_measured_norm", steering_measured_norm)
 
-@value
+
+slot_init(MonitorInputs)
+
+
+@dataclass(frozen=True, slots=True)
 class MonitorState:
     """Since when each condition holds, and the slow-servo model of the encoder monitor.
 
@@ -83,6 +99,23 @@ class MonitorState:
     servo_model_norm: float | None = None
     servo_target_norm: float | None = None
     updated_at: float | None = None
+
+    def __init__(
+        self,
+        pressure_low_since: float | None = None,
+        steering_late_since: float | None = None,
+        servo_model_norm: float | None = None,
+        servo_target_norm: float | None = None,
+        updated_at: float | None = None,
+    ) -> None:
+        object.__setattr__(self, "pressure_low_since", pressure_low_since)
+        object.__setattr__(self, "steering_late_since", steering_late_since)
+        object.__setattr__(self, "servo_model_norm", servo_model_norm)
+        object.__setattr__(self, "servo_target_norm", servo_target_norm)
+        object.__setattr__(self, "updated_at", updated_at)
+
+
+slot_init(MonitorState)
 
 
 def _since(since: float | None, condition: bool, now: float) -> float | None:

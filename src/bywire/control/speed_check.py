@@ -24,12 +24,13 @@ no-sensor rule.
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
 
 from bywire.control.interlocks import InterlockConfig, elapsed_since
-from bywire.control.values import value
+from bywire.control.values import slot_init
 
 
-@value
+@dataclass(frozen=True, slots=True)
 class SpeedCheckState:
     """The last reading, since when the robot is driven without moving, the latched fault,
     whether a standstill the sensor reads is unproven (see the module's text), and since when
@@ -41,6 +42,25 @@ class SpeedCheckState:
     faulted: bool = False
     unproven: bool = False
     standstill_since: float | None = None
+
+    def __init__(  # noqa: PLR0917
+        self,
+        previous_mps: float | None = None,
+        updated_at: float | None = None,
+        stuck_since: float | None = None,
+        faulted: bool = False,
+        unproven: bool = False,
+        standstill_since: float | None = None,
+    ) -> None:
+        object.__setattr__(self, "previous_mps", previous_mps)
+        object.__setattr__(self, "updated_at", updated_at)
+        object.__setattr__(self, "stuck_since", stuck_since)
+        object.__setattr__(self, "faulted", faulted)
+        object.__setattr__(self, "unproven", unproven)
+        object.__setattr__(self, "standstill_since", standstill_since)
+
+
+slot_init(SpeedCheckState)
 
 
 def _jumped(state: SpeedCheckState, speed_mps: float, now: float, config: InterlockConfig) -> bool:

@@ -16,11 +16,12 @@ computer that asks for 0.9 at 1.6 m/s swung the servo by 0.71 of full lock withi
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
 
-from bywire.control.values import value
+from bywire.control.values import slot_init
 
 
-@value
+@dataclass(frozen=True, slots=True)
 class SteeringConfig:
     """Servo calibration and dynamics; validated by `bywire.config`."""
 
@@ -34,7 +35,7 @@ class SteeringConfig:
     handover_rate_norm_per_s: float = 0.5
 
 
-@value
+@dataclass(frozen=True, slots=True)
 class SteeringState:
     """Rate-limited set-point, estimated servo position, and when they were computed."""
 
@@ -42,6 +43,21 @@ class SteeringState:
     estimate_norm: float = 0.0
     updated_at: float | None = None
     blending: bool = False  # a source took over: the set-point moves at the handover rate
+
+    def __init__(
+        self,
+        setpoint_norm: float = 0.0,
+        estimate_norm: float = 0.0,
+        updated_at: float | None = None,
+        blending: bool = False,
+    ) -> None:
+        object.__setattr__(self, "setpoint_norm", setpoint_norm)
+        object.__setattr__(self, "estimate_norm", estimate_norm)
+        object.__setattr__(self, "updated_at", updated_at)
+        object.__setattr__(self, "blending", blending)
+
+
+slot_init(SteeringState)
 
 
 def clamp_norm(value: float, low: float = -1.0, high: float = 1.0) -> float:

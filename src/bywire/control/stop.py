@@ -34,8 +34,9 @@ from __future__ import annotations
 
 import enum
 import math
+from dataclasses import dataclass
 
-from bywire.control.values import value
+from bywire.control.values import slot_init
 
 MIN_CONTROLLED_STOP_S = 2.0
 MAX_CONTROLLED_STOP_S = 3.0
@@ -67,7 +68,7 @@ class StopPhase(enum.Enum):
     POWER_OFF = "drive power removed"
 
 
-@value
+@dataclass(frozen=True, slots=True)
 class StopConfig:
     """How long a controlled stop may keep the drive powered, and the least deceleration it
     must show (judged after `GRACE_S`) before it gives up and removes power."""
@@ -78,7 +79,7 @@ class StopConfig:
     standstill_hold_s: float = 0.3  # the default robot's (`config.deadlines.standstill_hold_s`)
 
 
-@value
+@dataclass(frozen=True, slots=True)
 class StopState:
     """The stop under way: when it began with the drive powered, the speed then, and whether
     power is off (done, or given up: `escalated`)."""
@@ -87,6 +88,21 @@ class StopState:
     start_speed_mps: float | None = None
     power_off: bool = False
     escalated: bool = False
+
+    def __init__(
+        self,
+        since_s: float | None = None,
+        start_speed_mps: float | None = None,
+        power_off: bool = False,
+        escalated: bool = False,
+    ) -> None:
+        object.__setattr__(self, "since_s", since_s)
+        object.__setattr__(self, "start_speed_mps", start_speed_mps)
+        object.__setattr__(self, "power_off", power_off)
+        object.__setattr__(self, "escalated", escalated)
+
+
+slot_init(StopState)
 
 
 NOT_STOPPING = StopState()

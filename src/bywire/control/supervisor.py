@@ -30,10 +30,10 @@ state. The rules, in the order `supervisor_step` applies them:
 from __future__ import annotations
 
 import enum
-from dataclasses import replace
+from dataclasses import dataclass, replace
 
 from bywire.control.stop import StopCategory
-from bywire.control.values import value
+from bywire.control.values import slot_init
 from bywire.error_flags import ErrorFlag
 from bywire.model import ControlMode
 
@@ -155,7 +155,7 @@ def stop_category(causes: frozenset[Cause]) -> StopCategory:
     return StopCategory.CONTROLLED
 
 
-@value
+@dataclass(frozen=True, slots=True)
 class SupervisorConfig:
     """How many consecutive RC frames a switch position needs before it counts (1..50).
 
@@ -169,7 +169,7 @@ class SupervisorConfig:
             raise ValueError(f"debounce_frames must be 1..50, got {self.debounce_frames}")
 
 
-@value
+@dataclass(frozen=True, slots=True)
 class SupervisorInputs:
     """What the supervisor sees at one step, as levels and edges; no times.
 
@@ -189,12 +189,33 @@ class SupervisorInputs:
     remote_stop_rising: bool = False
     re_enable_edge: bool = False
 
+    def __init__(  # noqa: PLR0917
+        self,
+        conditions: frozenset[Cause] = frozenset(),
+        switch: ControlMode | None = None,
+        rc_frame: bool = False,
+        rc_throttle_zero: bool = True,
+        can_throttle_zero: bool = False,
+        remote_stop_rising: bool = False,
+        re_enable_edge: bool = False,
+    ) -> None:
+        object.__setattr__(self, "conditions", conditions)
+        object.__setattr__(self, "switch", switch)
+        object.__setattr__(self, "rc_frame", rc_frame)
+        object.__setattr__(self, "rc_throttle_zero", rc_throttle_zero)
+        object.__setattr__(self, "can_throttle_zero", can_throttle_zero)
+        object.__setattr__(self, "remote_stop_rising", remote_stop_rising)
+        object.__setattr__(self, "re_enable_edge", re_enable_edge)
+
     def throttle_zero(self, source: ControlMode) -> bool:
         """Whether `source` (RC or CAN) requests zero throttle now."""
         return self.rc_throttle_zero if source is ControlMode.RC else self.can_throttle_zero
 
 
-@value
+slot_init(SupervisorInputs)
+
+
+@dataclass(frozen=True, slots=True)
 class SupervisorState:
     """Mode, latched causes, the debounced switch and the arming and handover gates.
 
@@ -212,6 +233,24 @@ class SupervisorState:
     ready: bool = False
     throttle_open: bool = False
 
+    def __init__(  # noqa: PLR0917
+        self,
+        mode: ControlMode = ControlMode.STOP,
+        latched: frozenset[Cause] = frozenset({Cause.POWER_UP}),
+        switch: ControlMode | None = None,
+        candidate: ControlMode | None = None,
+        run_frames: int = 0,
+        ready: bool = False,
+        throttle_open: bool = False,
+    ) -> None:
+        object.__setattr__(self, "mode", mode)
+        object.__setattr__(self, "latched", latched)
+        object.__setattr__(self, "switch", switch)
+        object.__setattr__(self, "candidate", candidate)
+        object.__setattr__(self, "run_frames", run_frames)
+        object.__setattr__(self, "ready", ready)
+        object.__setattr__(self, "throttle_open", throttle_open)
+
     @property
     def throttle_allowed(self) -> bool:
         """The commanding source may apply throttle."""
@@ -224,6 +263,9 @@ class SupervisorState:
         for cause in self.latched:
             flags |= cause.flag
         return flags
+
+
+slot_init(SupervisorState)
 
 
 def counting(state: SupervisorState, config: SupervisorConfig) -> bool:

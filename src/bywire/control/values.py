@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import dataclasses
 import inspect
+import types
 from collections.abc import Callable
 from typing import Any, TypeVar, dataclass_transform
 
@@ -77,3 +78,40 @@ def _slot_init(cls: type[Any]) -> Callable[..., None]:
     init: Callable[..., None] = namespace["__init__"]
     init.__qualname__ = f"{cls.__qualname__}.__init__"
     return init
+
+
+SOURCE_INITS: dict[type[Any], Callable[..., None]] = {}
+"""Each class `slot_init` gave a faster `__init__` in the pure build: the `__init__` its source
+wrote (tests/control/test_values.py checks that the two store the same)."""
+
+
+def slot_init(cls: type[Any]) -> None:
+    """The pure build's `__init__` of a value the compiled build makes native (issue 43).
+
+    mypyc compiles a class decorated by `@value` (a function it does not know) as an ordinary
+    Python class: every field read through a generic attribute lookup, every value built by the
+    exec'd `__init__`. A `@dataclass(frozen=True, slots=True)` is a native class, and an
+    `__init__` written in its body that stores each field, in order, with
+    `object.__setattr__(self, "name", name)` compiles to a store into the struct. Interpreted,
+    that `__init__` is slower than `@value`'s, so in the pure build this replaces it with
+    `@value`'s (after checking that it takes the same parameters, with equal defaults, as the
+    fields); in the compiled build the class's `__init__` is no Python function and is kept.
+    Call it after the class (a decorator would make the class non-native again).
+    """
+    written = cls.__dict__.get("__init__")
+    if not isinstance(written, types.FunctionType):
+        return  # compiled
+    _check_plain_fields(cls)
+    fields = dataclasses.fields(cls)
+    defaults = [parameter.default for parameter in inspect.signature(written).parameters.values()]
+    wanted = [field.default for field in fields]
+    if len(defaults) != len(fields) + 1 or any(
+        (a is inspect.Parameter.empty) != (b is dataclasses.MISSING)
+        or (b is not dataclasses.MISSING and a != b)
+        for a, b in zip(defaults[1:], wanted, strict=True)
+    ):
+        raise TypeError(f"slot_init {cls.__qualname__}: __init__'s defaults are not its fields'")
+    if any(field.default_factory is not dataclasses.MISSING for field in fields):
+        raise TypeError(f"slot_init {cls.__qualname__}: no default_factory (give a default value)")
+    SOURCE_INITS[cls] = written
+    cls.__init__ = _slot_init(cls)

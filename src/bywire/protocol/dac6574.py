@@ -63,6 +63,12 @@ class Write:
     code: int
     extended_address: int = 0
 
+    # written out, as the dataclass would make it: compiled, stores into the struct
+    def __init__(self, channel: int, code: int, extended_address: int = 0) -> None:
+        object.__setattr__(self, "channel", channel)
+        object.__setattr__(self, "code", code)
+        object.__setattr__(self, "extended_address", extended_address)
+
 
 @dataclass(frozen=True)
 class PowerDown:
@@ -84,6 +90,15 @@ class Conversion:
     clamped: bool
     requested_volts: float
     output_volts: float
+
+    # written out, as the dataclass would make it: compiled, stores into the struct
+    def __init__(
+        self, code: int, clamped: bool, requested_volts: float, output_volts: float
+    ) -> None:
+        object.__setattr__(self, "code", code)
+        object.__setattr__(self, "clamped", clamped)
+        object.__setattr__(self, "requested_volts", requested_volts)
+        object.__setattr__(self, "output_volts", output_volts)
 
 
 def address_for(a1: bool, a0: bool) -> int:

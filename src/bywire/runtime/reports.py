@@ -36,6 +36,26 @@ class Health:
     steering_measured_norm: float | None = None  # None without a steering encoder
     encoder_valid_limit_norm: float = 1.2  # a reading beyond this is invalid (monitors)
 
+    def __init__(  # noqa: PLR0917
+        self,
+        uptime_s: float,
+        overrun_count: int,
+        rc_age_s: float | None,
+        can_age_s: float | None,
+        wheel_speeds_mps: tuple[float, float] | None,
+        steering_setpoint_norm: float,
+        steering_measured_norm: float | None = None,
+        encoder_valid_limit_norm: float = 1.2,
+    ) -> None:
+        object.__setattr__(self, "uptime_s", uptime_s)
+        object.__setattr__(self, "overrun_count", overrun_count)
+        object.__setattr__(self, "rc_age_s", rc_age_s)
+        object.__setattr__(self, "can_age_s", can_age_s)
+        object.__setattr__(self, "wheel_speeds_mps", wheel_speeds_mps)
+        object.__setattr__(self, "steering_setpoint_norm", steering_setpoint_norm)
+        object.__setattr__(self, "steering_measured_norm", steering_measured_norm)
+        object.__setattr__(self, "encoder_valid_limit_norm", encoder_valid_limit_norm)
+
     @property
     def steering_measured(self) -> float | None:
         """The encoder's reading when one is fitted and it is a valid angle, else None."""

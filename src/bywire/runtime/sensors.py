@@ -10,8 +10,9 @@ reading".
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
 
-from bywire.control.values import value
+from bywire.control.values import slot_init
 from bywire.errors import HardwareError
 from bywire.hal.hardware import Hardware
 
@@ -19,7 +20,7 @@ NO_READING = math.nan
 """What the decision gets from a fitted sensor that gave no reading: an invalid one."""
 
 
-@value
+@dataclass(frozen=True, slots=True)
 class SensorReadings:
     """One reading of every sensor; None where none is fitted or it gave no reading, and which
     sensors are fitted."""
@@ -31,6 +32,24 @@ class SensorReadings:
     pressure_fitted: bool = False
     encoder_fitted: bool = False
     estop_line_high: bool | None = None  # None: no E-stop wired
+
+    def __init__(  # noqa: PLR0917
+        self,
+        wheel_speeds_mps: tuple[float, float] | None = None,
+        hydrobrake_pressure_bar: float | None = None,
+        steering_measured_norm: float | None = None,
+        wheels_fitted: bool = False,
+        pressure_fitted: bool = False,
+        encoder_fitted: bool = False,
+        estop_line_high: bool | None = None,
+    ) -> None:
+        object.__setattr__(self, "wheel_speeds_mps", wheel_speeds_mps)
+        object.__setattr__(self, "hydrobrake_pressure_bar", hydrobrake_pressure_bar)
+        object.__setattr__(self, "steering_measured_norm", steering_measured_norm)
+        object.__setattr__(self, "wheels_fitted", wheels_fitted)
+        object.__setattr__(self, "pressure_fitted", pressure_fitted)
+        object.__setattr__(self, "encoder_fitted", encoder_fitted)
+        object.__setattr__(self, "estop_line_high", estop_line_high)
 
     @property
     def speed_mps(self) -> float | None:
@@ -52,6 +71,9 @@ class SensorReadings:
     def checked_steering_norm(self) -> float | None:
         """The steering angle the decision checks: NaN from a fitted encoder that gave none."""
         return _checked(self.steering_measured_norm, self.encoder_fitted)
+
+
+slot_init(SensorReadings)
 
 
 def _checked(reading: float | None, fitted: bool) -> float | None:

@@ -13,10 +13,11 @@ from __future__ import annotations
 import itertools
 from collections import deque
 from collections.abc import Callable, Iterable
+from dataclasses import dataclass
 from functools import partial
 
 from bywire.can_frame import CanFrame
-from bywire.control.values import value
+from bywire.control.values import slot_init
 from bywire.hal.simulated.can_port import DEFAULT_RX_CAPACITY, SimCanPort
 from bywire.hal.simulated.flood import CanFlood
 from bywire.hal.simulated.timers import SimClock
@@ -27,7 +28,7 @@ DEFAULT_LOG_LIMIT = 20_000
 FLOOD_PORT_NAME = "flood"
 
 
-@value
+@dataclass(frozen=True, slots=True)
 class LoggedFrame:
     """One frame as it crossed the bus: end-of-frame time, id, payload and sending node."""
 
@@ -35,6 +36,15 @@ class LoggedFrame:
     arbitration_id: int
     data: bytes
     sender: str
+
+    def __init__(self, time_s: float, arbitration_id: int, data: bytes, sender: str) -> None:
+        object.__setattr__(self, "time_s", time_s)
+        object.__setattr__(self, "arbitration_id", arbitration_id)
+        object.__setattr__(self, "data", data)
+        object.__setattr__(self, "sender", sender)
+
+
+slot_init(LoggedFrame)
 
 
 class SimCanBus:

@@ -12,7 +12,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, field
 
-from bywire.control.values import value
+from bywire.control.values import slot_init
 
 
 @dataclass(frozen=True, slots=True)
@@ -52,7 +52,7 @@ class VehicleConfig:
             raise ValueError("speeds, lengths and full_scale_volts must be > 0")
 
 
-@value
+@dataclass(frozen=True, slots=True)
 class ActuatorInputs:
     """What the actuators receive: Table 2's signals, the e-brake line and the two PWM outputs."""
 
@@ -65,8 +65,31 @@ class ActuatorInputs:
     hydraulic_duty: float = 0.0
     steering_pulse_s: float = 0.0
 
+    def __init__(  # noqa: PLR0917
+        self,
+        throttle_volts: float = 0.0,
+        regen_volts: float = 0.0,
+        motors_enable: bool = False,
+        motors_forward: bool = False,
+        motors_reverse: bool = False,
+        ebrake_release: bool = False,
+        hydraulic_duty: float = 0.0,
+        steering_pulse_s: float = 0.0,
+    ) -> None:
+        object.__setattr__(self, "throttle_volts", throttle_volts)
+        object.__setattr__(self, "regen_volts", regen_volts)
+        object.__setattr__(self, "motors_enable", motors_enable)
+        object.__setattr__(self, "motors_forward", motors_forward)
+        object.__setattr__(self, "motors_reverse", motors_reverse)
+        object.__setattr__(self, "ebrake_release", ebrake_release)
+        object.__setattr__(self, "hydraulic_duty", hydraulic_duty)
+        object.__setattr__(self, "steering_pulse_s", steering_pulse_s)
 
-@value
+
+slot_init(ActuatorInputs)
+
+
+@dataclass(frozen=True, slots=True)
 class VehicleState:
     """Where the robot is and how it moves; ``distance_m`` counts both directions."""
 
@@ -77,6 +100,27 @@ class VehicleState:
     heading_rad: float = 0.0
     yaw_rate_radps: float = 0.0
     distance_m: float = 0.0
+
+    def __init__(  # noqa: PLR0917
+        self,
+        speed_mps: float = 0.0,
+        steering_norm: float = 0.0,
+        x_m: float = 0.0,
+        y_m: float = 0.0,
+        heading_rad: float = 0.0,
+        yaw_rate_radps: float = 0.0,
+        distance_m: float = 0.0,
+    ) -> None:
+        object.__setattr__(self, "speed_mps", speed_mps)
+        object.__setattr__(self, "steering_norm", steering_norm)
+        object.__setattr__(self, "x_m", x_m)
+        object.__setattr__(self, "y_m", y_m)
+        object.__setattr__(self, "heading_rad", heading_rad)
+        object.__setattr__(self, "yaw_rate_radps", yaw_rate_radps)
+        object.__setattr__(self, "distance_m", distance_m)
+
+
+slot_init(VehicleState)
 
 
 def _unit(value: float) -> float:

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+from bywire.control.values import slot_init
 from bywire.sim.verify.oracle.invariants import Invariant, Violation
 from bywire.sim.verify.oracle.outputs import Outputs
 from bywire.sim.verify.oracle.requirements import CONTROLLED_STOP_LIMIT_S, STANDSTILL_GRACE_S
@@ -21,6 +22,19 @@ class StopWatch:
     demand_since: float | None = None
     standstill_since: float | None = None
     rolled: bool = False  # the robot clearly moved in this stop: its sensor read motion
+
+    def __init__(
+        self,
+        demand_since: float | None = None,
+        standstill_since: float | None = None,
+        rolled: bool = False,
+    ) -> None:
+        object.__setattr__(self, "demand_since", demand_since)
+        object.__setattr__(self, "standstill_since", standstill_since)
+        object.__setattr__(self, "rolled", rolled)
+
+
+slot_init(StopWatch)
 
 
 NO_STOP = StopWatch()

@@ -15,6 +15,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+from bywire.control.values import slot_init
 from bywire.sim.verify.oracle.invariants import Invariant, Violation
 from bywire.sim.verify.oracle.outputs import Outputs
 from bywire.sim.verify.oracle.requirements import over_limit_margin_mps
@@ -27,6 +28,16 @@ class LimitFacts:
     limit_mps: float | None
     sensor_trusted: bool  # fitted, and never dead in this campaign
     brakes_failed: bool = False  # the spring brake and the hydraulic brake both
+
+    def __init__(
+        self, limit_mps: float | None, sensor_trusted: bool, brakes_failed: bool = False
+    ) -> None:
+        object.__setattr__(self, "limit_mps", limit_mps)
+        object.__setattr__(self, "sensor_trusted", sensor_trusted)
+        object.__setattr__(self, "brakes_failed", brakes_failed)
+
+
+slot_init(LimitFacts)
 
 
 def check_h11(
