@@ -6,6 +6,7 @@ import re
 import shutil
 import subprocess
 import sys
+import tomllib
 from pathlib import Path
 
 import pytest
@@ -46,6 +47,17 @@ def test_readme_starts_with_two_commands_run_and_test() -> None:
     run_command, test_command = _readme_commands()[:2]
     assert "bywire " in run_command
     assert "pytest" in test_command
+
+
+def test_the_readme_test_command_runs_on_every_core_with_its_groups_kept() -> None:
+    """`-n auto` (pytest-xdist, in the test extra so the command works in a fresh .venv), and
+    `--dist loadgroup` from pyproject so that an `xdist_group` runs on one worker."""
+    test_command = _readme_commands()[1]
+    assert test_command.endswith("python -m pytest -n auto")
+    project = tomllib.loads((ROOT / "pyproject.toml").read_text(encoding="utf-8"))
+    extra = project["project"]["optional-dependencies"]["test"]
+    assert any(re.match(r"pytest-xdist\b", requirement) for requirement in extra)
+    assert "--dist loadgroup" in project["tool"]["pytest"]["ini_options"]["addopts"]
 
 
 def test_ci_runs_the_readme_test_command_verbatim() -> None:
