@@ -46,6 +46,7 @@ def _verify(capsys: pytest.CaptureFixture[str], *args: str) -> tuple[int, dict[s
     return status, json.loads(output)
 
 
+@pytest.mark.long
 def test_the_default_budget_on_the_default_robot_is_clean(
     capsys: pytest.CaptureFixture[str], tmp_path: Path
 ) -> None:
@@ -115,6 +116,7 @@ def test_the_configuration_section_states_what_each_timeout_buys(
     )
 
 
+@pytest.mark.long
 def test_the_same_seed_gives_the_same_run_on_any_number_of_processes(
     capsys: pytest.CaptureFixture[str],
 ) -> None:
@@ -149,6 +151,7 @@ def test_bad_arguments_are_refused(bad: list[str], capsys: pytest.CaptureFixture
     assert bad[0] in capsys.readouterr().err
 
 
+@pytest.mark.long
 def test_a_failure_is_shrunk_and_written_as_a_scenario_sim_replays(
     capsys: pytest.CaptureFixture[str], monkeypatch: pytest.MonkeyPatch, tmp_path: Path
 ) -> None:

@@ -70,6 +70,7 @@ def _first_failure(limit: int = SEARCH_LIMIT, seed: int = 0) -> Outcome:
     raise AssertionError(f"no violation in {limit} campaigns")
 
 
+@pytest.mark.long
 @pytest.mark.parametrize(
     ("bug", "invariant"),
     [
@@ -328,6 +329,7 @@ def test_h11_finds_a_controller_without_the_speed_governor(monkeypatch: pytest.M
     assert "past the limit 2 m/s" in outcome.findings[0].detail
 
 
+@pytest.mark.long
 def test_verify_s_own_campaigns_find_a_controller_without_the_speed_governor(
     monkeypatch: pytest.MonkeyPatch,
 ) -> None:
