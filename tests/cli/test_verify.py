@@ -151,7 +151,6 @@ def test_bad_arguments_are_refused(bad: list[str], capsys: pytest.CaptureFixture
     assert bad[0] in capsys.readouterr().err
 
 
-@pytest.mark.long
 def test_a_failure_is_shrunk_and_written_as_a_scenario_sim_replays(
     capsys: pytest.CaptureFixture[str], monkeypatch: pytest.MonkeyPatch, tmp_path: Path
 ) -> None:
