@@ -470,6 +470,8 @@ def test_a_cluster_the_user_runs_is_used_with_one_thread_a_worker_and_refused_wi
         threads_per_worker=threads,
         host="127.0.0.1",
         dashboard_address=None,
+        # its HTTP routes on a free port, not 8787: two at once (a second worker's) warned
+        scheduler_kwargs={"dashboard": False, "dashboard_address": "127.0.0.1:0"},
         silence_logs=logging.ERROR,
     ) as cluster:
         address = cluster.scheduler_address
@@ -498,6 +500,8 @@ def test_a_campaign_that_crashes_its_worker_twice_is_reported_with_its_seed_and_
             threads_per_worker=1,
             host="127.0.0.1",
             dashboard_address=None,
+            # its HTTP routes on a free port, not 8787: two at once (a second worker's) warned
+            scheduler_kwargs={"dashboard": False, "dashboard_address": "127.0.0.1:0"},
             silence_logs=logging.ERROR,
         ) as cluster,
         Client(cluster) as client,  # type: ignore[no-untyped-call]
