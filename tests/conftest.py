@@ -27,3 +27,9 @@ def monkeypatch() -> Iterator[pytest.MonkeyPatch]:
     patch = CompiledAwareMonkeyPatch()
     yield patch
     patch.undo()
+
+
+def pytest_collection_modifyitems(items: list[pytest.Item]) -> None:
+    """The tests marked `long` first, each kind in its order: with the README's `-n auto` the
+    workers take tests in collection order, and a long test taken last would run on alone."""
+    items.sort(key=lambda item: item.get_closest_marker("long") is None)

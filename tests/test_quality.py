@@ -6,6 +6,7 @@ import re
 import shutil
 import subprocess
 import sys
+import tomllib
 from pathlib import Path
 
 import pytest
@@ -13,6 +14,8 @@ import pytest
 from tests.layers import LAYERS, SOURCE, imports, unit_of, upward
 
 ROOT = Path(__file__).resolve().parent.parent
+
+pytest_plugins = ["pytester"]
 
 
 def _run(*args: str) -> subprocess.CompletedProcess[str]:
@@ -31,6 +34,7 @@ def test_ruff_is_clean(command: tuple[str, ...]) -> None:
     assert result.returncode == 0, result.stdout + result.stderr
 
 
+@pytest.mark.long
 def test_mypy_strict_is_clean() -> None:
     result = _run("mypy", "--strict", "src", "tests")
     assert result.returncode == 0, result.stdout + result.stderr
@@ -46,6 +50,40 @@ def test_readme_starts_with_two_commands_run_and_test() -> None:
     run_command, test_command = _readme_commands()[:2]
     assert "bywire " in run_command
     assert "pytest" in test_command
+
+
+def test_the_readme_test_command_runs_on_every_core_with_its_groups_kept() -> None:
+    """`-n auto` (pytest-xdist, in the test extra so the command works in a fresh .venv), and
+    `--dist loadgroup` from pyproject so that an `xdist_group` runs on one worker."""
+    test_command = _readme_commands()[1]
+    assert test_command.endswith("python -m pytest -n auto")
+    project = tomllib.loads((ROOT / "pyproject.toml").read_text(encoding="utf-8"))
+    extra = project["project"]["optional-dependencies"]["test"]
+    assert any(re.match(r"pytest-xdist\b", requirement) for requirement in extra)
+    assert "--dist loadgroup" in project["tool"]["pytest"]["ini_options"]["addopts"]
+
+
+def test_the_long_tests_are_collected_first_and_the_rest_keep_their_order(
+    pytester: pytest.Pytester,
+) -> None:
+    pytester.makeconftest(
+        "from tests.conftest import pytest_collection_modifyitems  # noqa: F401\n"
+    )
+    pytester.makeini("[pytest]\nmarkers =\n    long: long\n")
+    pytester.makepyfile(
+        "import pytest\n"
+        "def test_a(): pass\n"
+        "@pytest.mark.long\n"
+        "def test_b(): pass\n"
+        "def test_c(): pass\n"
+        "@pytest.mark.long\n"
+        "@pytest.mark.parametrize('n', [1, 2])\n"
+        "def test_d(n): pass\n"
+    )
+    pytester.syspathinsert(ROOT)
+    listed = pytester.runpytest("--collect-only", "-q", "-p", "no:cacheprovider").outlines
+    names = [line.split("::")[1] for line in listed if "::" in line]
+    assert names == ["test_b", "test_d[1]", "test_d[2]", "test_a", "test_c"]
 
 
 def test_ci_runs_the_readme_test_command_verbatim() -> None:

@@ -23,6 +23,7 @@ SEEDS = {
 FILES = 5 * settings().max_examples  # per seed file: 500 on CI, 5,000 with the long profile
 
 
+@pytest.mark.long
 @pytest.mark.parametrize("seed", sorted(SEEDS))
 @settings(max_examples=FILES, suppress_health_check=[HealthCheck.too_slow])
 @given(data=st.data())

@@ -258,6 +258,7 @@ def _small_window(monkeypatch: pytest.MonkeyPatch) -> None:
     monkeypatch.setattr(input_stage, "COUNTER_HISTORY", HISTORY)
 
 
+@pytest.mark.long
 def test_every_reachable_state_keeps_every_invariant(capsys: pytest.CaptureFixture[str]) -> None:
     states, transitions, violations = explore()
     with capsys.disabled():

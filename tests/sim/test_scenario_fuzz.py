@@ -28,6 +28,7 @@ FILES = 2 * settings().max_examples  # per seed file: 200 on CI, 2,000 with the 
 TAKEN = (0, 1)  # the scenario ran (1: an expectation failed, or was not reached)
 
 
+@pytest.mark.long
 @pytest.mark.parametrize("seed", SEEDS)
 @settings(max_examples=FILES, suppress_health_check=[HealthCheck.too_slow])
 @given(data=st.data())

@@ -100,6 +100,7 @@ def check_sequences() -> None:
     given(STEPS)(SEQUENCES(campaign))()
 
 
+@pytest.mark.long
 def test_every_sequence_keeps_every_output_invariant(capsys: pytest.CaptureFixture[str]) -> None:
     TOTALS.update(campaigns=0, steps=0, checks=0, simulated_s=0.0)
     check_sequences()

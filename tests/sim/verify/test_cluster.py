@@ -109,6 +109,8 @@ def test_the_halves_of_a_killed_batch_go_out_one_per_worker_so_an_innocent_half_
             threads_per_worker=1,
             host=LOOPBACK,
             dashboard_address=None,
+            # its HTTP routes on a free port, not 8787: two at once (a second worker's) warned
+            scheduler_kwargs={"dashboard": False, "dashboard_address": "127.0.0.1:0"},
             silence_logs=logging.ERROR,
         ) as theirs,
         cluster_client(theirs.scheduler_address, 1) as one,

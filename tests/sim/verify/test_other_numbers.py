@@ -15,6 +15,7 @@ a long profile (`pytest --hypothesis-profile=long tests/sim/verify/test_other_nu
 
 from __future__ import annotations
 
+import pytest
 from hypothesis import HealthCheck, assume, given, settings
 from hypothesis import strategies as st
 
@@ -40,6 +41,7 @@ def _robot(text: str) -> RobotConfig:
     return robot
 
 
+@pytest.mark.long
 @settings(
     max_examples=max(1, settings().max_examples // 10),
     suppress_health_check=[HealthCheck.too_slow, HealthCheck.filter_too_much],

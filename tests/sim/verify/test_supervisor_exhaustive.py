@@ -41,6 +41,7 @@ def test_the_causes_one_stands_for_follow_the_same_rules() -> None:
     assert not same_rules({Cause.CAN_LOST, Cause.CAN_UNTRUSTED})
 
 
+@pytest.mark.long
 def test_every_reachable_state_keeps_every_invariant(capsys: pytest.CaptureFixture[str]) -> None:
     causes = tuple(cause for cause in Cause if cause is not Cause.POWER_UP)
     inputs = alphabet(causes if FULL else reduced_causes())

@@ -300,8 +300,15 @@ def transition_labels(before: SupervisorState, after: SupervisorState) -> tuple[
     return tuple(labels)
 
 
+_RANK = {cause: rank for rank, cause in enumerate(Cause)}
+"""Each cause's place in `Cause`, the table's order."""
+
+
 def _ordered(causes: frozenset[Cause]) -> list[Cause]:
-    return [cause for cause in Cause if cause in causes]
+    """`causes` in the table's order. Most steps latch or clear nothing, and an Enum member's
+    hash is a Python call: iterating all of `Cause` for an empty set was a third of the
+    exhaustive search's time."""
+    return sorted(causes, key=_RANK.__getitem__) if causes else []
 
 
 def expand_same_rules(labels: Iterable[str]) -> set[str]:
