@@ -52,11 +52,14 @@ def test_readme_starts_with_two_commands_run_and_test() -> None:
     assert "pytest" in test_command
 
 
-def test_the_readme_test_command_runs_on_every_core_with_its_groups_kept() -> None:
-    """`-n auto` (pytest-xdist, in the test extra so the command works in a fresh .venv), and
-    `--dist loadgroup` from pyproject so that an `xdist_group` runs on one worker."""
+def test_pytest_xdist_is_installed_by_the_test_command_and_keeps_the_groups() -> None:
+    """`pytest -n auto` works in the README's fresh .venv (pytest-xdist in the test extra), with
+    `--dist loadgroup` from pyproject so that an `xdist_group` runs on one worker. The README's
+    command itself runs serially: the real-time tests (`bywire run`, the RC tool's simulated
+    transmitter, the ROS 2 link process, the Ctrl-C tests) miss their deadlines beside another
+    worker on a 2-core machine."""
     test_command = _readme_commands()[1]
-    assert test_command.endswith("python -m pytest -n auto")
+    assert test_command.endswith("python -m pytest")
     project = tomllib.loads((ROOT / "pyproject.toml").read_text(encoding="utf-8"))
     extra = project["project"]["optional-dependencies"]["test"]
     assert any(re.match(r"pytest-xdist\b", requirement) for requirement in extra)

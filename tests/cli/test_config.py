@@ -167,13 +167,14 @@ def test_the_speed_limit_and_how_it_is_enforced_are_shown(tmp_path: Path) -> Non
 def test_how_a_controlled_stop_ends_and_its_standstill_hold_are_shown(tmp_path: Path) -> None:
     status, out, _ = _check(str(ALBERT))
     assert status == 0
-    assert "until the wheel speed has read standstill (at most 0.05 m/s) for 0.30 s" in out
-    assert "a wheel sensor dying below 0.45 m/s reads like a stop; regeneration (1.50 m/s²)" in out
+    assert "until the wheel speed reads standstill (at most 0.05 m/s), and 2.5 s at most" in out
+    assert "from above 0.1 m/s is held 0.30 s first: a wheel sensor dying below 0.45 m/s" in out
+    assert "regeneration (1.50 m/s²) stops a robot rolling that fast within the hold" in out
     weaker = tmp_path / "weaker.toml"
     weaker.write_text("[drive]\nmax_regen_volts = 4.0\n")
     status, out, _ = _check(str(weaker))
     assert status == 0
-    assert "for 0.38 s, and 2.5 s at most" in out
+    assert "is held 0.38 s first" in out
 
 
 def test_a_limit_out_of_range_is_refused_naming_the_key_and_range(tmp_path: Path) -> None:

@@ -7,13 +7,17 @@ from collections.abc import Sequence
 from hypothesis import given
 from hypothesis import strategies as st
 
+from bywire.control.interlocks import InterlockConfig
+from bywire.control.speed_check import SpeedCheckState, speed_check_step
 from bywire.control.stop import (
     GRACE_S,
     NOT_STOPPING,
+    STANDSTILL_LIMIT_MPS,
     StopCategory,
     StopConfig,
     StopPhase,
     StopState,
+    standstill_proven_since,
     stop_step,
 )
 from bywire.control.supervisor import Cause, stop_category
@@ -24,11 +28,13 @@ CONFIG = StopConfig(
 HOLD_TICKS = 30  # standstill_hold_s at 10 ms a pass
 
 
-def _standstill_since(since: float | None, speed: float | None, now: float) -> float | None:
-    """What the speed check says (`SpeedCheckState.standstill_since`) after a reading."""
-    if speed is None or abs(speed) > CONFIG.standstill_mps:
-        return None
-    return now if since is None else since
+def _sensor(state: SpeedCheckState, speed: float | None, now: float) -> SpeedCheckState:
+    """The speed check after a reading, as the controller runs it (no throttle applied)."""
+    return speed_check_step(state, speed, 0.0, now, InterlockConfig())
+
+
+def _proven(sensor: SpeedCheckState) -> float | None:
+    return standstill_proven_since(sensor.standstill_since, sensor.standstill_abrupt, CONFIG)
 
 
 def _run(
@@ -37,14 +43,14 @@ def _run(
     category: StopCategory = StopCategory.CONTROLLED,
     powered: bool = True,
     period_s: float = 0.01,
-    standing_since_s: float | None = None,
+    sensor: SpeedCheckState | None = None,
 ) -> list[StopPhase]:
-    """The phases over `speeds`, one a pass from 0 s (`standing_since_s`: the robot stood
-    before the stop, read since then)."""
-    state, phases, since = NOT_STOPPING, [], standing_since_s
+    """The phases over `speeds`, one a pass from 0 s (`sensor`: the speed check before)."""
+    state, phases = NOT_STOPPING, []
+    sensor = SpeedCheckState(1.0, -period_s) if sensor is None else sensor
     for tick, speed in enumerate(speeds):
         now = tick * period_s
-        since = _standstill_since(since, speed, now)
+        sensor = _sensor(sensor, speed, now)
         state, phase = stop_step(
             state,
             stopping=True,
@@ -53,7 +59,7 @@ def _run(
             speed_mps=speed,
             now=now,
             config=CONFIG,
-            standstill_since_s=since,
+            standstill_proven_s=_proven(sensor),
         )
         phases.append(phase)
     return phases
@@ -68,28 +74,34 @@ def test_a_category_0_cause_removes_power_at_once() -> None:
 
 
 def test_a_controlled_stop_brakes_powered_until_standstill_then_powers_off_for_good() -> None:
-    speeds = [1.5 - 1.5 * tick * 0.01 for tick in range(100)] + [0.0] * (HOLD_TICKS + 1) + [0.3]
+    speeds = [1.5 - 1.5 * tick * 0.01 for tick in range(100)] + [0.0, 0.0, 0.3]
     phases = _run(speeds)
     first_off = phases.index(StopPhase.POWER_OFF)
     assert set(phases[:first_off]) == {StopPhase.BRAKING}
-    held = speeds[first_off - HOLD_TICKS : first_off + 1]
-    assert max(held) <= CONFIG.standstill_mps  # standstill, held
-    assert speeds[first_off - HOLD_TICKS - 1] > CONFIG.standstill_mps  # and not a pass longer
+    assert speeds[first_off] <= CONFIG.standstill_mps < speeds[first_off - 1]  # at once: the
+    assert speeds[first_off - 1] <= STANDSTILL_LIMIT_MPS  # readings slowed into it
     assert phases[-1] is StopPhase.POWER_OFF  # a reading above standstill never re-powers it
 
 
-def test_a_standstill_ends_the_stop_only_once_it_has_been_read_for_the_hold() -> None:
+def test_an_abrupt_standstill_ends_the_stop_only_once_it_has_been_read_for_the_hold() -> None:
     # A wheel sensor that dies at 0.3 m/s (inside its check's blind spot) reads 0 at once: the
     # drive keeps regenerating for the hold (1.5 m/s² stops the robot from 0.45 m/s within it).
     phases = _run([0.3] * 10 + [0.0] * (HOLD_TICKS + 2))
     assert phases[: 10 + HOLD_TICKS] == [StopPhase.BRAKING] * (10 + HOLD_TICKS)
     assert phases[10 + HOLD_TICKS] is StopPhase.POWER_OFF
+    # from just above the standstill limit, and after a gap in the readings, too
+    assert _run([0.11] + [0.0] * HOLD_TICKS)[-1] is StopPhase.BRAKING
+    assert _run([0.5, None] + [0.0] * HOLD_TICKS)[-1] is StopPhase.BRAKING
+    # from a reading at the limit, a braking robot's: at once
+    assert _run([0.5, 0.1, 0.0])[-1] is StopPhase.POWER_OFF
 
 
 def test_a_robot_that_stood_before_the_stop_is_switched_off_at_once() -> None:
-    assert _run([0.0], standing_since_s=-CONFIG.standstill_hold_s) == [StopPhase.POWER_OFF]
-    halted_just_now = _run([0.0] * (HOLD_TICKS // 2 + 1), standing_since_s=-0.15)
-    assert halted_just_now[-2:] == [StopPhase.BRAKING, StopPhase.POWER_OFF]
+    stood = SpeedCheckState(0.0, -0.01, standstill_since=-0.3, standstill_abrupt=True)
+    assert _run([0.0], sensor=stood) == [StopPhase.POWER_OFF]
+    halted_just_now = SpeedCheckState(0.0, -0.01, standstill_since=-0.15, standstill_abrupt=True)
+    phases = _run([0.0] * (HOLD_TICKS // 2 + 1), sensor=halted_just_now)
+    assert phases[-2:] == [StopPhase.BRAKING, StopPhase.POWER_OFF]
 
 
 def test_a_reading_of_motion_starts_the_hold_afresh() -> None:
@@ -113,7 +125,7 @@ def test_a_robot_that_does_not_slow_is_switched_off_and_flagged() -> None:
             speed_mps=1.5,
             now=tick * 0.01,
             config=CONFIG,
-            standstill_since_s=None,
+            standstill_proven_s=None,
         )
         if phase is StopPhase.POWER_OFF:
             break
@@ -131,7 +143,7 @@ def test_leaving_stop_forgets_the_stop() -> None:
         speed_mps=1.0,
         now=1.0,
         config=CONFIG,
-        standstill_since_s=None,
+        standstill_proven_s=None,
     )
     assert state == NOT_STOPPING
 
@@ -167,10 +179,11 @@ def test_every_cause_names_its_category_and_a_suspect_drive_is_category_0() -> N
 
 
 @given(st.lists(st.one_of(st.none(), st.floats(0.0, 0.3)), min_size=1, max_size=240))
-def test_power_goes_off_for_a_standstill_only_after_the_hold(speeds: list[float | None]) -> None:
-    state, since = NOT_STOPPING, None
+def test_power_goes_off_for_a_standstill_only_once_it_is_proven(speeds: list[float | None]) -> None:
+    """Off for a standstill only after the hold, or at once when the readings slowed into it."""
+    state, sensor = NOT_STOPPING, SpeedCheckState(1.0, -0.01)
     for tick, speed in enumerate(speeds):
-        since = _standstill_since(since, speed, tick * 0.01)
+        sensor = _sensor(sensor, speed, tick * 0.01)
         state, phase = stop_step(
             state,
             stopping=True,
@@ -179,13 +192,17 @@ def test_power_goes_off_for_a_standstill_only_after_the_hold(speeds: list[float 
             speed_mps=speed,
             now=tick * 0.01,
             config=CONFIG,
-            standstill_since_s=since,
+            standstill_proven_s=_proven(sensor),
         )
         if phase is StopPhase.POWER_OFF:
             break
     else:
         return
-    held = speeds[max(tick - HOLD_TICKS, 0) : tick + 1]
-    standstill = all(s is not None and s <= CONFIG.standstill_mps for s in held)
-    timed_out = tick * 0.01 >= CONFIG.controlled_max_s
-    assert (standstill and tick >= HOLD_TICKS) or timed_out or state.escalated
+    if state.escalated or tick * 0.01 >= CONFIG.controlled_max_s:
+        return
+    start = tick  # the run of standstill readings that ended the stop
+    while start > 0 and (s := speeds[start - 1]) is not None and s <= CONFIG.standstill_mps:
+        start -= 1
+    before = speeds[start - 1] if start > 0 else 1.0  # the sensor's state before: 1 m/s
+    slowed_into_it = before is not None and before <= STANDSTILL_LIMIT_MPS
+    assert tick - start >= HOLD_TICKS or slowed_into_it

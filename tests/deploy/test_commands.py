@@ -29,7 +29,7 @@ def test_the_plan_types_the_readme_commands_as_the_developer() -> None:
         (test, commands.DEVELOPER),
     ]
     assert run.endswith("bywire sim")
-    assert test.endswith("pytest -n auto")
+    assert test.endswith("pytest")
     assert run_first.startswith("sudo apt-get install")
     assert test_first == ""  # the tests need nothing the run command did not install
 

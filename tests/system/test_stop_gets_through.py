@@ -348,7 +348,7 @@ def test_a_controlled_stop_that_does_not_slow_the_robot_removes_power() -> None:
             speed_mps=1.5,  # not slowing at all
             now=now,
             config=config,
-            standstill_since_s=None,
+            standstill_proven_s=None,
         )
         phases.append(phase)
     assert phases[0] is StopPhase.BRAKING

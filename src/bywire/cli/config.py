@@ -27,6 +27,7 @@ from bywire.config.deadlines import (
 from bywire.config.reader import number_text
 from bywire.config.speed_limit import enforcement
 from bywire.control.speed_check import blind_spot_mps
+from bywire.control.stop import STANDSTILL_LIMIT_MPS
 from bywire.hal.hardware import sensors_fitted
 from bywire.runtime.rx_checks import rx_checks
 from bywire.runtime.settings import RuntimeConfig
@@ -88,12 +89,14 @@ def controlled_stop_lines(config: RobotConfig) -> list[str]:
     decel = stop.controlled_min_decel_mps2
     regen = regen_decel_mps2(config)
     return [
-        "the drive stays powered, braking by regeneration, until the wheel speed has read"
-        f" standstill (at most {number_text(stop.standstill_mps)} m/s) for"
-        f" {stop.standstill_hold_s:.2f} s, and {number_text(stop.controlled_max_s)} s at most;"
-        f" power off at once if the robot slows by less than {number_text(decel)} m/s²",
-        f"the hold: a wheel sensor dying below {blind_mps:.2f} m/s reads like a stop;"
-        f" regeneration ({regen:.2f} m/s²) stops a robot rolling that fast within the hold",
+        "the drive stays powered, braking by regeneration, until the wheel speed reads"
+        f" standstill (at most {number_text(stop.standstill_mps)} m/s), and"
+        f" {number_text(stop.controlled_max_s)} s at most; power off at once if the robot slows"
+        f" by less than {number_text(decel)} m/s²",
+        f"a standstill the readings drop to from above {number_text(STANDSTILL_LIMIT_MPS)} m/s"
+        f" is held {stop.standstill_hold_s:.2f} s first: a wheel sensor dying below"
+        f" {blind_mps:.2f} m/s reads so, and regeneration ({regen:.2f} m/s²) stops a robot"
+        " rolling that fast within the hold",
     ]
 
 

@@ -56,7 +56,14 @@ from bywire.control.steering import (
     pulse_for_steering,
     steering_step,
 )
-from bywire.control.stop import NOT_STOPPING, StopConfig, StopPhase, StopState, stop_step
+from bywire.control.stop import (
+    NOT_STOPPING,
+    StopConfig,
+    StopPhase,
+    StopState,
+    standstill_proven_since,
+    stop_step,
+)
 from bywire.control.supervisor import (
     Cause,
     SupervisorConfig,
@@ -557,7 +564,9 @@ def controller_step(
         speed_mps=speed_mps,
         now=now,
         config=config.stop,
-        standstill_since_s=speed_check.standstill_since,
+        standstill_proven_s=standstill_proven_since(
+            speed_check.standstill_since, speed_check.standstill_abrupt, config.stop
+        ),
     )
     # In STOP the steering holds where it is: centring at speed would be a swerve.
     target_norm = movement.steering_norm if driving else state.steering.setpoint_norm

@@ -27,14 +27,17 @@ import math
 from dataclasses import dataclass
 
 from bywire.control.interlocks import InterlockConfig, elapsed_since
+from bywire.control.stop import STANDSTILL_LIMIT_MPS
 from bywire.control.values import slot_init
 
 
 @dataclass(frozen=True, slots=True)
 class SpeedCheckState:
     """The last reading, since when the robot is driven without moving, the latched fault,
-    whether a standstill the sensor reads is unproven (see the module's text), and since when
-    the readings say standstill (a controlled stop ends only on one that has lasted)."""
+    whether a standstill the sensor reads is unproven (see the module's text), since when the
+    readings say standstill, and whether they came to it abruptly: from a reading above
+    `STANDSTILL_LIMIT_MPS`, or from no reading (a sensor dying inside its blind spot reads so;
+    a controlled stop holds such a standstill before it ends, `control/stop.py`)."""
 
     previous_mps: float | None = None
     updated_at: float | None = None
@@ -42,6 +45,7 @@ class SpeedCheckState:
     faulted: bool = False
     unproven: bool = False
     standstill_since: float | None = None
+    standstill_abrupt: bool = False
 
     def __init__(  # noqa: PLR0917
         self,
@@ -51,6 +55,7 @@ class SpeedCheckState:
         faulted: bool = False,
         unproven: bool = False,
         standstill_since: float | None = None,
+        standstill_abrupt: bool = False,
     ) -> None:
         object.__setattr__(self, "previous_mps", previous_mps)
         object.__setattr__(self, "updated_at", updated_at)
@@ -58,6 +63,7 @@ class SpeedCheckState:
         object.__setattr__(self, "faulted", faulted)
         object.__setattr__(self, "unproven", unproven)
         object.__setattr__(self, "standstill_since", standstill_since)
+        object.__setattr__(self, "standstill_abrupt", standstill_abrupt)
 
 
 slot_init(SpeedCheckState)
@@ -88,12 +94,15 @@ def speed_check_step(
     stuck = stuck_since is not None and now - stuck_since > config.speed_stuck_s
     faulted = state.faulted or stuck or _jumped(state, speed_mps, now, config)
     unproven = not moving and (state.unproven or applied_throttle_norm > 0.0)
-    standstill_since = None if moving else _first(state.standstill_since, now)
-    return SpeedCheckState(speed_mps, now, stuck_since, faulted, unproven, standstill_since)
-
-
-def _first(since: float | None, now: float) -> float:
-    return now if since is None else since
+    if moving:
+        standstill_since, abrupt = None, False
+    elif state.standstill_since is None:  # arriving at standstill: from how fast?
+        previous = state.previous_mps
+        standstill_since = now
+        abrupt = previous is None or abs(previous) > STANDSTILL_LIMIT_MPS
+    else:
+        standstill_since, abrupt = state.standstill_since, state.standstill_abrupt
+    return SpeedCheckState(speed_mps, now, stuck_since, faulted, unproven, standstill_since, abrupt)
 
 
 def blind_spot_mps(config: InterlockConfig, period_s: float) -> float:
@@ -113,6 +122,8 @@ def cleared(state: SpeedCheckState) -> SpeedCheckState:
     but a sensor that was faulted proves nothing until it reads motion again (the robot may be
     rolling at the arming, and a dead sensor reads standstill); a standstill that a sound sensor
     has read goes on counting."""
-    doubtful = state.faulted or state.unproven
-    standstill_since = None if doubtful else state.standstill_since
-    return SpeedCheckState(unproven=doubtful, standstill_since=standstill_since)
+    if state.faulted or state.unproven:
+        return SpeedCheckState(unproven=True)
+    return SpeedCheckState(
+        standstill_since=state.standstill_since, standstill_abrupt=state.standstill_abrupt
+    )

@@ -15,15 +15,16 @@
   pressure, regeneration is the only brake left, and cutting the drive's power would throw it
   away.
 
-Why a standstill must have been read for a while: a wheel sensor that dies inside its
-plausibility check's blind spot (`speed_check.blind_spot_mps`, 0.45 m/s by default) drops to 0
-as a real stop would. Were a fresh 0 proof, the stop would cut the drive at once, and with both
-mechanical brakes failed (one of them latent) the robot would roll on with nothing to slow it
-(found by `bywire verify`, H7). `standstill_hold_s` is the blind spot's speed divided by the
-regenerative brake's deceleration (0.45 / 1.5 = 0.3 s by default; a robot file may not make it
-longer than 0.5 s): regeneration stops a robot that the dead sensor hid. A robot that stood
-before the stop began is off at once; one that has just halted keeps its drive powered, at 0 V,
-until the hold is over.
+Why an abrupt standstill is held: a wheel sensor that dies inside its plausibility check's blind
+spot (`speed_check.blind_spot_mps`, 0.45 m/s by default) drops to 0 as a real stop would, but at
+once, from a speed above `STANDSTILL_LIMIT_MPS`. Were that 0 proof, the stop would cut the drive
+at once, and with both mechanical brakes failed (one of them latent) the robot would roll on with
+nothing to slow it (found by `bywire verify`, H7). So a standstill the readings came to abruptly
+(`SpeedCheckState.standstill_abrupt`) ends the stop only once it has been read for
+`standstill_hold_s`: the blind spot's speed divided by the regenerative brake's deceleration
+(0.45 / 1.5 = 0.3 s by default; a robot file may not make it longer than 0.5 s), in which
+regeneration stops a robot that the dead sensor hid. A standstill reached through readings at or
+below the limit, as a braking robot's are, ends it at once, as does one read before the stop.
 
 A stop that begins with the drive already off (power-up, a stop after a stop) is category 0:
 there is nothing to keep powered. `stop_step` is pure: the controller calls it on every
@@ -117,14 +118,15 @@ def stop_step(
     speed_mps: float | None,
     now: float,
     config: StopConfig,
-    standstill_since_s: float | None,
+    standstill_proven_s: float | None,
 ) -> tuple[StopState, StopPhase]:
     """The next stop state and what the drive does.
 
     `stopping`: the mode is STOP; `category`: the latched causes' (`POWER_OFF` if any is);
     `powered`: the previous decision left the drive enabled; `speed_mps`: a speed the controller
     trusts (None without one: then only `controlled_max_s` ends the stop);
-    `standstill_since_s`: since when the sensor reads standstill (None: it does not).
+    `standstill_proven_s`: from when the standstill the sensor reads is proof
+    (`standstill_proven_since`; None: it reads none).
     """
     if not stopping:
         return NOT_STOPPING, StopPhase.DRIVING
@@ -132,9 +134,7 @@ def stop_step(
         state = StopState(since_s=now, start_speed_mps=_magnitude(speed_mps), power_off=not powered)
     if not state.power_off:
         speed = _magnitude(speed_mps)
-        stood = standstill_since_s is not None and now - standstill_since_s >= (
-            config.standstill_hold_s
-        )
+        stood = standstill_proven_s is not None and now >= standstill_proven_s
         state = _judged(state, category, speed, now, config, stood=stood)
     return state, StopPhase.POWER_OFF if state.power_off else StopPhase.BRAKING
 
@@ -160,6 +160,16 @@ def _judged(
     if speed > _allowed_speed_mps(state, now, config):
         return _off(state, escalated=True)
     return state
+
+
+def standstill_proven_since(
+    since_s: float | None, abrupt: bool, config: StopConfig
+) -> float | None:
+    """From when a standstill read since `since_s` ends a controlled stop: at once, or after
+    `standstill_hold_s` when the readings came to it `abrupt`ly (see the module's text)."""
+    if since_s is None:
+        return None
+    return since_s + config.standstill_hold_s if abrupt else since_s
 
 
 def _allowed_speed_mps(state: StopState, now: float, config: StopConfig) -> float:
