@@ -30,6 +30,9 @@ def monkeypatch() -> Iterator[pytest.MonkeyPatch]:
 
 
 def pytest_collection_modifyitems(items: list[pytest.Item]) -> None:
-    """The tests marked `long` first, each kind in its order: with the README's `-n auto` the
-    workers take tests in collection order, and a long test taken last would run on alone."""
-    items.sort(key=lambda item: item.get_closest_marker("long") is None)
+    """Under `pytest -n auto` (a pytest-xdist worker collects), the tests marked `long` first,
+    each kind in its order: the workers take tests in collection order, and a long test taken
+    last would run on alone. The README's serial command keeps the files' order, the one its
+    real-time tests were proven in."""
+    if os.environ.get("PYTEST_XDIST_WORKER"):
+        items.sort(key=lambda item: item.get_closest_marker("long") is None)

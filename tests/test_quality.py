@@ -66,9 +66,11 @@ def test_pytest_xdist_is_installed_by_the_test_command_and_keeps_the_groups() ->
     assert "--dist loadgroup" in project["tool"]["pytest"]["ini_options"]["addopts"]
 
 
-def test_the_long_tests_are_collected_first_and_the_rest_keep_their_order(
-    pytester: pytest.Pytester,
+@pytest.mark.parametrize("worker", ["gw0", ""], ids=["xdist", "serial"])
+def test_under_xdist_the_long_tests_are_collected_first_and_the_rest_keep_their_order(
+    pytester: pytest.Pytester, monkeypatch: pytest.MonkeyPatch, worker: str
 ) -> None:
+    monkeypatch.setenv("PYTEST_XDIST_WORKER", worker)
     pytester.makeconftest(
         "from tests.conftest import pytest_collection_modifyitems  # noqa: F401\n"
     )
@@ -86,7 +88,10 @@ def test_the_long_tests_are_collected_first_and_the_rest_keep_their_order(
     pytester.syspathinsert(ROOT)
     listed = pytester.runpytest("--collect-only", "-q", "-p", "no:cacheprovider").outlines
     names = [line.split("::")[1] for line in listed if "::" in line]
-    assert names == ["test_b", "test_d[1]", "test_d[2]", "test_a", "test_c"]
+    if worker:
+        assert names == ["test_b", "test_d[1]", "test_d[2]", "test_a", "test_c"]
+    else:  # the README's serial command: the files' own order
+        assert names == ["test_a", "test_b", "test_c", "test_d[1]", "test_d[2]"]
 
 
 def test_ci_runs_the_readme_test_command_verbatim() -> None:
