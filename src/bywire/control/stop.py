@@ -7,13 +7,13 @@
   that may not do what it is told must not be powered.
 - **Category 1, `CONTROLLED`**: the drive stays powered to brake. Throttle 0 V at once, the
   regenerative brake at full, the hydraulic brake at full duty, the spring brake engaged; the
-  enable line goes low at standstill (a trusted speed at or below the standstill threshold that
-  the sensor has read for `StopConfig.standstill_hold_s`), after `StopConfig.controlled_max_s`
-  at the latest, or at once when the robot does not slow down as a braking robot must (then
-  category 0 after all: `escalated`, flag STOP_ESCALATED). For every cause whose drive is
-  healthy: with a spring brake that failed unnoticed and a hydraulic brake that builds no
-  pressure, regeneration is the only brake left, and cutting the drive's power would throw it
-  away.
+  enable line goes low at standstill (a trusted speed at or below the standstill threshold; one
+  the readings dropped to abruptly held for `StopConfig.standstill_hold_s`), after
+  `StopConfig.controlled_max_s` at the latest, or at once when the robot does not slow down as
+  a braking robot must (then category 0 after all: `escalated`, flag STOP_ESCALATED). For
+  every cause whose drive is healthy: with a spring brake that failed unnoticed and a hydraulic
+  brake that builds no pressure, regeneration is the only brake left, and cutting the drive's
+  power would throw it away.
 
 Why an abrupt standstill is held: a wheel sensor that dies inside its plausibility check's blind
 spot (`speed_check.blind_spot_mps`, 0.45 m/s by default) drops to 0 as a real stop would, but at
@@ -149,7 +149,7 @@ def _judged(
     stood: bool,
 ) -> StopState:
     """A controlled stop under way, judged at `now`: it goes on, or power goes off (`stood`:
-    the sensor has read standstill for the hold)."""
+    the standstill the sensor reads is proof, `standstill_proven_since`)."""
     since_s = now if state.since_s is None else state.since_s
     if category is StopCategory.POWER_OFF or now - since_s >= config.controlled_max_s:
         return _off(state)
