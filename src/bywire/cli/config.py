@@ -18,15 +18,14 @@ from pathlib import Path
 
 from bywire.config import RobotConfig, as_dict, describe, load_config
 from bywire.config.deadlines import (
-    decision_period_s,
     loss_distances,
     loss_rows,
     promise_lines,
     regen_decel_mps2,
+    robot_blind_spot_mps,
 )
 from bywire.config.reader import number_text
 from bywire.config.speed_limit import enforcement
-from bywire.control.speed_check import blind_spot_mps
 from bywire.control.stop import STANDSTILL_LIMIT_MPS
 from bywire.hal.hardware import sensors_fitted
 from bywire.runtime.rx_checks import rx_checks
@@ -85,7 +84,7 @@ def switch_bands(config: RobotConfig) -> list[str]:
 def controlled_stop_lines(config: RobotConfig) -> list[str]:
     """How a controlled stop (category 1) ends on this robot, and why a standstill is held."""
     stop = RuntimeConfig.from_robot(config).control.stop
-    blind_mps = blind_spot_mps(config.interlocks, decision_period_s(config))
+    blind_mps = robot_blind_spot_mps(config)
     decel = stop.controlled_min_decel_mps2
     regen = regen_decel_mps2(config)
     return [

@@ -331,20 +331,24 @@ def regen_decel_mps2(robot: RobotConfig) -> float:
     return REGEN_DECEL_MPS2 * volts / MOTOR_FULL_SCALE_VOLTS
 
 
+def robot_blind_spot_mps(robot: RobotConfig) -> float:
+    """The fastest speed at which this robot's wheel sensor can die unnoticed (reads a stop)."""
+    return blind_spot_mps(robot.interlocks, decision_period_s(robot))
+
+
 def standstill_hold_s(robot: RobotConfig) -> float:
     """How long a controlled stop holds a standstill the sensor reads before power goes off:
     the time regeneration alone takes to stop a robot rolling at the blind spot's speed (a
     sensor dying there reads like a stop). Infinite without regeneration."""
-    blind_mps = blind_spot_mps(robot.interlocks, decision_period_s(robot))
     regen = regen_decel_mps2(robot)
-    return blind_mps / regen if regen > 0.0 else math.inf
+    return robot_blind_spot_mps(robot) / regen if regen > 0.0 else math.inf
 
 
 def _standstill_hold(robot: RobotConfig) -> list[Breach]:
     hold_s = standstill_hold_s(robot)
     if hold_s <= STANDSTILL_HOLD_MAX_S + 1e-9:
         return []
-    blind_mps = blind_spot_mps(robot.interlocks, decision_period_s(robot))
+    blind_mps = robot_blind_spot_mps(robot)
     wanted = blind_mps / STANDSTILL_HOLD_MAX_S / REGEN_DECEL_MPS2 * MOTOR_FULL_SCALE_VOLTS
     volts = math.ceil(wanted * 100 - 1e-6) / 100
     fix = (
