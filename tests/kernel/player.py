@@ -39,6 +39,7 @@ class Played:
     failed: list[str] = field(default_factory=list)
     passed: list[str] = field(default_factory=list)
     left_out: list[str] = field(default_factory=list)
+    started_monotonic_s: float = 0.0  # time.monotonic() at the scenario's 0 s
 
 
 def play(
@@ -46,7 +47,7 @@ def play(
 ) -> Played:
     played = Played()
     events = list(scenario.events)
-    started_s = time.monotonic()
+    started_s = played.started_monotonic_s = time.monotonic()
     while (now_s := time.monotonic() - started_s) < scenario.duration_s:
         while events and events[0].at_s <= now_s:
             event = events.pop(0)
@@ -107,3 +108,33 @@ def _window(expectation: Expectation, played: Played) -> list[Observation]:
 
 def _shown(reading: Observation, conditions: dict[str, object]) -> str:
     return f"last reading at {reading.time_s:.3f} s: {reading}"
+
+
+STALL_S = 0.1  # a gap between readings this long: the guest did not run the player
+
+
+def timeline(played: Played) -> list[str]:
+    """What a failure's message needs to tell its story: every event, every change of what the
+    robot reported or its outputs did, and every stall of the player itself, in time order."""
+    lines = [f"{at_s:8.3f} s  event {label!r}" for label, at_s in played.labels.items()]
+    last: tuple[object, ...] | None = None
+    previous_s: float | None = None
+    for reading in played.readings:
+        if previous_s is not None and reading.time_s - previous_s > STALL_S:
+            lines.append(
+                f"{reading.time_s:8.3f} s  no reading for {reading.time_s - previous_s:.3f} s"
+            )
+        previous_s = reading.time_s
+        state = (
+            reading.mode.name, reading.latched, reading.gear.name, reading.motors_enabled,
+            reading.ebrake_engaged, reading.throttle_volts > 0.0, reading.regen_volts > 0.0,
+            reading.lights.error_led, reading.error_flags,
+        )  # fmt: skip
+        if state != last:
+            lines.append(
+                f"{reading.time_s:8.3f} s  mode {state[0]} latched {state[1]} gear {state[2]}"
+                f" enable {state[3]} e-brake {state[4]} throttle {reading.throttle_volts:.2f} V"
+                f" regen {reading.regen_volts:.2f} V error LED {state[7]} flags {state[8]:#x}"
+            )
+            last = state
+    return sorted(lines, key=lambda line: float(line.split()[0]))

@@ -48,7 +48,17 @@ WARM_UP_S = 2.0  # a new process in the guest is slow while it first touches its
 POLL_PERIOD_S = 0.02  # a reading is ~20 sysfs reads, each a round trip through the host
 
 
+STALL_S = 0.1  # a gap this long between two sends of the transmitter or computer is recorded
 FRAMES_PER_WRITE = 3  # frames handed to the host at once: a third of the guest's work for it
+
+
+def _note_stall(stalls: list[tuple[float, float]], last_s: float) -> float:
+    """Now, after noting in `stalls` a gap since `last_s` longer than STALL_S: the guest did
+    not run this sender (the robot's input stopped for that long, as bywire saw it)."""
+    now_s = time.monotonic()
+    if now_s - last_s > STALL_S:
+        stalls.append((now_s, now_s - last_s))
+    return now_s
 
 
 class Transmitter:
@@ -61,6 +71,7 @@ class Transmitter:
         self._channels = list(idle_channels(self.mapping))
         self._lock = threading.Lock()
         self.sending = True
+        self.stalls: list[tuple[float, float]] = []  # (monotonic s, gap s) over STALL_S
         self._stop = threading.Event()
         self._thread = threading.Thread(target=self._run, name="transmitter", daemon=True)
         self._thread.start()
@@ -90,13 +101,16 @@ class Transmitter:
         self._channels[channel] = raw
 
     def _run(self) -> None:
-        next_s = time.monotonic()
+        next_s = sent_s = time.monotonic()
         while not self._stop.wait(max(0.0, next_s - time.monotonic())):
             next_s += ibus.FRAME_PERIOD_S * FRAMES_PER_WRITE
             if self.sending:
                 with self._lock:
                     frame = ibus.encode_frame(self._channels)
                 self._host.send_rc(frame * FRAMES_PER_WRITE)
+                sent_s = _note_stall(self.stalls, sent_s)
+            else:
+                sent_s = time.monotonic()  # silent on purpose: no stall
 
     def close(self) -> None:
         self._stop.set()
@@ -117,6 +131,7 @@ class Computer:
         self.control = ControlCommand(False, False, 0)
         self.sending = False
         self.send_errors: list[str] = []
+        self.stalls: list[tuple[float, float]] = []  # (monotonic s, gap s) over STALL_S
         self.mode: ModeReport | None = None
         self.errors: ErrorReport | None = None
         self.status: StatusReport | None = None
@@ -152,12 +167,15 @@ class Computer:
         self.sending = True
 
     def _send_loop(self) -> None:
-        next_s = time.monotonic()
+        next_s = sent_s = time.monotonic()
         while not self._stop.wait(max(0.0, next_s - time.monotonic())):
             next_s += COMMAND_PERIOD_S
             if self.sending:
                 for command in (self.control, self.movement, self.lights):
                     self._send(command)
+                sent_s = _note_stall(self.stalls, sent_s)
+            else:
+                sent_s = time.monotonic()  # not started yet: no stall
 
     def _send(self, command: MovementCommand | LightsCommand | ControlCommand) -> None:
         counter = self._counters.get(type(command), 0)

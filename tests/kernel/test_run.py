@@ -14,7 +14,7 @@ from bywire.config import RobotConfig
 from bywire.model import ControlMode
 from bywire.sim.catalog import find_scenario
 from bywire.sim.scenario import Event, Expectation, Scenario
-from tests.kernel.player import play
+from tests.kernel.player import Played, play, timeline
 from tests.kernel.robot import KernelRobot
 
 EXPECTED = [
@@ -29,14 +29,36 @@ UNSENSED_ENABLE = "enable line low within [stop] controlled_max_s (no speed sens
 EXPECTED_UNSENSED = [*EXPECTED, f"{EXPECTED[-1]}: {UNSENSED_ENABLE}"]
 
 
+RIG_ATTEMPTS = 3
+"""Runs of the course, at most, until one in which the rig delivered its inputs (see _starved)."""
+
+
 @pytest.mark.parametrize("dac", ["plain-i2c", "smbus-only"])
 def test_the_test_course_on_the_kernels_devices(dac: str, tmp_path: Path) -> None:
-    robot = KernelRobot(tmp_path, dac=dac)
-    try:
-        robot.start()
-        _the_course(robot)
-    finally:
-        robot.close()
+    """The course, judged on a run in which the rig delivered its inputs. A run that failed
+    while the rig's computer or transmitter went silent for bywire's own timeout is void:
+    bywire was right to stop, and the course was not what it was given (CI, 2026-12-07: the
+    commands stopped for 1.6-1.9 s on a loaded host, CAN_COMMAND_TIMEOUT and TASK_OVERRUN
+    followed, and the RC takeover met a latched STOP). A failure without such a silence, or a
+    rig starved on every attempt (bywire itself hogging the guest would do that), fails."""
+    voided: list[str] = []
+    for attempt in range(1, RIG_ATTEMPTS + 1):
+        folder = tmp_path / f"attempt-{attempt}"
+        folder.mkdir()
+        robot = KernelRobot(folder, dac=dac)
+        try:
+            robot.start()
+            starved = _the_course(robot)
+        finally:
+            robot.close()
+        if starved is None:
+            return
+        voided.append(f"attempt {attempt}: {starved}")
+        print(f"the course's run voided: {voided[-1]}")  # shown with a later attempt's failure
+    pytest.fail(
+        f"the rig was starved in all {RIG_ATTEMPTS} runs of the course (the host too loaded"
+        " for the guest to send the robot's inputs):\n" + "\n".join(voided)
+    )
 
 
 def timed_without_a_speed_sensor(course: Scenario, robot: RobotConfig) -> Scenario:
@@ -110,10 +132,19 @@ def _unsensed_stops(expectations: tuple[Expectation, ...], robot: RobotConfig) -
     return judged
 
 
-def _the_course(robot: KernelRobot) -> None:
+def _the_course(robot: KernelRobot) -> str | None:
+    """The course played and judged: None when it passed; what starved the rig when it failed
+    in a run whose inputs the rig did not deliver (the run is void, not judged); an
+    AssertionError telling the run's story otherwise."""
     course = timed_without_a_speed_sensor(find_scenario("test-course"), robot.config)
     played = play(robot, course)
-    assert not played.failed, "\n".join([*played.failed, "bywire's log:", robot.log()[-3000:]])
+    starved = _starved(robot, played)
+    if played.failed and starved:
+        return f"{'; '.join(played.failed)[:300]}... in a run where {starved}"
+    told = [*played.failed, "timeline:", *timeline(played)]
+    told += [f"the rig's stalls: {_stalls(robot, played) or 'none'}"]
+    told += ["bywire's log:", robot.log()[-3000:]]
+    assert not played.failed, "\n".join(told)
     assert played.passed == EXPECTED_UNSENSED
     assert robot.computer.reports > 0
     assert robot.stop() == 0
@@ -121,3 +152,38 @@ def _the_course(robot: KernelRobot) -> None:
     assert (last.motors_enabled, last.ebrake_engaged, last.throttle_volts) == (False, True, 0.0)
     assert robot.computer.mode is not None
     assert robot.computer.mode.control_mode is ControlMode.STOP
+    return None
+
+
+def _starved(robot: KernelRobot, played: Played) -> str | None:
+    """How the rig failed to deliver the course's inputs, if it did: the computer's commands or
+    the transmitter's frames stopped for at least bywire's own timeout for them, so bywire was
+    right to stop, and the course could not be driven. On a loaded host the whole guest (one
+    CPU, bywire at SCHED_FIFO ahead of the rig) went without a turn for up to 1.9 s (the CI
+    run of 2026-12-07, and here beside a second load)."""
+    timeouts = robot.config.timeouts
+    limits = {
+        "the computer's commands": (robot.computer.stalls, timeouts.can_command_timeout_s),
+        "the transmitter's frames": (robot.transmitter.stalls, timeouts.rc_timeout_s),
+    }
+    found = [
+        f"{what} stopped for {gap_s:.2f} s at {at_s - played.started_monotonic_s:.2f} s"
+        f" (bywire's timeout {limit_s:g} s)"
+        for what, (stalls, limit_s) in limits.items()
+        for at_s, gap_s in stalls
+        if gap_s >= limit_s and at_s >= played.started_monotonic_s
+    ]
+    return "; ".join(found) or None
+
+
+def _stalls(robot: KernelRobot, played: Played) -> str:
+    start_s = played.started_monotonic_s
+    return "; ".join(
+        f"{who} {gap_s:.3f} s ending at {at_s - start_s:.3f} s"
+        for who, stalls in (
+            ("computer", robot.computer.stalls),
+            ("transmitter", robot.transmitter.stalls),
+        )
+        for at_s, gap_s in stalls
+        if at_s >= start_s
+    )
