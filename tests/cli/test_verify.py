@@ -20,10 +20,11 @@ import dask
 import psutil
 import pytest
 from distributed import Client, LocalCluster
+from rich.console import Console
 
 from bywire.cli import verify
 from bywire.cli.main import main
-from bywire.config import RobotConfig, parse_config, sections
+from bywire.config import RobotConfig, default_sim_config, parse_config, sections
 from bywire.config.reader import Interval, KeyRead
 from bywire.model import ControlMode
 from bywire.sim.verify import engine
@@ -34,7 +35,7 @@ from bywire.sim.verify.oracle import INVARIANTS
 from bywire.sim.verify.oracle.invariants import BRIDGE_INVARIANTS, OUTPUT_INVARIANTS
 from bywire.sim.verify.robots import Schema, dotted, draw_robot, keys_needed
 from bywire.sim.verify.supervisor_check import MONITOR_CAUSES, TRANSITIONS, transitions_naming
-from tests.sim.verify.cluster_plugins import CrashAt
+from tests.sim.verify.cluster_plugins import CrashAt, FirstResult, their_cluster
 from tests.system.old_bugs import OLD_BUGS
 
 SIM = Path(__file__).resolve().parents[2] / "src" / "bywire" / "defaults" / "sim.toml"
@@ -500,6 +501,54 @@ def test_a_cluster_the_user_runs_is_used_with_one_thread_a_worker_and_refused_wi
     assert error.count("\n") == 1
     assert "runs 2 threads" in error
     assert "--nthreads 1" in error
+
+
+def test_a_cluster_that_loses_its_workers_mid_run_stops_it_summarising_what_ran(
+    capsys: pytest.CaptureFixture[str], tmp_path: Path
+) -> None:
+    """Every worker of the user's cluster stops mid-run: verify waited for ever; it now stops
+    after --workers-wait-s, summarises the campaigns that came back, says why in one line with
+    what to do, and exits 1 (not clean: the budget was not run)."""
+    args = ["--budget", "40", "--campaign-s", "2", "--seed", "5", "--out", str(tmp_path)]
+    ended: list[int] = []
+    with their_cluster() as theirs:
+        first_result = FirstResult()
+        theirs.scheduler.add_plugin(first_result)
+        address = theirs.scheduler_address
+        run = ["verify", "--json", *args, "--cluster", address, "--workers-wait-s", "0.5"]
+        verifying = threading.Thread(target=lambda: ended.append(main(run)), daemon=True)
+        verifying.start()
+        assert first_result.held.wait(60)
+        theirs.scale(0)  # every worker leaves
+        verifying.join(60)
+        assert not verifying.is_alive(), "verify still waits on a cluster without a worker"
+    summary = json.loads(capsys.readouterr().out)
+    assert ended == [1]
+    assert f"the cluster at {address} has had no worker for 0.5 s" in summary["stopped"]
+    assert 0 < summary["campaigns"] < 40
+    verify._print_summary(Console(), summary, default_sim_config())
+    shown = capsys.readouterr().out
+    assert f"stopped after {summary['campaigns']} campaigns: the cluster at" in shown
+    assert "result: incomplete, clean so far" in shown
+
+
+def test_a_cluster_without_a_worker_at_the_start_is_refused_after_workers_wait_s(
+    capsys: pytest.CaptureFixture[str], tmp_path: Path
+) -> None:
+    with their_cluster() as theirs:
+        theirs.scale(0)
+        for _ in range(600):  # until the scheduler has seen its worker go
+            if not theirs.scheduler.workers:
+                break
+            time.sleep(0.05)
+        assert not theirs.scheduler.workers
+        run = ["verify", "--budget", "1", "--out", str(tmp_path), "--workers-wait-s", "0.5"]
+        status = main([*run, "--cluster", theirs.scheduler_address])
+    error = capsys.readouterr().err
+    assert status == 2
+    assert error.count("\n") == 1
+    assert "has no worker after 0.5 s" in error
+    assert "--workers-wait-s" in error
 
 
 def test_a_campaign_that_crashes_its_worker_twice_is_reported_with_its_seed_and_index(

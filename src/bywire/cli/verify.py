@@ -20,11 +20,12 @@ With --cluster the campaigns run on a Dask distributed cluster instead (`local`:
 127.0.0.1; tcp://HOST:PORT: a scheduler you run; README "Verifying on a cluster"), with the same
 result for the same seed and budget. Wherever they run, a campaign that kills its worker twice
 is reported (a crash), and with --jobs a campaign still running after --hang-s seconds of real
-time is killed with its worker and reported (a hang); the run goes on.
+time is killed with its worker and reported (a hang); the run goes on. A cluster left with no
+worker for a minute stops the run: what ran is summarised and shrunk, and the run is incomplete.
 
 A violation is shrunk to a short scenario written to --out; `bywire sim --scenario FILE` replays
-it and fails. Exit status: 0 clean, 1 a violation, a crash, a hang or an unsafe combination of
-numbers, 2 a bad configuration or argument.
+it and fails. Exit status: 0 clean, 1 a violation, a crash, a hang, an unsafe combination of
+numbers or a run the cluster stopped, 2 a bad configuration or argument.
 """
 
 from __future__ import annotations
@@ -55,6 +56,8 @@ from bywire.sim.scenario import scenario_toml
 from bywire.sim.verify.campaign import Campaign
 from bywire.sim.verify.cluster import (
     LOCAL,
+    WORKERS_TIMEOUT_S,
+    ClusterLostError,
     cluster_client,
     cluster_outcomes,
     robot_hash,
@@ -161,6 +164,17 @@ def configure(parser: argparse.ArgumentParser) -> None:
             f" process and reported as a hang (default {HANG_S:g}, or --campaign-s if longer: a"
             " campaign simulated slower than real time is stuck); campaigns run in worker"
             " processes then, with --jobs 1 too. Not applied with --cluster"
+        ),
+    )
+    parser.add_argument(
+        "--workers-wait-s",
+        type=positive_seconds,
+        default=WORKERS_TIMEOUT_S,
+        metavar="S",
+        help=(
+            "with --cluster: how long the cluster may be without a worker before verify gives"
+            f" up (default {WORKERS_TIMEOUT_S:g}): at the start it is refused (exit 2); during"
+            " the run, the run stops, and what ran is summarised and shrunk (exit 1)"
         ),
     )
     parser.add_argument(
@@ -276,6 +290,7 @@ class Runner:
     client: Client | None = None
     cluster: str | None = None
     hang_s: float | None = None  # --hang-s: the real time a campaign may run here
+    workers_wait_s: float = WORKERS_TIMEOUT_S  # --workers-wait-s: a cluster without a worker
 
     def outcomes(
         self,
@@ -294,6 +309,7 @@ class Runner:
             job=job,
             budget=budget,
             until=until,
+            no_worker_limit_s=self.workers_wait_s,
         )
 
 
@@ -303,8 +319,8 @@ def _runner(args: argparse.Namespace) -> Iterator[Runner]:
     if args.cluster is None:
         yield Runner(args.jobs, hang_s=hang_limit_s(args.hang_s, args.campaign_s))
         return
-    with cluster_client(args.cluster, args.jobs) as client:
-        yield Runner(worker_count(client), client, args.cluster)
+    with cluster_client(args.cluster, args.jobs, args.workers_wait_s) as client:
+        yield Runner(worker_count(client), client, args.cluster, workers_wait_s=args.workers_wait_s)
 
 
 def run(args: argparse.Namespace) -> int:
@@ -332,7 +348,7 @@ def run(args: argparse.Namespace) -> int:
         print(json.dumps(summary, indent=2))
     else:
         _print_summary(Console(), summary, robot)
-    return 1 if _broken(summary) else 0
+    return 1 if _broken(summary) or summary["stopped"] else 0
 
 
 def verify_robot(
@@ -354,17 +370,21 @@ def verify_robot(
     until = None if args.duration is None else time.monotonic() + args.duration
     job = CampaignJob(args.seed, args.campaign_s)
     tally = Tally()
+    stopped = None  # why the run ended before its budget, if it did (its outcomes are kept)
     started = time.perf_counter()
     with _progress(console, show) as progress:
         task = progress.add_task("campaigns", total=budget, status="")
-        for outcome in runner.outcomes(robot, robot_text, job, budget, until):
-            tally.add(outcome)
-            status = ", ".join(f"{k} {n}" for k, n in sorted(tally.violations.items()))
-            if tally.crashes:
-                status += f", {len(tally.crashes)} crashed a worker"
-            if tally.hangs:
-                status += f", {len(tally.hangs)} hung"
-            progress.update(task, advance=1, status=status or "0 violations")
+        try:
+            for outcome in runner.outcomes(robot, robot_text, job, budget, until):
+                tally.add(outcome)
+                status = ", ".join(f"{k} {n}" for k, n in sorted(tally.violations.items()))
+                if tally.crashes:
+                    status += f", {len(tally.crashes)} crashed a worker"
+                if tally.hangs:
+                    status += f", {len(tally.hangs)} hung"
+                progress.update(task, advance=1, status=status or "0 violations")
+        except ClusterLostError as lost:
+            stopped = str(lost)
     wall_s = time.perf_counter() - started
     reproductions = _shrink_all(
         robot, tally, seed=args.seed, config=config, out=out, console=console, show=show
@@ -379,6 +399,7 @@ def verify_robot(
         cannot_happen=_cannot_happen(robot),
     )
     summary["configuration"] = {"loss_distances": loss_rows(robot)}
+    summary["stopped"] = stopped
     return summary, reproductions
 
 
@@ -579,8 +600,16 @@ def _print_summary(console: Console, summary: dict[str, Any], robot: RobotConfig
             f" of its own; replay it alone: bywire verify --seed {hang['seed']} ... --jobs 1)",
             highlight=False,
         )
+    if summary["stopped"]:
+        console.print(
+            f"[yellow]  stopped after {summary['campaigns']} campaigns:"
+            f" {summary['stopped']}[/yellow]",
+            highlight=False,
+        )
     broken = _broken(summary)
     verdict = "[red]VIOLATIONS[/red]" if broken else "[green]clean[/green]"
+    if summary["stopped"]:
+        verdict = f"[yellow]incomplete[/yellow], {verdict} so far"
     console.print(f"  result: {verdict}")
 
 
@@ -606,6 +635,7 @@ def run_drawn(args: argparse.Namespace) -> int:
     refused = 0
     started = time.perf_counter()
     interrupted = False
+    stopped = None
     with _runner(args) as runner:
         try:
             for drawn in draw_robots(schema, args.seed, count):
@@ -615,6 +645,9 @@ def run_drawn(args: argparse.Namespace) -> int:
                     drawn, schema, base_name, each, args, runner=runner, console=console, show=show
                 )
                 files.append(entry)
+                if entry["stopped"]:  # the cluster is gone: no later file can run either
+                    stopped = entry["stopped"]
+                    break
         except KeyboardInterrupt:
             interrupted = True
     result = {
@@ -628,6 +661,7 @@ def run_drawn(args: argparse.Namespace) -> int:
         "keys_kept": _kept(schema),
         "files_verified": len(files),
         "interrupted": interrupted,
+        "stopped": stopped,
         "wall_s": round(time.perf_counter() - started, 3),
         "campaigns": sum(f["campaigns"] for f in files),
         "files_refused": refused,
@@ -641,7 +675,7 @@ def run_drawn(args: argparse.Namespace) -> int:
         _print_drawn(Console(soft_wrap=True), result)
     if interrupted:
         return 130
-    return 1 if result["violating_files"] else 0
+    return 1 if result["violating_files"] or stopped else 0
 
 
 def _verify_drawn(
@@ -743,6 +777,7 @@ def _file_entry(drawn: DrawnRobot, path: Path, summary: dict[str, Any]) -> dict[
         "failures": summary["failures"],
         "crashes": summary["crashes"],
         "hangs": summary["hangs"],
+        "stopped": summary["stopped"],
         "changed": {key: [_plain(old), _plain(new)] for key, (old, new) in drawn.changed.items()},
         "repaired": [
             {"key": r.key, "drawn": _plain(r.drawn), "base": _plain(r.base), "rule": r.rule}
@@ -858,4 +893,7 @@ def _print_drawn(console: Console, result: dict[str, Any]) -> None:
     verdict = "[red]VIOLATIONS[/red]" if result["violating_files"] else "[green]clean[/green]"
     if result["interrupted"]:
         verdict = f"[yellow]interrupted[/yellow] after {result['files_verified']} files, {verdict}"
+    if result["stopped"]:
+        console.print(f"[yellow]  stopped: {escape(result['stopped'])}[/yellow]", highlight=False)
+        verdict = f"[yellow]incomplete[/yellow] after {result['files_verified']} files, {verdict}"
     console.print(f"  result: {verdict}")

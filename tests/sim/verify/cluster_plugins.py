@@ -5,11 +5,13 @@ bywire reads them: the only way in is a test's `register_plugin` or `add_plugin`
 
 from __future__ import annotations
 
+import logging
 import os
+import threading
 from pathlib import Path
 
 from dask.typing import Key
-from distributed import Scheduler, SchedulerPlugin, Worker, WorkerPlugin
+from distributed import LocalCluster, Scheduler, SchedulerPlugin, Worker, WorkerPlugin
 
 from bywire.config import RobotConfig
 from bywire.sim.verify import cluster
@@ -67,3 +69,27 @@ class Crowding(SchedulerPlugin):
             worker = self.scheduler.tasks[key].processing_on
             if worker is not None:
                 self.held.append(len(worker.processing))
+
+
+class FirstResult(SchedulerPlugin):
+    """Set once the scheduler holds the first batch's result: the run is under way."""
+
+    def __init__(self) -> None:
+        self.held = threading.Event()
+
+    def transition(self, key: Key, start: str, finish: str, *args: object, **kw: object) -> None:
+        if finish == "memory":
+            self.held.set()
+
+
+def their_cluster() -> LocalCluster:
+    """A cluster as a user runs one (`dask scheduler`, one `dask worker --nthreads 1`), its
+    scheduler in this process, on 127.0.0.1."""
+    return LocalCluster(  # type: ignore[no-untyped-call]
+        n_workers=1,
+        threads_per_worker=1,
+        host=cluster.LOOPBACK,
+        dashboard_address=None,
+        scheduler_kwargs={"dashboard": False, "dashboard_address": "127.0.0.1:0"},
+        silence_logs=logging.ERROR,
+    )

@@ -1,13 +1,15 @@
 """`bywire verify --cluster`'s engine on a local Dask cluster bound to 127.0.0.1: outcomes come
 back in index order, equal to the campaigns run here; a worker killed mid-batch costs nothing but
 a retry; a campaign that kills its worker twice is a finding with its seed and index, the rest of
-its batch still run; a worker of another build is refused."""
+its batch still run; a worker of another build is refused; a cluster that loses its last worker
+stops the run, saying so, where it waited for ever."""
 
 from __future__ import annotations
 
 import contextlib
 import logging
 import socket
+import threading
 import warnings
 from collections.abc import Iterator
 from pathlib import Path
@@ -22,13 +24,20 @@ from bywire.sim.verify.cluster import (
     LOCAL,
     LOOPBACK,
     ClusterError,
+    ClusterLostError,
     batch_size,
     cluster_client,
     cluster_outcomes,
     robot_hash,
 )
 from bywire.sim.verify.engine import CampaignJob, Crash, Outcome, run_indexed
-from tests.sim.verify.cluster_plugins import CrashAt, Crowding, OtherBuild
+from tests.sim.verify.cluster_plugins import (
+    CrashAt,
+    Crowding,
+    FirstResult,
+    OtherBuild,
+    their_cluster,
+)
 
 JOB = CampaignJob(seed=5, campaign_s=2.0)
 BUDGET = 6  # 2 workers: batches of 2 campaigns, [0, 2), [2, 4), [4, 6)
@@ -133,6 +142,44 @@ def test_the_halves_of_a_killed_batch_go_out_one_per_worker_so_an_innocent_half_
     assert max(held) == 1  # never a batch waiting behind another on one worker
     assert outcomes[1] == Crash(seed=JOB.seed, index=1, deaths=2)
     assert [o for o in outcomes if isinstance(o, Outcome)] == _here(range(1)) + _here(range(2, 3))
+
+
+def test_a_cluster_that_loses_its_last_worker_stops_the_run_saying_so_and_keeps_what_ran() -> None:
+    """Every worker stopped mid-run (the user's `dask worker` ended, its machine gone): the
+    batches out wait for a worker that never comes. The run waited for ever; it now stops once
+    the cluster has been without a worker for its limit, with the outcomes already back."""
+    with their_cluster() as theirs, cluster_client(theirs.scheduler_address, 1) as one:
+        first_result = FirstResult()
+        theirs.scheduler.add_plugin(first_result)
+        outcomes = cluster_outcomes(
+            one,
+            robot=default_sim_config(),
+            robot_file_hash=robot_hash("sim"),
+            job=JOB,
+            budget=40,  # batches of 8: several still to go when the worker leaves
+            until=None,
+            no_worker_limit_s=0.5,
+        )
+        got: list[Outcome | Crash] = []
+        ended: list[BaseException] = []
+
+        def drain() -> None:
+            try:
+                got.extend(outcomes)
+            except ClusterLostError as lost:
+                ended.append(lost)
+
+        runner = threading.Thread(target=drain, daemon=True)
+        runner.start()
+        assert first_result.held.wait(60)
+        theirs.scale(0)  # every worker leaves
+        runner.join(60)
+        assert not runner.is_alive(), "the run still waits on a cluster without a worker"
+    assert len(ended) == 1
+    assert f"the cluster at {theirs.scheduler_address} has had no worker for 0.5 s" in str(ended[0])
+    assert "dask worker" in str(ended[0])
+    assert 0 < len(got) < 40
+    assert got == _here(range(len(got)))  # what came back is kept, in index order
 
 
 def test_a_worker_of_another_build_is_refused(client: Client) -> None:

@@ -11,6 +11,8 @@ same summary on 1, 2 or 200 workers. Every batch's result carries the build of b
 and the hash of the robot file it ran on: a result of another build or another file is refused.
 
 A worker that dies is replaced by its nanny and the scheduler gives its batch to another worker;
+a cluster left with no worker at all for `WORKERS_TIMEOUT_S` (every `dask worker` stopped, the
+machines gone) stops the run with `ClusterLostError`, where it waited for ever;
 a batch whose worker died twice (`ALLOWED_FAILURES`) comes back as Dask's KilledWorker and is
 split in halves, down to the campaign, and a campaign that killed its worker twice is a finding
 of its own (`Crash`, with its seed and index).
@@ -30,7 +32,7 @@ import signal
 import socket
 import threading
 import time
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from contextlib import contextmanager
 from dataclasses import dataclass, replace
 from importlib import resources
@@ -61,12 +63,20 @@ a crash of the first would count a death against it and could report an innocent
 next batch goes out as one comes back (the halves of a killed batch too, first): a round trip
 against a batch's seconds."""
 WORKERS_TIMEOUT_S = 60.0
-"""How long a cluster the user runs may take to show its first worker."""
+"""How long a cluster the user runs may take to show its first worker, and how long it may be
+without any during a run (a nanny replaces a dead one in seconds) before the run stops."""
+WAIT_S = 1.0
+"""How often a run waiting on its batches looks whether the cluster still has a worker."""
 BUILD_SUFFIXES = (".py", ".dbc", ".toml")
 
 
 class ClusterError(BywireError):
     """The cluster cannot be used: not installed, unreachable, or another build of bywire."""
+
+
+class ClusterLostError(ClusterError):
+    """The cluster lost its last worker during a run and none came back in time: the campaigns
+    not run yet cannot be (those already back are kept)."""
 
 
 @functools.cache
@@ -131,10 +141,13 @@ def _worker_build() -> tuple[str, str]:
 
 
 @contextmanager
-def cluster_client(address: str, workers: int) -> Iterator[Client]:
+def cluster_client(
+    address: str, workers: int, wait_s: float = WORKERS_TIMEOUT_S
+) -> Iterator[Client]:
     """A client of the cluster at `address` (`LOCAL`: a new cluster of `workers` processes on
-    127.0.0.1, shut down on the way out, Ctrl-C included); every worker checked to run this
-    build of bywire. The one place a cluster starts and stops."""
+    127.0.0.1, shut down on the way out, Ctrl-C included) that shows a worker within `wait_s`;
+    every worker checked to run this build of bywire. The one place a cluster starts and
+    stops."""
     try:
         import dask  # noqa: PLC0415 -- an optional extra, only with --cluster
         from distributed import Client, LocalCluster  # noqa: PLC0415
@@ -176,7 +189,7 @@ def cluster_client(address: str, workers: int) -> Iterator[Client]:
             except (OSError, ValueError, TypeError) as error:
                 raise ClusterError(f"cannot reach the cluster at {address}: {error}") from None
             try:
-                _check_workers(client, address)
+                _check_workers(client, address, wait_s)
                 yield client
             finally:
                 client.close()  # type: ignore[no-untyped-call]
@@ -206,12 +219,13 @@ class _Deferred:
             signal.signal(signal.SIGINT, self._previous)  # type: ignore[arg-type]
 
 
-def _check_workers(client: Client, address: str) -> None:
+def _check_workers(client: Client, address: str, wait_s: float) -> None:
     try:
-        client.wait_for_workers(1, timeout=WORKERS_TIMEOUT_S)
+        client.wait_for_workers(1, timeout=wait_s)
     except TimeoutError:
         raise ClusterError(
-            f"the cluster at {address} has no worker after {WORKERS_TIMEOUT_S:g} s"
+            f"the cluster at {address} has no worker after {wait_s:g} s: start one"
+            f" (dask worker {address} --nthreads 1) or give it longer (--workers-wait-s)"
         ) from None
     try:
         builds: dict[str, tuple[str, str]] = client.run(_worker_build)
@@ -276,8 +290,6 @@ class _Dispatch:
     def __init__(
         self, client: Client, batch: Batch, budget: int | None, until: float | None
     ) -> None:
-        from distributed import as_completed  # noqa: PLC0415 -- an optional extra
-
         self.client = client
         self.template = batch  # job, robot and hash; its range is not used
         self.workers = worker_count(client)
@@ -287,7 +299,6 @@ class _Dispatch:
         self.next_start = 0
         self.retry: list[tuple[int, int]] = []
         self.out: dict[Future[BatchResult], Batch] = {}
-        self.pending = as_completed(loop=client.loop)  # type: ignore[no-untyped-call]
 
     def _submit(self, start: int, end: int) -> None:
         batch = replace(self.template, start=start, stop=end)
@@ -295,7 +306,6 @@ class _Dispatch:
         key = f"bywire-verify-{batch.robot_hash}-{batch.job.seed}-{start}-{end}-{stamp}"
         future = self.client.submit(run_batch, batch, key=key, pure=False)
         self.out[future] = batch
-        self.pending.add(future)  # type: ignore[no-untyped-call]
 
     def fill(self) -> None:
         while len(self.out) < IN_FLIGHT_PER_WORKER * max(1, self.workers):
@@ -312,6 +322,32 @@ class _Dispatch:
             self._submit(self.next_start, end)
             self.next_start = end
 
+    def completed(
+        self, no_worker_limit_s: float, clock: Callable[[], float]
+    ) -> Iterator[Future[BatchResult]]:
+        """The batches out, each as it finishes (the caller takes it out of `out` and may give
+        out more); `ClusterLostError` when no worker has been there for `no_worker_limit_s`."""
+        alone_since: float | None = None
+        while self.out:
+            done = _first_done(list(self.out))
+            if done:
+                alone_since = None
+                yield from (future for future in done if future in self.out)
+                continue
+            if worker_count(self.client) > 0:
+                alone_since = None
+            elif alone_since is None:
+                alone_since = clock()
+            elif clock() - alone_since >= no_worker_limit_s:
+                address = self.client.scheduler.address if self.client.scheduler else "?"
+                first = min(batch.start for batch in self.out.values())
+                raise ClusterLostError(
+                    f"the cluster at {address} has had no worker for {no_worker_limit_s:g} s,"
+                    f" so campaigns {first} onwards cannot run: start its workers again"
+                    f" (dask worker {address} --nthreads 1) and run again, or run without"
+                    " --cluster"
+                )
+
     def split(self, batch: Batch) -> bool:
         """Run a killed batch again as two halves; False for a single campaign."""
         if batch.stop - batch.start <= 1:
@@ -325,6 +361,17 @@ class _Dispatch:
             future.cancel()  # type: ignore[no-untyped-call]
 
 
+def _first_done(futures: list[Future[BatchResult]]) -> list[Future[BatchResult]]:
+    """Those of `futures` done once the first is, or none after `WAIT_S`."""
+    from distributed import wait  # noqa: PLC0415 -- an optional extra
+
+    try:
+        waited = wait(futures, timeout=WAIT_S, return_when="FIRST_COMPLETED")  # type: ignore[no-untyped-call]
+    except TimeoutError:
+        return []
+    return list(waited.done)
+
+
 def cluster_outcomes(
     client: Client,
     *,
@@ -333,9 +380,12 @@ def cluster_outcomes(
     job: CampaignJob,
     budget: int | None,
     until: float | None,
+    no_worker_limit_s: float = WORKERS_TIMEOUT_S,
+    clock: Callable[[], float] = time.monotonic,
 ) -> Iterator[Outcome | Crash]:
     """Every campaign's outcome (or its crash) in index order: `budget` of them, or as many
-    batches as start before the wall-clock time `until`."""
+    batches as start before the wall-clock time `until`. `ClusterLostError` once the cluster has had
+    no worker for `no_worker_limit_s` of `clock` (the outcomes before it already yielded)."""
     from distributed.scheduler import KilledWorker  # noqa: PLC0415 -- an optional extra
 
     picklable_compiled_dataclasses()  # the batches go out pickled (a compiled build's too)
@@ -345,7 +395,7 @@ def cluster_outcomes(
     released = 0
     dispatch.fill()
     try:
-        for future in dispatch.pending:
+        for future in dispatch.completed(no_worker_limit_s, clock):
             batch = dispatch.out.pop(future)
             try:
                 result: BatchResult = future.result()
@@ -357,7 +407,7 @@ def cluster_outcomes(
             finally:
                 # Let go at once: a result still held when its worker dies is computed again,
                 # beside the next batch, and that batch's crash would count against it too.
-                future.release()
+                future.release()  # type: ignore[no-untyped-call]
             dispatch.fill()
             while released in ready:
                 yield ready.pop(released)
