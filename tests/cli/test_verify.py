@@ -422,9 +422,12 @@ def _ctrl_c_ends_it(arguments: list[str], ready: Callable[[list[psutil.Process]]
 
 def _as_a_shell_starts_it() -> None:
     """In the child before `exec`: SIGINT at its default and unblocked, as a terminal's shell
-    starts a command. An ignored disposition survives `exec`, and a test run that has left one
-    in pytest's process (the full suite does, in file order; not found which test) would start
-    `bywire verify` deaf to Ctrl-C: it ran its 400 campaigns and exited 0."""
+    starts a command. A non-interactive shell starts a background job (`pytest ... &`, as a
+    script or an agent runs the suite) with SIGINT ignored; the disposition survives `exec`,
+    Python then installs no KeyboardInterrupt handler, and `bywire verify` started from that
+    pytest was deaf to Ctrl-C: it ran its 400 campaigns and exited 0 (two full runs,
+    2026-12-07, both started with `&`; `(python3 -c 'import signal;
+    print(signal.getsignal(signal.SIGINT))' &)` prints 1, SIG_IGN)."""
     signal.signal(signal.SIGINT, signal.SIG_DFL)
     signal.pthread_sigmask(signal.SIG_UNBLOCK, {signal.SIGINT})
 
