@@ -114,3 +114,20 @@ def test_refused_at_arrival_keeps_the_stored_one_pending_and_an_acceptance_ends_
     ahead = Setpoint(0.5, 0.0, 0.1, -0.08)  # its stamp falls behind: never "ahead" by ageing
     assert held(tally, ahead, 0.15, SETTINGS).total_refused == 1
     assert held(tally, ahead, 0.15 + 0.2, SETTINGS).total_refused == 1  # late: not by itself
+
+
+def test_a_held_command_gone_late_while_every_newer_one_is_refused_is_counted_that_period() -> None:
+    """`bywire verify --seed 1`, campaign 1903: the last good command drives on while the newer
+    ones are refused at arrival (stamps 0.3 s old); the period it goes late the bridge stops,
+    and that stop is counted then, once, not with the next refusal a planner's period later."""
+    settings = BridgeSettings()  # defaults: lateness is judged before the stamp
+    good = Setpoint(0.5, 0.0, 0.0, 0.0)
+    tally, _ = arrived(Tally(), None, good, settings)
+    tally, refusal = arrived(tally, good, Setpoint(0.5, 0.0, 0.1, 0.3), settings)
+    assert refusal is Refusal.STAMP_OLD
+    assert held(tally, good, 0.19, settings).total_refused == 1  # still usable
+    late = held(tally, good, 0.21, settings)
+    assert (late.total_refused, late.count(Refusal.LATE)) == (2, 1)
+    assert held(late, good, 0.23, settings) == late  # once
+    quiet, _ = arrived(Tally(), None, good, settings)  # nothing newer arrived: a planner that
+    assert held(quiet, good, 0.21, settings) == quiet  # stopped, or one slower than the timeout

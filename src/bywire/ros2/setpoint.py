@@ -151,10 +151,17 @@ def arrived(
 
 
 def held(tally: Tally, stored: Setpoint | None, now_s: float, settings: BridgeSettings) -> Tally:
-    """Each period: the stored command whose stamp has aged past its limit is refused, once."""
+    """Each period: the stored command that can no longer be used is refused, once: when its
+    stamp has aged past its limit; and when it has gone late while the planner kept sending
+    commands that were all refused at arrival (the bridge stops then although its planner
+    publishes: B3 of docs/SAFETY.md, found by `bywire verify --seed 1`, campaign 1903, where
+    that stop was counted only with the next refusal, up to a planner's period later). A
+    command gone late with nothing arriving since is counted when the next one comes, as
+    late (a planner slower than `cmd_timeout_s`), or not at all (a planner that stopped)."""
     if stored is None or not tally.pending:
         return tally
     why = judge(stored, now_s, settings)
-    if why in AGEING:
+    live = tally.arrived_at_s is not None and tally.arrived_at_s > stored.arrived_s
+    if why in AGEING or (why is Refusal.LATE and live):
         return replace(tally.refuse(why, now_s), pending=False)
     return tally
