@@ -75,9 +75,9 @@ CONDITIONS: tuple[Condition, ...] = (
               lambda o, wanted: o.steering_pulse_s >= float(wanted)),
     Condition("steering_pulse_max_s", "the steering pulse at most this (s)", TIME,
               lambda o, wanted: o.steering_pulse_s <= float(wanted)),
-    Condition("bridge_unshown_drop", "the ROS 2 bridge stopped although its planner publishes, "
-              "and /diagnostics has not shown its inputs WARN or ERROR since (a computer = "
-              "\"bridge\" scenario)", flag,
+    Condition("bridge_unshown_drop", "the ROS 2 bridge refused a set-point or stopped although"
+              " its planner publishes, and /diagnostics has not shown it (counted, inputs WARN or"
+              " ERROR) within two periods (B3; a computer = \"bridge\" scenario)", flag,
               lambda o, wanted: o.bridge_unshown_drop is bool(wanted)),
     Condition("bridge_throttle_max_norm", "the throttle the ROS 2 bridge asked for in its latest"
               " period at most this (a computer = \"bridge\" scenario)", UNIT,

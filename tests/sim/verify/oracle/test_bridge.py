@@ -30,7 +30,9 @@ from bywire.ros2.bridge import Activity, BridgeState, Decision, Inputs, bridge_s
 from bywire.ros2.setpoint import Refusal, Setpoint, Tally, admit
 from bywire.ros2.settings import BridgeSettings
 from bywire.ros2.speed_loop import Pedals
-from bywire.sim.verify.engine import Outcome, run_campaign
+from bywire.sim.runner import SimRun
+from bywire.sim.scenario import parse_scenario, scenario_toml
+from bywire.sim.verify.engine import Outcome, reproduction, run_campaign
 from bywire.sim.verify.oracle import Invariant
 from bywire.sim.verify.oracle.outputs import Outputs
 from bywire.sim.verify.step_events import Step
@@ -308,6 +310,57 @@ def test_b3_flags_refusals_counted_under_the_wrong_reason(
     b3 = [f for f in outcome.findings if f.invariant == Invariant.B3]
     assert b3, outcome.findings
     assert "due stamp_old=" in b3[0].detail
+
+
+STOPS_ON_A_LATE_HELD_ONE = [
+    Step(0.2, "arm", CAN),
+    Step(0.15, "bridge_enable"),
+    Step(0.1, "planner_link", True),
+    Step(0.1, "planner_lag", 0.3),
+]
+"""`bywire verify --seed 1`, campaign 1903, shrunk: 0.1 s after the planner starts, its stamps
+lag 0.3 s, so every new set-point is refused at arrival while the last good one drives on until
+it goes late; the bridge then stops with its planner still publishing."""
+
+
+def _held_before_1903(
+    tally: Tally, stored: Setpoint | None, now_s: float, settings: BridgeSettings
+) -> Tally:
+    """`setpoint.held` before the fix: only a stamp's ageing counted by itself."""
+    if stored is None or not tally.pending:
+        return tally
+    why = setpoint.judge(stored, now_s, settings)
+    if why in setpoint.AGEING:
+        return replace(tally.refuse(why, now_s), pending=False)
+    return tally
+
+
+def test_b3_flags_a_stop_on_a_held_command_gone_late_counted_only_with_the_next_refusal(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    monkeypatch.setattr(link, "held", _held_before_1903)
+    b3 = [f for f in _run(STOPS_ON_A_LATE_HELD_ONE).findings if f.invariant == Invariant.B3]
+    assert b3
+    assert "the bridge STOPPING" in b3[0].detail
+
+
+def test_its_reproduction_fails_on_replay_where_the_level_was_already_warn(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """The shrunk campaign written as a scenario: `bridge_unshown_drop` now reads B3's count
+    too (the level was WARN from the refusals at arrival, so the level alone passed)."""
+    monkeypatch.setattr(link, "held", _held_before_1903)
+    outcome = _run(STOPS_ON_A_LATE_HELD_ONE)
+    finding = next(f for f in outcome.findings if f.invariant == Invariant.B3)
+    written = scenario_toml(
+        reproduction(UNLIMITED, STOPS_ON_A_LATE_HELD_ONE, finding, "b3").scenario
+    )
+    record = SimRun(UNLIMITED, parse_scenario(written, "b3.toml")).run()
+    assert [verdict.passed for verdict in record.verdicts] == [False]
+
+
+def test_the_fixed_bridge_counts_the_held_command_that_goes_late_under_a_live_planner() -> None:
+    assert _found(_run(STOPS_ON_A_LATE_HELD_ONE)) == set()
 
 
 def test_the_fixed_bridge_counts_and_warns_lagging_stamps() -> None:

@@ -31,16 +31,16 @@ stop is B1's or the controller's).
 from __future__ import annotations
 
 from collections.abc import Callable
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 from bywire.error_flags import ErrorFlag
 from bywire.model import ControlMode
 from bywire.ros2 import stop_ramp
 from bywire.ros2.bridge import Activity, Decision
-from bywire.ros2.diagnostics import Level, inputs_status
 from bywire.ros2.link import Snapshot
 from bywire.ros2.setpoint import Refusal
 from bywire.ros2.settings import BridgeSettings
+from bywire.sim.bridge_refusals import GRACE_S, RefusalBooks
 from bywire.sim.verify.oracle.invariants import Invariant, Violation
 from bywire.sim.verify.oracle.judge import HazardOracle
 from bywire.sim.verify.oracle.outputs import Outputs
@@ -51,7 +51,7 @@ GROWTH_MPS = 0.15  # B1: what the true speed may still gain once the flag has ar
 ROLLING_MARGIN_MPS = 0.05  # above the bridge's standstill speed: the robot rolls
 REPORT_LAG_S = 2 * SEND_PERIOD_S  # B1, B2: the bridge's bounds are on the speed it is told,
 # one report period late; the true speed is judged, and the brake follows a period later
-REFUSAL_GRACE_S = 2 * SEND_PERIOD_S  # B3: /diagnostics shows a refusal within this
+REFUSAL_GRACE_S = GRACE_S  # B3: /diagnostics shows a refusal within this (sim/bridge_refusals)
 
 
 def stop_bound_s(from_mps: float, settings: BridgeSettings) -> float:
@@ -75,19 +75,6 @@ class Watch:
     deadline_s: float
 
 
-@dataclass(slots=True)
-class Refusals:
-    """B3's memory: the newest offer, the count `/diagnostics` must reach and by when."""
-
-    last_offer_s: float | None = None
-    seen: int = 0  # commands_refused at the latest period
-    when_used: int = 0  # … at the latest period that drove with the planner's set-point
-    required: int = 0
-    due_s: float | None = None
-    by_reason: dict[Refusal, int] = field(default_factory=dict)  # each reason's count due
-    seen_by_reason: dict[str, int] = field(default_factory=dict)  # … at the latest period
-
-
 class BridgeJudge:
     """Checks B1..B3 after every period of the bridge's link; violations go to `oracle`'s."""
 
@@ -103,28 +90,17 @@ class BridgeJudge:
         self.stopping: Watch | None = None  # B2
         self.brake_norm = 0.0  # the brake the bridge asked for in the period before
         self.activity = Activity.DISENGAGED
-        self.refusals = Refusals()
-        self.last_tick_s: float | None = None
+        self.refusals = RefusalBooks()  # B3's, one definition with bridge_unshown_drop's
 
     # --- what the planner offered ------------------------------------------------------------
 
     def offered(self, at_s: float, refusal: Refusal | None) -> None:
         """The planner offered a set-point at `at_s`; `refusal`: why the link refused it."""
-        refusals = self.refusals
-        refusals.last_offer_s = at_s
-        if refusal is not None:
-            refusals.required = max(refusals.required, refusals.seen) + 1
-            counted = refusals.seen_by_reason.get(refusal.name, 0)
-            refusals.by_reason[refusal] = max(refusals.by_reason.get(refusal, 0), counted) + 1
-            if refusals.due_s is None:
-                refusals.due_s = at_s + REFUSAL_GRACE_S
+        self.refusals.offered(at_s, refusal)
 
     # --- one period of the link --------------------------------------------------------------
 
     def tick(self, decision: Decision, snapshot: Snapshot, now: float) -> None:
-        if self.last_tick_s is not None and now - self.last_tick_s > 2 * SEND_PERIOD_S:
-            self.refusals.due_s = None  # the link was silent: it had no period to show it in
-        self.last_tick_s = now
         out = Outputs.read(self.oracle.world)
         driving = (
             snapshot.engaged
@@ -222,36 +198,16 @@ class BridgeJudge:
         return None
 
     def _b3(self, decision: Decision, snapshot: Snapshot, now: float) -> Violation | None:
-        refusals, health = self.refusals, snapshot.health
-        live = refusals.last_offer_s is not None and self.publishing()
-        if decision.activity is Activity.DRIVING:
-            refusals.when_used = health.refused
-        elif snapshot.engaged and decision.activity is Activity.STOPPING and live:
-            refusals.required = max(refusals.required, refusals.when_used + 1)
-            if refusals.due_s is None:
-                refusals.due_s = now + REFUSAL_GRACE_S
-        refusals.seen = health.refused
-        refusals.seen_by_reason = dict(health.refused_by_reason)
-        level = inputs_status(health, snapshot.robot_status_report).level
-        by_reason = all(
-            refusals.seen_by_reason.get(reason.name, 0) >= due
-            for reason, due in refusals.by_reason.items()
-        )
-        shown = health.refused >= refusals.required and by_reason
-        if shown and level in (Level.WARN, Level.ERROR):
-            refusals.due_s = None
-            return None
-        if refusals.due_s is None or now <= refusals.due_s + 1e-9:
+        unshown = self.refusals.period(decision.activity, snapshot, self.publishing(), now)
+        if unshown is None:
             return None
         detail = (
             f"commands refused or unused (a live planner, the bridge {decision.activity.name})"
-            f" but /diagnostics shows commands_refused={health.refused}"
-            f" ({refusals.required} due; by reason {_counts(refusals.seen_by_reason)}, due"
-            f" {_counts({r.name: n for r, n in refusals.by_reason.items()})}) and its inputs"
-            f" {level.name}"
+            f" but /diagnostics shows commands_refused={unshown.refused}"
+            f" ({unshown.required} due; by reason {_counts(unshown.seen_by_reason)}, due"
+            f" {_counts(unshown.due_by_reason)}) and its inputs {unshown.level.name}"
         )
-        refusals.due_s, refusals.required = None, health.refused  # one finding per episode
-        refusals.by_reason = {}
+        self.refusals.forgive()  # one finding per episode
         return Violation.of(Invariant.B3, now, detail)
 
 
