@@ -168,6 +168,7 @@ def test_a_failure_is_shrunk_and_written_as_a_scenario_sim_replays(
     text = written.read_text()
     assert text.startswith("# Found by `bywire verify --seed 3`")
     assert "Replay: bywire sim --scenario" in text
+    assert [failure["fails_on_replay"] for failure in failures] == [True] * len(failures)
     assert main(["sim", "--scenario", str(written), "--json"]) == 1
 
 

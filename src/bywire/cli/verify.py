@@ -507,10 +507,17 @@ def _summary(
                 "steps": len(r.steps),
                 "shrunk_from": r.original_steps,
                 "scenario": r.notes[0] if r.notes else None,
+                "fails_on_replay": r.fails_on_replay,
             }
             for r in reproductions
         ],
     }
+
+
+NO_REPLAY = (
+    "but its scenario passes when replayed (bywire sim --scenario): the finding stands, its"
+    " reproduction does not; a bug of bywire verify's, please report it with the seed"
+)
 
 
 def _at(finding: Crash | Hang) -> int:
@@ -586,6 +593,8 @@ def _print_summary(console: Console, summary: dict[str, Any], robot: RobotConfig
             f" {failure['steps']}: {failure['scenario']}",
             highlight=False,
         )
+        if failure["fails_on_replay"] is False:
+            console.print(f"[red]    {NO_REPLAY}[/red]", highlight=False)
     for crash in summary["crashes"]:
         console.print(
             f"[red]  campaign {crash['index']} of seed {crash['seed']} killed its worker"
@@ -880,6 +889,8 @@ def _print_drawn(console: Console, result: dict[str, Any]) -> None:
                 f" {escape(failure['detail'])}; {failure['scenario']}",
                 highlight=False,
             )
+            if failure["fails_on_replay"] is False:
+                console.print(f"[red]      {NO_REPLAY}[/red]", highlight=False)
             needed = ", ".join(f"{k} = {_show(v)}" for k, v in failure["keys_needed"].items())
             console.print(
                 f"      keys it needs: {escape(needed) or 'none (the base file fails too)'};"

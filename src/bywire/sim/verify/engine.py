@@ -24,7 +24,8 @@ from typing import Any
 from bywire.background import OWNER
 from bywire.build import picklable_compiled_dataclasses
 from bywire.config import RobotConfig, default_sim_config
-from bywire.sim.scenario import Expectation, Scenario
+from bywire.sim.runner import SimRun
+from bywire.sim.scenario import Expectation, Scenario, parse_scenario, scenario_toml
 from bywire.sim.verify.campaign import TAIL_S, VOCABULARY, Campaign, Step, compile_steps
 from bywire.sim.verify.draw_bridge import draw_any
 
@@ -454,6 +455,7 @@ class Reproduction:
     shrink_runs: int = 0
     original_steps: int = 0
     notes: list[str] = field(default_factory=list)
+    fails_on_replay: bool | None = None  # its scenario, written and read back, run by `sim`
 
 
 def reproduction(
@@ -494,4 +496,13 @@ def shrink_failure(
     result = reproduction(robot, steps, found, name)
     result.shrink_runs = shrinker.runs
     result.original_steps = len(outcome.steps)
+    result.fails_on_replay = fails_on_replay(robot, result.scenario)
     return result
+
+
+def fails_on_replay(robot: RobotConfig, scenario: Scenario) -> bool:
+    """Whether `scenario`, written as its file and read back, fails when `bywire sim
+    --scenario` runs it: what a reproduction promises. A B3 finding once passed on replay,
+    its condition weaker than the oracle's rule (`bywire verify --seed 1`, campaign 1903)."""
+    written = parse_scenario(scenario_toml(scenario), f"{scenario.name}.toml")
+    return not all(verdict.passed for verdict in SimRun(robot, written).run().verdicts)

@@ -30,9 +30,16 @@ from bywire.ros2.bridge import Activity, BridgeState, Decision, Inputs, bridge_s
 from bywire.ros2.setpoint import Refusal, Setpoint, Tally, admit
 from bywire.ros2.settings import BridgeSettings
 from bywire.ros2.speed_loop import Pedals
+from bywire.sim.bridge_refusals import RefusalBooks
 from bywire.sim.runner import SimRun
 from bywire.sim.scenario import parse_scenario, scenario_toml
-from bywire.sim.verify.engine import Outcome, reproduction, run_campaign
+from bywire.sim.verify.engine import (
+    Outcome,
+    fails_on_replay,
+    reproduction,
+    run_campaign,
+    shrink_failure,
+)
 from bywire.sim.verify.oracle import Invariant
 from bywire.sim.verify.oracle.outputs import Outputs
 from bywire.sim.verify.step_events import Step
@@ -357,6 +364,24 @@ def test_its_reproduction_fails_on_replay_where_the_level_was_already_warn(
     )
     record = SimRun(UNLIMITED, parse_scenario(written, "b3.toml")).run()
     assert [verdict.passed for verdict in record.verdicts] == [False]
+
+
+def test_a_shrunk_finding_says_whether_its_scenario_fails_on_replay(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """Every reproduction is replayed as `bywire sim --scenario` runs its file, and says so: the
+    old `held` planted, the finding's scenario fails; with the scenario's condition blinded
+    (as the level-only `bridge_unshown_drop` was for this finding), the check says it does not."""
+    monkeypatch.setattr(link, "held", _held_before_1903)
+    outcome = _run(STOPS_ON_A_LATE_HELD_ONE)
+    assert shrink_failure(UNLIMITED, outcome, "B3", "b3").fails_on_replay is True
+    monkeypatch.setattr(RefusalBooks, "period", lambda *_: None)
+    assert (
+        fails_on_replay(
+            UNLIMITED, reproduction(UNLIMITED, outcome.steps, outcome.findings[0], "b3").scenario
+        )
+        is False
+    )
 
 
 def test_the_fixed_bridge_counts_the_held_command_that_goes_late_under_a_live_planner() -> None:
