@@ -29,22 +29,36 @@ from bywire.sim.verify.oracle.requirements import CAN_PERIOD_S, REQUIRED, Figure
 @dataclass(frozen=True, slots=True)
 class ServoPulses:
     """The servo's calibration (a physical fact of the robot, not a deadline): a steering
-    norm's pulse, and the pulses from centre to either end."""
+    norm's pulse, each side of centre on its own span (full left at `min_pulse_s`, full right at
+    `max_pulse_s`, as the robot file calibrates them). One span for both sides, the shorter,
+    judged a legal asymmetric calibration's handover on the longer side 4 times too fast (H9:
+    `bywire verify --draw-robots 10 --seed 2`, file 4, campaign 106: `min_pulse_s` 1.375 ms)."""
 
     center_s: float = 0.0015
-    half_span_s: float = 0.0005
+    below_s: float = 0.0005  # centre to min_pulse_s
+    above_s: float = 0.0005  # centre to max_pulse_s
     reverse: bool = False
 
     @classmethod
     def of(cls, servo: SteeringConfig) -> ServoPulses:
-        half_s = min(
-            servo.max_pulse_s - servo.center_pulse_s, servo.center_pulse_s - servo.min_pulse_s
-        )
-        return cls(servo.center_pulse_s, half_s, servo.reverse)
+        below_s = servo.center_pulse_s - servo.min_pulse_s
+        above_s = servo.max_pulse_s - servo.center_pulse_s
+        return cls(servo.center_pulse_s, below_s, above_s, servo.reverse)
+
+    @property
+    def half_span_s(self) -> float:
+        """The shorter side's span: tolerances in pulse are taken on it."""
+        return min(self.below_s, self.above_s)
 
     def pulse_s(self, steering_norm: float) -> float:
         norm = -steering_norm if self.reverse else steering_norm
-        return self.center_s + norm * self.half_span_s
+        return self.center_s + norm * (self.above_s if norm >= 0.0 else self.below_s)
+
+    def norm_of(self, pulse_s: float) -> float:
+        """The steering norm whose pulse is `pulse_s` (the inverse of `pulse_s`)."""
+        offset_s = pulse_s - self.center_s
+        norm = offset_s / (self.above_s if offset_s >= 0.0 else self.below_s)
+        return -norm if self.reverse else norm
 
 
 @dataclass(frozen=True, slots=True)

@@ -7,6 +7,7 @@ from dataclasses import replace
 
 import pytest
 
+from bywire.control.steering import SteeringConfig
 from bywire.model import ControlMode
 from bywire.sim.verify.oracle.cause_deadlines import ServoPulses
 from bywire.sim.verify.oracle.checks.h9 import TakeOver, check_h9, handover_rate
@@ -53,3 +54,43 @@ def test_a_move_within_the_rate_passes_and_a_faster_one_is_flagged_with_its_boun
     assert found.expected == {
         "steering_pulse_max_s": pytest.approx(SERVO.pulse_s(0.0) + allowed * SERVO.half_span_s)
     }
+
+
+CALIBRATION = SteeringConfig(
+    min_pulse_s=0.001375, center_pulse_s=0.0015, max_pulse_s=0.002, reverse=True
+)
+"""`bywire verify --draw-robots 10 --seed 2`, file 4: a legal calibration 0.125 ms to the left
+of centre and 0.5 ms to the right, reversed."""
+LOPSIDED = ServoPulses.of(CALIBRATION)
+
+
+def _pulse(norm: float) -> Outputs:
+    """What the servo is sent for `norm`, from the calibration's numbers: reversed, then each
+    side of centre on its own span."""
+    side = -norm
+    span_s = 0.0005 if side >= 0.0 else 0.000125
+    return replace(DRIVING, steering_pulse_s=0.0015 + side * span_s)
+
+
+@pytest.mark.parametrize("toward", [-0.9, 0.9])
+def test_a_lopsided_servo_s_handover_is_judged_in_steering_norms_on_either_side(
+    toward: float,
+) -> None:
+    """Each side on its own span: at the rate on the long side passes (judged on the shorter
+    span, as before, it moved 4 times too fast), a faster move is flagged, its bound the pulse
+    of the allowed norm."""
+    taking, _ = check_h9(TAKING, _pulse(0.0), toward, LOPSIDED, 1.5)
+    assert taking is not None
+    allowed = REQUIRED_HANDOVER_RATE * 0.1 + 0.02  # in 0.1 s at standstill
+    direction = 1.0 if toward > 0 else -1.0
+    assert check_h9(taking, _pulse(direction * (allowed - 0.01)), toward, LOPSIDED, 1.6)[1] is None
+    found = check_h9(taking, _pulse(direction * 0.5), toward, LOPSIDED, 1.6)[1]
+    assert found is not None
+    edge_s = _pulse(direction * allowed).steering_pulse_s
+    assert list(found.expected.values()) == [pytest.approx(edge_s)]
+
+
+def test_a_lopsided_servo_s_pulses_and_norms_are_each_other_s_inverse() -> None:
+    for norm in (-1.0, -0.5, 0.0, 0.3, 1.0):
+        assert LOPSIDED.pulse_s(norm) == pytest.approx(_pulse(norm).steering_pulse_s)
+        assert LOPSIDED.norm_of(LOPSIDED.pulse_s(norm)) == pytest.approx(norm)

@@ -1,7 +1,8 @@
 """H9 **a handover is bumpless for the steering.** Once a source takes over (the switch settled
 on it, or a re-enable), the steering pulse moves towards that source's steering no faster than
-`REQUIRED_HANDOVER_RATE` (full ranges per second below 1 m/s, falling as 1/speed above) until it
-has reached it (not judged with a boosted steering, whose pulse leads its set-point)."""
+`REQUIRED_HANDOVER_RATE` (full ranges per second below 1 m/s, falling as 1/speed above; a range
+is each side's own, centre to its end pulse) until it has reached it (not judged with a boosted
+steering, whose pulse leads its set-point)."""
 
 from __future__ import annotations
 
@@ -49,15 +50,14 @@ def check_h9(
     if last is None or now <= last[0]:
         return taking, None
     speed = abs(out.speed_mps)
-    moved_norm = abs(pulse_s - last[1]) / servo.half_span_s
+    last_norm, now_norm = servo.norm_of(last[1]), servo.norm_of(pulse_s)
+    moved_norm = abs(now_norm - last_norm)  # in steering norms: each side on its own span
     allowed_norm = handover_rate(speed) * (now - last[0]) + REACHED_NORM
     if moved_norm <= allowed_norm:
         return taking, None
-    step_s = allowed_norm * servo.half_span_s
+    edge_s = servo.pulse_s(last_norm + (allowed_norm if now_norm > last_norm else -allowed_norm))
     bound = (
-        {"steering_pulse_max_s": last[1] + step_s}
-        if pulse_s > last[1]
-        else {"steering_pulse_min_s": last[1] - step_s}
+        {"steering_pulse_max_s": edge_s} if pulse_s > last[1] else {"steering_pulse_min_s": edge_s}
     )
     detail = (
         f"taking over from {taking.source.name}: the steering moved {moved_norm:.2f} in"
