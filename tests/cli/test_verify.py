@@ -529,7 +529,7 @@ def test_a_cluster_that_loses_its_workers_mid_run_stops_it_summarising_what_ran(
     summary = json.loads(capsys.readouterr().out)
     assert ended == [1]
     assert f"the cluster at {address} has had no worker for 0.5 s" in summary["stopped"]
-    assert 0 < summary["campaigns"] < 40
+    assert summary["campaigns"] < 40  # none, if the first result went with the worker
     verify._print_summary(Console(), summary, default_sim_config())
     shown = capsys.readouterr().out
     assert f"stopped after {summary['campaigns']} campaigns: the cluster at" in shown

@@ -10,6 +10,7 @@ import contextlib
 import logging
 import socket
 import threading
+import time
 import warnings
 from collections.abc import Iterator
 from pathlib import Path
@@ -172,6 +173,10 @@ def test_a_cluster_that_loses_its_last_worker_stops_the_run_saying_so_and_keeps_
         runner = threading.Thread(target=drain, daemon=True)
         runner.start()
         assert first_result.held.wait(60)
+        for _ in range(600):  # until an outcome is back here (a result left on the worker
+            if got:  # goes with it, to be computed again)
+                break
+            time.sleep(0.05)
         theirs.scale(0)  # every worker leaves
         runner.join(60)
         assert not runner.is_alive(), "the run still waits on a cluster without a worker"

@@ -67,6 +67,9 @@ WORKERS_TIMEOUT_S = 60.0
 without any during a run (a nanny replaces a dead one in seconds) before the run stops."""
 WAIT_S = 1.0
 """How often a run waiting on its batches looks whether the cluster still has a worker."""
+SETTLED = ("finished", "error", "cancelled")
+"""A batch's states whose result can be taken at once; a "lost" one (its result went with its
+worker) is computed again, and taking it would wait for that."""
 BUILD_SUFFIXES = (".py", ".dbc", ".toml")
 
 
@@ -330,10 +333,13 @@ class _Dispatch:
         alone_since: float | None = None
         while self.out:
             done = _first_done(list(self.out))
-            if done:
+            settled = [future for future in done if future.status in SETTLED]
+            if settled:
                 alone_since = None
-                yield from (future for future in done if future in self.out)
+                yield from (future for future in settled if future in self.out)
                 continue
+            if done:  # only results lost with their worker: computed again, if a worker is left
+                time.sleep(WAIT_S)
             if worker_count(self.client) > 0:
                 alone_since = None
             elif alone_since is None:
@@ -386,6 +392,7 @@ def cluster_outcomes(
     """Every campaign's outcome (or its crash) in index order: `budget` of them, or as many
     batches as start before the wall-clock time `until`. `ClusterLostError` once the cluster has had
     no worker for `no_worker_limit_s` of `clock` (the outcomes before it already yielded)."""
+    from distributed.client import FutureCancelledError as CancelledError  # noqa: PLC0415
     from distributed.scheduler import KilledWorker  # noqa: PLC0415 -- an optional extra
 
     picklable_compiled_dataclasses()  # the batches go out pickled (a compiled build's too)
@@ -398,16 +405,23 @@ def cluster_outcomes(
         for future in dispatch.completed(no_worker_limit_s, clock):
             batch = dispatch.out.pop(future)
             try:
-                result: BatchResult = future.result()
+                result: BatchResult = future.result(timeout=WAIT_S)
+            except TimeoutError:  # lost with its worker since it was seen settled: wait again
+                dispatch.out[future] = batch
+                continue
             except KilledWorker:
                 if not dispatch.split(batch):
                     ready[batch.start] = Crash(job.seed, batch.start, deaths)
+            except CancelledError as cancelled:  # the scheduler went, or cancelled it
+                raise ClusterLostError(
+                    f"the cluster cancelled campaigns {batch.start} onwards ({cancelled}):"
+                    " check its scheduler, and run again"
+                ) from None
             else:
                 ready.update((o.index, o) for o in _checked(result, robot_file_hash))
-            finally:
-                # Let go at once: a result still held when its worker dies is computed again,
-                # beside the next batch, and that batch's crash would count against it too.
-                future.release()  # type: ignore[no-untyped-call]
+            # Let go at once: a result still held when its worker dies is computed again,
+            # beside the next batch, and that batch's crash would count against it too.
+            future.release()  # type: ignore[no-untyped-call]
             dispatch.fill()
             while released in ready:
                 yield ready.pop(released)
