@@ -67,6 +67,9 @@ WORKERS_TIMEOUT_S = 60.0
 without any during a run (a nanny replaces a dead one in seconds) before the run stops."""
 WAIT_S = 1.0
 """How often a run waiting on its batches looks whether the cluster still has a worker."""
+RESULT_WAIT_S = 30.0
+"""How long taking a settled batch's result may take (its outcomes through the scheduler, a
+tunnel perhaps) before it is taken as lost with its worker, and waited for again."""
 SETTLED = ("finished", "error", "cancelled")
 """A batch's states whose result can be taken at once; a "lost" one (its result went with its
 worker) is computed again, and taking it would wait for that."""
@@ -405,7 +408,7 @@ def cluster_outcomes(
         for future in dispatch.completed(no_worker_limit_s, clock):
             batch = dispatch.out.pop(future)
             try:
-                result: BatchResult = future.result(timeout=WAIT_S)
+                result: BatchResult = future.result(timeout=RESULT_WAIT_S)
             except TimeoutError:  # lost with its worker since it was seen settled: wait again
                 dispatch.out[future] = batch
                 continue
