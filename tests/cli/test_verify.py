@@ -5,7 +5,6 @@ before anything runs, and a failure is written where `bywire sim --scenario` rep
 from __future__ import annotations
 
 import json
-import logging
 import os
 import signal
 import subprocess
@@ -19,7 +18,7 @@ from typing import Any
 import dask
 import psutil
 import pytest
-from distributed import Client, LocalCluster
+from distributed import Client
 from rich.console import Console
 
 from bywire.cli import verify
@@ -483,15 +482,7 @@ def test_a_cluster_the_user_runs_is_used_with_one_thread_a_worker_and_refused_wi
     threads: int, capsys: pytest.CaptureFixture[str], tmp_path: Path
 ) -> None:
     args = ("--budget", "2", "--campaign-s", "2", "--seed", "3", "--out", str(tmp_path))
-    with LocalCluster(  # type: ignore[no-untyped-call]
-        n_workers=1,
-        threads_per_worker=threads,
-        host="127.0.0.1",
-        dashboard_address=None,
-        # its HTTP routes on a free port, not 8787: two at once (a second worker's) warned
-        scheduler_kwargs={"dashboard": False, "dashboard_address": "127.0.0.1:0"},
-        silence_logs=logging.ERROR,
-    ) as cluster:
+    with their_cluster(threads) as cluster:
         address = cluster.scheduler_address
         assert address.startswith("tcp://127.0.0.1:")
         if threads == 1:
@@ -561,15 +552,7 @@ def test_a_campaign_that_crashes_its_worker_twice_is_reported_with_its_seed_and_
     args = ("--budget", "3", "--campaign-s", "1", "--seed", "4", "--out", str(tmp_path))
     with (
         dask.config.set({"distributed.scheduler.allowed-failures": 1}),
-        LocalCluster(  # type: ignore[no-untyped-call]
-            n_workers=1,
-            threads_per_worker=1,
-            host="127.0.0.1",
-            dashboard_address=None,
-            # its HTTP routes on a free port, not 8787: two at once (a second worker's) warned
-            scheduler_kwargs={"dashboard": False, "dashboard_address": "127.0.0.1:0"},
-            silence_logs=logging.ERROR,
-        ) as cluster,
+        their_cluster() as cluster,
         Client(cluster) as client,  # type: ignore[no-untyped-call]
     ):
         client.register_plugin(CrashAt(1), name="crash-always")  # the test's own hook

@@ -161,29 +161,22 @@ def _starved(robot: KernelRobot, played: Played) -> str | None:
     right to stop, and the course could not be driven. On a loaded host the whole guest (one
     CPU, bywire at SCHED_FIFO ahead of the rig) went without a turn for up to 1.9 s (the CI
     run of 2026-12-07, and here beside a second load)."""
+    return _stalls(robot, played, past_timeouts=True) or None
+
+
+def _stalls(robot: KernelRobot, played: Played, *, past_timeouts: bool = False) -> str:
+    """The rig's silences in the course (`past_timeouts`: only those as long as bywire's own
+    timeout for that input)."""
     timeouts = robot.config.timeouts
-    limits = {
-        "the computer's commands": (robot.computer.stalls, timeouts.can_command_timeout_s),
-        "the transmitter's frames": (robot.transmitter.stalls, timeouts.rc_timeout_s),
-    }
-    found = [
-        f"{what} stopped for {gap_s:.2f} s at {at_s - played.started_monotonic_s:.2f} s"
-        f" (bywire's timeout {limit_s:g} s)"
-        for what, (stalls, limit_s) in limits.items()
-        for at_s, gap_s in stalls
-        if gap_s >= limit_s and at_s >= played.started_monotonic_s
-    ]
-    return "; ".join(found) or None
-
-
-def _stalls(robot: KernelRobot, played: Played) -> str:
+    senders = (
+        ("the computer's commands", robot.computer.stalls, timeouts.can_command_timeout_s),
+        ("the transmitter's frames", robot.transmitter.stalls, timeouts.rc_timeout_s),
+    )
     start_s = played.started_monotonic_s
     return "; ".join(
-        f"{who} {gap_s:.3f} s ending at {at_s - start_s:.3f} s"
-        for who, stalls in (
-            ("computer", robot.computer.stalls),
-            ("transmitter", robot.transmitter.stalls),
-        )
+        f"{what} stopped for {gap_s:.3f} s, until {at_s - start_s:.3f} s"
+        f" (bywire's timeout {limit_s:g} s)"
+        for what, stalls, limit_s in senders
         for at_s, gap_s in stalls
-        if at_s >= start_s
+        if at_s >= start_s and (gap_s >= limit_s or not past_timeouts)
     )

@@ -82,14 +82,15 @@ class FirstResult(SchedulerPlugin):
             self.held.set()
 
 
-def their_cluster() -> LocalCluster:
-    """A cluster as a user runs one (`dask scheduler`, one `dask worker --nthreads 1`), its
-    scheduler in this process, on 127.0.0.1."""
+def their_cluster(threads: int = 1) -> LocalCluster:
+    """A cluster as a user runs one (`dask scheduler`, one `dask worker --nthreads THREADS`),
+    its scheduler in this process, on 127.0.0.1."""
     return LocalCluster(  # type: ignore[no-untyped-call]
         n_workers=1,
-        threads_per_worker=1,
+        threads_per_worker=threads,
         host=cluster.LOOPBACK,
         dashboard_address=None,
+        # its HTTP routes on a free port, not 8787: two at once (a second worker's) warned
         scheduler_kwargs={"dashboard": False, "dashboard_address": "127.0.0.1:0"},
         silence_logs=logging.ERROR,
     )

@@ -7,7 +7,6 @@ stops the run, saying so, where it waited for ever."""
 from __future__ import annotations
 
 import contextlib
-import logging
 import socket
 import threading
 import time
@@ -17,7 +16,7 @@ from pathlib import Path
 
 import dask
 import pytest
-from distributed import Client, LocalCluster
+from distributed import Client
 
 from bywire.config import default_sim_config
 from bywire.sim.verify.cluster import (
@@ -114,15 +113,7 @@ def test_the_halves_of_a_killed_batch_go_out_one_per_worker_so_an_innocent_half_
     against every batch its worker is processing."""
     with (
         dask.config.set({"distributed.scheduler.allowed-failures": ALLOWED_FAILURES}),
-        LocalCluster(  # type: ignore[no-untyped-call]
-            n_workers=1,
-            threads_per_worker=1,
-            host=LOOPBACK,
-            dashboard_address=None,
-            # its HTTP routes on a free port, not 8787: two at once (a second worker's) warned
-            scheduler_kwargs={"dashboard": False, "dashboard_address": "127.0.0.1:0"},
-            silence_logs=logging.ERROR,
-        ) as theirs,
+        their_cluster() as theirs,
         cluster_client(theirs.scheduler_address, 1) as one,
     ):
         crowding = Crowding(theirs.scheduler)  # the scheduler runs in this process

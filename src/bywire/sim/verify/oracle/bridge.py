@@ -20,7 +20,7 @@ oracle was told (the switch, what is broken), and on the bridge's own outputs (i
   set-points are not used (the bridge stops although the planner keeps publishing), is
   counted in `/diagnostics` (`commands_refused` grows, and for a refusal at arrival the count
   of its reason, `refused_<reason>`, from the bridge's `setpoint.Tally`), whose inputs status is
-  WARN or ERROR, within `REFUSAL_GRACE_S`.
+  WARN or ERROR, within `bridge_refusals.GRACE_S`.
 
 B1 and B2 are judged only while the bridge drives the robot: enabled, the switch at CAN, the
 motors enabled and the spring brake released (a stop of the controller's own is H1..H11's to
@@ -40,7 +40,7 @@ from bywire.ros2.bridge import Activity, Decision
 from bywire.ros2.link import Snapshot
 from bywire.ros2.setpoint import Refusal
 from bywire.ros2.settings import BridgeSettings
-from bywire.sim.bridge_refusals import GRACE_S, RefusalBooks
+from bywire.sim.bridge_refusals import RefusalBooks
 from bywire.sim.verify.oracle.invariants import Invariant, Violation
 from bywire.sim.verify.oracle.judge import HazardOracle
 from bywire.sim.verify.oracle.outputs import Outputs
@@ -51,7 +51,6 @@ GROWTH_MPS = 0.15  # B1: what the true speed may still gain once the flag has ar
 ROLLING_MARGIN_MPS = 0.05  # above the bridge's standstill speed: the robot rolls
 REPORT_LAG_S = 2 * SEND_PERIOD_S  # B1, B2: the bridge's bounds are on the speed it is told,
 # one report period late; the true speed is judged, and the brake follows a period later
-REFUSAL_GRACE_S = GRACE_S  # B3: /diagnostics shows a refusal within this (sim/bridge_refusals)
 
 
 def stop_bound_s(from_mps: float, settings: BridgeSettings) -> float:
