@@ -102,21 +102,38 @@ def test_the_brake_begins_only_once_the_cap_is_down() -> None:
     assert governor_step(state, 3.0, True, now + 0.01, CONFIG).brake_norm > 0.0
 
 
+def test_a_cap_coming_down_starts_from_the_throttle_asked() -> None:
+    """Above the throttle asked the cap holds nothing back: it comes down from there, and the
+    brake need not wait for it (docs/SAFETY.md row 71)."""
+    coasting = governor_step(settled(1.0), 3.0, True, 2.0, CONFIG, asked_throttle_norm=0.0)
+    assert coasting.cap_norm == 0.0
+    assert (
+        governor_step(coasting, 3.0, True, 2.01, CONFIG, asked_throttle_norm=0.0).brake_norm > 0.0
+    )
+    part = governor_step(settled(1.0), 3.0, True, 2.0, CONFIG, asked_throttle_norm=0.3)
+    assert part.cap_norm == pytest.approx(0.3 - RATE_PER_S * 0.01)
+    rising = governor_step(settled(2.25), 0.0, True, 2.0, CONFIG, asked_throttle_norm=0.0)
+    assert rising.cap_norm == pytest.approx(0.5 + RATE_PER_S * 0.01)  # going up: the rate bound
+
+
 @given(
     speeds=st.lists(
         st.one_of(st.none(), st.floats(-10.0, 10.0), st.just(math.nan)), min_size=2, max_size=50
     ),
     gaps=st.lists(st.floats(0.0, 0.05), min_size=50, max_size=50),
+    asked=st.lists(st.floats(0.0, 1.0), min_size=50, max_size=50),
 )
-def test_never_a_jerk(speeds: list[float | None], gaps: list[float]) -> None:
-    """Whatever the readings (jumps, gaps, NaN, loss of trust), cap and brake each move at most
-    RATE_PER_S times the time since the last step."""
+def test_never_a_jerk(speeds: list[float | None], gaps: list[float], asked: list[float]) -> None:
+    """Whatever the readings (jumps, gaps, NaN, loss of trust) and the throttle asked, the
+    throttle the cap lets through and the brake each move at most RATE_PER_S times the time
+    since the last step, for the same throttle asked (the cap itself may drop to the throttle
+    asked: above it, it moves no output)."""
     state, now = governor_step(IDLE, speeds[0], True, 0.0, CONFIG), 0.0
-    for speed, gap in zip(speeds[1:], gaps, strict=False):
+    for speed, gap, throttle in zip(speeds[1:], gaps, asked, strict=False):
         now += gap
-        new = governor_step(state, speed, True, now, CONFIG)
+        new = governor_step(state, speed, True, now, CONFIG, asked_throttle_norm=throttle)
         bound = RATE_PER_S * gap + 1e-12
-        assert abs(new.cap_norm - state.cap_norm) <= bound
+        assert abs(min(throttle, new.cap_norm) - min(throttle, state.cap_norm)) <= bound
         assert abs(new.brake_norm - state.brake_norm) <= bound
         assert 0.0 <= new.cap_norm <= 1.0
         assert 0.0 <= new.brake_norm <= 1.0

@@ -554,7 +554,14 @@ def controller_step(
         now,
         config.interlocks,
     )
-    governor = governor_step(state.governor, speed_mps, driving, now, config.governor)
+    governor = governor_step(
+        state.governor,
+        speed_mps,
+        driving,
+        now,
+        config.governor,
+        asked_throttle_norm=asked.throttle_norm,
+    )
     movement = governed(asked, governor)
     stop, stop_phase = stop_step(
         state.stop,

@@ -14,8 +14,10 @@ With a trusted wheel speed |v| and the limit L (docs/SAFETY.md row 67), in every
   0.1 m/s) and grows linearly to full at L + 2·margin. A brake command is graded: regeneration
   from the first bit, the hydraulic brake above its threshold (`control.hydrobrake`). A small
   overshoot on a slope gets the brake it needs and no more; the governor never stops the robot;
-- cap and brake each move at most `RATE_PER_S` per second: never a jerk. The brake begins only
-  once the cap has come down to 0 (a brake command cuts the throttle in `control.drive`).
+- cap and brake each move at most `RATE_PER_S` per second (0 to full in 0.25 s): never a jerk.
+  A cap coming down starts from no higher than the throttle asked (above it, it moves no
+  output). The brake begins only once the cap has come down to 0 (a brake command cuts the
+  throttle in `control.drive`).
 
 Without a trusted speed (no sensor, a faulted one, or a standstill it has not proven:
 `control.speed_check.trusted_speed`) there is nothing to govern on: the cap is the throttle
@@ -33,8 +35,8 @@ from dataclasses import dataclass
 from bywire.control.mux import Movement
 from bywire.control.values import slot_init
 
-RATE_PER_S = 2.0
-"""The fastest the cap or the brake moves, in full ranges per second (0 to 1 in 0.5 s)."""
+RATE_PER_S = 4.0
+"""The fastest the cap or the brake moves, in full ranges per second (0 to 1 in 0.25 s)."""
 BAND_FRACTION = 0.2
 MARGIN_FRACTION = 0.1
 LEAST_BAND_MPS = 0.1
@@ -133,17 +135,29 @@ def governor_step(
     driving: bool,
     now: float,
     config: GovernorConfig,
+    *,
+    asked_throttle_norm: float = 1.0,
 ) -> GovernorState:
-    """The cap and brake at `now` for the trusted speed `speed_mps` (signed; None: untrusted).
+    """The cap and brake at `now` for the trusted speed `speed_mps` (signed; None: untrusted)
+    and the throttle the robot is asked for (`asked_throttle_norm`, after the interlocks).
     Not driving, the governor forgets: an arming starts from the targets (its throttle starts
-    from 0 at the interlock's slew anyway)."""
+    from 0 at the interlock's slew anyway).
+
+    A cap coming down starts from no higher than the throttle asked: above it, the cap holds
+    nothing back, and lowering it there moves no output. (It once came down from 1 at the rate
+    bound while the stick asked for 0: rolling downhill at a 0.1 m/s limit, the brake waited
+    0.5 s for a cap that limited nothing, and the robot reached 0.53 m/s against a bound of
+    0.3; `bywire verify --draw-robots`, seed 2, H11.)"""
     if config.max_speed_mps is None or not driving:
         return IDLE
     cap, brake = _targets(speed_mps, config.max_speed_mps, config.ceiling_throttle_norm)
     if state.at is None:
         return GovernorState(cap, brake if cap == 0.0 else 0.0, now)
     step = RATE_PER_S * max(now - state.at, 0.0)
-    new_cap = _towards(state.cap_norm, cap, step)
+    previous_cap = state.cap_norm
+    if cap < previous_cap:
+        previous_cap = min(previous_cap, max(asked_throttle_norm, cap))
+    new_cap = _towards(previous_cap, cap, step)
     new_brake = _towards(state.brake_norm, brake if new_cap == 0.0 else 0.0, step)
     return GovernorState(new_cap, new_brake, now)
 
