@@ -5,15 +5,18 @@ names, the PWM simulator, a DAC on i2c-dev) and starts `bywire run` as a process
 them. From outside it drives the robot as the robot is driven: the simulated RC transmitter
 (`Transmitter`: real IBUS frames every 7.7 ms, put on the RC tty by the host) and the simulated
 higher-level computer (`Computer`: movement, lights and control commands at 50 Hz with counter
-and CRC on the vcan interface, reports read back from it). `observe()` reads every output back
-from the kernel (gpio-sim's levels, what the PWM chip was told, the DAC's bytes on the I2C bus)
-into the simulator's own `Observation`, so a scenario's expectations judge it by the same code.
+and CRC on the vcan interface, reports read back from it); both send from a process of their own
+above bywire's real-time priority, as other machines would (`Senders`). `observe()` reads every
+output back from the kernel (gpio-sim's levels, what the PWM chip was told, the DAC's bytes on
+the I2C bus) into the simulator's own `Observation`, so a scenario's expectations judge it by the
+same code.
 """
 
 from __future__ import annotations
 
 import contextlib
-import dataclasses
+import json
+import select
 import subprocess
 import sys
 import threading
@@ -26,166 +29,145 @@ import can
 
 from bywire.config import RobotConfig, output_lines, parse_config
 from bywire.control.lights import LIGHT_LINES, LightOutputs
-from bywire.hal.simulated.rc_transmitter import idle_channels, raw_for_axis, raw_for_switch
-from bywire.model import (
-    ControlCommand,
-    ControlMode,
-    ErrorReport,
-    Gear,
-    LightsCommand,
-    ModeReport,
-    MovementCommand,
-    StatusReport,
-)
-from bywire.protocol import dac6574, dbc, ibus
+from bywire.model import ControlMode, ErrorReport, Gear, ModeReport, StatusReport
+from bywire.protocol import dac6574, dbc
 from bywire.sim.observe import Observation
 from tests.hal.linux.bench import GPIO_LABEL, line_names
 from tests.kernel import guest
 
-COMMAND_PERIOD_S = 0.02
 START_LIMIT_S = 60.0  # bywire's first start in the guest imports everything from hostfs
 WARM_UP_S = 2.0  # a new process in the guest is slow while it first touches its memory
 POLL_PERIOD_S = 0.02  # a reading is ~20 sysfs reads, each a round trip through the host
+ANSWER_LIMIT_S = 5.0  # the senders apply a request at once: they run ahead of everything here
+
+SENDERS_ABOVE = 10  # the senders' SCHED_FIFO priority over bywire's (tests/kernel/senders.py)
+REPO = Path(__file__).resolve().parents[2]
 
 
-STALL_S = 0.1  # a gap this long between two sends of the transmitter or computer is recorded
-FRAMES_PER_WRITE = 3  # frames handed to the host at once: a third of the guest's work for it
+class Senders:
+    """The transmitter and the computer's commands in a process of their own, above bywire's
+    real-time priority, as other machines are (tests/kernel/senders.py says why)."""
 
+    def __init__(self, folder: Path, robot: RobotConfig, channel: str, rc_tty: str) -> None:
+        """`robot`: the robot file at `folder`/robot.toml; `channel`: the computer's CAN
+        interface."""
+        self.log_path = folder / "senders.log"
+        priority = min(99, robot.realtime.priority + SENDERS_ABOVE)
+        arguments = [str(folder / "robot.toml"), channel, rc_tty, str(priority)]
+        self.process = subprocess.Popen(
+            [sys.executable, "-m", "tests.kernel.senders", *arguments, str(self.log_path)],
+            stdin=subprocess.PIPE,
+            stdout=subprocess.PIPE,
+            text=True,
+            cwd=REPO,
+        )
+        self._lock = threading.Lock()
+        self._answer("ready", START_LIMIT_S)
 
-def _note_stall(stalls: list[tuple[float, float]], last_s: float) -> float:
-    """Now, after noting in `stalls` a gap since `last_s` longer than STALL_S: the guest did
-    not run this sender (the robot's input stopped for that long, as bywire saw it)."""
-    now_s = time.monotonic()
-    if now_s - last_s > STALL_S:
-        stalls.append((now_s, now_s - last_s))
-    return now_s
+    def ask(self, request: Mapping[str, Any]) -> None:
+        """`request` applied by the senders (returns once it is)."""
+        assert self.process.stdin is not None
+        with self._lock:
+            self.process.stdin.write(json.dumps(request) + "\n")
+            self.process.stdin.flush()
+            self._answer("ok", ANSWER_LIMIT_S)
+
+    def _answer(self, expected: str, limit_s: float) -> None:
+        assert self.process.stdout is not None
+        ready, _, _ = select.select([self.process.stdout], [], [], limit_s)
+        line = self.process.stdout.readline().strip() if ready else "(nothing)"
+        assert line == expected, f"the senders answered {line!r}, not {expected!r}: {self.log()}"
+
+    def log(self) -> str:
+        return self.log_path.read_text(errors="replace") if self.log_path.exists() else ""
+
+    def stalls(self, who: str) -> list[tuple[float, float]]:
+        """(monotonic s, gap s) of each gap over the senders' STALL_S between two sends of
+        `who` ("transmitter" or "computer")."""
+        words = (line.split() for line in self.log().splitlines())
+        return [(float(w[2]), float(w[3])) for w in words if w[:2] == ["stall", who]]
+
+    def play(self, start_s: float, events: list[dict[str, Any]]) -> None:
+        """Actions ({"at_s", "kind", "values"}, in time order), each applied by the senders at
+        monotonic `start_s` + its `at_s` (tests/kernel/senders.py `Schedule`)."""
+        self.ask({"play": start_s, "events": events})
+
+    def applied(self) -> dict[int, float]:
+        """When each played action was applied (its index: monotonic s)."""
+        words = (line.split() for line in self.log().splitlines())
+        return {int(w[1]): float(w[2]) for w in words if w[:1] == ["applied"]}
+
+    def errors(self) -> list[str]:
+        return [line[6:] for line in self.log().splitlines() if line.startswith("error ")]
+
+    def close(self) -> None:
+        assert self.process.stdin is not None
+        with contextlib.suppress(BrokenPipeError):
+            self.process.stdin.close()
+        try:
+            self.process.wait(timeout=10)
+        except subprocess.TimeoutExpired:
+            self.process.kill()
+            self.process.wait()
 
 
 class Transmitter:
-    """The operator's sticks and switches, as IBUS frames on the RC tty every 7.7 ms (handed to
-    the host `FRAMES_PER_WRITE` at a time: the receiver's bytes arrive in bursts of 23 ms)."""
+    """The operator's sticks and switches (the senders' transmitter: IBUS frames every 7.7 ms
+    on the RC tty)."""
 
-    def __init__(self, host: guest.HostLine, config: RobotConfig) -> None:
-        self.mapping = config.rc.mapping
-        self._host = host
-        self._channels = list(idle_channels(self.mapping))
-        self._lock = threading.Lock()
-        self.sending = True
-        self.stalls: list[tuple[float, float]] = []  # (monotonic s, gap s) over STALL_S
-        self._stop = threading.Event()
-        self._thread = threading.Thread(target=self._run, name="transmitter", daemon=True)
-        self._thread.start()
+    def __init__(self, senders: Senders) -> None:
+        self._senders = senders
+        self._sending = True
 
     def apply(self, values: Mapping[str, Any]) -> None:
         """A scenario's `rc = {…}` action."""
-        mapping = self.mapping
-        with self._lock:
-            if "mode" in values:
-                position = mapping.mode_positions.index(ControlMode[str(values["mode"]).upper()])
-                self._set(
-                    mapping.mode_switch.channel, raw_for_switch(position, mapping.mode_switch)
-                )
-            if "gear" in values:
-                position = mapping.gear_positions.index(Gear[str(values["gear"]).upper()])
-                self._set(
-                    mapping.gear_switch.channel, raw_for_switch(position, mapping.gear_switch)
-                )
-            if "steering" in values:
-                axis = mapping.steering
-                self._set(axis.channel, raw_for_axis(float(values["steering"]), axis))
-            if "throttle" in values:
-                axis = mapping.throttle_brake
-                self._set(axis.channel, raw_for_axis(float(values["throttle"]), axis))
+        self._senders.ask({"kind": "rc", "values": dict(values)})
 
-    def _set(self, channel: int, raw: int) -> None:
-        self._channels[channel] = raw
+    @property
+    def sending(self) -> bool:
+        return self._sending
 
-    def _run(self) -> None:
-        next_s = sent_s = time.monotonic()
-        while not self._stop.wait(max(0.0, next_s - time.monotonic())):
-            next_s += ibus.FRAME_PERIOD_S * FRAMES_PER_WRITE
-            if self.sending:
-                with self._lock:
-                    frame = ibus.encode_frame(self._channels)
-                self._host.send_rc(frame * FRAMES_PER_WRITE)
-                sent_s = _note_stall(self.stalls, sent_s)
-            else:
-                sent_s = time.monotonic()  # silent on purpose: no stall
+    @sending.setter
+    def sending(self, sending: bool) -> None:
+        self._senders.ask({"transmitter": sending})
+        self._sending = sending
 
-    def close(self) -> None:
-        self._stop.set()
-        self._thread.join()
+    @property
+    def stalls(self) -> list[tuple[float, float]]:
+        return self._senders.stalls("transmitter")
 
 
 class Computer:
-    """The higher-level computer on the vcan interface: commands at 50 Hz, reports read back."""
+    """The higher-level computer on the vcan interface: its commands at 50 Hz (sent by the
+    senders' process), its reports read back here."""
 
-    def __init__(self, channel: str) -> None:
+    def __init__(self, channel: str, senders: Senders) -> None:
         heard = [ModeReport, ErrorReport, StatusReport]  # filtered in the kernel: fewer wake-ups
         filters: list[Any] = [
             {"can_id": dbc.frame_id(kind), "can_mask": 0x7FF, "extended": False} for kind in heard
         ]
         self.bus = can.Bus(interface="socketcan", channel=channel, can_filters=filters)
-        self.movement = MovementCommand(0.0, 0.0, 1.0, Gear.NEUTRAL, 0)
-        self.lights = LightsCommand(False, False, False, False, 0)
-        self.control = ControlCommand(False, False, 0)
-        self.sending = False
-        self.send_errors: list[str] = []
-        self.stalls: list[tuple[float, float]] = []  # (monotonic s, gap s) over STALL_S
+        self._senders = senders
         self.mode: ModeReport | None = None
         self.errors: ErrorReport | None = None
         self.status: StatusReport | None = None
         self.reports = 0
-        self._movement: dict[str, Any] = {"steering": 0.0, "throttle": 0.0, "brake": 1.0}
-        self._movement["gear"] = "neutral"
-        self._counters: dict[type, int] = {}
         self._stop = threading.Event()
-        self._threads = [
-            threading.Thread(target=self._send_loop, name="hlc-tx", daemon=True),
-            threading.Thread(target=self._receive_loop, name="hlc-rx", daemon=True),
-        ]
-        for thread in self._threads:
-            thread.start()
+        self._thread = threading.Thread(target=self._receive_loop, name="hlc-rx", daemon=True)
+        self._thread.start()
 
     def apply(self, kind: str, values: Mapping[str, Any]) -> None:
         """A scenario's `hlc`, `hlc_lights` or `hlc_control` action (sending starts at the
         first)."""
-        if kind == "hlc":
-            self._movement.update(values)
-            moving = self._movement
-            self.movement = MovementCommand(
-                float(moving["steering"]), float(moving["throttle"]), float(moving["brake"]),
-                Gear[str(moving["gear"]).upper()], 0,
-            )  # fmt: skip
-        elif kind == "hlc_lights":
-            off = {"turn_left": False, "turn_right": False, "hazard": False, "low_beam": False}
-            self.lights = LightsCommand(**{**off, **values}, counter=0)
-        else:
-            self.control = ControlCommand(
-                bool(values.get("remote_stop", False)), bool(values.get("re_enable", False)), 0
-            )
-        self.sending = True
+        self._senders.ask({"kind": kind, "values": dict(values)})
 
-    def _send_loop(self) -> None:
-        next_s = sent_s = time.monotonic()
-        while not self._stop.wait(max(0.0, next_s - time.monotonic())):
-            next_s += COMMAND_PERIOD_S
-            if self.sending:
-                for command in (self.control, self.movement, self.lights):
-                    self._send(command)
-                sent_s = _note_stall(self.stalls, sent_s)
-            else:
-                sent_s = time.monotonic()  # not started yet: no stall
+    @property
+    def stalls(self) -> list[tuple[float, float]]:
+        return self._senders.stalls("computer")
 
-    def _send(self, command: MovementCommand | LightsCommand | ControlCommand) -> None:
-        counter = self._counters.get(type(command), 0)
-        frame_id, payload = dbc.encode_command(dataclasses.replace(command, counter=counter))
-        try:
-            self.bus.send(can.Message(arbitration_id=frame_id, data=payload, is_extended_id=False))
-        except can.CanError as error:
-            self.send_errors.append(str(error))
-            return
-        self._counters[type(command)] = (counter + 1) % dbc.COUNTER_MODULUS
+    @property
+    def send_errors(self) -> list[str]:
+        return self._senders.errors()
 
     def _receive_loop(self) -> None:
         while not self._stop.is_set():
@@ -208,8 +190,7 @@ class Computer:
 
     def close(self) -> None:
         self._stop.set()
-        for thread in self._threads:
-            thread.join()
+        self._thread.join()
         self.bus.shutdown()
 
 
@@ -248,9 +229,10 @@ class KernelRobot:
             self._devices.close()  # a refused file leaves no chip behind for the next test
             raise
         self.lines = {name: str(line.line) for name, line in output_lines(self.config).items()}
-        self.transmitter = Transmitter(self.host, self.config)
-        self._devices.callback(self.transmitter.close)
-        self.computer = Computer(self.vcan.peer)
+        self.senders = Senders(folder, self.config, self.vcan.peer, rc_tty)
+        self._devices.callback(self.senders.close)
+        self.transmitter = Transmitter(self.senders)
+        self.computer = Computer(self.vcan.peer, self.senders)
         self._devices.callback(self.computer.close)
         self.log_path = folder / "bywire.log"
         self.process: subprocess.Popen[bytes] | None = None
