@@ -71,6 +71,23 @@ def test_power_up_is_stop_latched_until_the_switch_is_held_at_stop_then_moved() 
     assert run(state, frame(RC)).mode is RC
 
 
+def test_a_switch_between_positions_stops_at_once_but_readies_no_arming() -> None:
+    """docs/SAFETY.md row 72 (S11): read between positions, the switch is STOP at once, but no
+    stay at STOP, however long it rests there: a flick through STOP shorter than the debounce
+    then arms nothing; a stay at the STOP position does. A move out of a stay at STOP through
+    the gap between positions keeps the arming ready."""
+    gap = frame(STOP, switch_between=True)
+    state = run(armed(), gap)
+    assert state.mode is STOP
+    resting = run(state, *[gap] * 20)
+    assert not resting.ready
+    flicked = run(resting, frame(STOP), *frames(3, RC))
+    assert flicked.mode is STOP  # one frame at STOP: no stay, no arming
+    assert run(resting, *frames(3, STOP), *frames(3, RC)).mode is RC
+    moved = run(SupervisorState(), *frames(3, STOP), gap, gap, *frames(3, RC))
+    assert moved.mode is RC  # from STOP to RC through the gap: still the operator's arming
+
+
 def test_a_move_to_stop_acts_at_once() -> None:
     state = run(armed(), frame(STOP))
     assert state.mode is STOP

@@ -509,6 +509,28 @@ def test_one_frame_at_stop_anywhere_in_a_batch_means_stop() -> None:
     assert alone.value.mode is ControlMode.RC
 
 
+def test_a_batch_is_between_positions_only_if_no_frame_of_it_was_at_the_stop_position() -> None:
+    """docs/SAFETY.md row 72: a switch read between positions is STOP, but no stay at STOP; a
+    batch with one frame at the STOP position is a stay's frame, whatever else it read."""
+    at_stop = ibus.encode_frame((*CHANNELS[:6], 1000, *CHANNELS[7:]))
+    between = ibus.encode_frame((*CHANNELS[:6], 1250, *CHANNELS[7:]))
+    for frames, mode_between in (
+        (between, True),
+        (FRAME + between, True),
+        (between + FRAME, True),
+        (at_stop + between, False),
+        (between + at_stop + FRAME, False),
+        (at_stop, False),
+    ):
+        rx = Receiver()
+        rx.uart.transmit(frames)
+        rx.clock.advance(0.05)
+        stamped = rx.reader.poll(rx.clock.now())
+        assert stamped is not None
+        assert stamped.value is not None
+        assert (stamped.value.mode, stamped.value.mode_between) == (ControlMode.STOP, mode_between)
+
+
 def test_each_frame_is_mapped_as_it_reads_even_after_a_run_of_equal_ones() -> None:
     """The reader maps a run of equal frames once; the frame that differs (a switch to STOP, a
     stick back to centre, a failsafe) is mapped anew, and so is the first one after it."""

@@ -462,6 +462,7 @@ def _supervisor_inputs(
         can_throttle_zero=can is not None and can.throttle_norm == 0.0,
         remote_stop_rising=inputs.stop_requests != state.stop_requests_seen,
         re_enable_edge=new_control and inputs.control_edges.re_enable,
+        switch_between=rc is not None and rc.mode_between,
     )
 
 

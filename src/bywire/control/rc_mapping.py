@@ -110,7 +110,10 @@ class RcMapping:
 
 @dataclass(frozen=True, slots=True)
 class RcRequest:
-    """What the RC transmitter asks for, in command units."""
+    """What the RC transmitter asks for, in command units. `mode_between`: the mode switch lies
+    between positions (or beyond the end ones), so `mode` is STOP, at once, but the switch is
+    not at the STOP position: such frames are no stay at STOP, and ready no arming
+    (`supervisor._debounced`)."""
 
     mode: ControlMode
     steering_norm: float
@@ -119,6 +122,7 @@ class RcRequest:
     gear: Gear
     low_beam: bool
     hazard: bool
+    mode_between: bool = False
 
     def __init__(  # noqa: PLR0917
         self,
@@ -129,6 +133,7 @@ class RcRequest:
         gear: Gear,
         low_beam: bool,
         hazard: bool,
+        mode_between: bool = False,
     ) -> None:
         object.__setattr__(self, "mode", mode)
         object.__setattr__(self, "steering_norm", steering_norm)
@@ -137,6 +142,7 @@ class RcRequest:
         object.__setattr__(self, "gear", gear)
         object.__setattr__(self, "low_beam", low_beam)
         object.__setattr__(self, "hazard", hazard)
+        object.__setattr__(self, "mode_between", mode_between)
 
 
 slot_init(RcRequest)
@@ -289,6 +295,7 @@ def rc_decoded(
         gear=Gear.NEUTRAL if positions.gear is None else mapping.gear_positions[positions.gear],
         low_beam=_on(positions.low_beam, mapping.low_beam_switch),
         hazard=_on(positions.hazard, mapping.hazard_switch),
+        mode_between=positions.mode is None,
     )
     return request, positions
 

@@ -178,7 +178,8 @@ class SupervisorInputs:
     RC frames read at this step (STOP if any of them was at STOP, else the newest's; None while the
     link is lost or implausible); `rc_frame`: such frames are new at this step. `*_throttle_zero`:
     the source's requested throttle is zero (False when the source is missing). The two edges are
-    pulses of a new ControlCommand frame.
+    pulses of a new ControlCommand frame. `switch_between`: the STOP read is no position (the
+    switch between two, or beyond the end ones): it stops at once, but is no stay at STOP.
     """
 
     conditions: frozenset[Cause] = frozenset()
@@ -188,6 +189,7 @@ class SupervisorInputs:
     can_throttle_zero: bool = False
     remote_stop_rising: bool = False
     re_enable_edge: bool = False
+    switch_between: bool = False
 
     def __init__(  # noqa: PLR0917
         self,
@@ -198,6 +200,7 @@ class SupervisorInputs:
         can_throttle_zero: bool = False,
         remote_stop_rising: bool = False,
         re_enable_edge: bool = False,
+        switch_between: bool = False,
     ) -> None:
         object.__setattr__(self, "conditions", conditions)
         object.__setattr__(self, "switch", switch)
@@ -206,6 +209,7 @@ class SupervisorInputs:
         object.__setattr__(self, "can_throttle_zero", can_throttle_zero)
         object.__setattr__(self, "remote_stop_rising", remote_stop_rising)
         object.__setattr__(self, "re_enable_edge", re_enable_edge)
+        object.__setattr__(self, "switch_between", switch_between)
 
     def throttle_zero(self, source: ControlMode) -> bool:
         """Whether `source` (RC or CAN) requests zero throttle now."""
@@ -285,6 +289,12 @@ def _debounced(
     if not inputs.rc_frame:
         return state.switch, state.candidate, state.run_frames
     position = inputs.switch
+    if inputs.switch_between and position is ControlMode.STOP:
+        # STOP at once, but no stay at STOP: a switch read between positions for any time (a
+        # worn switch, a calibration off by a little, the RC link back after its failsafe with
+        # the switch resting there) once readied an arming that a flick through STOP, shorter
+        # than the debounce, then made (bywire verify --draw-robots, seed 2, H1)
+        return position, None, 0
     run = min(state.run_frames + 1, frames) if position is state.candidate else 1
     if position is ControlMode.STOP or run >= frames:
         return position, position, run

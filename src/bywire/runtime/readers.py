@@ -134,15 +134,19 @@ def _batch_request(requests: Sequence[RcRequest | None]) -> RcRequest | None:
     """The newest request of the frames one poll read, judged by the worst of them: one
     implausible frame makes the input suspect at once (R-FAILSAFE), and one frame at STOP
     means STOP (a move to STOP acts on one frame, even when the loop was held up and read
-    several at once)."""
+    several at once); at the STOP position if any of them was, else between positions."""
     newest = requests[-1]
     if newest is None or None in requests:
         return None
-    if newest.mode is not ControlMode.STOP and any(
-        request is not None and request.mode is ControlMode.STOP for request in requests
-    ):
-        return replace(newest, mode=ControlMode.STOP)
-    return newest
+    if len(requests) == 1:
+        return newest
+    stops = [r for r in requests if r is not None and r.mode is ControlMode.STOP]
+    if not stops:
+        return newest
+    between = all(request.mode_between for request in stops)
+    if newest.mode is ControlMode.STOP and newest.mode_between is between:
+        return newest
+    return replace(newest, mode=ControlMode.STOP, mode_between=between)
 
 
 def arrival(frame: CanFrame, now: float) -> float:

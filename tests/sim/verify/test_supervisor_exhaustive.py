@@ -1,5 +1,5 @@
 """The supervisor checked exhaustively: every reachable state × every abstract input, breadth-
-first from power-up, every invariant S1…S10 of docs/SAFETY.md on every transition. Then proof
+first from power-up, every invariant S1…S11 of docs/SAFETY.md on every transition. Then proof
 that the search has teeth: old bugs put back one at a time, each found with its shortest path.
 
 BYWIRE_EXHAUSTIVE=full searches with every cause instead of one for each group of causes with
@@ -133,6 +133,20 @@ def test_a_remote_stop_that_locks_out_rc_or_stops_nothing_is_found(
     monkeypatch: pytest.MonkeyPatch,
 ) -> None:
     assert _found(monkeypatch, "_latching", remote_stop_ignored(monkeypatch))
+
+
+def test_a_switch_between_positions_taken_for_a_stay_at_stop_is_found(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """The supervisor before row 72: a STOP read between positions counted as a stay."""
+    original = supervisor._debounced
+
+    def as_stop(
+        state: SupervisorState, inputs: supervisor.SupervisorInputs, frames: int
+    ) -> tuple[ControlMode | None, ControlMode | None, int]:
+        return original(state, replace(inputs, switch_between=False), frames)
+
+    assert _found(monkeypatch, "_debounced", as_stop) == {"S11"}
 
 
 def test_no_debounce_is_found() -> None:

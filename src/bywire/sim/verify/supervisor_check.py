@@ -1,6 +1,6 @@
 """The supervisor's invariants, checked on one step, and the exhaustive search that checks them.
 
-The invariants are numbered as in `docs/SAFETY.md` (S1…S10) and stated from the rules, not from
+The invariants are numbered as in `docs/SAFETY.md` (S1…S11) and stated from the rules, not from
 the code: each one compares the state before a step, the step's inputs and the state after.
 `explore` walks every state the supervisor can reach from power-up, breadth-first, applying
 every input of an abstract alphabet to each, and checks every invariant on every transition.
@@ -29,7 +29,7 @@ from bywire.control.supervisor import (
 )
 from bywire.model import ControlMode
 
-STOP = ControlMode.STOP
+STOP, RC, CAN = ControlMode.STOP, ControlMode.RC, ControlMode.CAN
 RC_GONE = frozenset({Cause.RC_LOST, Cause.RC_IMPLAUSIBLE})
 SAME_RULES = ALWAYS_LATCHING - RC_GONE - ACKNOWLEDGED_BY_ARMING
 """Causes the supervisor treats alike (latch in any mode, cleared at STOP once gone): every cause
@@ -203,6 +203,16 @@ def _s10_a_lost_link_forgets_the_switch(
     return not lost or (after.switch is None and not after.ready and after.mode is STOP)
 
 
+def _s11_a_switch_between_positions_stops_but_readies_no_arming(
+    before: SupervisorState, inputs: SupervisorInputs, after: SupervisorState, _n: int
+) -> bool:
+    """A frame whose switch lies between positions stops at once (as S3), counts for no stay
+    at STOP, and readies no arming that was not ready before it."""
+    if not (inputs.rc_frame and inputs.switch_between):
+        return True
+    return after.mode is STOP and after.candidate is not STOP and (before.ready or not after.ready)
+
+
 INVARIANTS: dict[str, Invariant] = {
     "S1": _s1_driving_means_nothing_latched,
     "S2": _s2_a_fault_stops_and_latches,
@@ -214,6 +224,7 @@ INVARIANTS: dict[str, Invariant] = {
     "S8": _s8_a_cause_goes_only_by_its_own_rule,
     "S9": _s9_a_mode_away_from_stop_was_seen_in_enough_frames,
     "S10": _s10_a_lost_link_forgets_the_switch,
+    "S11": _s11_a_switch_between_positions_stops_but_readies_no_arming,
 }
 
 
@@ -229,20 +240,21 @@ def violated(
 
 
 def alphabet(causes: Iterable[Cause]) -> tuple[SupervisorInputs, ...]:
-    """Every abstract input: no condition or one of `causes`, every switch reading, frame,
-    throttle and edge; consistent in one respect, as the controller makes them: the switch is
-    unknown exactly when the RC link is lost or implausible."""
+    """Every abstract input: no condition or one of `causes`, every switch reading (STOP at
+    its position or between positions), frame, throttle and edge; consistent in two respects,
+    as the controller makes them: the switch is unknown exactly when the RC link is lost or
+    implausible, and only a STOP read may be between positions."""
     conditions = [frozenset[Cause](), *(frozenset({cause}) for cause in causes)]
-    switches = (None, STOP, ControlMode.RC, ControlMode.CAN)
+    switches = ((None, False), (STOP, False), (STOP, True), (RC, False), (CAN, False))
     flags = list(itertools.product((False, True), repeat=5))
     inputs = []
-    for condition, switch in itertools.product(conditions, switches):
+    for condition, (switch, between) in itertools.product(conditions, switches):
         for rc_frame, rc_zero, can_zero, stop_rising, re_enable in flags:
             if (switch is None) != bool(condition & RC_GONE) or (switch is None and rc_frame):
                 continue
             inputs.append(
                 SupervisorInputs(
-                    condition, switch, rc_frame, rc_zero, can_zero, stop_rising, re_enable
+                    condition, switch, rc_frame, rc_zero, can_zero, stop_rising, re_enable, between
                 )
             )
     return tuple(inputs)

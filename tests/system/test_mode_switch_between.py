@@ -1,0 +1,71 @@
+"""A mode switch read between positions is no stay at STOP (docs/SAFETY.md row 72, S11): the
+campaign `bywire verify --draw-robots --seed 2` found on a legal robot file (file 3, campaign 133,
+H1), judged by the oracle and on the hardware."""
+
+from __future__ import annotations
+
+from bywire.config import parse_config
+from bywire.model import ControlMode
+from bywire.sim.scenario import parse_scenario
+from bywire.sim.verify.campaign import Campaign
+
+ROBOT = """
+[rc.mode_switch]
+positions_raw = [1200, 1700, 2200]
+band_raw = 20
+hysteresis_raw = 87
+
+[timeouts]
+rc_timeout_s = 1.0
+watchdog_s = 3.218
+
+[sim]
+rc_frame_period_s = 0.1
+"""
+
+FOUND = """
+name = "switch-between-positions"
+description = "RC, the switch rested between positions through a failsafe, then a flick via STOP"
+duration_s = 5.0
+event = [
+    { at_s = 0.0, rc = { gear = "forward" } },
+    { at_s = 0.2, rc = { mode = "stop" } },
+    { at_s = 0.26, rc = { throttle = 0.0, mode = "rc" } },
+    { at_s = 1.3, rc = { mode_raw = 1750 } },
+    { at_s = 1.4, fault = "rc_failsafe", count = 1 },
+    { at_s = 2.4, fault = "rc_failsafe_off", count = 1 },
+    { at_s = 3.3, rc = { mode = "stop" } },
+    { at_s = 3.36, rc = { throttle = 0.0, mode = "rc" } },
+]
+"""
+
+
+def test_a_flick_through_stop_after_resting_between_positions_arms_nothing() -> None:
+    """1750 µs lies outside RC's band (1700 ± 20) but within its hysteresis: read as RC while
+    held, as no position (STOP) once the failsafe made the receiver forget it. Resting there
+    1.2 s once readied an arming, and a 60 ms flick through STOP (one frame at 10 Hz, less than
+    the debounce) then armed RC: the drive enabled and the e-brake released with no deliberate
+    act (H1). Now the robot stays stopped, and the oracle finds nothing."""
+    robot = parse_config(ROBOT)
+    observed: list[tuple[float, bool, bool, ControlMode]] = []
+    result = Campaign(robot).run_scenario(
+        parse_scenario(FOUND, "found"),
+        prepare=lambda run: run.runtime.on_cycle.append(
+            lambda now: observed.append(
+                (
+                    now,
+                    run.world.vehicle.inputs.motors_enable,
+                    run.world.vehicle.inputs.ebrake_release,
+                    run.runtime.state.supervisor.mode,
+                )
+            )
+        ),
+    )
+    assert result.oracle.violations == []
+    assert any(mode is ControlMode.RC for now, _, _, mode in observed if now < 1.3)  # it drove
+    after = [(enable, released, mode) for now, enable, released, mode in observed if now > 3.5]
+    assert after
+    assert all(
+        (enable, released, mode) == (False, False, ControlMode.STOP)
+        for enable, released, mode in after
+    )
