@@ -15,6 +15,7 @@ from bywire.control.supervisor import (
     SupervisorConfig,
     SupervisorInputs,
     SupervisorState,
+    counting,
     supervisor_step,
 )
 from bywire.error_flags import ErrorFlag
@@ -86,6 +87,9 @@ def test_a_switch_between_positions_stops_at_once_but_readies_no_arming() -> Non
     assert run(resting, *frames(3, STOP), *frames(3, RC)).mode is RC
     moved = run(SupervisorState(), *frames(3, STOP), gap, gap, *frames(3, RC))
     assert moved.mode is RC  # from STOP to RC through the gap: still the operator's arming
+    # resting there, a repeated frame is no step of the debounce: the controller skips it
+    assert not counting(resting, CONFIG)
+    assert counting(run(resting, frame(STOP)), CONFIG)
 
 
 def test_a_move_to_stop_acts_at_once() -> None:

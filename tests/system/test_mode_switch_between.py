@@ -4,7 +4,13 @@ H1), judged by the oracle and on the hardware."""
 
 from __future__ import annotations
 
+from dataclasses import replace
+
+import pytest
+
 from bywire.config import parse_config
+from bywire.control import supervisor
+from bywire.control.supervisor import SupervisorInputs, SupervisorState
 from bywire.model import ControlMode
 from bywire.sim.scenario import parse_scenario
 from bywire.sim.verify.campaign import Campaign
@@ -69,3 +75,38 @@ def test_a_flick_through_stop_after_resting_between_positions_arms_nothing() -> 
         (enable, released, mode) == (False, False, ControlMode.STOP)
         for enable, released, mode in after
     )
+
+
+RESTING = """
+name = "switch-resting-between-positions"
+description = "RC, then the switch rests between STOP and RC, then goes to RC"
+duration_s = 4.0
+event = [
+    { at_s = 0.0, rc = { gear = "forward" } },
+    { at_s = 0.2, rc = { mode = "stop" } },
+    { at_s = 0.26, rc = { throttle = 0.0, mode = "rc" } },
+    { at_s = 1.3, rc = { mode_raw = 1450 } },
+    { at_s = 2.7, rc = { mode = "rc" } },
+]
+"""
+
+
+@pytest.mark.parametrize("old_debounce", [False, True])
+def test_the_oracle_judges_a_switch_between_positions_as_no_stay_at_stop(
+    monkeypatch: pytest.MonkeyPatch, old_debounce: bool
+) -> None:
+    """`bywire verify` draws a switch between positions: its oracle takes it as STOP without a
+    stay, so the old debounce (which took it for one, and armed RC 1.4 s later with no act) is
+    an H1 violation in campaigns too, and the robot as it is now is clean."""
+    if old_debounce:
+        original = supervisor._debounced
+
+        def as_stop(
+            state: SupervisorState, inputs: SupervisorInputs, frames: int
+        ) -> tuple[ControlMode | None, ControlMode | None, int]:
+            return original(state, replace(inputs, switch_between=False), frames)
+
+        monkeypatch.setattr(supervisor, "_debounced", as_stop)
+    result = Campaign(parse_config(ROBOT)).run_scenario(parse_scenario(RESTING, "resting"))
+    found = {violation.invariant.name for violation in result.oracle.violations}
+    assert found == ({"H1"} if old_debounce else set())

@@ -50,6 +50,7 @@ from bywire.bench.sweeps import CanSweep, MovementLog, RcSweep
 from bywire.bench.tail import PhaseTail, ProbedClock, explain_tail, gc_figures
 from bywire.config import RobotConfig
 from bywire.config.security_setup import controller_receiver, sender_signer, simulated_run_key
+from bywire.control.governor import GovernorConfig
 from bywire.hal.simulated.hlc import COMMAND_PERIOD_S
 from bywire.hal.simulated.world import SimWorld
 from bywire.model import ControlMode, Gear
@@ -74,15 +75,18 @@ Progress = Callable[[str, float, float], None]
 
 
 def bench_runtime_config(robot: RobotConfig) -> RuntimeConfig:
-    """The robot's runtime configuration without the throttle slew limit.
+    """The robot's runtime configuration without the throttle slew limit and the speed governor.
 
     The sweeps raise the throttle in every frame; the interlocks' slew limit delays each rise on
     purpose, by up to a frame. Latency is the controller's reaction time, so it is measured with
-    that limit lifted (falling throttle, brake and STOP are never slew-limited anyway).
+    that limit lifted (falling throttle, brake and STOP are never slew-limited anyway). The
+    sweeps also carry the simulated robot into the speed limit's band, where the governor holds
+    the throttle below the command on purpose (`control.governor`): lifted too.
     """
     config = RuntimeConfig.from_robot(robot)
     interlocks = replace(config.control.interlocks, throttle_slew_up_per_s=1e6)
-    return replace(config, control=replace(config.control, interlocks=interlocks))
+    control = replace(config.control, interlocks=interlocks, governor=GovernorConfig())
+    return replace(config, control=control)
 
 
 @dataclass(frozen=True, slots=True)

@@ -274,7 +274,11 @@ slot_init(SupervisorState)
 
 def counting(state: SupervisorState, config: SupervisorConfig) -> bool:
     """Whether the switch's debounce is still counting frames (a position not yet settled, or
-    none known): while it counts, every RC frame is a step of rule 1, even one that repeats."""
+    none known): while it counts, every RC frame is a step of rule 1, even one that repeats.
+    A switch read between positions counts nothing (STOP, no stay: `_debounced`), and a frame
+    that repeats it changes nothing."""
+    if state.candidate is None and state.switch is ControlMode.STOP:
+        return False
     return state.candidate is not state.switch or state.run_frames < config.debounce_frames
 
 

@@ -78,7 +78,7 @@ class OracleWitness:
         """The mode switch's pulse set to `raw`: in a position's band, that position; between
         two driving positions with the switch at one of them, a switch in transit, which reads
         as that position for the debounce's frames and then as STOP (R-SWITCH, issue 41); any
-        other value, STOP at once."""
+        other value, STOP at once. Between positions, STOP is no stay at STOP (row 72)."""
         self.switch_moved_s = now
         oracle, timing = self.oracle, self.oracle.timing
         banded, neighbours = self._read(raw, oracle.switch)
@@ -86,13 +86,13 @@ class OracleWitness:
             oracle.set_switch(banded, now)
             return
         if oracle.switch is STOP or oracle.switch not in neighbours or STOP in neighbours:
-            oracle.set_switch(STOP, now)
+            oracle.set_switch_between(now)
             return
         stop_s = now + timing.debounce_frames * timing.frame_s  # the last frame it may hold
 
         def stops() -> None:
             if self.switch_moved_s == now:  # not moved since
-                oracle.set_switch(STOP, stop_s)
+                oracle.set_switch_between(stop_s)
 
         self.clock.call_at(stop_s, stops)
 

@@ -65,6 +65,7 @@ class ArmingTracker:
     switch_at: float = 0.0
     switch_shown_s: float = 0.0  # from when frames may show the switch's position (H2)
     stop_since: float = 0.0  # the switch's hold at STOP began (a glimpse away does not end it)
+    between_from: float | None = None  # read between positions since: STOP, no stay (row 72)
     chatter_until: float = -1.0  # a bouncing switch's frames read STOP every other one until then
     left_at: dict[ControlMode, float] = field(default_factory=dict)
     pending: Pending | None = None
@@ -154,9 +155,31 @@ class ArmingTracker:
         shown_s = max(self.switch_shown_s, self.delays.rc_blind_until)
         return self.delays.past_hang(shown_s, shown_s + self.timing.settle_s)
 
+    def set_between(self, now: float) -> None:
+        """The mode switch was read between positions (or beyond the end ones): STOP at once,
+        as at the STOP position, but no stay at STOP (docs/SAFETY.md row 72): a hold at the
+        STOP position under way ends here (what it held still counts: the controller's
+        readiness outlives the gap), and none begins."""
+        if self.between_from is not None:
+            return
+        if self.switch is not STOP:
+            self.set_switch(STOP, now)
+            self.stop_since = float("inf")  # no hold at STOP began
+        self.between_from = now
+
+    def _held_at_stop_s(self, now: float) -> float:
+        """How long the switch has been held at the STOP position (until the gap, if it is
+        between positions now; -inf if it reached the gap from a source)."""
+        until_s = now if self.between_from is None else min(now, self.between_from)
+        return until_s - self.stop_since
+
     def set_switch(self, mode: ControlMode, now: float) -> None:
         """The mode switch moved to `mode` (a source it settles on takes over: H9; back to one
         within the debounce, the controller may never have left it)."""
+        if self.between_from is not None and mode is STOP:
+            self.between_from = None  # at the STOP position again: a new hold begins
+            self.stop_since = now
+            return
         if mode is not self.switch and mode is not STOP:
             returning = (
                 self.switch is not STOP
@@ -168,7 +191,8 @@ class ArmingTracker:
         if mode is self.switch:
             return  # not a move: the frames do not change
         was, entered_s = self.switch, self.switch_at
-        held_s = now - (self.stop_since if was is STOP else entered_s)
+        held_s = self._held_at_stop_s(now) if was is STOP else now - entered_s
+        self.between_from = None
         self.switch, self.switch_at = mode, now
         self.switch_shown_s = float("inf") if OracleCause.RC_LINK_LOST in self.faults else now
         self.left_at[was] = now  # via STOP too: a glimpse of STOP may have gone unseen

@@ -114,6 +114,10 @@ class HazardOracle:
     def set_switch(self, mode: ControlMode, now: float) -> None:
         self.arming.set_switch(mode, now)
 
+    def set_switch_between(self, now: float) -> None:
+        """The switch read between positions: STOP, but no stay at STOP (row 72)."""
+        self.arming.set_between(now)
+
     def set_throttle(self, source: ControlMode, throttle_norm: float, now: float) -> None:
         """`throttle_norm`: the stick's position (RC) or the computer's set-point (CAN); the
         controller reads a stick inside its deadband as zero."""
