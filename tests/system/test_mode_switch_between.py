@@ -4,16 +4,14 @@ H1), judged by the oracle and on the hardware."""
 
 from __future__ import annotations
 
-from dataclasses import replace
-
 import pytest
 
 from bywire.config import parse_config
 from bywire.control import supervisor
-from bywire.control.supervisor import SupervisorInputs, SupervisorState
 from bywire.model import ControlMode
 from bywire.sim.scenario import parse_scenario
 from bywire.sim.verify.campaign import Campaign
+from tests.sim.verify.mutants import between_taken_for_a_stay
 
 ROBOT = """
 [rc.mode_switch]
@@ -99,14 +97,7 @@ def test_the_oracle_judges_a_switch_between_positions_as_no_stay_at_stop(
     stay, so the old debounce (which took it for one, and armed RC 1.4 s later with no act) is
     an H1 violation in campaigns too, and the robot as it is now is clean."""
     if old_debounce:
-        original = supervisor._debounced
-
-        def as_stop(
-            state: SupervisorState, inputs: SupervisorInputs, frames: int
-        ) -> tuple[ControlMode | None, ControlMode | None, int]:
-            return original(state, replace(inputs, switch_between=False), frames)
-
-        monkeypatch.setattr(supervisor, "_debounced", as_stop)
+        monkeypatch.setattr(supervisor, "_debounced", between_taken_for_a_stay())
     result = Campaign(parse_config(ROBOT)).run_scenario(parse_scenario(RESTING, "resting"))
     found = {violation.invariant.name for violation in result.oracle.violations}
     assert found == ({"H1"} if old_debounce else set())

@@ -26,3 +26,22 @@ def remote_stop_ignored(monkeypatch: pytest.MonkeyPatch) -> Latching:
         return original(target, replace(inputs, remote_stop_rising=False))
 
     return ignoring_arrivals
+
+
+Debounce = Callable[
+    [supervisor.SupervisorState, supervisor.SupervisorInputs, int],
+    tuple[ControlMode | None, ControlMode | None, int],
+]
+
+
+def between_taken_for_a_stay() -> Debounce:
+    """The debounce before docs/SAFETY.md row 72: a switch read between positions counted as a
+    stay at STOP. The rule to put in `supervisor._debounced`."""
+    original = supervisor._debounced
+
+    def as_stop(
+        state: supervisor.SupervisorState, inputs: supervisor.SupervisorInputs, frames: int
+    ) -> tuple[ControlMode | None, ControlMode | None, int]:
+        return original(state, replace(inputs, switch_between=False), frames)
+
+    return as_stop

@@ -30,7 +30,7 @@ from bywire.sim.verify.supervisor_check import (
     same_rules,
     transitions_naming,
 )
-from tests.sim.verify.mutants import remote_stop_ignored
+from tests.sim.verify.mutants import between_taken_for_a_stay, remote_stop_ignored
 
 FULL = os.environ.get("BYWIRE_EXHAUSTIVE") == "full"
 
@@ -139,14 +139,7 @@ def test_a_switch_between_positions_taken_for_a_stay_at_stop_is_found(
     monkeypatch: pytest.MonkeyPatch,
 ) -> None:
     """The supervisor before row 72: a STOP read between positions counted as a stay."""
-    original = supervisor._debounced
-
-    def as_stop(
-        state: SupervisorState, inputs: supervisor.SupervisorInputs, frames: int
-    ) -> tuple[ControlMode | None, ControlMode | None, int]:
-        return original(state, replace(inputs, switch_between=False), frames)
-
-    assert _found(monkeypatch, "_debounced", as_stop) == {"S11"}
+    assert _found(monkeypatch, "_debounced", between_taken_for_a_stay()) == {"S11"}
 
 
 def test_no_debounce_is_found() -> None:
