@@ -6,10 +6,12 @@ from collections.abc import Callable
 from dataclasses import dataclass
 
 from bywire.hal.simulated.clock import VirtualClock
+from bywire.hal.simulated.timers import PeriodicTimer
 from bywire.hal.simulated.world import SimWorld
 from bywire.model import ControlMode, Gear
 from bywire.runtime.loop import Runtime
 from bywire.runtime.settings import RuntimeConfig
+from bywire.runtime.watchdog import POLL_S as WATCHDOG_POLL_S
 
 THROTTLE_CHANNEL = 0
 REGEN_CHANNEL = 1
@@ -36,9 +38,21 @@ class Robot:
 
     @classmethod
     def build(cls, config: RuntimeConfig | None = None) -> Robot:
+        """The watchdog on the virtual clock, checked as the simulator checks it: its own
+        thread measures the wall clock, where a test process that waited for a turn on a busy
+        machine tripped it (the dashboard's speed-limit state read STOP beside a compiled
+        build, 2026-12-07)."""
         clock = VirtualClock()
         world = SimWorld.create(clock)
-        return cls(clock, world, Runtime(world.hardware, config or RuntimeConfig()))
+        runtime = Runtime(world.hardware, config or RuntimeConfig(), watchdog_thread=False)
+        watchdog = runtime.watchdog
+        if watchdog is not None:
+
+            def check(_tick_s: float) -> None:
+                watchdog.check()
+
+            PeriodicTimer(clock, WATCHDOG_POLL_S, check).start()
+        return cls(clock, world, runtime)
 
     def at(self, time_s: float, action: Callable[[], None]) -> None:
         self.clock.call_at(time_s, action)
