@@ -152,3 +152,29 @@ def test_a_bouncing_switch_s_stop_is_due_from_its_first_stop_frame() -> None:
     assert even is not None
     assert odd is not None
     assert abs(even - (odd + TIMING.frame_s)) < 1e-12
+
+
+def test_a_switch_between_positions_is_stop_without_a_stay() -> None:
+    """Row 72: a rest between positions is STOP, but readies no arming; a hold at the STOP
+    position before it still counts (the controller's readiness outlives the gap), and so does
+    one a glimpse of a source no frame showed did not end."""
+    from_source = _left_stop_for(RC)
+    from_source.arming.resolve(1.0)
+    from_source.arming.set_between(2.0)
+    assert from_source.arming.switch is STOP
+    from_source.arming.set_switch(RC, 3.5)
+    assert from_source.arming.pending is None  # 1.5 s between positions: no hold, no arming
+    held = parts()
+    held.arming.set_between(1.0)  # from a hold at STOP since 0
+    held.arming.set_switch(RC, 2.0)
+    assert held.arming.pending is not None
+    glimpse = parts()
+    glimpse.arming.set_switch(RC, 1.0)
+    glimpse.arming.set_between(1.0 + TIMING.unseen_s / 2)
+    glimpse.arming.set_switch(RC, 2.0)
+    assert glimpse.arming.pending is not None
+    flicked = parts()
+    flicked.arming.set_between(1.0)
+    flicked.arming.set_switch(STOP, 1.5)  # at the STOP position again: a new hold
+    flicked.arming.set_switch(RC, 1.5 + TIMING.stop_hold_s - 0.001)
+    assert flicked.arming.pending is None

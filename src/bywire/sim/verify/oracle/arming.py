@@ -163,8 +163,10 @@ class ArmingTracker:
         if self.between_from is not None:
             return
         if self.switch is not STOP:
+            held_since = self.stop_since
             self.set_switch(STOP, now)
-            self.stop_since = float("inf")  # no hold at STOP began
+            if self.stop_since != held_since:  # not back from a glimpse away: no hold began
+                self.stop_since = float("inf")
         self.between_from = now
 
     def _held_at_stop_s(self, now: float) -> float:
