@@ -75,8 +75,23 @@ class Robot:
                     f"bywire exited ({self.process.returncode}) before {what}: {self.errors()}"
                 )
             if time.monotonic() > deadline_s:
-                pytest.fail(f"no {what} within {LIMIT_S} s")
+                pytest.fail(f"no {what} within {LIMIT_S} s; {self._story()}")
             time.sleep(0.02)
+
+    def _story(self) -> str:
+        """What a wait that timed out needs to tell: the last reports, then bywire's own log
+        (the process stopped with SIGTERM to read it)."""
+        try:
+            last: object = self.reports()
+        except (OSError, ValueError) as error:
+            last = f"none readable ({error})"
+        self.process.terminate()
+        try:
+            self._output = self.process.communicate(timeout=10)
+        except subprocess.TimeoutExpired:
+            self.process.kill()
+            self._output = self.process.communicate()
+        return f"last reports {last}; bywire's log: {self._output[1][-3000:]}"
 
     def finish(self) -> int:
         try:
