@@ -172,7 +172,7 @@ class ArmingTracker:
     def _held_at_stop_s(self, now: float) -> float:
         """How long the switch has been held at the STOP position (until the gap, if it is
         between positions now; -inf if it reached the gap from a source)."""
-        until_s = now if self.between_from is None else min(now, self.between_from)
+        until_s = now if self.between_from is None else self.between_from
         return until_s - self.stop_since
 
     def set_switch(self, mode: ControlMode, now: float) -> None:
