@@ -4,6 +4,12 @@ signal ends it with every output de-energised, and a device problem is one line,
 The process is `tests/hal/linux/launch_bywire.py`: the real CLI, with the file-backed gpiod
 stand-in and the higher-level computer on its virtual CAN channel (see its docstring). Waiting
 for the process polls the files it writes, with generous limits; nothing sleeps blindly.
+
+The bench runs bywire at the kernel's normal priority, as a user's machine would. A host busy
+with other work can then keep its loop from its deadlines; bywire rightly latches TIMING_FAULT
+and stays in STOP. Such an attempt is void, not failed (the outputs are still checked safe at its
+end), and the test tries again, up to VOID_ATTEMPTS times: a bywire that latches it on every
+attempt fails.
 """
 
 from __future__ import annotations
@@ -18,6 +24,7 @@ import subprocess
 import sys
 import tempfile
 import time
+import warnings
 from collections.abc import Callable, Iterator
 from pathlib import Path
 from typing import Any
@@ -34,6 +41,12 @@ from tests.hal.linux.pty_rc import PtyRcLine
 LAUNCHER = Path(__file__).resolve().parents[1] / "hal" / "linux" / "launch_bywire.py"
 CENTRE_NS = 1_500_000
 LIMIT_S = 30.0  # generous: a loaded CI machine may be slow to start python-can and cantools
+VOID_ATTEMPTS = 3
+
+
+class HostTooSlowError(Exception):
+    """bywire latched TIMING_FAULT: its host kept the loop from its deadlines (the attempt is
+    void, see the module's docstring)."""
 
 
 class Robot:
@@ -70,6 +83,8 @@ class Robot:
     def wait_for(self, what: str, condition: Callable[[], bool]) -> None:
         deadline_s = time.monotonic() + LIMIT_S
         while not _holds(condition):
+            if "TIMING_FAULT" in _holds_value(lambda: self.reports()["flags"], ""):
+                raise HostTooSlowError(f"TIMING_FAULT latched before {what}; {self._story()}")
             if self.process.poll() is not None:
                 pytest.fail(
                     f"bywire exited ({self.process.returncode}) before {what}: {self.errors()}"
@@ -122,10 +137,34 @@ class Robot:
 
 
 def _holds(condition: Callable[[], bool]) -> bool:
+    return bool(_holds_value(condition, False))
+
+
+def _holds_value(value: Callable[[], Any], unwritten: Any) -> Any:
     try:
-        return condition()
+        return value()
     except (OSError, ValueError, KeyError):
-        return False  # a file the process has not written yet
+        return unwritten  # a file the process has not written yet
+
+
+def _on_a_host_that_keeps_time(tmp_path: Path, attempt: Callable[[Bench, PtyRcLine], None]) -> None:
+    """Run `attempt` on a fresh bench and RC line until it is not void (`HostTooSlowError`)."""
+    voided: list[str] = []
+    for number in range(1, VOID_ATTEMPTS + 1):
+        root = tmp_path / f"attempt-{number}"
+        root.mkdir()
+        line = PtyRcLine.at_rest(root / "ttyRC")
+        bench = make_bench(root)
+        try:
+            attempt(bench, line)
+            return
+        except HostTooSlowError as void:
+            voided.append(str(void))
+            warnings.warn(f"attempt {number} void: {str(void)[:200]}", stacklevel=1)
+            _assert_de_energised(bench)  # the story ended it with SIGTERM: safe all the same
+        finally:
+            line.close()
+    pytest.fail(f"all {VOID_ATTEMPTS} attempts void, the last: {voided[-1]}")
 
 
 def _stop_armed(robot: Robot) -> dict[str, Any]:
@@ -143,9 +182,14 @@ def _steering_ns(bench: Bench) -> int:
     ids=["SIGINT", "SIGTERM", "SIGHUP"],
 )
 def test_ibus_and_can_drive_the_outputs_and_a_signal_ends_safe(
-    tmp_path: Path, line: PtyRcLine, stop_signal: signal.Signals
+    tmp_path: Path, stop_signal: signal.Signals
 ) -> None:
-    bench = make_bench(tmp_path)
+    _on_a_host_that_keeps_time(
+        tmp_path, lambda bench, line: _drive_and_signal(bench, line, stop_signal)
+    )
+
+
+def _drive_and_signal(bench: Bench, line: PtyRcLine, stop_signal: signal.Signals) -> None:
     robot = Robot(bench, line)
     try:
         robot.command(steering=-0.6, throttle=0.0, brake=0.5, gear="forward")
@@ -172,10 +216,12 @@ def test_ibus_and_can_drive_the_outputs_and_a_signal_ends_safe(
     assert "Traceback" not in robot.errors()
 
 
-def test_authenticated_commands_drive_and_the_key_stays_out_of_the_log(
-    tmp_path: Path, line: PtyRcLine
-) -> None:
-    bench = make_bench(tmp_path)
+def test_authenticated_commands_drive_and_the_key_stays_out_of_the_log(tmp_path: Path) -> None:
+    _on_a_host_that_keeps_time(tmp_path, _drive_authenticated)
+
+
+def _drive_authenticated(bench: Bench, line: PtyRcLine) -> None:
+    tmp_path = bench.root
     key = tmp_path / "robot.key"
     assert main(["keys", "new", str(key)]) == 0
     security = (
@@ -232,10 +278,16 @@ def _notifications(sock: socket.socket) -> list[str]:
 
 
 def test_a_second_signal_while_stopping_still_ends_safe_and_tells_systemd(
-    tmp_path: Path, line: PtyRcLine, notify_socket: tuple[Path, socket.socket]
+    tmp_path: Path, notify_socket: tuple[Path, socket.socket]
 ) -> None:
-    bench = make_bench(tmp_path)
+    _on_a_host_that_keeps_time(
+        tmp_path, lambda bench, line: _stop_twice(bench, line, notify_socket)
+    )
+
+
+def _stop_twice(bench: Bench, line: PtyRcLine, notify_socket: tuple[Path, socket.socket]) -> None:
     path, sock = notify_socket
+    _notifications(sock)  # what a void attempt before this one said
     robot = Robot(bench, line, notify_socket=path)
     try:
         robot.command(steering=0.0, throttle=0.0, brake=0.5, gear="forward")
