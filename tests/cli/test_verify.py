@@ -171,6 +171,94 @@ def test_a_failure_is_shrunk_and_written_as_a_scenario_sim_replays(
     assert main(["sim", "--scenario", str(written), "--json"]) == 1
 
 
+INTERRUPTED_AFTER = 4
+"""Campaigns that end before the Ctrl-C: seed 3 breaks row 3 at its campaign 2 (above)."""
+
+
+def test_ctrl_c_after_a_violation_still_summarises_it_and_writes_its_scenario(
+    capsys: pytest.CaptureFixture[str], monkeypatch: pytest.MonkeyPatch, tmp_path: Path
+) -> None:
+    """A long search interrupted once it has found something keeps the finding: the campaigns
+    stop, the violation is shrunk and written, the summary says the run is incomplete, and the
+    status is Ctrl-C's. Before, the KeyboardInterrupt ended it in one line, the finding lost."""
+    OLD_BUGS["row_3_a_refused_arming_is_remembered"](monkeypatch)
+    added = 0
+    add = verify.Tally.add
+
+    def then_ctrl_c(tally: verify.Tally, outcome: Any) -> None:
+        nonlocal added
+        add(tally, outcome)
+        added += 1
+        if added == INTERRUPTED_AFTER:
+            os.kill(os.getpid(), signal.SIGINT)  # the terminal's Ctrl-C, to this process
+
+    monkeypatch.setattr(verify.Tally, "add", then_ctrl_c)
+    status, summary = _verify(
+        capsys, "--budget", "200", "--jobs", "1", "--seed", "3", "--out", str(tmp_path)
+    )
+    assert status == 130
+    assert summary["interrupted"] == "Ctrl-C"
+    assert summary["stopped"] == "interrupted by Ctrl-C"
+    campaigns = summary["campaigns"]
+    assert isinstance(campaigns, int)
+    assert INTERRUPTED_AFTER <= campaigns < 200
+    failures = summary["failures"]
+    assert isinstance(failures, list)
+    assert failures
+    assert [failure["fails_on_replay"] for failure in failures] == [True] * len(failures)
+    assert Path(failures[0]["scenario"]).parent == tmp_path
+
+
+def test_sigterm_ends_a_run_summarised_with_its_status_and_leaves_nothing_running(
+    tmp_path: Path,
+) -> None:
+    """SIGTERM to verify alone (a batch scheduler's time limit, `timeout`): the run ends as
+    after Ctrl-C, with the summary of what ran on stdout, exit 143, nothing on stderr, and no
+    worker left. Before, it died at once: no summary, the forked workers left to notice."""
+    output = _terminated(["--budget", "400", "--campaign-s", "5", "--jobs", "2"], tmp_path)
+    summary = json.loads(output)
+    assert summary["interrupted"] == "SIGTERM"
+    assert summary["campaigns"] < 400
+
+
+def test_sigterm_ends_a_draw_summarising_the_files_so_far(tmp_path: Path) -> None:
+    output = _terminated(
+        ["--draw-robots", "3", "--budget", "300", "--campaign-s", "5", "--jobs", "2"], tmp_path
+    )
+    result = json.loads(output)
+    assert result["interrupted"] == "SIGTERM"
+    assert result["files_verified"] == 1
+    [entry] = result["files"]
+    assert entry["interrupted"] == "SIGTERM"
+    assert entry["campaigns"] < 100
+
+
+def _terminated(arguments: list[str], tmp_path: Path) -> str:
+    """`bywire verify --json` with `arguments`, sent SIGTERM (it alone) once both its workers
+    are up: exit 143, nothing on stderr, and its whole group gone; its stdout."""
+    command = [sys.executable, "-m", "bywire.cli.main", "verify", "--json", *arguments]
+    process = subprocess.Popen(
+        [*command, "--out", str(tmp_path)],
+        start_new_session=True,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+    )
+    try:
+        verify_process = psutil.Process(process.pid)
+        assert _until(
+            lambda: sum(map(_ignores_sigint, verify_process.children(recursive=True))) == 2
+        )
+        process.terminate()
+        output, error = process.communicate(timeout=120)
+    finally:
+        if process.poll() is None:
+            process.kill()
+            process.wait()
+    assert (process.returncode, error.decode()) == (143, "")
+    assert _until(lambda: not _group_alive(process.pid))
+    return output.decode()
+
+
 def test_a_duration_runs_campaigns_until_the_time_is_up(
     capsys: pytest.CaptureFixture[str],
 ) -> None:
@@ -230,7 +318,7 @@ def test_a_small_draw_verifies_each_file_drawn_to_the_edges_of_the_loaders_range
         "--out", str(tmp_path),
     )  # fmt: skip
     assert status == (1 if result["violating_files"] else 0)
-    assert (result["files_verified"], result["campaigns"], result["interrupted"]) == (3, 15, False)
+    assert (result["files_verified"], result["campaigns"], result["interrupted"]) == (3, 15, None)
     assert "backend" in result["keys_kept"]
     assert result["keys_drawn"] > 70
     assert result["files_refused"] >= 1

@@ -24,8 +24,11 @@ time is killed with its worker and reported (a hang); the run goes on. A cluster
 worker for a minute stops the run: what ran is summarised and shrunk, and the run is incomplete.
 
 A violation is shrunk to a short scenario written to --out; `bywire sim --scenario FILE` replays
-it and fails. Exit status: 0 clean, 1 a violation, a crash, a hang, an unsafe combination of
-numbers or a run the cluster stopped, 2 a bad configuration or argument.
+it and fails. Ctrl-C, or a SIGTERM (a batch scheduler's time limit, `timeout`, a service
+manager), ends the campaigns: what ran is summarised and its violations shrunk all the same (a
+second Ctrl-C skips that). Exit status: 0 clean, 1 a violation, a crash, a hang, an unsafe
+combination of numbers or a run the cluster stopped, 2 a bad configuration or argument, 130
+after Ctrl-C and 143 after SIGTERM.
 """
 
 from __future__ import annotations
@@ -33,10 +36,12 @@ from __future__ import annotations
 import argparse
 import json
 import os
+import signal
 import sys
+import threading
 import time
 from collections import Counter
-from collections.abc import Iterator
+from collections.abc import Generator, Iterator
 from contextlib import contextmanager
 from dataclasses import dataclass, field
 from importlib import resources
@@ -299,7 +304,7 @@ class Runner:
         job: CampaignJob,
         budget: int | None,
         until: float | None,
-    ) -> Iterator[Result]:
+    ) -> Generator[Result, None, None]:
         if self.client is None:
             return campaign_outcomes(robot, job, self.jobs, budget, until, limit_s=self.hang_s)
         return cluster_outcomes(
@@ -323,7 +328,47 @@ def _runner(args: argparse.Namespace) -> Iterator[Runner]:
         yield Runner(worker_count(client), client, args.cluster, workers_wait_s=args.workers_wait_s)
 
 
+class Terminated(KeyboardInterrupt):
+    """SIGTERM, raised where Ctrl-C raises KeyboardInterrupt, so that it ends the run alike."""
+
+
+@contextmanager
+def _sigterm_interrupts() -> Iterator[None]:
+    """While inside: SIGTERM interrupts the run as Ctrl-C does (`Terminated`). A forked worker
+    inherits the handler and puts SIGTERM back to its default (`engine._work`). Off the main
+    thread (verify called from a program's thread) the process's signals are left alone: only
+    the main thread may set a handler."""
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+
+    def terminated(signum: int, frame: object) -> None:
+        raise Terminated
+
+    previous = signal.signal(signal.SIGTERM, terminated)
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGTERM, previous)
+
+
+def _interruption(error: KeyboardInterrupt) -> str:
+    return "SIGTERM" if isinstance(error, Terminated) else "Ctrl-C"
+
+
+def _interrupted_status(interrupted: str | None) -> int | None:
+    """The exit status of a run `interrupted` by Ctrl-C or SIGTERM: 128 + the signal."""
+    if interrupted is None:
+        return None
+    return 128 + (signal.SIGTERM if interrupted == "SIGTERM" else signal.SIGINT)
+
+
 def run(args: argparse.Namespace) -> int:
+    with _sigterm_interrupts():
+        return _run(args)
+
+
+def _run(args: argparse.Namespace) -> int:
     if args.draw_robots is not None:
         return run_drawn(args)
     robot = default_sim_config() if args.config is None else load_config(args.config)
@@ -348,6 +393,9 @@ def run(args: argparse.Namespace) -> int:
         print(json.dumps(summary, indent=2))
     else:
         _print_summary(Console(), summary, robot)
+    interrupted = _interrupted_status(summary["interrupted"])
+    if interrupted is not None:
+        return interrupted
     return 1 if _broken(summary) or summary["stopped"] else 0
 
 
@@ -371,11 +419,13 @@ def verify_robot(
     job = CampaignJob(args.seed, args.campaign_s)
     tally = Tally()
     stopped = None  # why the run ended before its budget, if it did (its outcomes are kept)
+    interrupted = None  # "Ctrl-C" or "SIGTERM", if either ended it
     started = time.perf_counter()
     with _progress(console, show) as progress:
         task = progress.add_task("campaigns", total=budget, status="")
+        outcomes = runner.outcomes(robot, robot_text, job, budget, until)
         try:
-            for outcome in runner.outcomes(robot, robot_text, job, budget, until):
+            for outcome in outcomes:
                 tally.add(outcome)
                 status = ", ".join(f"{k} {n}" for k, n in sorted(tally.violations.items()))
                 if tally.crashes:
@@ -385,7 +435,18 @@ def verify_robot(
                 progress.update(task, advance=1, status=status or "0 violations")
         except ClusterLostError as lost:
             stopped = str(lost)
+        except KeyboardInterrupt as interruption:
+            interrupted = _interruption(interruption)
+            stopped = f"interrupted by {interrupted}"
+        finally:
+            outcomes.close()  # its workers ended (or the cluster's campaigns cancelled) first
     wall_s = time.perf_counter() - started
+    if interrupted is not None and tally.failing and show:
+        console.print(
+            f"interrupted by {interrupted}: shrinking the {len(tally.failing)} violations found"
+            " so far (Ctrl-C again to skip)",
+            highlight=False,
+        )
     reproductions = _shrink_all(
         robot, tally, seed=args.seed, config=config, out=out, console=console, show=show
     )
@@ -400,6 +461,7 @@ def verify_robot(
     )
     summary["configuration"] = {"loss_distances": loss_rows(robot)}
     summary["stopped"] = stopped
+    summary["interrupted"] = interrupted
     return summary, reproductions
 
 
@@ -643,7 +705,7 @@ def run_drawn(args: argparse.Namespace) -> int:
     refusals: Counter[str] = Counter()
     refused = 0
     started = time.perf_counter()
-    interrupted = False
+    interrupted: str | None = None
     stopped = None
     with _runner(args) as runner:
         try:
@@ -654,11 +716,14 @@ def run_drawn(args: argparse.Namespace) -> int:
                     drawn, schema, base_name, each, args, runner=runner, console=console, show=show
                 )
                 files.append(entry)
+                if entry["interrupted"]:  # what ran of the file is in its entry
+                    interrupted = entry["interrupted"]
+                    break
                 if entry["stopped"]:  # the cluster is gone: no later file can run either
                     stopped = entry["stopped"]
                     break
-        except KeyboardInterrupt:
-            interrupted = True
+        except KeyboardInterrupt as interruption:  # a second one, or one between the files
+            interrupted = _interruption(interruption)
     result = {
         "draw_robots": count,
         "base": base_name,
@@ -682,8 +747,9 @@ def run_drawn(args: argparse.Namespace) -> int:
         print(json.dumps(result, indent=2))
     else:
         _print_drawn(Console(soft_wrap=True), result)
-    if interrupted:
-        return 130
+    status = _interrupted_status(interrupted)
+    if status is not None:
+        return status
     return 1 if result["violating_files"] or stopped else 0
 
 
@@ -787,6 +853,7 @@ def _file_entry(drawn: DrawnRobot, path: Path, summary: dict[str, Any]) -> dict[
         "crashes": summary["crashes"],
         "hangs": summary["hangs"],
         "stopped": summary["stopped"],
+        "interrupted": summary["interrupted"],
         "changed": {key: [_plain(old), _plain(new)] for key, (old, new) in drawn.changed.items()},
         "repaired": [
             {"key": r.key, "drawn": _plain(r.drawn), "base": _plain(r.base), "rule": r.rule}
@@ -866,8 +933,14 @@ def _print_drawn(console: Console, result: dict[str, Any]) -> None:
         for rule, count in refusals.items():
             console.print(f"    {count:4d}  {escape(rule)}", highlight=False, soft_wrap=True)
     for entry in result["files"]:
+        partly = (
+            f", interrupted after {entry['campaigns']} campaigns" if entry["interrupted"] else ""
+        )
         if not _broken(entry):
-            console.print(f"  {entry['file']}: clean ({len(entry['changed'])} keys drawn)")
+            console.print(
+                f"  {entry['file']}: clean ({len(entry['changed'])} keys drawn{partly})",
+                highlight=False,
+            )
             continue
         broken = ", ".join(f"{k} {n}" for k, n in entry["violations"].items())
         console.print(f"[red]  {entry['file']}: {broken}[/red]", highlight=False)
@@ -903,7 +976,10 @@ def _print_drawn(console: Console, result: dict[str, Any]) -> None:
         console.print(f"    keys differing from the base: {escape(changed)}", highlight=False)
     verdict = "[red]VIOLATIONS[/red]" if result["violating_files"] else "[green]clean[/green]"
     if result["interrupted"]:
-        verdict = f"[yellow]interrupted[/yellow] after {result['files_verified']} files, {verdict}"
+        verdict = (
+            f"[yellow]interrupted by {result['interrupted']}[/yellow]"
+            f" after {result['files_verified']} files, {verdict}"
+        )
     if result["stopped"]:
         console.print(f"[yellow]  stopped: {escape(result['stopped'])}[/yellow]", highlight=False)
         verdict = f"[yellow]incomplete[/yellow] after {result['files_verified']} files, {verdict}"

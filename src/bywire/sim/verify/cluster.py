@@ -32,7 +32,7 @@ import signal
 import socket
 import threading
 import time
-from collections.abc import Callable, Iterator
+from collections.abc import Callable, Generator, Iterator
 from contextlib import contextmanager
 from dataclasses import dataclass, replace
 from importlib import resources
@@ -391,7 +391,7 @@ def cluster_outcomes(
     until: float | None,
     no_worker_limit_s: float = WORKERS_TIMEOUT_S,
     clock: Callable[[], float] = time.monotonic,
-) -> Iterator[Outcome | Crash]:
+) -> Generator[Outcome | Crash, None, None]:
     """Every campaign's outcome (or its crash) in index order: `budget` of them, or as many
     batches as start before the wall-clock time `until`. `ClusterLostError` once the cluster has had
     no worker for `no_worker_limit_s` of `clock` (the outcomes before it already yielded)."""

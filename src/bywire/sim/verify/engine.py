@@ -16,7 +16,7 @@ import multiprocessing.connection
 import signal
 import time
 from collections import Counter, deque
-from collections.abc import Callable, Iterator
+from collections.abc import Callable, Generator, Iterator
 from dataclasses import dataclass, field, replace
 from multiprocessing.connection import Connection
 from typing import Any
@@ -138,7 +138,7 @@ def campaign_outcomes(
     until: float | None,
     *,
     limit_s: float | None = None,
-) -> Iterator[Result]:
+) -> Generator[Result, None, None]:
     """Every campaign's result in index order: `budget` of them, or as many as start before the
     wall-clock time `until`. With `jobs` > 1, or a real-time limit `limit_s` per campaign, they
     run in forked worker processes (`_Workers`): a worker that dies is replaced, a campaign
@@ -310,8 +310,11 @@ class _Raised:
 def _work(pipe: Connection, job: CampaignJob, parents: tuple[Connection, ...]) -> None:
     """A worker: run each campaign index sent until None, or until the parent is gone (the
     parent's ends of the pipes, inherited at the fork, closed here first). Ctrl-C is left to the
-    parent, which ends the workers: one clean exit, no traceback from every process."""
+    parent, which ends the workers: one clean exit, no traceback from every process. SIGTERM
+    is put back to its default, which ends the worker: the parent's own handler (`bywire
+    verify` takes SIGTERM for Ctrl-C) is inherited by the fork."""
     signal.signal(signal.SIGINT, signal.SIG_IGN)
+    signal.signal(signal.SIGTERM, signal.SIG_DFL)
     for end in parents:
         end.close()
     while True:
