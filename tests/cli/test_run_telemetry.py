@@ -20,8 +20,14 @@ from bywire.dashboard.client import FeedClient
 from bywire.model import ControlMode
 from bywire.protocol import dbc
 from bywire.telemetry.schemas import CAN_TOPIC, EVENTS_TOPIC, SCHEMAS, STATE_TOPIC
-from tests.cli.test_run import LIMIT_S, Robot, _assert_de_energised, _stop_armed
-from tests.hal.linux.bench import make_bench
+from tests.cli.test_run import (
+    LIMIT_S,
+    Robot,
+    _assert_de_energised,
+    _on_a_host_that_keeps_time,
+    _stop_armed,
+)
+from tests.hal.linux.bench import Bench, make_bench
 from tests.hal.linux.pty_rc import PtyRcLine
 
 MCAP_MAGIC = b"\x89MCAP0\r\n"  # an MCAP file begins and, once finished, ends with it
@@ -43,11 +49,12 @@ def read_mcap(path: Path) -> list[tuple[str, dict[str, Any]]]:
         ]
 
 
-def test_run_records_state_events_and_the_can_frames_both_ways_to_mcap(
-    tmp_path: Path, line: PtyRcLine
-) -> None:
-    bench = make_bench(tmp_path)
-    path = tmp_path / "robot.mcap"
+def test_run_records_state_events_and_the_can_frames_both_ways_to_mcap(tmp_path: Path) -> None:
+    _on_a_host_that_keeps_time(tmp_path, _record)
+
+
+def _record(bench: Bench, line: PtyRcLine) -> None:
+    path = bench.root / "robot.mcap"
     robot = Robot(bench, line, extra=("--mcap", str(path)))
     try:
         robot.command(steering=0.0, throttle=0.0, brake=0.5, gear="forward")
@@ -107,9 +114,12 @@ class StderrLines:
 
 
 def test_a_foxglove_client_attaches_to_the_server_the_telemetry_section_asks_for(
-    tmp_path: Path, line: PtyRcLine
+    tmp_path: Path,
 ) -> None:
-    bench = make_bench(tmp_path)
+    _on_a_host_that_keeps_time(tmp_path, _attach)
+
+
+def _attach(bench: Bench, line: PtyRcLine) -> None:
     telemetry = ('[telemetry]\nfoxglove = "127.0.0.1:0"\nrate_hz = 20',)
     robot = Robot(bench, line, config_lines=telemetry)
     errors = StderrLines(robot)
