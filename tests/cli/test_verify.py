@@ -209,6 +209,36 @@ def test_ctrl_c_after_a_violation_still_summarises_it_and_writes_its_scenario(
     assert Path(failures[0]["scenario"]).parent == tmp_path
 
 
+def test_sigterm_while_shrinking_still_summarises_and_names_what_was_left_unshrunk(
+    capsys: pytest.CaptureFixture[str], monkeypatch: pytest.MonkeyPatch, tmp_path: Path
+) -> None:
+    """The campaigns done, a SIGTERM (a batch scheduler's limit) arrives while the violation is
+    shrunk: the summary still comes, with the violation, its campaign and how to find it
+    again, and the status is SIGTERM's. Before, it ended in main's KeyboardInterrupt: exit
+    130, no summary."""
+    OLD_BUGS["row_3_a_refused_arming_is_remembered"](monkeypatch)
+
+    def terminated_while_shrinking(*args: Any, **kwargs: Any) -> Any:
+        os.kill(os.getpid(), signal.SIGTERM)  # to this process, whose verify takes it
+        time.sleep(1.0)  # the handler raises before this ends
+        raise AssertionError("SIGTERM was not taken")
+
+    monkeypatch.setattr(verify, "shrink_failure", terminated_while_shrinking)
+    status, summary = _verify(
+        capsys, "--budget", "3", "--jobs", "1", "--seed", "3", "--out", str(tmp_path)
+    )
+    assert status == 143
+    assert (summary["interrupted"], summary["campaigns"]) == ("SIGTERM", 3)
+    assert summary["stopped"] == "interrupted by SIGTERM while shrinking"
+    assert summary["failures"] == []
+    unshrunk = summary["unshrunk"]
+    assert isinstance(unshrunk, list)
+    assert unshrunk
+    assert {k: unshrunk[0][k] for k in ("seed", "campaign")} == {"seed": 3, "campaign": 2}
+    text = verify._unshrunk_text(unshrunk[0])
+    assert "--seed 3 --budget 3 runs it again" in text
+
+
 def test_sigterm_ends_a_run_summarised_with_its_status_and_leaves_nothing_running(
     tmp_path: Path,
 ) -> None:
@@ -401,6 +431,34 @@ def test_a_planted_unsafe_range_is_found_with_the_key_it_needs(
     scenario, robot = Path(failure["scenario"]), Path(failure["robot"])
     assert main(["sim", "--scenario", str(scenario), "--config", str(robot), "--json"]) == 1
     capsys.readouterr()
+
+
+def test_ctrl_c_while_a_drawn_files_keys_are_searched_keeps_the_file_and_its_violation(
+    capsys: pytest.CaptureFixture[str], monkeypatch: pytest.MonkeyPatch, tmp_path: Path
+) -> None:
+    """The planted file above, interrupted once its campaigns found the violation, in the
+    search for the keys it needs: the file is in the summary, violating, its failure with its
+    scenario and no keys (unsearched). Before, the file was dropped: 0 files, 0 campaigns."""
+    monkeypatch.setattr(sections, "RC_FRAME_PERIOD_S", Interval(0.001, 0.1, "s"))
+
+    def ctrl_c(*args: Any, **kwargs: Any) -> Any:
+        os.kill(os.getpid(), signal.SIGINT)
+        time.sleep(1.0)
+        raise AssertionError("Ctrl-C was not taken")
+
+    monkeypatch.setattr(verify, "keys_needed", ctrl_c)
+    status, result = _drawn_run(
+        capsys, "--draw-robots", "2", "--budget", "2", "--campaign-s", "1.5",
+        "--seed", str(PLANTED_SEED), "--out", str(tmp_path),
+    )  # fmt: skip
+    assert status == 130
+    assert (result["interrupted"], result["files_verified"]) == ("Ctrl-C", 1)
+    [entry] = result["files"]
+    assert result["violating_files"] == [entry["file"]]
+    assert entry["interrupted"] == "Ctrl-C"
+    [failure] = [f for f in entry["failures"] if f["invariant"] == "H1"]
+    assert failure["keys_needed"] is None
+    assert Path(failure["scenario"]).exists()
 
 
 def test_draw_robots_takes_a_budget_not_a_duration(capsys: pytest.CaptureFixture[str]) -> None:

@@ -42,7 +42,7 @@ import threading
 import time
 from collections import Counter
 from collections.abc import Generator, Iterator
-from contextlib import contextmanager
+from contextlib import ExitStack, contextmanager
 from dataclasses import dataclass, field
 from importlib import resources
 from pathlib import Path
@@ -71,6 +71,7 @@ from bywire.sim.verify.cluster import (
 from bywire.sim.verify.draw import CAMPAIGN_S
 from bywire.sim.verify.engine import (
     HANG_S,
+    INTERRUPTING,
     CampaignJob,
     Crash,
     Hang,
@@ -352,6 +353,21 @@ def _sigterm_interrupts() -> Iterator[None]:
         signal.signal(signal.SIGTERM, previous)
 
 
+@contextmanager
+def _held() -> Iterator[None]:
+    """While inside, Ctrl-C and SIGTERM wait (blocked, in the main thread), and act as it ends:
+    for bookkeeping that an interruption half-way would leave half done (a campaign counted
+    without its violation, a file's entry not yet kept, a cluster half shut down)."""
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    previous = signal.pthread_sigmask(signal.SIG_BLOCK, INTERRUPTING)
+    try:
+        yield
+    finally:
+        signal.pthread_sigmask(signal.SIG_SETMASK, previous)
+
+
 def _interruption(error: KeyboardInterrupt) -> str:
     return "SIGTERM" if isinstance(error, Terminated) else "Ctrl-C"
 
@@ -364,19 +380,28 @@ def _interrupted_status(interrupted: str | None) -> int | None:
 
 
 def run(args: argparse.Namespace) -> int:
+    """Ctrl-C or SIGTERM after the summary was printed (while the runner shuts down) keeps the
+    status the summary gave; before it, the run's own handling summarises what ran."""
+    status: list[int] = []
     with _sigterm_interrupts():
-        return _run(args)
+        try:
+            return _run(args, status)
+        except KeyboardInterrupt as interruption:
+            if status:
+                return status[0]
+            return 128 + (signal.SIGTERM if isinstance(interruption, Terminated) else 2)
 
 
-def _run(args: argparse.Namespace) -> int:
+def _run(args: argparse.Namespace, status: list[int]) -> int:
     if args.draw_robots is not None:
-        return run_drawn(args)
+        return run_drawn(args, status)
     robot = default_sim_config() if args.config is None else load_config(args.config)
     source = str(args.config) if args.config is not None else "the simulator's defaults"
     console = Console(stderr=True)
     show = sys.stderr.isatty() and not args.json
     budget = args.budget if args.budget is not None or args.duration else DEFAULT_BUDGET
-    with _runner(args) as runner:
+    with ExitStack() as stack:
+        runner = stack.enter_context(_runner(args))
         summary, _ = verify_robot(
             robot,
             source=source,
@@ -389,14 +414,21 @@ def _run(args: argparse.Namespace) -> int:
             runner=runner,
             robot_text=_robot_text(args.config),
         )
-    if args.json:
-        print(json.dumps(summary, indent=2))
-    else:
-        _print_summary(Console(), summary, robot)
-    interrupted = _interrupted_status(summary["interrupted"])
-    if interrupted is not None:
-        return interrupted
-    return 1 if _broken(summary) or summary["stopped"] else 0
+        if args.json:
+            print(json.dumps(summary, indent=2), flush=True)
+        else:
+            _print_summary(Console(), summary, robot)
+        interrupted = _interrupted_status(summary["interrupted"])
+        status.append(
+            interrupted
+            if interrupted is not None
+            else 1
+            if _broken(summary) or summary["stopped"]
+            else 0
+        )
+        with _held():  # a local cluster shuts down whole
+            stack.close()
+    return status[0]
 
 
 def verify_robot(
@@ -426,7 +458,8 @@ def verify_robot(
         outcomes = runner.outcomes(robot, robot_text, job, budget, until)
         try:
             for outcome in outcomes:
-                tally.add(outcome)
+                with _held():  # counted whole, its violation with it
+                    tally.add(outcome)
                 status = ", ".join(f"{k} {n}" for k, n in sorted(tally.violations.items()))
                 if tally.crashes:
                     status += f", {len(tally.crashes)} crashed a worker"
@@ -447,9 +480,11 @@ def verify_robot(
             " so far (Ctrl-C again to skip)",
             highlight=False,
         )
-    reproductions = _shrink_all(
+    reproductions, unshrunk, again = _shrink_all(
         robot, tally, seed=args.seed, config=config, out=out, console=console, show=show
     )
+    if again is not None and interrupted is None:  # the campaigns were done: only the shrinking
+        interrupted, stopped = again, f"interrupted by {again} while shrinking"
     summary = _summary(
         source,
         args,
@@ -462,6 +497,7 @@ def verify_robot(
     summary["configuration"] = {"loss_distances": loss_rows(robot)}
     summary["stopped"] = stopped
     summary["interrupted"] = interrupted
+    summary["unshrunk"] = unshrunk
     return summary, reproductions
 
 
@@ -474,34 +510,70 @@ def _shrink_all(
     out: Path,
     console: Console,
     show: bool,
-) -> list[Reproduction]:
-    """Shrink the first failing campaign of each broken invariant and write its scenario."""
-    reproductions = []
+) -> tuple[list[Reproduction], list[dict[str, Any]], str | None]:
+    """Shrink the first failing campaign of each broken invariant and write its scenario: the
+    shrunk failures; those an interruption (Ctrl-C, SIGTERM) left unshrunk, each with its
+    invariant and campaign; and that interruption, if any."""
+    reproductions: list[Reproduction] = []
     if tally.failing:
         out.mkdir(parents=True, exist_ok=True)
-    for invariant, outcome in sorted(tally.failing.items()):
-        name = f"verify-seed{seed}-campaign{outcome.index}-{invariant}"
-        with _progress(console, show) as progress:
-            task = progress.add_task(f"shrinking {invariant}", total=None, status="")
+    failing = sorted(tally.failing.items())
+    try:
+        for invariant, outcome in failing:
+            reproductions.append(
+                _shrunk(robot, invariant, outcome, seed=seed, config=config, out=out,
+                        console=console, show=show)
+            )  # fmt: skip
+    except KeyboardInterrupt as interruption:
+        left = failing[len(reproductions) :]
+        unshrunk = [{"invariant": i, "seed": seed, "campaign": o.index} for i, o in left]
+        return reproductions, unshrunk, _interruption(interruption)
+    return reproductions, [], None
 
-            def ran(runs: int, task: Any = task, progress: Progress = progress) -> None:
-                progress.update(task, status=f"{runs} runs")
 
-            found = shrink_failure(robot, outcome, invariant, name, on_run=ran)
-        path = out / f"{name}.toml"
-        replay = f"bywire sim --scenario {path}"
-        if config is not None:
-            replay += f" --config {config}"
-        header = (
-            f"Found by `bywire verify --seed {seed}` (campaign {outcome.index}),"
-            f" shrunk from {found.original_steps} steps to {len(found.steps)}"
-            f" in {found.shrink_runs} runs.\nReplay: {replay}\n"
-            f"The expectation fails: {found.finding.invariant} of docs/SAFETY.md broke there."
-        )
+def _shrunk(
+    robot: RobotConfig,
+    invariant: str,
+    outcome: Outcome,
+    *,
+    seed: int,
+    config: Path | None,
+    out: Path,
+    console: Console,
+    show: bool,
+) -> Reproduction:
+    """The failing campaign `outcome` shrunk for `invariant`, its scenario written to `out`."""
+    name = f"verify-seed{seed}-campaign{outcome.index}-{invariant}"
+    with _progress(console, show) as progress:
+        task = progress.add_task(f"shrinking {invariant}", total=None, status="")
+
+        def ran(runs: int, task: Any = task, progress: Progress = progress) -> None:
+            progress.update(task, status=f"{runs} runs")
+
+        found = shrink_failure(robot, outcome, invariant, name, on_run=ran)
+    path = out / f"{name}.toml"
+    replay = f"bywire sim --scenario {path}"
+    if config is not None:
+        replay += f" --config {config}"
+    header = (
+        f"Found by `bywire verify --seed {seed}` (campaign {outcome.index}),"
+        f" shrunk from {found.original_steps} steps to {len(found.steps)}"
+        f" in {found.shrink_runs} runs.\nReplay: {replay}\n"
+        f"The expectation fails: {found.finding.invariant} of docs/SAFETY.md broke there."
+    )
+    with _held():  # written whole
         path.write_text(scenario_toml(found.scenario, header), encoding="utf-8")
-        found.notes.append(str(path))
-        reproductions.append(found)
-    return reproductions
+    found.notes.append(str(path))
+    return found
+
+
+def _unshrunk_text(left: dict[str, Any]) -> str:
+    """A violation an interruption left unshrunk, and how to find it again."""
+    return (
+        f"{left['invariant']} broken in campaign {left['campaign']} of seed {left['seed']}, not"
+        f" shrunk (interrupted): --seed {left['seed']} --budget {left['campaign'] + 1} runs it"
+        " again and shrinks it"
+    )
 
 
 def _cannot_happen(robot: RobotConfig) -> tuple[str, ...]:
@@ -657,6 +729,8 @@ def _print_summary(console: Console, summary: dict[str, Any], robot: RobotConfig
         )
         if failure["fails_on_replay"] is False:
             console.print(f"[red]    {NO_REPLAY}[/red]", highlight=False)
+    for left in summary["unshrunk"]:
+        console.print(f"[red]  {_unshrunk_text(left)}[/red]", highlight=False)
     for crash in summary["crashes"]:
         console.print(
             f"[red]  campaign {crash['index']} of seed {crash['seed']} killed its worker"
@@ -687,7 +761,7 @@ def _print_summary(console: Console, summary: dict[str, Any], robot: RobotConfig
 # --- drawn robot files --------------------------------------------------------------------------
 
 
-def run_drawn(args: argparse.Namespace) -> int:
+def run_drawn(args: argparse.Namespace, status: list[int]) -> int:
     """`--draw-robots N`: N files drawn across the loader's legal space, each verified; exit 1
     if any file had a violation, 130 on Ctrl-C (the files done so far are summarised)."""
     if args.duration is not None:
@@ -707,24 +781,61 @@ def run_drawn(args: argparse.Namespace) -> int:
     started = time.perf_counter()
     interrupted: str | None = None
     stopped = None
-    with _runner(args) as runner:
+    with ExitStack() as stack:
+        runner = stack.enter_context(_runner(args))
         try:
             for drawn in draw_robots(schema, args.seed, count):
                 refusals.update(drawn.refusals)
                 refused += bool(drawn.refusals)
                 entry = _verify_drawn(
-                    drawn, schema, base_name, each, args, runner=runner, console=console, show=show
-                )
-                files.append(entry)
+                    drawn, schema, base_name, each, args, files=files,
+                    runner=runner, console=console, show=show,
+                )  # fmt: skip
                 if entry["interrupted"]:  # what ran of the file is in its entry
                     interrupted = entry["interrupted"]
                     break
                 if entry["stopped"]:  # the cluster is gone: no later file can run either
                     stopped = entry["stopped"]
                     break
-        except KeyboardInterrupt as interruption:  # a second one, or one between the files
+        except KeyboardInterrupt as interruption:  # one between the files
             interrupted = _interruption(interruption)
-    result = {
+        result = _drawn_result(
+            args, schema, base_name, files, each=each, runner=runner, refused=refused,
+            refusals=refusals, interrupted=interrupted, stopped=stopped, started=started,
+        )  # fmt: skip
+        if args.json:
+            print(json.dumps(result, indent=2), flush=True)
+        else:
+            _print_drawn(Console(soft_wrap=True), result)
+        interrupted_status = _interrupted_status(interrupted)
+        status.append(
+            interrupted_status
+            if interrupted_status is not None
+            else 1
+            if result["violating_files"] or stopped
+            else 0
+        )
+        with _held():  # a local cluster shuts down whole
+            stack.close()
+    return status[0]
+
+
+def _drawn_result(
+    args: argparse.Namespace,
+    schema: Schema,
+    base_name: str,
+    files: list[dict[str, Any]],
+    *,
+    each: int,
+    runner: Runner,
+    refused: int,
+    refusals: Counter[str],
+    interrupted: str | None,
+    stopped: str | None,
+    started: float,
+) -> dict[str, Any]:
+    count = args.draw_robots
+    return {
         "draw_robots": count,
         "base": base_name,
         "seed": args.seed,
@@ -743,14 +854,6 @@ def run_drawn(args: argparse.Namespace) -> int:
         "violating_files": [f["file"] for f in files if _broken(f)],
         "files": files,
     }
-    if args.json:
-        print(json.dumps(result, indent=2))
-    else:
-        _print_drawn(Console(soft_wrap=True), result)
-    status = _interrupted_status(interrupted)
-    if status is not None:
-        return status
-    return 1 if result["violating_files"] or stopped else 0
 
 
 def _verify_drawn(
@@ -760,11 +863,14 @@ def _verify_drawn(
     each: int,
     args: argparse.Namespace,
     *,
+    files: list[dict[str, Any]],
     runner: Runner,
     console: Console,
     show: bool,
 ) -> dict[str, Any]:
-    """One drawn file written to --out and verified on `runner`: its entry of the summary."""
+    """One drawn file written to --out and verified on `runner`: its entry of the summary, kept
+    in `files` as soon as its campaigns are done (an interruption after them keeps it: the keys
+    each failure needs are then left unsearched, None)."""
     path = args.out / f"robot-{drawn.index:02d}.toml"
     text = _drawn_text(drawn, args.seed, base_name)
     path.write_text(text, encoding="utf-8")
@@ -787,9 +893,18 @@ def _verify_drawn(
         runner=runner,
         robot_text=text,
     )
-    entry = _file_entry(drawn, path, summary)
-    for failure, reproduction in zip(entry["failures"], found, strict=True):
-        failure.update(_keys_needed(schema, drawn, reproduction, out, console=console, show=show))
+    with _held():
+        entry = _file_entry(drawn, path, summary)
+        for failure in entry["failures"]:
+            failure.update(keys_needed=None, robot=None)
+        files.append(entry)
+    try:
+        for failure, reproduction in zip(entry["failures"], found, strict=True):
+            failure.update(
+                _keys_needed(schema, drawn, reproduction, out, console=console, show=show)
+            )
+    except KeyboardInterrupt as interruption:
+        entry["interrupted"] = entry["interrupted"] or _interruption(interruption)
     if show:
         violating = sum(summary["violations"].values())
         console.print(
@@ -854,6 +969,7 @@ def _file_entry(drawn: DrawnRobot, path: Path, summary: dict[str, Any]) -> dict[
         "hangs": summary["hangs"],
         "stopped": summary["stopped"],
         "interrupted": summary["interrupted"],
+        "unshrunk": summary["unshrunk"],
         "changed": {key: [_plain(old), _plain(new)] for key, (old, new) in drawn.changed.items()},
         "repaired": [
             {"key": r.key, "drawn": _plain(r.drawn), "base": _plain(r.base), "rule": r.rule}
@@ -964,10 +1080,18 @@ def _print_drawn(console: Console, result: dict[str, Any]) -> None:
             )
             if failure["fails_on_replay"] is False:
                 console.print(f"[red]      {NO_REPLAY}[/red]", highlight=False)
+            if failure["keys_needed"] is None:
+                console.print("      keys it needs: not searched (interrupted)", highlight=False)
+                continue
             needed = ", ".join(f"{k} = {_show(v)}" for k, v in failure["keys_needed"].items())
             console.print(
                 f"      keys it needs: {escape(needed) or 'none (the base file fails too)'};"
                 f" {failure['robot']}",
+                highlight=False,
+            )
+        for left in entry["unshrunk"]:
+            console.print(
+                f"[red]    {_unshrunk_text(left)} (with --config {entry['file']})[/red]",
                 highlight=False,
             )
         changed = ", ".join(

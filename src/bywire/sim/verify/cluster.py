@@ -184,8 +184,7 @@ def cluster_client(
                     plugins=(LeaveInterruptToTheParent(),),
                 )
         try:
-            if interrupted.pending:
-                raise KeyboardInterrupt
+            interrupted.act()
             try:
                 client = Client(  # type: ignore[no-untyped-call]
                     cluster if cluster is not None else address,
@@ -205,24 +204,37 @@ def cluster_client(
 
 
 class _Deferred:
-    """Holds a Ctrl-C (SIGINT) back while a local cluster starts: interrupted half-way, the
-    cluster was left for distributed's exit hook, which failed on it with a traceback
-    ("Status.init"). Outside the main thread, where no handler can be set, nothing is held."""
+    """Holds a Ctrl-C (SIGINT) or a SIGTERM back while a local cluster starts: interrupted
+    half-way, the cluster was left for distributed's exit hook, which failed on it with a
+    traceback ("Status.init"). `act` then raises it again, once the cluster can be shut down,
+    through the handler in force (`bywire verify` takes SIGTERM as it takes Ctrl-C). Outside the
+    main thread, where no handler can be set, nothing is held."""
+
+    HELD = (signal.SIGINT, signal.SIGTERM)
 
     def __init__(self) -> None:
-        self.pending = False
-        self._previous: object = None
+        self.pending: int | None = None
+        self._previous: dict[int, object] = {}
 
-    def _hold(self, _signum: int, _frame: object) -> None:
-        self.pending = True
+    def _hold(self, signum: int, _frame: object) -> None:
+        if self.pending is None:
+            self.pending = signum
 
     def __enter__(self) -> None:
         if threading.current_thread() is threading.main_thread():
-            self._previous = signal.signal(signal.SIGINT, self._hold)
+            for held in self.HELD:
+                self._previous[held] = signal.signal(held, self._hold)
 
     def __exit__(self, *_exc: object) -> None:
-        if self._previous is not None:
-            signal.signal(signal.SIGINT, self._previous)  # type: ignore[arg-type]
+        for held, previous in self._previous.items():
+            signal.signal(held, previous)  # type: ignore[arg-type]
+
+    def act(self) -> None:
+        """The signal held, if any, raised now as it would have been."""
+        if self.pending == signal.SIGINT:
+            raise KeyboardInterrupt
+        if self.pending is not None:
+            signal.raise_signal(self.pending)
 
 
 def _check_workers(client: Client, address: str, wait_s: float) -> None:

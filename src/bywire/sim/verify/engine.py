@@ -14,6 +14,7 @@ import contextlib
 import multiprocessing
 import multiprocessing.connection
 import signal
+import threading
 import time
 from collections import Counter, deque
 from collections.abc import Callable, Generator, Iterator
@@ -82,6 +83,8 @@ CRASH_DEATHS = 2
 a finding of its own (`Crash`), as on a cluster."""
 HANG_S = 120.0
 """The default real time a campaign may run in its worker before it is killed as a hang."""
+INTERRUPTING = frozenset({signal.SIGINT, signal.SIGTERM})
+"""The signals that interrupt a run: Ctrl-C, and SIGTERM, which `bywire verify` takes alike."""
 END_WAIT_S = 5.0  # how long an idle worker has to return at the end of a run before SIGTERM
 
 _ROBOT: RobotConfig | None = None  # each worker's robot, set before the workers fork
@@ -178,8 +181,12 @@ class _Workers:
         self._deaths: Counter[int] = Counter()
         self._again: deque[int] = deque()  # campaigns whose worker died once: run them first
         self._workers: list[_Worker] = []
-        for _ in range(jobs):
-            self._workers.append(self._start())
+        try:
+            for _ in range(jobs):
+                self._workers.append(self._start())
+        except BaseException:  # interrupted while forking: those started end here
+            self.end()
+            raise
 
     def _start(self) -> _Worker:
         here, there = self._context.Pipe()
@@ -189,7 +196,17 @@ class _Workers:
         process = self._context.Process(
             target=_work, args=(there, self._job, ours), name="bywire-verify-worker", daemon=True
         )
-        OWNER.process(process)
+        # Forked with Ctrl-C and SIGTERM blocked: until `_work` has set its own dispositions, a
+        # signal to the whole group (a terminal, `timeout`, a service manager) would find the
+        # parent's handlers in the child and end it with a traceback. Blocked, it waits there.
+        blocked = threading.current_thread() is threading.main_thread()
+        if blocked:
+            previous = signal.pthread_sigmask(signal.SIG_BLOCK, INTERRUPTING)
+        try:
+            OWNER.process(process)
+        finally:
+            if blocked:
+                signal.pthread_sigmask(signal.SIG_SETMASK, previous)
         there.close()
         return _Worker(process, here)
 
@@ -315,6 +332,7 @@ def _work(pipe: Connection, job: CampaignJob, parents: tuple[Connection, ...]) -
     verify` takes SIGTERM for Ctrl-C) is inherited by the fork."""
     signal.signal(signal.SIGINT, signal.SIG_IGN)
     signal.signal(signal.SIGTERM, signal.SIG_DFL)
+    signal.pthread_sigmask(signal.SIG_UNBLOCK, INTERRUPTING)  # blocked by `_Workers._start`
     for end in parents:
         end.close()
     while True:
