@@ -7,9 +7,10 @@ for the process polls the files it writes, with generous limits; nothing sleeps 
 
 The bench runs bywire at the kernel's normal priority, as a user's machine would. A host busy
 with other work can then keep its loop from its deadlines; bywire rightly latches TIMING_FAULT
-and stays in STOP. Such an attempt is void, not failed (the outputs are still checked safe at its
-end), and the test tries again, up to VOID_ATTEMPTS times: a bywire that latches it on every
-attempt fails.
+and stays in STOP. Such an attempt is void, not failed, when the host is shown busy (its CPU
+pressure, `host_busy`) and bywire still ended as it must (exit 0 on SIGTERM, no traceback, the
+outputs de-energised); the test tries again, up to VOID_ATTEMPTS times. A TIMING_FAULT on a host
+with time to spare fails, as does one on every attempt.
 """
 
 from __future__ import annotations
@@ -83,15 +84,27 @@ class Robot:
     def wait_for(self, what: str, condition: Callable[[], bool]) -> None:
         deadline_s = time.monotonic() + LIMIT_S
         while not _holds(condition):
-            if "TIMING_FAULT" in _holds_value(lambda: self.reports()["flags"], ""):
-                raise HostTooSlowError(f"TIMING_FAULT latched before {what}; {self._story()}")
             if self.process.poll() is not None:
                 pytest.fail(
                     f"bywire exited ({self.process.returncode}) before {what}: {self.errors()}"
                 )
+            if "TIMING_FAULT" in _holds_value(lambda: self.reports()["flags"], ""):
+                self._timing_fault(what)
             if time.monotonic() > deadline_s:
                 pytest.fail(f"no {what} within {LIMIT_S} s; {self._story()}")
             time.sleep(0.02)
+
+    def _timing_fault(self, what: str) -> None:
+        """bywire latched TIMING_FAULT: the attempt is void if the host was busy and bywire
+        still ended as it must (exit 0 on the story's SIGTERM, no traceback); it fails
+        otherwise: a TIMING_FAULT on a host with time to spare is bywire's own."""
+        busy = host_busy()
+        story = self._story()
+        if busy is None:
+            pytest.fail(f"TIMING_FAULT latched before {what} on a host that was not busy; {story}")
+        assert self.process.returncode == 0, story
+        assert "Traceback" not in self._output[1], story
+        raise HostTooSlowError(f"TIMING_FAULT latched before {what} ({busy}); {story}")
 
     def _story(self) -> str:
         """What a wait that timed out needs to tell: the last reports, then bywire's own log
@@ -134,6 +147,26 @@ class Robot:
         if self.process.poll() is None:
             self.process.kill()
             self.process.communicate()
+
+
+BUSY_PRESSURE_PCT = 10.0
+"""A host on which some task waited for a CPU this share of the last 10 s (the kernel's CPU
+pressure, `some avg10`) was busy: a TIMING_FAULT on it may be the host's."""
+
+
+def host_busy() -> str | None:
+    """How the host was busy, if it was: its CPU pressure, or without one (a kernel built
+    without PSI) a load average above its CPUs; None for a host with time to spare."""
+    try:
+        some = Path("/proc/pressure/cpu").read_text(encoding="ascii").split("\n")[0]
+        pressure_pct = float(some.split()[1].removeprefix("avg10="))
+    except (OSError, IndexError, ValueError):
+        load = os.getloadavg()[0]
+        cpus = os.cpu_count() or 1
+        return f"load average {load:.2f} on {cpus} CPUs" if load > cpus else None
+    if pressure_pct >= BUSY_PRESSURE_PCT:
+        return f"some task waited for a CPU {pressure_pct:.0f} % of the last 10 s"
+    return None
 
 
 def _holds(condition: Callable[[], bool]) -> bool:
