@@ -13,6 +13,7 @@ from bywire.config import default_sim_config, parse_config
 from bywire.config.deadlines import (
     CAN_LOSS,
     DEADLINES,
+    HARDEST_STOP_DECEL_MPS2,
     HYDRAULIC_FULL_DECEL_MPS2,
     MOST_DAC_TRANSFER_BUDGET_S,
     MOST_PASS_BUDGET_S,
@@ -21,13 +22,15 @@ from bywire.config.deadlines import (
     RC_LOSS,
     REGEN_DECEL_MPS2,
     STOP_PROMISES,
+    WHEEL_SAMPLE_S,
     breaches,
     pairing_frames,
     pairing_window_needed_s,
 )
 from bywire.config.security import PAIRING_WINDOW_S
 from bywire.errors import ConfigError
-from bywire.hal.simulated.vehicle_model import VehicleConfig
+from bywire.hal.simulated.vehicle import DEFAULT_STEP_S
+from bywire.hal.simulated.vehicle_model import VehicleConfig, grade_accel_mps2
 from bywire.sim.runner import SimRun
 from bywire.sim.scenario import parse_scenario
 from tests.system.harness import volts_at
@@ -184,6 +187,19 @@ UNSAFE = [
         ("interlocks.speed_step_tolerance_mps", "interlocks.speed_max_change_mps2"),
         "or less",
     ),
+    (  # row 73, `verify --draw-robots --seed 4` file 9: no tolerance, a hard stop a fault
+        "[interlocks]\nspeed_step_tolerance_mps = 0.0",
+        "a hard stop is no sensor fault",
+        ("interlocks.speed_step_tolerance_mps", "interlocks.speed_max_change_mps2"),
+        "set interlocks.speed_step_tolerance_mps to 0.075 or more",
+    ),
+    (  # a change limit below the robot's braking: the tolerance must hold a period's worth
+        "[interlocks]\nspeed_step_tolerance_mps = 0.1\nspeed_max_change_mps2 = 1.0",
+        "a hard stop is no sensor fault",
+        ("interlocks.speed_step_tolerance_mps", "interlocks.speed_max_change_mps2"),
+        "set interlocks.speed_step_tolerance_mps to 0.215 or more, or"
+        " interlocks.speed_max_change_mps2 to 12.5 or more",
+    ),
     (
         "[tasks]\ndriving_rate_hz = 25",
         "a failing DAC",
@@ -280,6 +296,9 @@ def test_the_limit_itself_is_safe() -> None:
         "[monitors]\nhydro_min_duty = 0.0",  # watching every duty: 0 bar expected at duty 0
         "[drive]\nmax_regen_volts = 5.5\n[drive.dac]\nvref_volts = 5.5\n[stop]\n"
         "controlled_min_decel_mps2 = 1.5",  # volts above the motors' full scale add nothing
+        "[interlocks]\nspeed_step_tolerance_mps = 0.075",  # 15 m/s² × 5 ms
+        "[interlocks]\nspeed_step_tolerance_mps = 0.215\nspeed_max_change_mps2 = 1.0",
+        "[interlocks]\nspeed_step_tolerance_mps = 0.1\nspeed_max_change_mps2 = 12.5",
         pairing_window_text(smallest_pairing_window_s(500_000)),
         pairing_window_text(smallest_pairing_window_s(100_000), 100_000),
         pairing_window_text(PAIRING_WINDOW_S.high, least_pairing_bitrate_bps()),
@@ -302,6 +321,9 @@ def test_the_nearest_safe_values_are_accepted(text: str) -> None:
         "[monitors]\nhydro_response_s = 0.491",
         "[drive]\nmax_regen_volts = 0.0\n[stop]\ncontrolled_min_decel_mps2 = 0.1",
         "[drive]\nmax_regen_volts = 2.99",
+        "[interlocks]\nspeed_step_tolerance_mps = 0.074",
+        "[interlocks]\nspeed_step_tolerance_mps = 0.214\nspeed_max_change_mps2 = 1.0",
+        "[interlocks]\nspeed_step_tolerance_mps = 0.1\nspeed_max_change_mps2 = 12.4",
         pairing_window_text(smallest_pairing_window_s(500_000) - PAIRING_STEP_S),
         pairing_window_text(PAIRING_WINDOW_S.high, least_pairing_bitrate_bps() - 1),
     ],
@@ -318,6 +340,26 @@ def test_the_simulated_vehicle_brakes_as_the_requirement_figures_say() -> None:
     assert vehicle.max_hydraulic_decel_mps2 == HYDRAULIC_FULL_DECEL_MPS2
     assert vehicle.max_regen_decel_mps2 == REGEN_DECEL_MPS2
     assert vehicle.full_scale_volts == MOTOR_FULL_SCALE_VOLTS
+
+
+STEEPEST_GRADE = 0.3
+"""The steepest road a scenario may set (`sim/scenario_values.py`, world.grade)."""
+
+
+def test_the_hardest_stop_and_the_readings_age_are_no_less_than_the_simulated_vehicles() -> None:
+    """Row 73's deadline is judged on the simulated vehicle: its hardest stop (every brake and
+    the drag, on the scenarios' steepest road, 30 %) may be no harder, and its sensor's samples
+    no further apart, than the figures."""
+    vehicle = VehicleConfig()
+    hardest = (
+        vehicle.ebrake_decel_mps2
+        + vehicle.max_hydraulic_decel_mps2
+        + vehicle.max_regen_decel_mps2
+        + vehicle.rolling_drag_mps2
+        + abs(grade_accel_mps2(STEEPEST_GRADE))
+    )
+    assert hardest <= HARDEST_STOP_DECEL_MPS2
+    assert DEFAULT_STEP_S <= WHEEL_SAMPLE_S
 
 
 # --- issue 41 finding 4: budgets come from the stop promises -----------------------------------

@@ -63,6 +63,17 @@ FULL_TRAVEL_NORM = 2.0
 """The steering's travel from full left (-1) to full right (+1)."""
 BLIND_SPOT_MPS = 0.5
 """A wheel sensor that dies faster than this is noticed (docs/SAFETY.md row 27)."""
+HARDEST_STOP_DECEL_MPS2 = 15.0
+"""The most a robot of this class decelerates: every brake at once, the spring brake, the
+hydraulic brake at full duty and regeneration at full scale, with the rolling drag, on the
+steepest road it drives, 30 % uphill (the simulated vehicle's 6 + 4 + 1.5 + 0.15 m/s² and 2.8
+m/s² of gravity, rounded up; the default `speed_max_change_mps2`). The wheel-speed check must
+take such a stop for one, never for a dying sensor (docs/SAFETY.md row 73)."""
+WHEEL_SAMPLE_S = 0.005
+"""The oldest a wheel-speed reading may be when a decision reads it: the sensor's own update
+period (the simulated sensor's: the vehicle model's step). Two decisions a moment apart may read
+two samples, one this much newer: the speed check judges the change on the time between the
+decisions, so its tolerance must hold what the hardest stop takes off in one sample."""
 STANDSTILL_HOLD_MAX_S = 0.5
 """The longest a controlled stop keeps a standing robot's drive powered (at 0 V, braking) before
 power goes off: the standstill hold (`control/stop.py`) in which regeneration stops a robot that
@@ -415,6 +426,46 @@ def _blind_spot(robot: RobotConfig) -> list[Breach]:
     ]
 
 
+def _hardest_stop(robot: RobotConfig) -> list[Breach]:
+    """The speed check must pass the robot's own hardest stop (row 73, found by `bywire verify
+    --draw-robots --seed 4`, file 9): a change between two decisions Δ apart (0 to a decision
+    period) may be the hardest stop's over Δ plus one sample, and the check allows the
+    tolerance plus the largest change over Δ. Linear in Δ: both ends are checked."""
+    interlocks = robot.interlocks
+    period_s = decision_period_s(robot)
+    tolerance = interlocks.speed_step_tolerance_mps
+    change = interlocks.speed_max_change_mps2
+    at_once = HARDEST_STOP_DECEL_MPS2 * WHEEL_SAMPLE_S
+    over_a_period = HARDEST_STOP_DECEL_MPS2 * (period_s + WHEEL_SAMPLE_S)
+    if tolerance >= at_once - 1e-9 and tolerance + change * period_s >= over_a_period - 1e-9:
+        return []
+    needed = max(at_once, over_a_period - change * period_s)
+    fix = f"set interlocks.speed_step_tolerance_mps to {number_text(_up(needed, 3))} or more"
+    if tolerance >= at_once - 1e-9:
+        wanted = (over_a_period - tolerance) / period_s
+        fix += f", or interlocks.speed_max_change_mps2 to {number_text(_up(wanted, 1))} or more"
+    return [
+        Breach(
+            HARDEST_STOP.name,
+            ("interlocks.speed_step_tolerance_mps", "interlocks.speed_max_change_mps2"),
+            f"the robot's hardest stop ({number_text(HARDEST_STOP_DECEL_MPS2)} m/s², every brake)"
+            f" changes a reading by up to {number_text(round(at_once, 3))} m/s between two"
+            f" decisions a moment apart and {number_text(round(over_a_period, 3))} m/s between"
+            f" two a decision period ({number_text(round(period_s, 4))} s) apart; the check"
+            f" allows {number_text(tolerance)} m/s and {number_text(change)} m/s² of the time"
+            " between them, so it takes a sound wheel sensor for a dying one, and a controlled"
+            " stop loses the speed that ends it (the drive stays powered at standstill)",
+            fix,
+        )
+    ]
+
+
+def _up(value: float, digits: int) -> float:
+    """`value` rounded up to `digits` decimals (a nearest safe value that is safe)."""
+    scale = 10.0**digits
+    return math.ceil(value * scale - 1e-6) / scale
+
+
 def _movement_timeout(robot: RobotConfig) -> tuple[str, float]:
     """MovementCommand's timeout and the key that sets it (its own, else the section's)."""
     timeouts = robot.timeouts
@@ -702,6 +753,13 @@ BLIND_SPOT = Deadline(
     f"a wheel sensor that dies above {number_text(BLIND_SPOT_MPS)} m/s is noticed",
     _blind_spot,
 )
+HARDEST_STOP = Deadline(
+    "a hard stop is no sensor fault",
+    f"the wheel-speed check takes the robot's hardest stop"
+    f" ({number_text(HARDEST_STOP_DECEL_MPS2)} m/s²) for a stop, with readings up to"
+    f" {number_text(WHEEL_SAMPLE_S)} s old",
+    _hardest_stop,
+)
 STALL = Deadline(
     "a stall is no longer than a loss",
     "no input drives on longer than a stalled loop would (the watchdog)",
@@ -754,6 +812,7 @@ DEADLINES: tuple[Deadline, ...] = (
     DAC_FAILURE,
     NO_REVERSAL,
     BLIND_SPOT,
+    HARDEST_STOP,
     STALL,
     SWITCH,
     STEERING,
