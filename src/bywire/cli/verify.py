@@ -389,7 +389,7 @@ def run(args: argparse.Namespace) -> int:
         except KeyboardInterrupt as interruption:
             if status:
                 return status[0]
-            return 128 + (signal.SIGTERM if isinstance(interruption, Terminated) else 2)
+            return 128 + (signal.SIGTERM if isinstance(interruption, Terminated) else signal.SIGINT)
 
 
 def _run(args: argparse.Namespace, status: list[int]) -> int:
@@ -763,7 +763,8 @@ def _print_summary(console: Console, summary: dict[str, Any], robot: RobotConfig
 
 def run_drawn(args: argparse.Namespace, status: list[int]) -> int:
     """`--draw-robots N`: N files drawn across the loader's legal space, each verified; exit 1
-    if any file had a violation, 130 on Ctrl-C (the files done so far are summarised)."""
+    if any file had a violation, 130 on Ctrl-C and 143 on SIGTERM (the files done so far are
+    summarised, the interrupted one with the campaigns it ran)."""
     if args.duration is not None:
         print("bywire verify: error: --draw-robots takes --budget, not --duration", file=sys.stderr)
         return 2
