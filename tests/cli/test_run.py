@@ -32,6 +32,7 @@ from typing import Any
 
 import pytest
 
+from bywire.bench.machine import CPU_PRESSURE, cpu_pressure_s
 from bywire.cli.main import main
 from bywire.model import ControlMode
 from tests.hal.linux import fake_gpiod
@@ -77,6 +78,7 @@ class Robot:
         env = dict(os.environ)
         if notify_socket is not None:
             env["NOTIFY_SOCKET"] = str(notify_socket)
+        self.started = (time.monotonic(), cpu_pressure_s())  # what `host_busy` counts from
         self.process = subprocess.Popen(
             command, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=env
         )
@@ -98,7 +100,7 @@ class Robot:
         """bywire latched TIMING_FAULT: the attempt is void if the host was busy and bywire
         still ended as it must (exit 0 on the story's SIGTERM, no traceback); it fails
         otherwise: a TIMING_FAULT on a host with time to spare is bywire's own."""
-        busy = host_busy()
+        busy = host_busy(self.started)
         story = self._story()
         if busy is None:
             pytest.fail(f"TIMING_FAULT latched before {what} on a host that was not busy; {story}")
@@ -150,22 +152,23 @@ class Robot:
 
 
 BUSY_PRESSURE_PCT = 10.0
-"""A host on which some task waited for a CPU this share of the last 10 s (the kernel's CPU
-pressure, `some avg10`) was busy: a TIMING_FAULT on it may be the host's."""
+"""A host on which some task waited for a CPU this share of an attempt (the kernel's CPU
+pressure, PSI "some", as `bywire bench` reads it) was busy: a TIMING_FAULT on it may be the
+host's."""
 
 
-def host_busy() -> str | None:
-    """How the host was busy, if it was: its CPU pressure, or without one (a kernel built
-    without PSI) a load average above its CPUs; None for a host with time to spare."""
-    try:
-        some = Path("/proc/pressure/cpu").read_text(encoding="ascii").split("\n")[0]
-        pressure_pct = float(some.split()[1].removeprefix("avg10="))
-    except (OSError, IndexError, ValueError):
+def host_busy(since: tuple[float, float]) -> str | None:
+    """How the host was busy since `since` (`time.monotonic()`, `cpu_pressure_s()` then), if it
+    was: its CPU pressure, or without PSI a load average above its CPUs; None for a host with
+    time to spare."""
+    if not CPU_PRESSURE.exists():
         load = os.getloadavg()[0]
         cpus = os.cpu_count() or 1
         return f"load average {load:.2f} on {cpus} CPUs" if load > cpus else None
-    if pressure_pct >= BUSY_PRESSURE_PCT:
-        return f"some task waited for a CPU {pressure_pct:.0f} % of the last 10 s"
+    started_s, pressure_then_s = since
+    share_pct = 100 * (cpu_pressure_s() - pressure_then_s) / max(time.monotonic() - started_s, 1e-3)
+    if share_pct >= BUSY_PRESSURE_PCT:
+        return f"some task waited for a CPU {share_pct:.0f} % of the attempt"
     return None
 
 
