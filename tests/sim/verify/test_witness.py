@@ -84,3 +84,32 @@ def test_a_controller_that_ignores_a_remote_stop_that_went_out_is_still_found(
     steps = [*RC_DRIVING_STILL, Step(0.59375, "remote_stop", True), Step(gap_s, "can_link", False)]
     outcome = run_campaign(ROBOT, steps)
     assert {finding.invariant for finding in outcome.findings} & {"H1"}
+
+
+def can_loss_never_latches(monkeypatch: pytest.MonkeyPatch) -> None:
+    """A supervisor for which nothing CAN-bound latches: in CAN mode with the computer silent
+    it stays armed (enable high, spring brake released)."""
+    monkeypatch.setattr(supervisor, "CAN_BOUND", frozenset())
+
+
+TO_A_SILENT_CAN = {  # RC armed, the computer silent, then the switch to CAN…
+    "by its position": Step(0.3, "switch", ControlMode.CAN),
+    "by a pulse in CAN's band": Step(0.3, "switch_between", 2100),  # 2000 ± 150 µs
+}
+
+
+@pytest.mark.parametrize("move", TO_A_SILENT_CAN.values(), ids=TO_A_SILENT_CAN.keys())
+@pytest.mark.parametrize("broken", [False, True], ids=["correct", "CAN loss never latches"])
+def test_a_move_to_a_silent_can_demands_a_stop_however_the_switch_is_read(
+    monkeypatch: pytest.MonkeyPatch, move: Step, broken: bool
+) -> None:
+    """…the controller must stop once the move counts. Before, only the position's own event
+    demanded it: a pulse within CAN's band moved the oracle's switch without a demand, and a
+    controller that drove on in a CAN it could not hear went unflagged (docs/SAFETY.md row 74)."""
+    if broken:
+        can_loss_never_latches(monkeypatch)
+    steps = [*RC_DRIVING_STILL, Step(0.3, "can_link", False), move, Step(0.5, "rc_throttle", 0.0)]
+    outcome = run_campaign(ROBOT, steps)
+    assert outcome.checks > 0
+    found = {finding.invariant for finding in outcome.findings}
+    assert found == ({"H1"} if broken else set()), outcome.findings[:1]

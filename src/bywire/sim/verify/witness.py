@@ -69,10 +69,14 @@ class OracleWitness:
             self._mode_raw(int(values["mode_raw"]), now)
         if "mode" in values:
             self.switch_moved_s = now
-            mode = ControlMode[str(values["mode"]).upper()]
-            oracle.set_switch(mode, now)
-            if mode is CAN and oracle.faults.any_of(CAN_ONLY):
-                oracle.stop_event(OracleCause.CAN_LOST, now)
+            self._switch(ControlMode[str(values["mode"]).upper()], now)
+
+    def _switch(self, mode: ControlMode, now: float) -> None:
+        """The mode switch moved to `mode` (by its nominal pulse or any other in its band)."""
+        oracle = self.oracle
+        oracle.set_switch(mode, now)
+        if mode is CAN and oracle.faults.any_of(CAN_ONLY):
+            oracle.switched_to_lost_can(now)
 
     def _mode_raw(self, raw: int, now: float) -> None:
         """The mode switch's pulse set to `raw`: in a position's band, that position; between
@@ -83,7 +87,7 @@ class OracleWitness:
         oracle, timing = self.oracle, self.oracle.timing
         banded, neighbours = self._read(raw, oracle.switch)
         if banded is not None:
-            oracle.set_switch(banded, now)
+            self._switch(banded, now)
             return
         if oracle.switch is STOP or oracle.switch not in neighbours or STOP in neighbours:
             oracle.set_switch_between(now)

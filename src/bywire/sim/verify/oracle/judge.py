@@ -138,6 +138,13 @@ class HazardOracle:
         """Something that demands STOP happened at `now`."""
         self.ledger.request(cause, now)
 
+    def switched_to_lost_can(self, now: float) -> None:
+        """The switch moved to CAN while a CAN-bound fault is in force: the controller stops
+        as a silent computer would stop it, but only once the move counts, after the debounce's
+        frames (`ArmingTracker.settled_s`): until then it rightly stays in the source it left
+        (docs/SAFETY.md row 74)."""
+        self.ledger.request(OracleCause.CAN_LOST, now, counts_from_s=self.arming.settled_s())
+
     # --- what was done: faults -------------------------------------------------------------------
 
     def fault(self, cause: OracleCause, active: bool, now: float) -> None:

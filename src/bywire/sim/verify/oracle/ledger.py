@@ -67,9 +67,11 @@ class StopLedger:
 
     # --- requests and armings ----------------------------------------------------------------
 
-    def request(self, cause: OracleCause, now: float) -> None:
+    def request(self, cause: OracleCause, now: float, counts_from_s: float = 0.0) -> None:
         """Something that demands STOP happened at `now` (what IBUS frames carry only counts
-        while frames arrive: a lost link has its own, longer deadline)."""
+        while frames arrive: a lost link has its own, longer deadline); the controller can act
+        on it no sooner than `counts_from_s` (a switch's move, once its debounce's frames have
+        shown it)."""
         silenced = LINK_AND_FAILSAFE_SILENCE if cause is OracleCause.SWITCH_STOP else LINK_SILENCES
         if cause in RC_BORNE and self.faults.any_of(silenced):
             return
@@ -79,7 +81,7 @@ class StopLedger:
         # Frames being corrupted may hide the cause until they are over.
         blind_until = rc_blind_until if cause in RC_BORNE else now
         deadline = max(now, blind_until) + self.timing.deadline_s(cause)
-        deadline = self.delays.past_hang(now, deadline)
+        deadline = self.delays.past_hang(now, max(deadline, counts_from_s))
         if cause in RC_BORNE:
             self.rc_borne_at = now
         if cause in POWER_OFF:

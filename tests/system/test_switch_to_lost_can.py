@@ -1,0 +1,124 @@
+"""A slow receiver's move to a CAN that cannot drive (docs/SAFETY.md row 74, found by
+`bywire verify --draw-robots 24 --budget 2400 --seed 4`, file 22, campaign 1, H1): a legal
+10 Hz receiver (`sim.rc_frame_period_s = 0.1`), the robot armed in RC, a keyed second sender
+making CAN untrusted, then the switch moved RC -> CAN. The controller counts the move after the
+debounce's frames (3 x 100 ms), as it counts every move away from STOP (row 26), so it stayed
+in RC, then stopped as it entered a CAN it could not trust: the oracle had demanded the stop
+by CAN's own deadline from the move, 150 ms, as if the move counted at once. The controller
+was right; the oracle now counts such a stop from when the move counts. Judged on the enable
+line, the e-brake line, the throttle volts and the true speed, with the oracle's teeth: a
+controller one frame slower than the debounce is still found."""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+
+import pytest
+
+from bywire.config import parse_config
+from bywire.control import supervisor
+from bywire.sim.observe import Observation
+from bywire.sim.runner import SimRun
+from bywire.sim.scenario import parse_scenario
+from bywire.sim.verify.campaign import Campaign, CampaignResult
+from bywire.sim.verify.oracle.causes import OracleCause
+from bywire.sim.verify.oracle.judge import HazardOracle
+
+SLOW_RECEIVER = parse_config(
+    "[timeouts]\nrc_timeout_s = 1.0\nwatchdog_s = 5.0\n\n[sim]\nrc_frame_period_s = 0.1\n",
+    "file-22",
+)
+FRAME_S = 0.1
+MOVE_S = 3.345
+COUNTS_S = MOVE_S + SLOW_RECEIVER.supervisor.debounce_frames * FRAME_S  # the debounce's frames
+SLACK_S = 0.01 + 0.012  # a control period and the frame's wire time (`OracleTiming.settle_s`)
+
+
+def found(*extra: str) -> str:
+    """The campaign as shrunk (file 22, seed 4, campaign 1), and `extra` events."""
+    events = [
+        '{ at_s = 0.0, rc = { gear = "forward" } }',
+        '{ at_s = 0.0, hlc = { steering = 0.0, throttle = 0.0, brake = 0.0, gear = "forward" } }',
+        '{ at_s = 1.8, rc = { throttle = 0.0, mode = "rc" } }',
+        "{ at_s = 2.1, hlc = { throttle = 0.0 } }",
+        '{ at_s = 2.145, rc = { mode = "can" } }',
+        '{ at_s = 2.4, rc = { throttle = 0.0, mode = "rc" } }',
+        '{ at_s = 3.2, fault = "can_impostor", count = 15, keyed = true }',
+        "{ at_s = 3.3, hlc = { steering = -0.9, throttle = 0.0 } }",
+        f'{{ at_s = {MOVE_S}, rc = {{ mode = "can" }} }}',
+        *extra,
+    ]
+    joined = ",\n    ".join(events)
+    return f'name = "file-22"\nduration_s = 4.2\nevent = [\n    {joined},\n]\n'
+
+
+def judged(scenario: str) -> tuple[CampaignResult, list[Observation]]:
+    runs: list[SimRun] = []
+    result = Campaign(SLOW_RECEIVER).run_scenario(
+        parse_scenario(scenario, "file-22"), prepare=runs.append
+    )
+    return result, list(runs[0].record.samples)
+
+
+def _stopped(sample: Observation) -> bool:
+    """Safe as H1 asks: the spring brake on, no throttle volts (a controlled stop of a rolling
+    robot may keep the drive powered to brake)."""
+    return sample.ebrake_engaged and sample.throttle_volts == 0.0
+
+
+def test_the_move_to_an_untrusted_can_stops_once_the_debounce_has_counted_it() -> None:
+    result, samples = judged(found())
+    assert result.oracle.checks > 0
+    assert result.oracle.violations == []
+    armed = [s for s in samples if 2.5 <= s.time_s < MOVE_S]
+    assert armed
+    assert all(s.motors_enabled and not s.ebrake_engaged for s in armed)  # RC armed
+    after = [s for s in samples if s.time_s >= COUNTS_S + SLACK_S]
+    assert after
+    assert all(_stopped(s) and not s.motors_enabled for s in after)  # at standstill
+    assert all(s.throttle_volts == 0.0 and s.speed_mps == 0.0 for s in samples)
+
+
+def test_a_stick_pushed_within_the_debounce_drives_by_rc_until_the_move_counts() -> None:
+    """The debounce's price, stated: for its frames the source the switch left still drives.
+    A move to STOP is never so delayed (row 26)."""
+    result, samples = judged(found(f"{{ at_s = {MOVE_S + 0.02}, rc = {{ throttle = 0.4 }} }}"))
+    assert result.oracle.violations == []
+    assert any(s.throttle_volts > 0.0 for s in samples if MOVE_S < s.time_s < COUNTS_S)
+    assert all(_stopped(s) for s in samples if s.time_s >= COUNTS_S + SLACK_S)
+
+
+def test_the_oracle_before_demanded_the_stop_before_the_move_could_count(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """The mistake, kept: CAN's deadline counted from the move itself flags the right robot."""
+
+    def at_once(oracle: HazardOracle, now: float) -> None:
+        oracle.stop_event(OracleCause.CAN_LOST, now)
+
+    monkeypatch.setattr(HazardOracle, "switched_to_lost_can", at_once)
+    result, _ = judged(found())
+    assert {v.invariant.name for v in result.oracle.violations} == {"H1"}
+    assert min(v.time_s for v in result.oracle.violations) < COUNTS_S
+
+
+def one_frame_late() -> Callable[..., tuple[object, object, int]]:
+    """A debounce that counts every move one frame after the file says."""
+    original = supervisor._debounced
+
+    def late(
+        state: supervisor.SupervisorState, inputs: supervisor.SupervisorInputs, frames: int
+    ) -> tuple[object, object, int]:
+        return original(state, inputs, frames + 1)
+
+    return late
+
+
+def test_a_controller_one_frame_slower_than_the_debounce_is_found(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """The teeth: the deadline counted from the debounce is no wider than the debounce."""
+    monkeypatch.setattr(supervisor, "_debounced", one_frame_late())
+    result, samples = judged(found())
+    assert not all(_stopped(s) for s in samples if s.time_s >= COUNTS_S + SLACK_S)
+    assert "H1" in {v.invariant.name for v in result.oracle.violations}
