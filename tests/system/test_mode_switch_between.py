@@ -4,11 +4,16 @@ H1), judged by the oracle and on the hardware."""
 
 from __future__ import annotations
 
+from collections.abc import Callable
+from dataclasses import replace
+from typing import Any
+
 import pytest
 
 from bywire.config import parse_config
 from bywire.control import supervisor
 from bywire.model import ControlMode
+from bywire.sim.runner import SimRun
 from bywire.sim.scenario import parse_scenario
 from bywire.sim.verify.campaign import Campaign
 from tests.sim.verify.mutants import between_taken_for_a_stay
@@ -101,3 +106,93 @@ def test_the_oracle_judges_a_switch_between_positions_as_no_stay_at_stop(
     result = Campaign(parse_config(ROBOT)).run_scenario(parse_scenario(RESTING, "resting"))
     found = {violation.invariant.name for violation in result.oracle.violations}
     assert found == ({"H1"} if old_debounce else set())
+
+
+# Found by `bywire verify` on file 22's robot (10 Hz frames; `--budget 200 --seed 4`,
+# campaign 33, H1; docs/SAFETY.md row 75): held at STOP since power-up, the switch rested between
+# STOP and RC, came back to STOP for 60 ms, less than a frame, and went on to RC.
+BACK_FROM_THE_GAP = """
+name = "back-to-stop-from-the-gap"
+description = "a stay at STOP, the switch between STOP and RC, back at STOP for {stop_s} s, RC"
+duration_s = 10.0
+event = [
+    {{ at_s = 0.0, rc = {{ gear = "forward" }} }},
+    {{ at_s = 8.23, rc = {{ mode_raw = 1250 }} }},
+    {{ at_s = 8.93, rc = {{ mode = "stop" }} }},
+    {{ at_s = {rc_s}, rc = {{ throttle = 0.0, mode = "rc" }} }},
+]
+"""
+SLOW_FRAMES = "[timeouts]\nrc_timeout_s = 1.0\nwatchdog_s = 5.0\n\n[sim]\nrc_frame_period_s = 0.1\n"
+
+
+def back_from_the_gap(stop_s: float) -> str:
+    return BACK_FROM_THE_GAP.format(stop_s=stop_s, rc_s=round(8.93 + stop_s, 3))
+
+
+def ready_never_reset_at_stop() -> Callable[..., supervisor.SupervisorState]:
+    """A supervisor whose readiness outlives a new stay at STOP (a frame at STOP after the gap
+    no longer starts one): the rule to put in `supervisor._from_stop`."""
+    original = supervisor._from_stop
+
+    def keeping(
+        state: supervisor.SupervisorState, inputs: supervisor.SupervisorInputs, *rest: Any
+    ) -> supervisor.SupervisorState:
+        after = original(state, inputs, *rest)
+        if state.ready and after.mode is ControlMode.STOP and after.switch is ControlMode.STOP:
+            return replace(after, ready=True)
+        return after
+
+    return keeping
+
+
+def _armed_after(result_run: list[SimRun], from_s: float) -> bool:
+    samples = [s for s in result_run[0].record.samples if s.time_s >= from_s]
+    assert samples
+    return any(s.motors_enabled and not s.ebrake_engaged for s in samples)
+
+
+@pytest.mark.parametrize(
+    ("stop_s", "arms"),
+    [(0.06, True), (0.15, False)],
+    ids=["no frame showed STOP", "a frame showed STOP"],
+)
+def test_a_glimpse_of_stop_after_the_gap_arms_only_if_no_frame_showed_it(
+    stop_s: float, arms: bool
+) -> None:
+    """The controller saw the gap, then RC: the stay before the gap still counts (row 72), and
+    the move to RC armed, the throttle at zero. The oracle had started a new stay at the
+    glimpse of STOP and flagged the arming (H1). A frame that shows STOP after the gap begins a
+    new stay, which 150 ms (one or two frames) does not complete: no arming, and none expected."""
+    runs: list[SimRun] = []
+    scenario = parse_scenario(back_from_the_gap(stop_s), "gap")
+    result = Campaign(parse_config(SLOW_FRAMES)).run_scenario(scenario, prepare=runs.append)
+    assert result.oracle.violations == []
+    assert _armed_after(runs, 9.3) is arms
+
+
+def test_an_arming_on_a_stay_that_a_frame_at_stop_ended_is_still_found(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """The teeth: the hold the gap kept counts only while no frame may have shown STOP."""
+    monkeypatch.setattr(supervisor, "_from_stop", ready_never_reset_at_stop())
+    runs: list[SimRun] = []
+    scenario = parse_scenario(back_from_the_gap(0.15), "gap")
+    result = Campaign(parse_config(SLOW_FRAMES)).run_scenario(scenario, prepare=runs.append)
+    assert _armed_after(runs, 9.3)
+    assert {violation.invariant.name for violation in result.oracle.violations} == {"H1"}
+
+
+def test_a_glimpse_of_stop_no_frame_showed_between_two_gaps_keeps_the_stay_before_them() -> None:
+    """As above, but the switch goes back into the gap before RC: the controller saw one gap."""
+    events = back_from_the_gap(0.06).replace(
+        '{ at_s = 8.99, rc = { throttle = 0.0, mode = "rc" } }',
+        "{ at_s = 8.99, rc = { mode_raw = 1250 } },\n    "
+        '{ at_s = 9.3, rc = { throttle = 0.0, mode = "rc" } }',
+    )
+    assert "9.3" in events
+    runs: list[SimRun] = []
+    result = Campaign(parse_config(SLOW_FRAMES)).run_scenario(
+        parse_scenario(events, "gap"), prepare=runs.append
+    )
+    assert result.oracle.violations == []
+    assert _armed_after(runs, 9.6)

@@ -66,6 +66,9 @@ class ArmingTracker:
     switch_shown_s: float = 0.0  # from when frames may show the switch's position (H2)
     stop_since: float = 0.0  # the switch's hold at STOP began (a glimpse away does not end it)
     between_from: float | None = None  # read between positions since: STOP, no stay (row 72)
+    stop_shown_at: float = -1.0  # the switch last left a STOP that a frame may have shown
+    gap_hold: tuple[float, float] = (-1.0, float("-inf"))  # back at STOP from between positions
+    # then, and the hold at STOP the gap kept (what it held before it; -inf: none)
     chatter_until: float = -1.0  # a bouncing switch's frames read STOP every other one until then
     left_at: dict[ControlMode, float] = field(default_factory=dict)
     pending: Pending | None = None
@@ -167,7 +170,22 @@ class ArmingTracker:
             self.set_switch(STOP, now)
             if self.stop_since != held_since:  # not back from a glimpse away: no hold began
                 self.stop_since = float("inf")
+        elif (kept_s := self._gap_kept_s(now)) > float("-inf"):
+            self.stop_since = now - kept_s  # the glimpse of STOP between may have gone unseen
         self.between_from = now
+
+    def _gap_kept_s(self, now: float) -> float:
+        """The hold at STOP a gap kept, if the switch came back to STOP from it so briefly that
+        no frame may have shown STOP (the controller saw the gap, then what follows: the hold
+        before the gap still counts, row 72); -inf otherwise. A frame at STOP after a gap
+        begins a new stay."""
+        back_s, kept_s = self.gap_hold
+        return kept_s if self._unseen_since(back_s, now) else float("-inf")
+
+    def _unseen_since(self, moved_s: float, now: float) -> bool:
+        """No frame may have shown the position the switch took at `moved_s`: it left sooner
+        than a frame (and its wire time), or every frame since may have been lost."""
+        return now - moved_s < self.timing.unseen_s or self.delays.hidden(moved_s, now)
 
     def _held_at_stop_s(self, now: float) -> float:
         """How long the switch has been held at the STOP position (until the gap, if it is
@@ -179,21 +197,26 @@ class ArmingTracker:
         """The mode switch moved to `mode` (a source it settles on takes over: H9; back to one
         within the debounce, the controller may never have left it)."""
         if self.between_from is not None and mode is STOP:
+            self.gap_hold = (now, self._held_at_stop_s(now))
             self.between_from = None  # at the STOP position again: a new hold begins
-            self.stop_since = now
+            self.stop_since = self._stay_begins(now)
             return
+        if self.switch is STOP and mode is not STOP and not self._unseen_since(self.switch_at, now):
+            self.stop_shown_at = now  # leaving a STOP a frame may have shown
         if mode is not self.switch and mode is not STOP:
-            returning = (
-                self.switch is not STOP
-                and now - self.left_at.get(mode, -1.0) < self.timing.settle_s
-            )
+            returning = self._returning(mode, now)
             self.taking = None
             if not returning:
                 self._taking_over(mode, now)
         if mode is self.switch:
             return  # not a move: the frames do not change
         was, entered_s = self.switch, self.switch_at
-        held_s = self._held_at_stop_s(now) if was is STOP else now - entered_s
+        if was is STOP:
+            held_s = max(self._held_at_stop_s(now), self._gap_kept_s(now))
+            if now <= self.chatter_until:  # a bouncing switch's next frame may read STOP too
+                held_s += self.timing.frame_s
+        else:
+            held_s = now - entered_s
         self.between_from = None
         self.switch, self.switch_at = mode, now
         self.switch_shown_s = float("inf") if OracleCause.RC_LINK_LOST in self.faults else now
@@ -207,14 +230,26 @@ class ArmingTracker:
         else:
             self._to_source(mode, was, entered_s, held_s, now)
 
+    def _stay_begins(self, now: float) -> float:
+        """When the controller's run of frames at STOP may begin, for a move to the STOP
+        position at `now`: among a bouncing switch's frames, the one just before may have read
+        STOP too (between positions as well: a bounce reads the STOP position), so a frame
+        earlier."""
+        return now - self.timing.frame_s if now <= self.chatter_until else now
+
+    def _returning(self, mode: ControlMode, now: float) -> bool:
+        """Back to the source `mode` within the debounce, through other sources or STOPs no
+        frame may have shown: the controller may never have left `mode` (found by `bywire
+        verify` on 10 Hz frames: CAN, a glimpse of STOP, one frame of RC, a glimpse of STOP,
+        CAN again; docs/SAFETY.md row 76). A STOP a frame may have shown since means it did."""
+        left_s = self.left_at.get(mode, -1.0)
+        return self.stop_shown_at < left_s and now - left_s < self.timing.settle_s
+
     def _to_stop(self, was: ControlMode, entered_s: float, held_s: float, now: float) -> None:
         # Back at STOP after a glimpse away that no frame may have shown: still one hold.
         glimpse = held_s < self.timing.unseen_s and self.left_at.get(STOP) == entered_s
         if not glimpse:
-            # Among a bouncing switch's frames, the one just before this move may have read
-            # STOP too: the controller's run of frames at STOP may start a frame earlier.
-            bouncing = now <= self.chatter_until
-            self.stop_since = now - self.timing.frame_s if bouncing else now
+            self.stop_since = self._stay_begins(now)
         if self.ledger.tripped_at is not None:  # the gate opens once the STOP is acknowledged
             self.faults.dac_writes_from = now + self.timing.settle_s
         if self.pending is not None:  # cut short: it may have armed meanwhile
@@ -233,15 +268,10 @@ class ArmingTracker:
             # drives on (CAN-bound causes never block RC).
             ledger.arm()
         source = self.sources[mode]
-        # Back to a source within the debounce: the controller may never have left it.
-        since_left_s = now - self.left_at.get(mode, -1.0)
-        returning = since_left_s < self.timing.settle_s and was is not STOP
         # Whether any frame showed STOP is judged on this stretch at STOP alone: a glimpse away
         # joins two stretches into one hold (above), but no frame read STOP between them.
-        stretch_s = now - entered_s
-        unseen = was is STOP and (
-            stretch_s < self.timing.unseen_s or self.delays.hidden(self.switch_at, now)
-        )
+        unseen = was is STOP and self._unseen_since(entered_s, now)
+        returning = self._returning(mode, now)
         if unseen and before.demand.armed:
             ledger.arm()  # no frame may have shown it
         elif unseen and before.demand.deadline_s is not None:
