@@ -122,3 +122,75 @@ def test_a_controller_one_frame_slower_than_the_debounce_is_found(
     result, samples = judged(found())
     assert not all(_stopped(s) for s in samples if s.time_s >= COUNTS_S + SLACK_S)
     assert "H1" in {v.invariant.name for v in result.oracle.violations}
+
+
+# --- row 78: a second sender during a long debounce, over before the move counts -------------
+
+NINE_FRAMES = parse_config(
+    "[timeouts]\nrc_timeout_s = 1.0\nwatchdog_s = 5.0\n\n[supervisor]\ndebounce_frames = 9\n\n"
+    "[sim]\nrc_frame_period_s = 0.1\n",
+    "nine-frames",
+)
+TO_CAN_S = 7.945
+NINE_COUNTS_S = TO_CAN_S + 9 * FRAME_S  # the last of the debounce's frames
+
+
+def impostor_during_the_debounce(frames: int) -> str:
+    """`bywire verify --config FILE --budget 800 --seed 6`, campaign 184, shrunk (there with 5
+    frames): armed in RC, the switch to CAN, and a keyed second sender 5 ms later."""
+    return f"""
+name = "impostor-during-the-debounce"
+duration_s = 10.5
+event = [
+    {{ at_s = 0.0, rc = {{ gear = "forward" }} }},
+    {{ at_s = 0.0, hlc = {{ steering = 0.0, throttle = 0.0, brake = 0.0, gear = "forward" }} }},
+    {{ at_s = 4.3, rc = {{ mode = "stop" }} }},
+    {{ at_s = 4.36, rc = {{ throttle = 0.0, mode = "rc" }} }},
+    {{ at_s = 7.9, hlc = {{ steering = -0.9, throttle = 0.0 }} }},
+    {{ at_s = {TO_CAN_S}, rc = {{ mode = "can" }} }},
+    {{ at_s = 7.95, fault = "can_impostor", count = {frames}, keyed = true }},
+]
+"""
+
+
+def judged_nine(scenario: str) -> tuple[set[str], list[Observation]]:
+    runs: list[SimRun] = []
+    result = Campaign(NINE_FRAMES).run_scenario(
+        parse_scenario(scenario, "nine-frames"), prepare=runs.append
+    )
+    assert result.oracle.checks > 0
+    return {v.invariant.name for v in result.oracle.violations}, list(runs[0].record.samples)
+
+
+def test_a_second_sender_over_before_the_move_counts_stops_nothing() -> None:
+    """Five frames (0.1 s) of a second sender while a 0.9 s debounce counts the move to CAN:
+    by the time it counts the id is trusted again (a window of good frames), the robot goes on
+    in CAN, its drive enabled and the spring brake released throughout. The oracle demanded a
+    stop 0.2 s after the second sender began, while the robot was still (rightly) in RC."""
+    found, samples = judged_nine(impostor_during_the_debounce(5))
+    assert found == set()
+    after = [s for s in samples if s.time_s >= 7.9]
+    assert after
+    assert all(s.motors_enabled and not s.ebrake_engaged for s in after)
+    assert any(s.mode.name == "CAN" for s in after if s.time_s >= NINE_COUNTS_S + SLACK_S)
+
+
+def test_a_second_sender_still_distrusted_when_the_move_counts_stops_the_robot_then(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """Forty frames (0.8 s): the id is still distrusted when the move counts, and the robot
+    stops then (the e-brake on, 0 V). The teeth of the deadline: a debounce one frame slower
+    is found (H1), and so is a supervisor for which CAN's causes never latch."""
+    found, samples = judged_nine(impostor_during_the_debounce(40))
+    assert found == set()
+    after = [s for s in samples if s.time_s >= NINE_COUNTS_S + SLACK_S]
+    assert after
+    assert all(_stopped(s) for s in after)
+    with monkeypatch.context() as late:
+        late.setattr(supervisor, "_debounced", one_frame_late())
+        found, _ = judged_nine(impostor_during_the_debounce(40))
+        assert "H1" in found
+    monkeypatch.setattr(supervisor, "CAN_BOUND", frozenset())
+    found, samples = judged_nine(impostor_during_the_debounce(40))
+    assert not all(_stopped(s) for s in samples if s.time_s >= NINE_COUNTS_S + SLACK_S)
+    assert "H1" in found

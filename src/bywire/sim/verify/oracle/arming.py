@@ -210,6 +210,7 @@ class ArmingTracker:
                 self._taking_over(mode, now)
         if mode is self.switch:
             return  # not a move: the frames do not change
+        self.ledger.uncounted = None  # a stop demanded of the last move is the move's affair
         was, entered_s = self.switch, self.switch_at
         if was is STOP:
             held_s = max(self._held_at_stop_s(now), self._gap_kept_s(now))

@@ -34,6 +34,9 @@ CAN_SILENT = frozenset({OracleCause.CAN_LOST, OracleCause.CAN_UNPLUGGED})
 """Faults in which nothing the computer sends arrives."""
 CAN_ONLY = frozenset({*CAN_SILENT, OracleCause.CAN_IMPOSTOR, OracleCause.REMOTE_STOP})
 """Causes that stop CAN mode and refuse arming into CAN, never RC."""
+CAN_MODE_ONLY = frozenset({*CAN_SILENT, OracleCause.CAN_IMPOSTOR})
+"""Causes that stop the robot only once it is in CAN mode: a move to CAN stops it once the move
+counts (a remote stop is honoured in every mode)."""
 ESTOP = frozenset({OracleCause.ESTOP_PRESSED, OracleCause.ESTOP_WIRE})
 """The E-stop's circuit open: a press, a broken wire (issue 44)."""
 SWITCH_ONLY = frozenset(

@@ -19,6 +19,7 @@ class FaultsInForce:
     changed_at: float = -1.0  # when a fault last began or ended
     began: dict[OracleCause, tuple[float, bool]] = field(default_factory=dict)  # (at, armed then)
     impostor_met_drive: bool = False  # the motors were enabled when a second sender began
+    impostor_counts_s: float = 0.0  # and the switch's move to CAN counts then (past: counted)
     dac_every_other: bool = False  # the failing DAC NAKs every other write: slower to latch
     dac_back_at: float = -1.0  # when DAC writes last began to succeed again
     dac_writes_from: float = -1.0  # the loop writes the DAC (no watchdog trip holds the gate)

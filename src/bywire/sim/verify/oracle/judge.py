@@ -25,7 +25,7 @@ from bywire.hal.simulated.world import SimWorld
 from bywire.model import ControlMode
 from bywire.sim.verify.oracle.arming import ArmingTracker
 from bywire.sim.verify.oracle.cause_deadlines import OracleTiming
-from bywire.sim.verify.oracle.causes import OracleCause
+from bywire.sim.verify.oracle.causes import CAN_MODE_ONLY, OracleCause
 from bywire.sim.verify.oracle.checks.h1 import StopFacts, StopWatch, check_h1
 from bywire.sim.verify.oracle.checks.h2 import HandoverFacts, check_h2
 from bywire.sim.verify.oracle.checks.h3 import TripFacts, check_h3
@@ -44,6 +44,7 @@ from bywire.sim.verify.oracle.invariants import Violation
 from bywire.sim.verify.oracle.ledger import StopLedger
 from bywire.sim.verify.oracle.outputs import Outputs
 from bywire.sim.verify.oracle.plant import Plant
+from bywire.sim.verify.oracle.requirements import TRUST_REGAINED_S
 
 STOP = ControlMode.STOP
 
@@ -162,14 +163,18 @@ class HazardOracle:
 
     def _begins(self, cause: OracleCause, now: float) -> None:
         faults, ledger = self.faults, self.ledger
+        # A cause of CAN mode only stops the robot once the switch's move to CAN has counted.
+        counts_s = self.arming.settled_s() if cause in CAN_MODE_ONLY else 0.0
         if cause is OracleCause.CAN_IMPOSTOR:
             # Driving, not stopping: a controlled stop keeps the enable line high too, but the
-            # e-brake engaged says STOP.
+            # e-brake engaged says STOP. Still in RC, the move to CAN not yet counted, nothing
+            # latches before it counts.
             gpio = self.world.gpio
             faults.impostor_met_drive = gpio["motors_enable"].level and gpio["ebrake_release"].level
+            faults.impostor_counts_s = counts_s
         faults.causes.add(cause)
         faults.began[cause] = (now, ledger.armed)
-        ledger.request(cause, now)
+        ledger.request(cause, now, counts_from_s=counts_s)
         unseen = now - ledger.rc_borne_at < self.timing.unseen_s
         if cause is OracleCause.RC_LINK_LOST and unseen and ledger.deadline_s is not None:
             # No frame may have carried what the link said just before it died: only the
@@ -180,6 +185,9 @@ class HazardOracle:
     def _ends(self, cause: OracleCause, now: float) -> None:
         faults = self.faults
         faults.causes.discard(cause)
+        if cause in CAN_MODE_ONLY and not faults.any_of(CAN_MODE_ONLY):
+            lingers_s = TRUST_REGAINED_S if cause is OracleCause.CAN_IMPOSTOR else 0.0
+            self.ledger.can_mode_fault_over(now + lingers_s)
         if cause is OracleCause.DAC_FAIL:
             faults.dac_back_at = now
         self.ledger.ended(cause, now)

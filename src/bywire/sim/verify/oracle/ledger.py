@@ -12,6 +12,7 @@ from dataclasses import dataclass, field
 
 from bywire.sim.verify.oracle.cause_deadlines import OracleTiming
 from bywire.sim.verify.oracle.causes import (
+    CAN_MODE_ONLY,
     CAN_ONLY,
     POWER_OFF,
     RC_BORNE,
@@ -48,6 +49,16 @@ class PassingStop:
     after: Demand
 
 
+@dataclass(frozen=True, slots=True)
+class UncountedStop:
+    """A stop that causes of CAN mode only demand of a move to CAN the controller has not
+    counted yet (it counts by `counts_s`, after the debounce's frames), and what H1 allowed
+    before it: restored if the causes, and their effect on the controller, are over sooner."""
+
+    before: Demand
+    counts_s: float
+
+
 @dataclass(slots=True)
 class StopLedger:
     """The stops requested, their deadline, and what they leave latched."""
@@ -64,6 +75,7 @@ class StopLedger:
     owed: dict[OracleCause, float] = field(default_factory=dict)  # the switch's to clear, from then
     passing: PassingStop | None = None  # the latest implausible frames' stop
     rc_borne_at: float = -1.0  # when a cause the IBUS frames carry last happened
+    uncounted: UncountedStop | None = None  # demanded of a move to CAN not yet counted
 
     # --- requests and armings ----------------------------------------------------------------
 
@@ -75,6 +87,8 @@ class StopLedger:
         silenced = LINK_AND_FAILSAFE_SILENCE if cause is OracleCause.SWITCH_STOP else LINK_SILENCES
         if cause in RC_BORNE and self.faults.any_of(silenced):
             return
+        if cause in CAN_MODE_ONLY and counts_from_s > now and self.uncounted is None:
+            self.uncounted = UncountedStop(self.demand(), counts_from_s)
         rc_blind_until = self.delays.rc_blind_until
         if cause is OracleCause.RC_IMPLAUSIBLE and now > rc_blind_until:
             self.owed[cause] = now + self.timing.deadline_s(cause)
@@ -98,6 +112,7 @@ class StopLedger:
         just before the switch left)."""
         self.armed, self.deadline_s = True, None
         self.power_off_by.clear()
+        self.uncounted = None
 
     def demand(self) -> Demand:
         return Demand(self.armed, self.deadline_s, frozenset(self.stopped_by))
@@ -114,6 +129,18 @@ class StopLedger:
     def allows(self, now: float) -> bool:
         """Armed, or a stop whose deadline has not passed."""
         return self.armed or (self.deadline_s is not None and now < self.deadline_s)
+
+    def can_mode_fault_over(self, clear_s: float) -> None:
+        """The last cause of CAN mode only in force is over, and its effect on the controller
+        (a distrusted id) by `clear_s`: if that may be before the move to CAN counts, the
+        controller may enter CAN with nothing to stop it (nothing latched in the mode it was
+        in), and what H1 allowed before the stop is allowed again (found by `bywire verify` on
+        a 10 Hz receiver with a debounce of 9 frames; docs/SAFETY.md row 78)."""
+        uncounted, self.uncounted = self.uncounted, None
+        if uncounted is None or clear_s >= uncounted.counts_s:
+            return
+        if self.stopped_by <= CAN_MODE_ONLY:
+            self.restore(uncounted.before)
 
     def can_stop_pending(self, now: float) -> bool:
         """Only CAN-bound causes demand STOP, and the controller may not have acted yet."""
@@ -187,7 +214,9 @@ class StopLedger:
         enough, a glimpse of STOP may have left it standing) and nothing else has stopped it
         since: each of its frames takes the real computer's next counter, so every real frame
         after it is a repeat, and three repeats among sixteen frames distrust the id while the
-        mode is still CAN. (Begun at STOP, the cause never latches; with the computer silent,
+        mode is still CAN; begun while a move to CAN was still being counted (the robot in
+        RC), it latches once the move counts, if it lasts that long. (Begun at STOP, the cause
+        never latches; with the computer silent,
         nothing repeats; with another stop first, the robot may have left CAN mode before the
         id was distrusted.)"""
         began_s, armed = self.faults.began[OracleCause.CAN_IMPOSTOR]
@@ -196,6 +225,7 @@ class StopLedger:
         if self.stopped_by != {OracleCause.CAN_IMPOSTOR}:
             return None
         latched_s = began_s + self.timing.deadline_s(OracleCause.CAN_IMPOSTOR)
+        latched_s = max(latched_s, self.faults.impostor_counts_s)  # in CAN mode by then
         return self.delays.past_hang(began_s, latched_s)
 
     def passed_unseen(self, cause: OracleCause) -> None:

@@ -118,6 +118,10 @@ CAN_PERIOD_S = dbc.command_period_s()
 file), and a second sender's frames, one a period."""
 CAN_STALE_S = CAN_PERIOD_S + 0.005
 """A CAN value may still be what the controller sees a period (and wire time) after it changed."""
+TRUST_REGAINED_S = 15 * CAN_PERIOD_S
+"""R-CANRX: an id distrusted for a second sender is trusted again only after a window of
+good frames, one for each of the rolling counter's 16 values: at least 15 command periods after
+the second sender's last frame."""
 DAC_LATCH_WRITES = 20
 """R-DAC-FAULT: a DAC failing for this many of the driving task's periods has certainly latched
 DAC_FAULT: every other write failing trips the leaky count after eight writes; the rest is
