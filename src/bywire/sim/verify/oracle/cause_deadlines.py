@@ -135,7 +135,12 @@ class OracleTiming:
             ),
             watchdog_s=bounded(Figure.WATCHDOG_S, robot.timeouts.watchdog_s),
             control_period_s=period_s,
-            driving_period_s=bounded(Figure.DRIVING_PERIOD_S, 1.0 / robot.tasks.rate_hz("driving")),
+            # A pass within its budget may outlast a fast task's period (its DAC transfers
+            # within theirs): the DAC is written no more often than its passes end.
+            driving_period_s=bounded(
+                Figure.DRIVING_PERIOD_S,
+                max(1.0 / robot.tasks.rate_hz("driving"), robot.timeouts.pass_budget_s),
+            ),
             dac_transfer_s=bounded(Figure.DAC_TRANSFER_S, robot.timeouts.dac_transfer_budget_s),
             standstill_mps=bounded(Figure.STANDSTILL_MPS, interlocks.standstill_speed_mps),
             unnoticed_death_mps=bounded(Figure.BLIND_SPOT_MPS, blind_spot_mps),
