@@ -16,11 +16,8 @@ import pytest
 from bywire.config import RobotConfig, parse_config
 from bywire.config.deadlines import DAC_FAILURE_DEADLINE_S
 from bywire.control import dac_health
-from bywire.sim.observe import Observation
-from bywire.sim.runner import SimRun
-from bywire.sim.scenario import parse_scenario
-from bywire.sim.verify.campaign import Campaign
 from bywire.sim.verify.oracle.cause_deadlines import OracleTiming
+from tests.system.judged import Judged, judged
 
 FAST_DRIVING = parse_config("[tasks]\ndriving_rate_hz = 1000\n", "fast-driving")
 NAK_S = 1.0
@@ -37,20 +34,13 @@ event = [
 """
 
 
-def judged() -> tuple[set[str], list[Observation]]:
-    runs: list[SimRun] = []
-    result = Campaign(FAST_DRIVING).run_scenario(
-        parse_scenario(SLOW_TRANSFERS_THEN_NAKS, "fast"), prepare=runs.append
-    )
-    assert result.oracle.checks > 0
-    found = {violation.invariant.name for violation in result.oracle.violations}
-    return found, list(runs[0].record.samples)
+def played() -> Judged:
+    return judged(FAST_DRIVING, SLOW_TRANSFERS_THEN_NAKS)
 
 
-def _stopped_by(samples: list[Observation]) -> float:
+def _stopped_by(run: Judged) -> float:
     """When the drive was off and the spring brake on for good after the first NAK."""
-    after = [s for s in samples if s.time_s >= NAK_S]
-    assert after
+    after = run.after(NAK_S)
     assert not after[-1].motors_enabled
     assert after[-1].ebrake_engaged
     driving = [s.time_s for s in after if s.motors_enabled or not s.ebrake_engaged]
@@ -58,12 +48,11 @@ def _stopped_by(samples: list[Observation]) -> float:
 
 
 def test_a_failing_dac_on_a_fast_task_with_slow_transfers_stops_within_the_requirement() -> None:
-    found, samples = judged()
-    assert found == set()
-    armed = [s for s in samples if 0.5 <= s.time_s < NAK_S]
-    assert armed
+    run = played()
+    assert run.found == set()
+    armed = [s for s in run.after(0.5) if s.time_s < NAK_S]
     assert all(s.motors_enabled and not s.ebrake_engaged for s in armed)
-    assert _stopped_by(samples) - NAK_S < DAC_FAILURE_DEADLINE_S
+    assert _stopped_by(run) - NAK_S < DAC_FAILURE_DEADLINE_S
 
 
 def test_the_oracle_before_counted_the_writes_at_the_files_rate(
@@ -76,13 +65,12 @@ def test_the_oracle_before_counted_the_writes_at_the_files_rate(
         return replace(original(robot), driving_period_s=0.001)
 
     monkeypatch.setattr(OracleTiming, "for_robot", at_the_files_rate)
-    found, _ = judged()
-    assert "H1" in found
+    assert "H1" in played().found
 
 
 def test_a_dac_failure_that_never_latches_is_still_found(monkeypatch: pytest.MonkeyPatch) -> None:
     """The teeth: the slower writes give the controller longer, not for ever."""
     monkeypatch.setattr(dac_health.DacHealth, "failing", property(lambda _health: False))
-    found, samples = judged()
-    assert any(s.motors_enabled for s in samples if s.time_s > NAK_S + DAC_FAILURE_DEADLINE_S)
-    assert "H1" in found
+    run = played()
+    assert any(s.motors_enabled for s in run.after(NAK_S + DAC_FAILURE_DEADLINE_S))
+    assert "H1" in run.found

@@ -13,10 +13,10 @@ import pytest
 from bywire.config import parse_config
 from bywire.control import supervisor
 from bywire.model import ControlMode
-from bywire.sim.runner import SimRun
 from bywire.sim.scenario import parse_scenario
 from bywire.sim.verify.campaign import Campaign
 from tests.sim.verify.mutants import between_taken_for_a_stay
+from tests.system.judged import Judged, judged
 
 ROBOT = """
 [rc.mode_switch]
@@ -145,10 +145,8 @@ def ready_never_reset_at_stop() -> Callable[..., supervisor.SupervisorState]:
     return keeping
 
 
-def _armed_after(result_run: list[SimRun], from_s: float) -> bool:
-    samples = [s for s in result_run[0].record.samples if s.time_s >= from_s]
-    assert samples
-    return any(s.motors_enabled and not s.ebrake_engaged for s in samples)
+def _armed_after(run: Judged, from_s: float) -> bool:
+    return any(s.motors_enabled and not s.ebrake_engaged for s in run.after(from_s))
 
 
 @pytest.mark.parametrize(
@@ -163,11 +161,9 @@ def test_a_glimpse_of_stop_after_the_gap_arms_only_if_no_frame_showed_it(
     the move to RC armed, the throttle at zero. The oracle had started a new stay at the
     glimpse of STOP and flagged the arming (H1). A frame that shows STOP after the gap begins a
     new stay, which 150 ms (one or two frames) does not complete: no arming, and none expected."""
-    runs: list[SimRun] = []
-    scenario = parse_scenario(back_from_the_gap(stop_s), "gap")
-    result = Campaign(parse_config(SLOW_FRAMES)).run_scenario(scenario, prepare=runs.append)
-    assert result.oracle.violations == []
-    assert _armed_after(runs, 9.3) is arms
+    run = judged(parse_config(SLOW_FRAMES), back_from_the_gap(stop_s))
+    assert run.found == set()
+    assert _armed_after(run, 9.3) is arms
 
 
 def test_an_arming_on_a_stay_that_a_frame_at_stop_ended_is_still_found(
@@ -175,11 +171,9 @@ def test_an_arming_on_a_stay_that_a_frame_at_stop_ended_is_still_found(
 ) -> None:
     """The teeth: the hold the gap kept counts only while no frame may have shown STOP."""
     monkeypatch.setattr(supervisor, "_from_stop", ready_never_reset_at_stop())
-    runs: list[SimRun] = []
-    scenario = parse_scenario(back_from_the_gap(0.15), "gap")
-    result = Campaign(parse_config(SLOW_FRAMES)).run_scenario(scenario, prepare=runs.append)
-    assert _armed_after(runs, 9.3)
-    assert {violation.invariant.name for violation in result.oracle.violations} == {"H1"}
+    run = judged(parse_config(SLOW_FRAMES), back_from_the_gap(0.15))
+    assert _armed_after(run, 9.3)
+    assert run.found == {"H1"}
 
 
 def test_a_glimpse_of_stop_no_frame_showed_between_two_gaps_keeps_the_stay_before_them() -> None:
@@ -190,9 +184,6 @@ def test_a_glimpse_of_stop_no_frame_showed_between_two_gaps_keeps_the_stay_befor
         '{ at_s = 9.3, rc = { throttle = 0.0, mode = "rc" } }',
     )
     assert "9.3" in events
-    runs: list[SimRun] = []
-    result = Campaign(parse_config(SLOW_FRAMES)).run_scenario(
-        parse_scenario(events, "gap"), prepare=runs.append
-    )
-    assert result.oracle.violations == []
-    assert _armed_after(runs, 9.6)
+    run = judged(parse_config(SLOW_FRAMES), events)
+    assert run.found == set()
+    assert _armed_after(run, 9.6)

@@ -12,10 +12,7 @@ import pytest
 from bywire.config import parse_config
 from bywire.control import supervisor
 from bywire.model import ControlMode
-from bywire.sim.observe import Observation
-from bywire.sim.runner import SimRun
-from bywire.sim.scenario import parse_scenario
-from bywire.sim.verify.campaign import Campaign
+from tests.system.judged import Judged, judged
 
 SLOW_FRAMES = parse_config(
     "[timeouts]\nrc_timeout_s = 1.0\nwatchdog_s = 5.0\n\n[sim]\nrc_frame_period_s = 0.1\n",
@@ -23,15 +20,8 @@ SLOW_FRAMES = parse_config(
 )
 
 
-def judged(scenario: str) -> tuple[set[str], list[Observation]]:
-    """What the oracle found (invariants), and what the hardware showed."""
-    runs: list[SimRun] = []
-    result = Campaign(SLOW_FRAMES).run_scenario(
-        parse_scenario(scenario, "glimpses"), prepare=runs.append
-    )
-    assert result.oracle.checks > 0
-    found = {violation.invariant.name for violation in result.oracle.violations}
-    return found, list(runs[0].record.samples)
+def played(scenario: str) -> Judged:
+    return judged(SLOW_FRAMES, scenario)
 
 
 def scenario(computer: str, *events: str, duration_s: float = 4.2) -> str:
@@ -85,10 +75,9 @@ def test_back_to_can_through_glimpses_no_frame_showed_is_no_new_handover(compute
     """One frame of RC is no move (the debounce's three): the robot drove on in CAN by the
     computer's throttle, never braking. The oracle took the return for a new handover into
     CAN, whose throttle had not been zero since, and flagged H2 (with the bridge, as found)."""
-    found, samples = judged(back_to_can(computer, FOUND_MOVES))
-    assert found == set()
-    window = [s for s in samples if 3.2 <= s.time_s <= 4.2]
-    assert window
+    run = played(back_to_can(computer, FOUND_MOVES))
+    assert run.found == set()
+    window = run.after(3.2)
     assert all(s.mode is ControlMode.CAN and not s.ebrake_engaged for s in window)
     assert min(s.throttle_volts for s in window) > 0.0
 
@@ -100,13 +89,13 @@ def test_a_return_to_can_after_a_stay_at_stop_still_needs_zero_throttle(
     even within the debounce of leaving CAN and through a STOP no frame showed; the
     computer's throttle (still 0.3) refuses it. A supervisor that takes any throttle for zero
     arms with it, and is found (H2: CAN never seen at zero throttle)."""
-    found, samples = judged(back_to_can("a computer", AFTER_A_STAY))
-    assert found == set()
-    assert all(s.throttle_volts == 0.0 for s in samples if s.time_s >= 3.5)  # refused
+    run = played(back_to_can("a computer", AFTER_A_STAY))
+    assert run.found == set()
+    assert all(s.throttle_volts == 0.0 for s in run.after(3.5))  # refused
     monkeypatch.setattr(supervisor.SupervisorInputs, "throttle_zero", lambda _self, _t: True)
-    found, samples = judged(back_to_can("a computer", AFTER_A_STAY))
-    assert any(s.throttle_volts > 0.0 for s in samples if s.time_s >= 3.8)
-    assert "H2" in found
+    run = played(back_to_can("a computer", AFTER_A_STAY))
+    assert any(s.throttle_volts > 0.0 for s in run.after(3.8))
+    assert "H2" in run.found
 
 
 # --- row 77: a bouncing switch's frames at STOP around an operator's flick through STOP -------
@@ -131,10 +120,8 @@ BOUNCING = {  # campaign 139 shrunk two ways: a flick through STOP while the swi
 }
 
 
-def _armed_from(samples: list[Observation], from_s: float) -> bool:
-    after = [s for s in samples if s.time_s >= from_s]
-    assert after
-    return all(s.motors_enabled and not s.ebrake_engaged for s in after)
+def _armed_from(run: Judged, from_s: float) -> bool:
+    return all(s.motors_enabled and not s.ebrake_engaged for s in run.after(from_s))
 
 
 @pytest.mark.parametrize("events", BOUNCING.values(), ids=BOUNCING.keys())
@@ -144,9 +131,9 @@ def test_a_bounce_at_stop_on_either_side_of_a_flick_can_complete_the_stay(events
     zero throttle armed (the operator's own re-arming gesture). The oracle counted the stay
     from a frame before the flick only, or from the flick itself out of the gap, and flagged
     the arming (H1)."""
-    found, samples = judged(events)
-    assert found == set()
-    assert _armed_from(samples, 2.85)
+    run = played(events)
+    assert run.found == set()
+    assert _armed_from(run, 2.85)
 
 
 def readied_by_one_frame() -> Callable[..., supervisor.SupervisorState]:
@@ -174,10 +161,10 @@ def test_a_flick_after_the_bounce_is_over_arms_nothing_and_an_arming_on_it_is_fo
     """The teeth: once the bounce is over (4 frames), the same flick shows one frame at STOP
     and arms nothing; a supervisor that takes one frame for a stay arms, and is found (H1)."""
     over = scenario("", *RC_ARMED, '{ at_s = 1.41, fault = "switch_chatter", count = 4 }', *FLICK)
-    found, samples = judged(over)
-    assert found == set()
-    assert not _armed_from(samples, 2.85)
+    run = played(over)
+    assert run.found == set()
+    assert not _armed_from(run, 2.85)
     monkeypatch.setattr(supervisor, "_from_stop", readied_by_one_frame())
-    found, samples = judged(over)
-    assert _armed_from(samples, 2.85)
-    assert "H1" in found
+    run = played(over)
+    assert _armed_from(run, 2.85)
+    assert "H1" in run.found

@@ -18,11 +18,9 @@ import pytest
 from bywire.config import parse_config
 from bywire.control import supervisor
 from bywire.sim.observe import Observation
-from bywire.sim.runner import SimRun
-from bywire.sim.scenario import parse_scenario
-from bywire.sim.verify.campaign import Campaign, CampaignResult
 from bywire.sim.verify.oracle.causes import OracleCause
 from bywire.sim.verify.oracle.judge import HazardOracle
+from tests.system.judged import Judged, judged
 
 SLOW_RECEIVER = parse_config(
     "[timeouts]\nrc_timeout_s = 1.0\nwatchdog_s = 5.0\n\n[sim]\nrc_frame_period_s = 0.1\n",
@@ -52,12 +50,8 @@ def found(*extra: str) -> str:
     return f'name = "file-22"\nduration_s = 4.2\nevent = [\n    {joined},\n]\n'
 
 
-def judged(scenario: str) -> tuple[CampaignResult, list[Observation]]:
-    runs: list[SimRun] = []
-    result = Campaign(SLOW_RECEIVER).run_scenario(
-        parse_scenario(scenario, "file-22"), prepare=runs.append
-    )
-    return result, list(runs[0].record.samples)
+def played(scenario: str) -> Judged:
+    return judged(SLOW_RECEIVER, scenario)
 
 
 def _stopped(sample: Observation) -> bool:
@@ -67,25 +61,22 @@ def _stopped(sample: Observation) -> bool:
 
 
 def test_the_move_to_an_untrusted_can_stops_once_the_debounce_has_counted_it() -> None:
-    result, samples = judged(found())
-    assert result.oracle.checks > 0
-    assert result.oracle.violations == []
-    armed = [s for s in samples if 2.5 <= s.time_s < MOVE_S]
-    assert armed
+    run = played(found())
+    assert run.found == set()
+    armed = [s for s in run.after(2.5) if s.time_s < MOVE_S]
     assert all(s.motors_enabled and not s.ebrake_engaged for s in armed)  # RC armed
-    after = [s for s in samples if s.time_s >= COUNTS_S + SLACK_S]
-    assert after
+    after = run.after(COUNTS_S + SLACK_S)
     assert all(_stopped(s) and not s.motors_enabled for s in after)  # at standstill
-    assert all(s.throttle_volts == 0.0 and s.speed_mps == 0.0 for s in samples)
+    assert all(s.throttle_volts == 0.0 and s.speed_mps == 0.0 for s in run.samples)
 
 
 def test_a_stick_pushed_within_the_debounce_drives_by_rc_until_the_move_counts() -> None:
     """The debounce's price, stated: for its frames the source the switch left still drives.
     A move to STOP is never so delayed (row 26)."""
-    result, samples = judged(found(f"{{ at_s = {MOVE_S + 0.02}, rc = {{ throttle = 0.4 }} }}"))
-    assert result.oracle.violations == []
-    assert any(s.throttle_volts > 0.0 for s in samples if MOVE_S < s.time_s < COUNTS_S)
-    assert all(_stopped(s) for s in samples if s.time_s >= COUNTS_S + SLACK_S)
+    run = played(found(f"{{ at_s = {MOVE_S + 0.02}, rc = {{ throttle = 0.4 }} }}"))
+    assert run.found == set()
+    assert any(s.throttle_volts > 0.0 for s in run.after(MOVE_S) if s.time_s < COUNTS_S)
+    assert all(_stopped(s) for s in run.after(COUNTS_S + SLACK_S))
 
 
 def test_the_oracle_before_demanded_the_stop_before_the_move_could_count(
@@ -97,9 +88,9 @@ def test_the_oracle_before_demanded_the_stop_before_the_move_could_count(
         oracle.stop_event(OracleCause.CAN_LOST, now)
 
     monkeypatch.setattr(HazardOracle, "switched_to_lost_can", at_once)
-    result, _ = judged(found())
-    assert {v.invariant.name for v in result.oracle.violations} == {"H1"}
-    assert min(v.time_s for v in result.oracle.violations) < COUNTS_S
+    run = played(found())
+    assert run.found == {"H1"}
+    assert run.first_s["H1"] < COUNTS_S
 
 
 def one_frame_late() -> Callable[..., tuple[object, object, int]]:
@@ -119,9 +110,9 @@ def test_a_controller_one_frame_slower_than_the_debounce_is_found(
 ) -> None:
     """The teeth: the deadline counted from the debounce is no wider than the debounce."""
     monkeypatch.setattr(supervisor, "_debounced", one_frame_late())
-    result, samples = judged(found())
-    assert not all(_stopped(s) for s in samples if s.time_s >= COUNTS_S + SLACK_S)
-    assert "H1" in {v.invariant.name for v in result.oracle.violations}
+    run = played(found())
+    assert not all(_stopped(s) for s in run.after(COUNTS_S + SLACK_S))
+    assert "H1" in run.found
 
 
 # --- row 78: a second sender during a long debounce, over before the move counts -------------
@@ -153,26 +144,15 @@ event = [
 """
 
 
-def judged_nine(scenario: str) -> tuple[set[str], list[Observation]]:
-    runs: list[SimRun] = []
-    result = Campaign(NINE_FRAMES).run_scenario(
-        parse_scenario(scenario, "nine-frames"), prepare=runs.append
-    )
-    assert result.oracle.checks > 0
-    return {v.invariant.name for v in result.oracle.violations}, list(runs[0].record.samples)
-
-
 def test_a_second_sender_over_before_the_move_counts_stops_nothing() -> None:
     """Five frames (0.1 s) of a second sender while a 0.9 s debounce counts the move to CAN:
     by the time it counts the id is trusted again (a window of good frames), the robot goes on
     in CAN, its drive enabled and the spring brake released throughout. The oracle demanded a
     stop 0.2 s after the second sender began, while the robot was still (rightly) in RC."""
-    found, samples = judged_nine(impostor_during_the_debounce(5))
-    assert found == set()
-    after = [s for s in samples if s.time_s >= 7.9]
-    assert after
-    assert all(s.motors_enabled and not s.ebrake_engaged for s in after)
-    assert any(s.mode.name == "CAN" for s in after if s.time_s >= NINE_COUNTS_S + SLACK_S)
+    run = judged(NINE_FRAMES, impostor_during_the_debounce(5))
+    assert run.found == set()
+    assert all(s.motors_enabled and not s.ebrake_engaged for s in run.after(7.9))
+    assert any(s.mode.name == "CAN" for s in run.after(NINE_COUNTS_S + SLACK_S))
 
 
 def test_a_second_sender_still_distrusted_when_the_move_counts_stops_the_robot_then(
@@ -181,16 +161,13 @@ def test_a_second_sender_still_distrusted_when_the_move_counts_stops_the_robot_t
     """Forty frames (0.8 s): the id is still distrusted when the move counts, and the robot
     stops then (the e-brake on, 0 V). The teeth of the deadline: a debounce one frame slower
     is found (H1), and so is a supervisor for which CAN's causes never latch."""
-    found, samples = judged_nine(impostor_during_the_debounce(40))
-    assert found == set()
-    after = [s for s in samples if s.time_s >= NINE_COUNTS_S + SLACK_S]
-    assert after
-    assert all(_stopped(s) for s in after)
+    run = judged(NINE_FRAMES, impostor_during_the_debounce(40))
+    assert run.found == set()
+    assert all(_stopped(s) for s in run.after(NINE_COUNTS_S + SLACK_S))
     with monkeypatch.context() as late:
         late.setattr(supervisor, "_debounced", one_frame_late())
-        found, _ = judged_nine(impostor_during_the_debounce(40))
-        assert "H1" in found
+        assert "H1" in judged(NINE_FRAMES, impostor_during_the_debounce(40)).found
     monkeypatch.setattr(supervisor, "CAN_BOUND", frozenset())
-    found, samples = judged_nine(impostor_during_the_debounce(40))
-    assert not all(_stopped(s) for s in samples if s.time_s >= NINE_COUNTS_S + SLACK_S)
-    assert "H1" in found
+    run = judged(NINE_FRAMES, impostor_during_the_debounce(40))
+    assert not all(_stopped(s) for s in run.after(NINE_COUNTS_S + SLACK_S))
+    assert "H1" in run.found

@@ -1,0 +1,41 @@
+"""A scenario played on a robot file with the hazard oracle watching, as `bywire verify` plays
+its campaigns: what the oracle found, and what the hardware showed on every pass."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+from bywire.config import RobotConfig
+from bywire.sim.observe import Observation
+from bywire.sim.runner import SimRun
+from bywire.sim.scenario import parse_scenario
+from bywire.sim.verify.campaign import Campaign
+
+
+@dataclass(frozen=True)
+class Judged:
+    """The invariants the oracle found broken (H1…), when each first broke, and the
+    hardware's samples."""
+
+    first_s: dict[str, float]
+    samples: list[Observation]
+
+    @property
+    def found(self) -> frozenset[str]:
+        return frozenset(self.first_s)
+
+    def after(self, from_s: float) -> list[Observation]:
+        """The samples from `from_s` on (never none: a test asks of a time the run reached)."""
+        samples = [s for s in self.samples if s.time_s >= from_s]
+        assert samples, f"the run ended before {from_s} s"
+        return samples
+
+
+def judged(robot: RobotConfig, scenario: str) -> Judged:
+    runs: list[SimRun] = []
+    result = Campaign(robot).run_scenario(parse_scenario(scenario, "judged"), prepare=runs.append)
+    assert result.oracle.checks > 0
+    first_s: dict[str, float] = {}
+    for violation in result.oracle.violations:
+        first_s.setdefault(violation.invariant.name, violation.time_s)
+    return Judged(first_s, list(runs[0].record.samples))
