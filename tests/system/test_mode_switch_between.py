@@ -4,10 +4,6 @@ H1), judged by the oracle and on the hardware."""
 
 from __future__ import annotations
 
-from collections.abc import Callable
-from dataclasses import replace
-from typing import Any
-
 import pytest
 
 from bywire.config import parse_config
@@ -15,7 +11,7 @@ from bywire.control import supervisor
 from bywire.model import ControlMode
 from bywire.sim.scenario import parse_scenario
 from bywire.sim.verify.campaign import Campaign
-from tests.sim.verify.mutants import between_taken_for_a_stay
+from tests.sim.verify.mutants import between_taken_for_a_stay, ready_never_reset_at_stop
 from tests.system.judged import Judged, judged
 
 ROBOT = """
@@ -127,22 +123,6 @@ SLOW_FRAMES = "[timeouts]\nrc_timeout_s = 1.0\nwatchdog_s = 5.0\n\n[sim]\nrc_fra
 
 def back_from_the_gap(stop_s: float) -> str:
     return BACK_FROM_THE_GAP.format(stop_s=stop_s, rc_s=round(8.93 + stop_s, 3))
-
-
-def ready_never_reset_at_stop() -> Callable[..., supervisor.SupervisorState]:
-    """A supervisor whose readiness outlives a new stay at STOP (a frame at STOP after the gap
-    no longer starts one): the rule to put in `supervisor._from_stop`."""
-    original = supervisor._from_stop
-
-    def keeping(
-        state: supervisor.SupervisorState, inputs: supervisor.SupervisorInputs, *rest: Any
-    ) -> supervisor.SupervisorState:
-        after = original(state, inputs, *rest)
-        if state.ready and after.mode is ControlMode.STOP and after.switch is ControlMode.STOP:
-            return replace(after, ready=True)
-        return after
-
-    return keeping
 
 
 def _armed_after(run: Judged, from_s: float) -> bool:

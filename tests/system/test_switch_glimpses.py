@@ -5,13 +5,12 @@ judged here on the hardware and by the oracle, each with the oracle's teeth kept
 
 from __future__ import annotations
 
-from collections.abc import Callable
-
 import pytest
 
 from bywire.config import parse_config
 from bywire.control import supervisor
 from bywire.model import ControlMode
+from tests.sim.verify.mutants import readied_by_one_frame
 from tests.system.judged import Judged, judged
 
 SLOW_FRAMES = parse_config(
@@ -134,25 +133,6 @@ def test_a_bounce_at_stop_on_either_side_of_a_flick_can_complete_the_stay(events
     run = played(events)
     assert run.found == set()
     assert _armed_from(run, 2.85)
-
-
-def readied_by_one_frame() -> Callable[..., supervisor.SupervisorState]:
-    """A supervisor that takes one frame at STOP for a stay (the debounce the loader refuses,
-    row 26): the rule to put in `supervisor._from_stop`."""
-    original = supervisor._from_stop
-    stop = ControlMode.STOP
-
-    def one(
-        state: supervisor.SupervisorState,
-        inputs: supervisor.SupervisorInputs,
-        switch: ControlMode | None,
-        held_at_stop: bool,
-        debounce: tuple[ControlMode | None, int, bool],
-    ) -> supervisor.SupervisorState:
-        at_stop = switch is stop and debounce[0] is stop and debounce[1] >= 1
-        return original(state, inputs, switch, held_at_stop or at_stop, debounce)
-
-    return one
 
 
 def test_a_flick_after_the_bounce_is_over_arms_nothing_and_an_arming_on_it_is_found(

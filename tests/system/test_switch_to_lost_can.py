@@ -11,8 +11,6 @@ controller one frame slower than the debounce is still found."""
 
 from __future__ import annotations
 
-from collections.abc import Callable
-
 import pytest
 
 from bywire.config import parse_config
@@ -20,6 +18,7 @@ from bywire.control import supervisor
 from bywire.sim.observe import Observation
 from bywire.sim.verify.oracle.causes import OracleCause
 from bywire.sim.verify.oracle.judge import HazardOracle
+from tests.sim.verify.mutants import can_loss_never_latches, one_frame_late
 from tests.system.judged import Judged, judged
 
 SLOW_RECEIVER = parse_config(
@@ -93,18 +92,6 @@ def test_the_oracle_before_demanded_the_stop_before_the_move_could_count(
     assert run.first_s["H1"] < COUNTS_S
 
 
-def one_frame_late() -> Callable[..., tuple[object, object, int]]:
-    """A debounce that counts every move one frame after the file says."""
-    original = supervisor._debounced
-
-    def late(
-        state: supervisor.SupervisorState, inputs: supervisor.SupervisorInputs, frames: int
-    ) -> tuple[object, object, int]:
-        return original(state, inputs, frames + 1)
-
-    return late
-
-
 def test_a_controller_one_frame_slower_than_the_debounce_is_found(
     monkeypatch: pytest.MonkeyPatch,
 ) -> None:
@@ -167,7 +154,7 @@ def test_a_second_sender_still_distrusted_when_the_move_counts_stops_the_robot_t
     with monkeypatch.context() as late:
         late.setattr(supervisor, "_debounced", one_frame_late())
         assert "H1" in judged(NINE_FRAMES, impostor_during_the_debounce(40)).found
-    monkeypatch.setattr(supervisor, "CAN_BOUND", frozenset())
+    can_loss_never_latches(monkeypatch)
     run = judged(NINE_FRAMES, impostor_during_the_debounce(40))
     assert not all(_stopped(s) for s in run.after(NINE_COUNTS_S + SLACK_S))
     assert "H1" in run.found

@@ -12,7 +12,7 @@ from bywire.control import rc_mapping, supervisor
 from bywire.model import ControlMode
 from bywire.sim.verify.campaign import Step
 from bywire.sim.verify.engine import run_campaign
-from tests.sim.verify.mutants import remote_stop_ignored
+from tests.sim.verify.mutants import can_loss_never_latches, remote_stop_ignored
 
 ROBOT = default_sim_config()
 SLOW_DEBOUNCE = parse_config('backend = "sim"\n\n[supervisor]\ndebounce_frames = 5\n', "<robot>")
@@ -84,12 +84,6 @@ def test_a_controller_that_ignores_a_remote_stop_that_went_out_is_still_found(
     steps = [*RC_DRIVING_STILL, Step(0.59375, "remote_stop", True), Step(gap_s, "can_link", False)]
     outcome = run_campaign(ROBOT, steps)
     assert {finding.invariant for finding in outcome.findings} & {"H1"}
-
-
-def can_loss_never_latches(monkeypatch: pytest.MonkeyPatch) -> None:
-    """A supervisor for which nothing CAN-bound latches: in CAN mode with the computer silent
-    it stays armed (enable high, spring brake released)."""
-    monkeypatch.setattr(supervisor, "CAN_BOUND", frozenset())
 
 
 TO_A_SILENT_CAN = {  # RC armed, the computer silent, then the switch to CAN…
