@@ -2,6 +2,9 @@
 
 from __future__ import annotations
 
+import itertools
+import math
+
 import pytest
 from hypothesis import given
 from hypothesis import strategies as st
@@ -184,6 +187,45 @@ def test_corruption_is_reproducible_with_the_seed() -> None:
         clock.advance(0.05)
         streams.append(uart.read_available())
     assert streams[0] == streams[1]
+
+
+LINE_RATE_S = 0.0028  # frames back to back: the shortest period a robot file allows
+
+
+def _arrivals_s(clock: VirtualClock, uart: SimUart, until_s: float) -> list[float]:
+    """When each whole frame's last byte arrived, reading the line every byte time."""
+    parser, arrivals = ibus.IbusParser(), []
+    while clock.now() < until_s:
+        clock.advance(uart.byte_time_s)
+        arrivals += [clock.now()] * len(parser.feed(uart.read_available()))
+    return arrivals
+
+
+@given(count=st.integers(1, 400), at_s=st.floats(0.0, 0.02))
+def test_noise_on_the_line_loses_the_frames_it_covers_and_delays_none(
+    count: int, at_s: float
+) -> None:
+    """Noise is no sender that the receiver waits for (docs/SAFETY.md row 80): every frame
+    that arrives after the noise arrives when it would have without it, and the frames lost
+    are only those due while the noise was on the line."""
+    clock = VirtualClock()
+    uart = SimUart(clock)
+    rc = SimRcTransmitter(clock, uart, LINE_RATE_S)
+    rc.start()
+    clock.advance(at_s)
+    rc.inject_bytes(bytes(count))  # zeros: never a header, so the parser loses no frame to it
+    noise_until_s = uart.line_free_at_s
+    arrivals = _arrivals_s(clock, uart, noise_until_s + 10 * LINE_RATE_S)
+    after = [t for t in arrivals if t > noise_until_s]
+    first_tick = math.ceil(noise_until_s / LINE_RATE_S - 1e-9) * LINE_RATE_S
+    assert after[0] == pytest.approx(first_tick + FRAME_S, abs=2 * uart.byte_time_s)
+    assert all(
+        b - a == pytest.approx(LINE_RATE_S, abs=2 * uart.byte_time_s)
+        for a, b in itertools.pairwise(after)
+    )
+    due = math.ceil(noise_until_s / LINE_RATE_S - 1e-9) - math.floor(at_s / LINE_RATE_S) - 1
+    assert rc.frames_lost_to_noise == pytest.approx(due, abs=1)
+    assert rc.frames_lost_to_noise <= count // 32 + 2  # what the oracle allows (fault_rules)
 
 
 def test_injected_garbage_is_skipped_and_the_next_frame_survives() -> None:

@@ -4,10 +4,17 @@ The receiver sends a frame every ``period_s`` whether or not anything changed, p
 at 115200 baud 8N1 (32 bytes take ~2.8 ms). Scenario faults: the link drops (no bytes at all),
 the receiver sends its failsafe values (what a FlySky receiver does when the transmitter is out
 of range, §5.3), garbage on the line, and frames with a flipped bit (bad checksum).
+
+Garbage is noise on the wire, not a second sender: the receiver keeps its schedule, and a frame
+due while the noise is on the line is garbled into it (lost), not sent after it. Queued behind
+the noise instead, a receiver whose frames fill the line (a 2.8 ms period) would deliver every
+frame up to the noise's length late for seconds (found by `bywire verify --draw-robots 8
+--budget 800 --seed 9`, file 5, docs/SAFETY.md row 80).
 """
 
 from __future__ import annotations
 
+import math
 import random
 from collections.abc import Mapping, Sequence
 
@@ -83,6 +90,8 @@ class SimRcTransmitter:
         self.link_up = True
         self.frames_sent = 0
         self.corrupted_frames_sent = 0
+        self.frames_lost_to_noise = 0
+        self._noise_until_s = -math.inf
 
     # --- running --------------------------------------------------------------------------------
 
@@ -182,8 +191,9 @@ class SimRcTransmitter:
         return self._failsafe is not None
 
     def inject_bytes(self, data: bytes) -> None:
-        """Put ``data`` on the line now (after any frame already on it)."""
-        self._uart.transmit(data)
+        """Noise: ``data`` on the line now (after any frame already on it); the frames due
+        before it has passed are lost in it, the later ones go out on time."""
+        self._noise_until_s = max(self._noise_until_s, self._uart.transmit(data))
 
     def corrupt_next_frames(self, count: int) -> None:
         """Flip one bit in the channel bytes of each of the next ``count`` frames."""
@@ -214,6 +224,9 @@ class SimRcTransmitter:
 
     def _send_frame(self, tick_s: float) -> None:
         if not self.link_up:
+            return
+        if tick_s < self._noise_until_s:
+            self.frames_lost_to_noise += 1
             return
         channels = list(self._channels)
         for index, raw in (self._failsafe or {}).items():

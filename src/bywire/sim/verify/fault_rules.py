@@ -86,7 +86,8 @@ def can_back(cause: OracleCause) -> Expect:
 
 
 def rc_frames_lost(frames: Callable[[int], int]) -> Expect:
-    """`frames(count)` IBUS frames may be lost: what they carry arrives late, or never."""
+    """`frames(count)` IBUS frames may be lost: what they carry arrives late, or never (noise
+    garbles the frames it covers: `SimRcTransmitter.inject_bytes`)."""
 
     def expect(witness: Witness, values: FaultValues, now: float) -> None:
         oracle = witness.oracle
