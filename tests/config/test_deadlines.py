@@ -13,6 +13,7 @@ from bywire.config import default_sim_config, parse_config
 from bywire.config.deadlines import (
     CAN_LOSS,
     DEADLINES,
+    DRIVE_ACCEL_MPS2,
     HARDEST_STOP_DECEL_MPS2,
     HYDRAULIC_FULL_DECEL_MPS2,
     MOST_DAC_TRANSFER_BUDGET_S,
@@ -21,16 +22,25 @@ from bywire.config.deadlines import (
     OPERATOR_STOP,
     RC_LOSS,
     REGEN_DECEL_MPS2,
+    REVERSE_TOP_SPEED_MPS,
+    ROLLING_DRAG_MPS2,
     STOP_PROMISES,
     WHEEL_SAMPLE_S,
     breaches,
     pairing_frames,
     pairing_window_needed_s,
+    start_s,
 )
 from bywire.config.security import PAIRING_WINDOW_S
 from bywire.errors import ConfigError
 from bywire.hal.simulated.vehicle import DEFAULT_STEP_S
-from bywire.hal.simulated.vehicle_model import VehicleConfig, grade_accel_mps2
+from bywire.hal.simulated.vehicle_model import (
+    ActuatorInputs,
+    VehicleConfig,
+    VehicleModel,
+    VehicleState,
+    grade_accel_mps2,
+)
 from bywire.sim.runner import SimRun
 from bywire.sim.scenario import parse_scenario
 from tests.system.harness import volts_at
@@ -299,6 +309,9 @@ def test_the_limit_itself_is_safe() -> None:
         "[interlocks]\nspeed_step_tolerance_mps = 0.075",  # 15 m/s² × 5 ms
         "[interlocks]\nspeed_step_tolerance_mps = 0.215\nspeed_max_change_mps2 = 1.0",
         "[interlocks]\nspeed_step_tolerance_mps = 0.1\nspeed_max_change_mps2 = 12.5",
+        "[interlocks]\nspeed_stuck_throttle_norm = 0.172",
+        "[interlocks]\nspeed_stuck_s = 0.263",
+        "[interlocks]\nspeed_stuck_s = 0.25\nstandstill_speed_mps = 0.047",
         pairing_window_text(smallest_pairing_window_s(500_000)),
         pairing_window_text(smallest_pairing_window_s(100_000), 100_000),
         pairing_window_text(PAIRING_WINDOW_S.high, least_pairing_bitrate_bps()),
@@ -324,6 +337,9 @@ def test_the_nearest_safe_values_are_accepted(text: str) -> None:
         "[interlocks]\nspeed_step_tolerance_mps = 0.074",
         "[interlocks]\nspeed_step_tolerance_mps = 0.214\nspeed_max_change_mps2 = 1.0",
         "[interlocks]\nspeed_step_tolerance_mps = 0.1\nspeed_max_change_mps2 = 12.4",
+        "[interlocks]\nspeed_stuck_throttle_norm = 0.171",
+        "[interlocks]\nspeed_stuck_s = 0.262",
+        "[interlocks]\nspeed_stuck_s = 0.25\nstandstill_speed_mps = 0.048",
         pairing_window_text(smallest_pairing_window_s(500_000) - PAIRING_STEP_S),
         pairing_window_text(PAIRING_WINDOW_S.high, least_pairing_bitrate_bps() - 1),
     ],
@@ -360,6 +376,71 @@ def test_the_hardest_stop_and_the_readings_age_are_no_less_than_the_simulated_ve
     )
     assert hardest <= HARDEST_STOP_DECEL_MPS2
     assert DEFAULT_STEP_S <= WHEEL_SAMPLE_S
+
+
+@pytest.mark.parametrize(
+    ("text", "fix"),
+    [
+        (  # the finding (row 81): a standing robot counted as driven
+            "[interlocks]\nspeed_stuck_throttle_norm = 0.0\nspeed_stuck_s = 0.0",
+            "never moves; the check allows 0 s",
+        ),
+        ("[interlocks]\nspeed_stuck_throttle_norm = 0.1", "to 0.172 or more"),
+        ("[interlocks]\nspeed_stuck_s = 0.2", "interlocks.speed_stuck_s to 0.263 or more"),
+        ("[interlocks]\nstandstill_speed_mps = 0.9", "standstill_speed_mps to 0.177 or less"),
+    ],
+)
+def test_a_start_taken_for_a_stuck_sensor_names_both_keys_and_a_fix(text: str, fix: str) -> None:
+    with pytest.raises(ConfigError) as refused:
+        parse_config(text, "robot.toml")
+    message = str(refused.value)
+    assert "interlocks.speed_stuck_throttle_norm + interlocks.speed_stuck_s" in message
+    assert "'a start is no stuck sensor'" in message
+    assert fix in message
+
+
+def test_both_keys_at_zero_are_told_a_pair_that_loads() -> None:
+    """No one key fixes a threshold of 0 with a dwell of 0: the fix is a pair, and it loads."""
+    with pytest.raises(ConfigError) as refused:
+        parse_config("[interlocks]\nspeed_stuck_throttle_norm = 0\nspeed_stuck_s = 0", "r.toml")
+    fix = str(refused.value).rsplit("; set ", 1)[1]
+    pair = "interlocks.speed_stuck_throttle_norm to 0.3 and interlocks.speed_stuck_s to 0.263"
+    assert fix == pair + " or more"
+    parse_config("[interlocks]\nspeed_stuck_throttle_norm = 0.3\nspeed_stuck_s = 0.263", "r.toml")
+
+
+def test_the_weakest_start_is_no_stronger_than_the_simulated_vehicles() -> None:
+    """Row 81's deadline is judged on the simulated vehicle: its drive may be no weaker, its
+    drag no larger and its reverse no slower than the figures, or a start the loader passes
+    could still be taken for a stuck sensor there."""
+    vehicle = VehicleConfig()
+    assert vehicle.max_drive_accel_mps2 >= DRIVE_ACCEL_MPS2
+    assert vehicle.rolling_drag_mps2 <= ROLLING_DRAG_MPS2
+    assert vehicle.reverse_top_speed_mps >= REVERSE_TOP_SPEED_MPS
+    assert min(vehicle.top_speed_mps, vehicle.reverse_top_speed_mps) >= REVERSE_TOP_SPEED_MPS
+
+
+@pytest.mark.parametrize("throttle", [0.14, 0.2, 0.3, 0.6, 1.0])
+def test_the_start_time_is_the_vehicle_models(throttle: float) -> None:
+    """`start_s` is the closed form of the simulated vehicle's start in reverse: stepping the
+    model itself passes the standstill threshold at the time it says."""
+    model = VehicleModel()
+    state, elapsed_s = VehicleState(), 0.0
+    inputs = ActuatorInputs(
+        throttle_volts=throttle * MOTOR_FULL_SCALE_VOLTS,
+        motors_enable=True,
+        motors_reverse=True,
+        ebrake_release=True,
+    )
+    while abs(state.speed_mps) <= 0.05 and elapsed_s < 10.0:
+        state, elapsed_s = model.step(state, inputs, DEFAULT_STEP_S), elapsed_s + DEFAULT_STEP_S
+    assert elapsed_s == pytest.approx(start_s(throttle, 0.05, 1.0), abs=2 * DEFAULT_STEP_S)
+
+
+def test_a_throttle_that_only_holds_a_crawl_never_starts() -> None:
+    """At 0.13 the reverse drive fades to the drag at 0.044 m/s: it never passes 0.05."""
+    assert start_s(0.13, 0.05, 1.0) == math.inf
+    assert start_s(0.125, 0.0, 1.0) == math.inf  # the drag is not even overcome
 
 
 # --- issue 41 finding 4: budgets come from the stop promises -----------------------------------

@@ -19,12 +19,13 @@ import math
 from collections.abc import Callable
 from dataclasses import dataclass
 
-from bywire.config.limits import POSITIVE_NORM_PER_S
+from bywire.config.limits import DWELL_S, POSITIVE_NORM_PER_S
 from bywire.config.reader import number_text
 from bywire.config.security import PAIRING_WINDOW_S
 from bywire.config.tree import RobotConfig
 from bywire.control.dac_health import DAC_FAILURE_LIMIT, DAC_TRANSFERS_PER_PASS
 from bywire.control.hydrobrake import hydrobrake_duty
+from bywire.control.interlocks import InterlockConfig
 from bywire.control.sensor_checks import MonitorConfig
 from bywire.control.speed_check import blind_spot_mps
 from bywire.control.stop import STANDSTILL_LIMIT_MPS
@@ -74,6 +75,16 @@ WHEEL_SAMPLE_S = 0.005
 period (the simulated sensor's: the vehicle model's step). Two decisions a moment apart may read
 two samples, one this much newer: the speed check judges the change on the time between the
 decisions, so its tolerance must hold what the hardest stop takes off in one sample."""
+DRIVE_ACCEL_MPS2 = 1.2
+"""The least a robot of this class accelerates from standstill at full throttle on the flat,
+before the drag (the simulated vehicle's `max_drive_accel_mps2`): with the drag, what a start
+at the stuck-sensor check's throttle must get moving on (docs/SAFETY.md row 81)."""
+ROLLING_DRAG_MPS2 = 0.15
+"""The most rolling drag a robot of this class has (the simulated vehicle's
+`rolling_drag_mps2`): below the throttle that overcomes it, a driven robot stands still."""
+REVERSE_TOP_SPEED_MPS = 1.0
+"""The top speed the class's drive fades to in reverse, the slower direction (the simulated
+vehicle's `reverse_top_speed_mps`): its start is the slowest."""
 STANDSTILL_HOLD_MAX_S = 0.5
 """The longest a controlled stop keeps a standing robot's drive powered (at 0 V, braking) before
 power goes off: the standstill hold (`control/stop.py`) in which regeneration stops a robot that
@@ -460,6 +471,112 @@ def _hardest_stop(robot: RobotConfig) -> list[Breach]:
     ]
 
 
+def start_s(throttle_norm: float, speed_mps: float, top_speed_mps: float) -> float:
+    """How long the class's weakest start at `throttle_norm` takes from standstill to more than
+    `speed_mps` on the flat (`math.inf`: never): the drive, `DRIVE_ACCEL_MPS2` × throttle,
+    fades linearly with the speed to nothing where full throttle only holds `top_speed_mps`
+    against the drag, so dv/dt = a·u·(1 − v/F) − d and v(t) = (c/k)(1 − e^(−kt)), c = a·u − d,
+    k = a·u/F."""
+    fade_mps = top_speed_mps / (1.0 - ROLLING_DRAG_MPS2 / DRIVE_ACCEL_MPS2)
+    net_mps2 = DRIVE_ACCEL_MPS2 * throttle_norm - ROLLING_DRAG_MPS2
+    if net_mps2 <= 0.0:
+        return math.inf
+    rate_per_s = DRIVE_ACCEL_MPS2 * throttle_norm / fade_mps
+    reached = speed_mps * rate_per_s / net_mps2
+    return math.inf if reached >= 1.0 else -math.log1p(-reached) / rate_per_s
+
+
+def _start_speed_mps(throttle_norm: float, top_speed_mps: float, after_s: float) -> float:
+    """The speed the class's weakest start at `throttle_norm` has reached after `after_s`
+    (`start_s`'s inverse)."""
+    fade_mps = top_speed_mps / (1.0 - ROLLING_DRAG_MPS2 / DRIVE_ACCEL_MPS2)
+    net_mps2 = DRIVE_ACCEL_MPS2 * throttle_norm - ROLLING_DRAG_MPS2
+    if net_mps2 <= 0.0 or after_s <= 0.0:
+        return 0.0
+    rate_per_s = DRIVE_ACCEL_MPS2 * throttle_norm / fade_mps
+    return net_mps2 / rate_per_s * -math.expm1(-rate_per_s * after_s)
+
+
+def _least_start_throttle(speed_mps: float, top_speed_mps: float, within_s: float) -> float | None:
+    """The least throttle whose start passes `speed_mps` within `within_s` (None: not even
+    full throttle's); `start_s` falls as the throttle rises."""
+    if within_s <= 0.0 or start_s(1.0, speed_mps, top_speed_mps) > within_s:
+        return None
+    low, high = ROLLING_DRAG_MPS2 / DRIVE_ACCEL_MPS2, 1.0
+    for _ in range(60):
+        middle = (low + high) / 2.0
+        low, high = (
+            (middle, high)
+            if start_s(middle, speed_mps, top_speed_mps) > within_s
+            else (low, middle)
+        )
+    return high
+
+
+def _start(robot: RobotConfig) -> list[Breach]:
+    """A start is no stuck sensor (row 81, found by `bywire verify --draw-robots --seed 8`, file
+    1): the stuck check flags a wheel sensor that reads standstill while the applied throttle is
+    at `speed_stuck_throttle_norm` or more for longer than `speed_stuck_s`. A sound sensor reads
+    standstill until the robot passes `standstill_speed_mps`; the class's weakest start at the
+    check's throttle must get there within the dwell, less a reading's age and a decision
+    period (the reading that shows it is read at the next decision). On the flat: uphill, a
+    throttle that balances the grade stands still (docs/SAFETY.md, what is not covered)."""
+    interlocks = robot.interlocks
+    throttle = interlocks.speed_stuck_throttle_norm
+    dwell_s = interlocks.speed_stuck_s
+    standstill_mps = interlocks.standstill_speed_mps
+    top_mps = min(top_speed_mps(robot), REVERSE_TOP_SPEED_MPS)
+    slack_s = WHEEL_SAMPLE_S + decision_period_s(robot)
+    needed_s = start_s(throttle, standstill_mps, top_mps) + slack_s
+    if needed_s <= dwell_s + 1e-9:
+        return []
+    fixes = []
+    if needed_s <= DWELL_S.high:
+        fixes.append(f"interlocks.speed_stuck_s to {number_text(_up(needed_s, 3))} or more")
+    least = _least_start_throttle(standstill_mps, top_mps, dwell_s - slack_s)
+    if least is not None and least <= 1.0 - 1e-3:
+        fixes.append(
+            f"interlocks.speed_stuck_throttle_norm to {number_text(_up(least, 3))} or more"
+        )
+    most_mps = _down(_start_speed_mps(throttle, top_mps, dwell_s - slack_s), 3)
+    if most_mps > 0.0:
+        fixes.append(f"interlocks.standstill_speed_mps to {number_text(most_mps)} or less")
+    if not fixes:  # no one key does it: the default throttle, and the dwell its start needs
+        throttle_at = max(throttle, InterlockConfig().speed_stuck_throttle_norm)
+        dwell_at_s = start_s(throttle_at, standstill_mps, top_mps) + slack_s
+        if dwell_at_s <= DWELL_S.high:
+            fixes.append(
+                f"interlocks.speed_stuck_throttle_norm to {number_text(throttle_at)} and"
+                f" interlocks.speed_stuck_s to {number_text(_up(dwell_at_s, 3))} or more"
+            )
+    moves = math.isfinite(start_s(throttle, 0.0, top_mps))
+    how = (
+        f"reads standstill ({number_text(standstill_mps)} m/s or less) for"
+        f" {number_text(_up(needed_s, 3))} s, a reading's age and a decision period included"
+        if math.isfinite(needed_s)
+        else (f"never passes {number_text(standstill_mps)} m/s" if moves else "never moves")
+    )
+    return [
+        Breach(
+            START.name,
+            ("interlocks.speed_stuck_throttle_norm", "interlocks.speed_stuck_s"),
+            f"at the stuck check's throttle ({number_text(throttle)}) the class's weakest start on"
+            f" the flat ({number_text(DRIVE_ACCEL_MPS2)} m/s² at full throttle against"
+            f" {number_text(ROLLING_DRAG_MPS2)} m/s² of drag) {how}; the check allows"
+            f" {number_text(dwell_s)} s, so it takes a sound wheel sensor for a stuck one, and a"
+            " controlled stop loses the speed that ends it (the drive stays powered at"
+            " standstill)",
+            "set " + ", or ".join(fixes) if fixes else "lower interlocks.standstill_speed_mps",
+        )
+    ]
+
+
+def _down(value: float, digits: int) -> float:
+    """`value` rounded down to `digits` decimals (a nearest safe value that is safe)."""
+    scale = 10.0**digits
+    return math.floor(value * scale + 1e-6) / scale
+
+
 def _up(value: float, digits: int) -> float:
     """`value` rounded up to `digits` decimals (a nearest safe value that is safe)."""
     scale = 10.0**digits
@@ -760,6 +877,13 @@ HARDEST_STOP = Deadline(
     f" {number_text(WHEEL_SAMPLE_S)} s old",
     _hardest_stop,
 )
+START = Deadline(
+    "a start is no stuck sensor",
+    f"the wheel-speed check's stuck test takes the robot's weakest start on the flat"
+    f" ({number_text(DRIVE_ACCEL_MPS2)} m/s² at full throttle against"
+    f" {number_text(ROLLING_DRAG_MPS2)} m/s² of drag) for a start",
+    _start,
+)
 STALL = Deadline(
     "a stall is no longer than a loss",
     "no input drives on longer than a stalled loop would (the watchdog)",
@@ -813,6 +937,7 @@ DEADLINES: tuple[Deadline, ...] = (
     NO_REVERSAL,
     BLIND_SPOT,
     HARDEST_STOP,
+    START,
     STALL,
     SWITCH,
     STEERING,

@@ -8,6 +8,11 @@ quietly (drops to 0 while the robot rolls) would let it reverse at speed. Two ch
 - the robot is driven (applied throttle ≥ `speed_stuck_throttle_norm`) for longer than
   `speed_stuck_s` and the sensor keeps reading standstill.
 
+The loader holds the second check's two keys to a physical start (`config/deadlines.py`, 'a
+start is no stuck sensor', docs/SAFETY.md row 81): on the flat, the robot driven at the
+threshold passes `standstill_speed_mps` within `speed_stuck_s`, so a sound sensor is never taken
+for a stuck one there; a threshold of 0 counted a standing robot as driven.
+
 Either latches SPEED_SENSOR_FAULT: from then on the interlock gets no speed (its no-sensor rule,
 the longer dwell with the brake held) until the next arming event clears the fault.
 
