@@ -312,6 +312,7 @@ def test_the_limit_itself_is_safe() -> None:
         "[interlocks]\nspeed_stuck_throttle_norm = 0.172",
         "[interlocks]\nspeed_stuck_s = 0.263",
         "[interlocks]\nspeed_stuck_s = 0.25\nstandstill_speed_mps = 0.047",
+        "[drive]\nmax_throttle_volts = 2.853",
         pairing_window_text(smallest_pairing_window_s(500_000)),
         pairing_window_text(smallest_pairing_window_s(100_000), 100_000),
         pairing_window_text(PAIRING_WINDOW_S.high, least_pairing_bitrate_bps()),
@@ -340,6 +341,7 @@ def test_the_nearest_safe_values_are_accepted(text: str) -> None:
         "[interlocks]\nspeed_stuck_throttle_norm = 0.171",
         "[interlocks]\nspeed_stuck_s = 0.262",
         "[interlocks]\nspeed_stuck_s = 0.25\nstandstill_speed_mps = 0.048",
+        "[drive]\nmax_throttle_volts = 2.852",
         pairing_window_text(smallest_pairing_window_s(500_000) - PAIRING_STEP_S),
         pairing_window_text(PAIRING_WINDOW_S.high, least_pairing_bitrate_bps() - 1),
     ],
@@ -388,6 +390,8 @@ def test_the_hardest_stop_and_the_readings_age_are_no_less_than_the_simulated_ve
         ("[interlocks]\nspeed_stuck_throttle_norm = 0.1", "to 0.172 or more"),
         ("[interlocks]\nspeed_stuck_s = 0.2", "interlocks.speed_stuck_s to 0.263 or more"),
         ("[interlocks]\nstandstill_speed_mps = 0.9", "standstill_speed_mps to 0.177 or less"),
+        ("[drive]\nmax_throttle_volts = 1", "(0.3 of 1 V)"),
+        ("[drive]\nmax_throttle_volts = 1", "drive.max_throttle_volts to 2.853 or more"),
     ],
 )
 def test_a_start_taken_for_a_stuck_sensor_names_both_keys_and_a_fix(text: str, fix: str) -> None:

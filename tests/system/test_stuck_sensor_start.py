@@ -25,19 +25,21 @@ GRACE_S = 0.55  # H1's standstill grace and a reading's lag: the longest a stop 
 STOP_S = 4.0
 
 
-def _robot(throttle: float, dwell_s: float, *, loader: bool = True) -> RobotConfig:
+def _robot(
+    throttle: float, dwell_s: float, *, loader: bool = True, volts: float = 5.0
+) -> RobotConfig:
     """A robot whose throttle steps (the quickest the file allows), with the stuck check's two
-    keys; past the loader if asked, as files were before."""
+    keys and the drive's top volts; past the loader if asked, as files were before."""
     text = "[interlocks]\nthrottle_slew_up_per_s = 100\n"
     if loader:
         text += f"speed_stuck_throttle_norm = {throttle}\nspeed_stuck_s = {dwell_s}\n"
+        return parse_config(text + f"[drive]\nmax_throttle_volts = {volts}\n", "robot.toml")
     robot = parse_config(text, "robot.toml")
-    if loader:
-        return robot
     interlocks = replace(
         robot.interlocks, speed_stuck_throttle_norm=throttle, speed_stuck_s=dwell_s
     )
-    return replace(robot, interlocks=interlocks)
+    limits = replace(robot.drive.limits, max_throttle_volts=volts)
+    return replace(robot, interlocks=interlocks, drive=replace(robot.drive, limits=limits))
 
 
 def _start(robot: RobotConfig, stick: float, *, gear: str = "reverse") -> Judged:
@@ -72,14 +74,15 @@ def _powered_at_standstill_s(run: Judged, stop_s: float) -> float:
 
 
 @pytest.mark.parametrize(
-    ("throttle", "dwell_s"),
-    [(0.172, 1.0), (0.3, 0.263)],  # the nearest safe throttle at 1 s, the dwell at 0.3
-    ids=["least-throttle", "least-dwell"],
+    ("throttle", "dwell_s", "volts"),
+    # the nearest safe throttle at 1 s, the dwell at 0.3, the drive's volts at both defaults
+    [(0.172, 1.0, 5.0), (0.3, 0.263, 5.0), (0.3, 1.0, 2.853)],
+    ids=["least-throttle", "least-dwell", "least-volts"],
 )
 def test_a_start_at_the_nearest_safe_values_is_no_stuck_sensor(
-    throttle: float, dwell_s: float
+    throttle: float, dwell_s: float, volts: float
 ) -> None:
-    run = _start(_robot(throttle, dwell_s), throttle)
+    run = _start(_robot(throttle, dwell_s, volts=volts), throttle)
     assert run.found == set()
     assert not _flagged(run)
     assert max(abs(s.speed_mps) for s in run.after(STOP_S - 0.1)) > 0.1  # it drove
@@ -93,6 +96,16 @@ def test_just_past_the_least_dwell_a_start_is_taken_for_a_stuck_sensor() -> None
     assert _flagged(run)
     assert _powered_at_standstill_s(run, STOP_S) > GRACE_S
     assert "H1" in run.found
+
+
+def test_a_drive_capped_below_the_drag_at_the_threshold_took_a_start_for_a_stuck_sensor() -> None:
+    """`drive.max_throttle_volts = 1` (legal before, refused now): the default threshold, 0.3,
+    gives 0.3 V of the drive's 5 V, which moves nothing; the sound sensor was flagged."""
+    with pytest.raises(ConfigError, match="a start is no stuck sensor"):
+        _robot(0.3, 1.0, volts=1.0)
+    run = _start(_robot(0.3, 1.0, loader=False, volts=1.0), 0.3)
+    assert all(s.speed_mps == 0.0 for s in run.samples)
+    assert _flagged(run)
 
 
 def test_a_threshold_below_the_drag_took_a_stalled_stick_for_a_stuck_sensor() -> None:

@@ -519,49 +519,63 @@ def _start(robot: RobotConfig) -> list[Breach]:
     at `speed_stuck_throttle_norm` or more for longer than `speed_stuck_s`. A sound sensor reads
     standstill until the robot passes `standstill_speed_mps`; the class's weakest start at the
     check's throttle must get there within the dwell, less a reading's age and a decision
-    period (the reading that shows it is read at the next decision). On the flat: uphill, a
-    throttle that balances the grade stands still (docs/SAFETY.md, what is not covered)."""
+    period (the reading that shows it is read at the next decision). The throttle drives the
+    motors in proportion to `drive.max_throttle_volts` of their full scale. On the flat:
+    uphill, a throttle that balances the grade stands still (docs/SAFETY.md, what is not
+    covered)."""
     interlocks = robot.interlocks
     throttle = interlocks.speed_stuck_throttle_norm
     dwell_s = interlocks.speed_stuck_s
     standstill_mps = interlocks.standstill_speed_mps
+    volts = min(robot.drive.limits.max_throttle_volts, MOTOR_FULL_SCALE_VOLTS)
+    scale = volts / MOTOR_FULL_SCALE_VOLTS  # of the drive's full scale, at throttle 1
     top_mps = min(top_speed_mps(robot), REVERSE_TOP_SPEED_MPS)
     slack_s = WHEEL_SAMPLE_S + decision_period_s(robot)
-    needed_s = start_s(throttle, standstill_mps, top_mps) + slack_s
+    needed_s = start_s(throttle * scale, standstill_mps, top_mps) + slack_s
     if needed_s <= dwell_s + 1e-9:
         return []
+    keys: tuple[str, ...] = ("interlocks.speed_stuck_throttle_norm", "interlocks.speed_stuck_s")
+    if scale < 1.0:
+        keys += ("drive.max_throttle_volts",)
     fixes = []
     if needed_s <= DWELL_S.high:
         fixes.append(f"interlocks.speed_stuck_s to {number_text(_up(needed_s, 3))} or more")
     least = _least_start_throttle(standstill_mps, top_mps, dwell_s - slack_s)
-    if least is not None and least <= 1.0 - 1e-3:
+    if least is not None and least <= scale * (1.0 - 1e-3):
         fixes.append(
-            f"interlocks.speed_stuck_throttle_norm to {number_text(_up(least, 3))} or more"
+            f"interlocks.speed_stuck_throttle_norm to {number_text(_up(least / scale, 3))} or more"
         )
-    most_mps = _down(_start_speed_mps(throttle, top_mps, dwell_s - slack_s), 3)
+    if least is not None and scale < 1.0 and throttle > 0.0 and least <= throttle:
+        least_volts = _up(least / throttle * MOTOR_FULL_SCALE_VOLTS, 3)
+        fixes.append(f"drive.max_throttle_volts to {number_text(least_volts)} or more")
+    most_mps = _down(_start_speed_mps(throttle * scale, top_mps, dwell_s - slack_s), 3)
     if most_mps > 0.0:
         fixes.append(f"interlocks.standstill_speed_mps to {number_text(most_mps)} or less")
-    if not fixes:  # no one key does it: the default throttle, and the dwell its start needs
-        throttle_at = max(throttle, InterlockConfig().speed_stuck_throttle_norm)
-        dwell_at_s = start_s(throttle_at, standstill_mps, top_mps) + slack_s
-        if dwell_at_s <= DWELL_S.high:
+    if not fixes:  # no one key does it: the default throttle (else full), and its dwell
+        pair = max(throttle, InterlockConfig().speed_stuck_throttle_norm)
+        if not math.isfinite(start_s(pair * scale, standstill_mps, top_mps)):
+            pair = 1.0
+        pair_s = start_s(pair * scale, standstill_mps, top_mps) + slack_s
+        if pair_s <= DWELL_S.high:
             fixes.append(
-                f"interlocks.speed_stuck_throttle_norm to {number_text(throttle_at)} and"
-                f" interlocks.speed_stuck_s to {number_text(_up(dwell_at_s, 3))} or more"
+                f"interlocks.speed_stuck_throttle_norm to {number_text(pair)} and"
+                f" interlocks.speed_stuck_s to {number_text(_up(pair_s, 3))} or more"
             )
-    moves = math.isfinite(start_s(throttle, 0.0, top_mps))
+    moves = math.isfinite(start_s(throttle * scale, 0.0, top_mps))
     how = (
         f"reads standstill ({number_text(standstill_mps)} m/s or less) for"
         f" {number_text(_up(needed_s, 3))} s, a reading's age and a decision period included"
         if math.isfinite(needed_s)
         else (f"never passes {number_text(standstill_mps)} m/s" if moves else "never moves")
     )
+    at = f"{number_text(throttle)}" + (f" of {number_text(volts)} V" if scale < 1.0 else "")
     return [
         Breach(
             START.name,
-            ("interlocks.speed_stuck_throttle_norm", "interlocks.speed_stuck_s"),
-            f"at the stuck check's throttle ({number_text(throttle)}) the class's weakest start on"
-            f" the flat ({number_text(DRIVE_ACCEL_MPS2)} m/s² at full throttle against"
+            keys,
+            f"at the stuck check's throttle ({at}) the class's weakest start on the flat"
+            f" ({number_text(DRIVE_ACCEL_MPS2)} m/s² at full scale,"
+            f" {number_text(MOTOR_FULL_SCALE_VOLTS)} V, against"
             f" {number_text(ROLLING_DRAG_MPS2)} m/s² of drag) {how}; the check allows"
             f" {number_text(dwell_s)} s, so it takes a sound wheel sensor for a stuck one, and a"
             " controlled stop loses the speed that ends it (the drive stays powered at"
