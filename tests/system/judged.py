@@ -39,3 +39,16 @@ def judged(robot: RobotConfig, scenario: str) -> Judged:
     for violation in result.oracle.violations:
         first_s.setdefault(violation.invariant.name, violation.time_s)
     return Judged(first_s, list(runs[0].record.samples))
+
+
+def armed_in_rc(name: str, duration_s: float, *events: str, gear: str = "forward") -> str:
+    """A scenario's text: the robot armed in RC by 0.26 s (the gear, the switch to STOP, then to
+    RC with the stick at 0), then `events`, each an inline table such as
+    `{ at_s = 1.0, rc = { throttle = 0.5 } }`."""
+    preamble = (
+        f'{{ at_s = 0.0, rc = {{ gear = "{gear}" }} }}',
+        '{ at_s = 0.2, rc = { mode = "stop" } }',
+        '{ at_s = 0.26, rc = { throttle = 0.0, mode = "rc" } }',
+    )
+    lines = ",\n    ".join((*preamble, *events))
+    return f'name = "{name}"\nduration_s = {duration_s}\nevent = [\n    {lines},\n]\n'

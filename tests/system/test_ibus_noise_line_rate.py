@@ -13,7 +13,7 @@ import pytest
 
 from bywire.config import parse_config
 from bywire.hal.simulated.rc_transmitter import SimRcTransmitter
-from tests.system.judged import Judged, judged
+from tests.system.judged import Judged, armed_in_rc, judged
 
 LINE_RATE = parse_config(
     "[sim]\nrc_frame_period_s = 0.0028\n"
@@ -25,21 +25,9 @@ BETWEEN_S = 1.8  # the switch comes to rest between RC and CAN: STOP (row 49)
 
 
 def played(*, noise: bool) -> Judged:
-    noise_event = '{ at_s = 1.3, fault = "ibus_garbage", count = 200 },' if noise else ""
-    return judged(
-        LINE_RATE,
-        f"""
-name = "line-rate-noise"
-duration_s = 2.2
-event = [
-    {{ at_s = 0.0, rc = {{ gear = "forward" }} }},
-    {{ at_s = 0.6, rc = {{ mode = "stop" }} }},
-    {{ at_s = 0.86, rc = {{ throttle = 0.0, mode = "rc" }} }},
-    {noise_event}
-    {{ at_s = {BETWEEN_S}, rc = {{ mode_raw = 1750 }} }},
-]
-""",
-    )
+    noise_event = ('{ at_s = 1.3, fault = "ibus_garbage", count = 200 }',) if noise else ()
+    between = f"{{ at_s = {BETWEEN_S}, rc = {{ mode_raw = 1750 }} }}"
+    return judged(LINE_RATE, armed_in_rc("line-rate-noise", 2.2, *noise_event, between))
 
 
 def _braked_s(run: Judged) -> float:

@@ -19,7 +19,7 @@ import pytest
 from bywire.config import RobotConfig, parse_config
 from bywire.error_flags import ErrorFlag
 from bywire.errors import ConfigError
-from tests.system.judged import Judged, judged
+from tests.system.judged import Judged, armed_in_rc, judged
 
 GRACE_S = 0.55  # H1's standstill grace and a reading's lag: the longest a stop may stay powered
 STOP_S = 4.0
@@ -47,17 +47,13 @@ def _start(robot: RobotConfig, stick: float, *, gear: str = "reverse") -> Judged
     STOP at 4 s."""
     return judged(
         robot,
-        f"""
-name = "start"
-duration_s = 6.0
-event = [
-    {{ at_s = 0.0, rc = {{ gear = "{gear}" }} }},
-    {{ at_s = 0.2, rc = {{ mode = "stop" }} }},
-    {{ at_s = 0.26, rc = {{ throttle = 0.0, mode = "rc" }} }},
-    {{ at_s = 0.5, rc = {{ throttle = {stick} }} }},
-    {{ at_s = {STOP_S}, rc = {{ throttle = 0.0, mode = "stop" }} }},
-]
-""",
+        armed_in_rc(
+            "start",
+            6.0,
+            f"{{ at_s = 0.5, rc = {{ throttle = {stick} }} }}",
+            f'{{ at_s = {STOP_S}, rc = {{ throttle = 0.0, mode = "stop" }} }}',
+            gear=gear,
+        ),
     )
 
 
@@ -115,18 +111,13 @@ def test_a_threshold_below_the_drag_took_a_stalled_stick_for_a_stuck_sensor() ->
         _robot(0.1, 1.0)
     run = judged(
         _robot(0.1, 1.0, loader=False),
-        """
-name = "stall"
-duration_s = 10.0
-event = [
-    { at_s = 0.0, rc = { gear = "forward" } },
-    { at_s = 0.2, rc = { mode = "stop" } },
-    { at_s = 0.26, rc = { throttle = 0.0, mode = "rc" } },
-    { at_s = 0.5, rc = { throttle = 0.11 } },
-    { at_s = 2.5, rc = { throttle = 0.9 } },
-    { at_s = 6.5, rc = { throttle = 0.0, mode = "stop" } },
-]
-""",
+        armed_in_rc(
+            "stall",
+            10.0,
+            "{ at_s = 0.5, rc = { throttle = 0.11 } }",
+            "{ at_s = 2.5, rc = { throttle = 0.9 } }",
+            '{ at_s = 6.5, rc = { throttle = 0.0, mode = "stop" } }',
+        ),
     )
     assert all(s.speed_mps == 0.0 for s in run.after(0.5) if s.time_s < 2.5)  # stalled
     assert _flagged(run)
@@ -134,18 +125,13 @@ event = [
     assert "H1" in run.found
 
 
-REMOTE_STOP_DOWNHILL = """
-name = "remote-stop-downhill"
-duration_s = 6.0
-event = [
-    { at_s = 0.0, world = { grade = -0.05 } },
-    { at_s = 0.0, rc = { gear = "forward" } },
-    { at_s = 0.2, rc = { mode = "stop" } },
-    { at_s = 0.26, rc = { throttle = 0.0, mode = "rc" } },
-    { at_s = 2.9, hlc_control = { remote_stop = true, re_enable = false } },
-    { at_s = 3.3, hlc_control = { remote_stop = false, re_enable = false } },
-]
-"""
+REMOTE_STOP_DOWNHILL = armed_in_rc(
+    "remote-stop-downhill",
+    6.0,
+    "{ at_s = 0.27, world = { grade = -0.05 } }",
+    "{ at_s = 2.9, hlc_control = { remote_stop = true, re_enable = false } }",
+    "{ at_s = 3.3, hlc_control = { remote_stop = false, re_enable = false } }",
+)
 
 
 def test_the_findings_file_flagged_a_standing_robot() -> None:
