@@ -471,17 +471,26 @@ def _hardest_stop(robot: RobotConfig) -> list[Breach]:
     ]
 
 
-def start_s(throttle_norm: float, speed_mps: float, top_speed_mps: float) -> float:
-    """How long the class's weakest start at `throttle_norm` takes from standstill to more than
-    `speed_mps` on the flat (`math.inf`: never): the drive, `DRIVE_ACCEL_MPS2` × throttle,
+def _start_curve(throttle_norm: float, top_speed_mps: float) -> tuple[float, float] | None:
+    """The class's weakest start at `throttle_norm` on the flat, dv/dt = c − k·v: its net
+    acceleration from standstill c (m/s²) and the rate k (1/s) at which the fading drive gives
+    it up; None when the drag outweighs the drive. The drive, `DRIVE_ACCEL_MPS2` × throttle,
     fades linearly with the speed to nothing where full throttle only holds `top_speed_mps`
-    against the drag, so dv/dt = a·u·(1 − v/F) − d and v(t) = (c/k)(1 − e^(−kt)), c = a·u − d,
-    k = a·u/F."""
+    against the drag: c = a·u − d, k = a·u/F."""
     fade_mps = top_speed_mps / (1.0 - ROLLING_DRAG_MPS2 / DRIVE_ACCEL_MPS2)
     net_mps2 = DRIVE_ACCEL_MPS2 * throttle_norm - ROLLING_DRAG_MPS2
     if net_mps2 <= 0.0:
+        return None
+    return net_mps2, DRIVE_ACCEL_MPS2 * throttle_norm / fade_mps
+
+
+def start_s(throttle_norm: float, speed_mps: float, top_speed_mps: float) -> float:
+    """How long the class's weakest start at `throttle_norm` takes from standstill to more than
+    `speed_mps` on the flat (`math.inf`: never): v(t) = (c/k)(1 − e^(−kt)) (`_start_curve`)."""
+    curve = _start_curve(throttle_norm, top_speed_mps)
+    if curve is None:
         return math.inf
-    rate_per_s = DRIVE_ACCEL_MPS2 * throttle_norm / fade_mps
+    net_mps2, rate_per_s = curve
     reached = speed_mps * rate_per_s / net_mps2
     return math.inf if reached >= 1.0 else -math.log1p(-reached) / rate_per_s
 
@@ -489,11 +498,10 @@ def start_s(throttle_norm: float, speed_mps: float, top_speed_mps: float) -> flo
 def _start_speed_mps(throttle_norm: float, top_speed_mps: float, after_s: float) -> float:
     """The speed the class's weakest start at `throttle_norm` has reached after `after_s`
     (`start_s`'s inverse)."""
-    fade_mps = top_speed_mps / (1.0 - ROLLING_DRAG_MPS2 / DRIVE_ACCEL_MPS2)
-    net_mps2 = DRIVE_ACCEL_MPS2 * throttle_norm - ROLLING_DRAG_MPS2
-    if net_mps2 <= 0.0 or after_s <= 0.0:
+    curve = _start_curve(throttle_norm, top_speed_mps)
+    if curve is None or after_s <= 0.0:
         return 0.0
-    rate_per_s = DRIVE_ACCEL_MPS2 * throttle_norm / fade_mps
+    net_mps2, rate_per_s = curve
     return net_mps2 / rate_per_s * -math.expm1(-rate_per_s * after_s)
 
 

@@ -193,7 +193,7 @@ class SimRcTransmitter:
     def inject_bytes(self, data: bytes) -> None:
         """Noise: ``data`` on the line now (after any frame already on it); the frames due
         before it has passed are lost in it, the later ones go out on time."""
-        self._noise_until_s = max(self._noise_until_s, self._uart.transmit(data))
+        self._noise_until_s = self._uart.transmit(data)  # behind all on the line: the latest
 
     def corrupt_next_frames(self, count: int) -> None:
         """Flip one bit in the channel bytes of each of the next ``count`` frames."""
